@@ -1,0 +1,34 @@
+# pmrender — build, test, render, benchmark.
+SHELL := /bin/bash
+CARGO ?= cargo
+DEB_PACKAGES := libembree-dev libflann-dev libopenimageio-dev libopenexr-dev pkg-config g++ libclang-dev liblz4-dev
+SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
+BIN := target/release/pmrender
+
+.PHONY: deps build render test test-slow bench chart fuzz clean
+
+deps:
+	@missing=""; for p in $(DEB_PACKAGES); do dpkg -s $$p >/dev/null 2>&1 || missing="$$missing $$p"; done; \
+	if [ -n "$$missing" ]; then \
+	  echo "installing:$$missing"; \
+	  $(SUDO) apt-get update -qq && DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq $$missing; \
+	else echo "system packages present"; fi
+
+build:
+	$(CARGO) build --release --workspace
+
+render: deps build
+	mkdir -p out
+	$(BIN) render scenes/cornell-caustics.toml -o out/cornell-caustics.exr --png out/cornell-caustics.png --stats out/cornell-caustics.json
+
+test: build
+	$(CARGO) test --release --workspace
+
+test-slow: build
+	$(CARGO) test --release --workspace -- --ignored
+
+bench: build
+	$(CARGO) run --release --bin pmrender -- bench
+
+clean:
+	$(CARGO) clean
