@@ -1,1 +1,32 @@
-//! icache (placeholder)
+//! Irradiance cache (Ward 1988, Ward & Heckbert 1992) with Tabellion–Lamorlette weighting, Křivánek's
+//! neighbor clamping, an octree index, a deterministic two-pass fill driver and cache files.
+//!
+//! The cache knows positions, normals, irradiance and gradients only; the caller supplies shading points
+//! and final gathers as closures.
+#![forbid(unsafe_code)]
+
+pub mod cache;
+pub mod error;
+pub mod file;
+pub mod index;
+mod insert;
+pub mod order;
+pub mod params;
+pub mod record;
+pub mod stats;
+pub mod twopass;
+pub mod weight;
+
+#[cfg(test)]
+mod cache_tests;
+#[cfg(test)]
+mod file_tests;
+#[cfg(test)]
+mod twopass_tests;
+
+pub use cache::{IrradianceCache, Lookup};
+pub use error::{Error, Result};
+pub use params::{CacheParams, Pass, Weighting};
+pub use record::{NewRecord, Record};
+pub use stats::{CacheStats, FillStats, InsertStats, LookupStats, RadiusHistogram};
+pub use twopass::{fill_pass_a, ShadingPoint};

@@ -1,0 +1,172 @@
+//! The irradiance cache: records, their spatial index, and interpolation
+//! E(p) = Σ wᵢ [Eᵢ + (nᵢ × n)·∇r Eᵢ + (p − pᵢ)·∇t Eᵢ] / Σ wᵢ over the usable records.
+#![forbid(unsafe_code)]
+
+use glam::Vec3;
+
+use crate::error::{Error, Result};
+use crate::index::Octree;
+use crate::params::{CacheParams, Pass};
+use crate::record::{NewRecord, Record};
+use crate::stats::InsertStats;
+use crate::weight::usable_weight;
+
+/// An interpolated irradiance and what it was made of.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Lookup {
+    /// RGB irradiance, every channel ≥ 0.
+    pub e: Vec3,
+    /// Number of usable records.
+    pub n_used: u32,
+    pub weight_sum: f32,
+}
+
+/// Weighted sum over usable records.
+#[derive(Default)]
+struct Accum {
+    sum: Vec3,
+    weight_sum: f32,
+    n_used: u32,
+}
+
+/// Ward's irradiance cache with gradients, TL weighting and neighbor clamping.
+#[derive(Clone, Debug)]
+pub struct IrradianceCache {
+    pub(crate) params: CacheParams,
+    pub(crate) bounds: (Vec3, Vec3),
+    pub(crate) records: Vec<Record>,
+    pub(crate) index: Octree,
+    pub(crate) totals: InsertStats,
+    /// Reused buffer for neighbor queries during insertion.
+    pub(crate) scratch: Vec<u32>,
+}
+
+impl IrradianceCache {
+    /// An empty cache whose index covers [bounds_min, bounds_max] (records outside still work, more slowly).
+    pub fn new(bounds_min: Vec3, bounds_max: Vec3, params: CacheParams) -> Result<Self> {
+        params.validate()?;
+        if !(bounds_min.is_finite() && bounds_max.is_finite() && bounds_min.cmple(bounds_max).all()) {
+            return Err(Error::InvalidBounds(format!("[{bounds_min}, {bounds_max}]")));
+        }
+        Ok(IrradianceCache {
+            params,
+            bounds: (bounds_min, bounds_max),
+            records: Vec::new(),
+            index: Octree::new(bounds_min, bounds_max),
+            totals: InsertStats::default(),
+            scratch: Vec::new(),
+        })
+    }
+
+    pub fn params(&self) -> &CacheParams {
+        &self.params
+    }
+
+    pub fn bounds(&self) -> (Vec3, Vec3) {
+        self.bounds
+    }
+
+    /// Records in insertion order.
+    pub fn records(&self) -> &[Record] {
+        &self.records
+    }
+
+    pub fn len(&self) -> usize {
+        self.records.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.records.is_empty()
+    }
+
+    /// Sum of the statistics of every insertion so far.
+    pub fn insert_totals(&self) -> &InsertStats {
+        &self.totals
+    }
+
+    /// Heap and inline bytes held by the records and the index.
+    pub fn memory_bytes(&self) -> usize {
+        std::mem::size_of::<Self>()
+            + self.records.capacity() * std::mem::size_of::<Record>()
+            + self.index.memory_bytes()
+            + self.scratch.capacity() * 4
+    }
+
+    /// Interpolated irradiance at `p` with unit normal `n`, or `None` when no record is usable there.
+    pub fn lookup(&self, p: Vec3, n: Vec3, pass: Pass) -> Option<Lookup> {
+        if !(p.is_finite() && n.is_finite()) {
+            return None;
+        }
+        let mut acc = Accum::default();
+        self.index.for_each_candidate(p, |id| self.accumulate(&self.records[id as usize], p, n, pass, &mut acc));
+        self.finish(acc)
+    }
+
+    /// The same as [`lookup`](Self::lookup) by scanning every record: the oracle for the index.
+    pub fn lookup_brute(&self, p: Vec3, n: Vec3, pass: Pass) -> Option<Lookup> {
+        if !(p.is_finite() && n.is_finite()) {
+            return None;
+        }
+        let mut acc = Accum::default();
+        self.records.iter().for_each(|rec| self.accumulate(rec, p, n, pass, &mut acc));
+        self.finish(acc)
+    }
+
+    /// Indices of the records usable at (p, n), by brute force, sorted (for tests and debugging views).
+    pub fn usable_records_brute(&self, p: Vec3, n: Vec3, pass: Pass) -> Vec<usize> {
+        (0..self.records.len())
+            .filter(|&i| usable_weight(&self.params, pass, &self.records[i], p, n).is_some())
+            .collect()
+    }
+
+    #[inline]
+    fn accumulate(&self, rec: &Record, p: Vec3, n: Vec3, pass: Pass, acc: &mut Accum) {
+        let Some(w) = usable_weight(&self.params, pass, rec, p, n) else { return };
+        let mut e = rec.e;
+        if self.params.gradients {
+            let axis = rec.normal.cross(n);
+            let dp = p - rec.pos;
+            for c in 0..3 {
+                e[c] += axis.dot(rec.grad_r[c]) + dp.dot(rec.grad_t[c]);
+            }
+        }
+        acc.sum += w * e;
+        acc.weight_sum += w;
+        acc.n_used += 1;
+    }
+
+    fn finish(&self, acc: Accum) -> Option<Lookup> {
+        if acc.n_used == 0 || !(acc.weight_sum > 0.0) {
+            return None;
+        }
+        let e = acc.sum / acc.weight_sum;
+        if !e.is_finite() {
+            return None;
+        }
+        Some(Lookup { e: e.max(Vec3::ZERO), n_used: acc.n_used, weight_sum: acc.weight_sum })
+    }
+
+    /// Lazy caching: the pass-A interpolation at (p, n) if one exists, else run `gather`, insert its record
+    /// (with `pixel_world` overriding the one it returns) and interpolate again. Falls back to the gathered
+    /// irradiance itself if the record was rejected (non-finite position or normal).
+    pub fn get_or_insert_with(&mut self, p: Vec3, n: Vec3, pixel_world: f32, gather: impl FnOnce() -> NewRecord) -> Vec3 {
+        if let Some(hit) = self.lookup(p, n, Pass::A) {
+            return hit.e;
+        }
+        let rec = NewRecord { pixel_world, ..gather() };
+        let fallback = rec.e;
+        self.insert(rec);
+        match self.lookup(p, n, Pass::A) {
+            Some(hit) => hit.e,
+            None if fallback.is_finite() => fallback.max(Vec3::ZERO),
+            None => Vec3::ZERO,
+        }
+    }
+
+    /// Put a finished record back (file loading): no gradient limit, clamping or neighbor clamping.
+    pub(crate) fn push_raw(&mut self, rec: Record) {
+        let id = self.records.len() as u32;
+        self.index.insert(id, rec.pos, rec.r_clamped * self.params.index_factor());
+        self.records.push(rec);
+    }
+}

@@ -1,0 +1,232 @@
+//! Tests of insertion and interpolation: exact reproduction of constant and linear fields, neighbor
+//! clamping's triangle inequality, the octree against brute force, gradient limit and sanitising.
+#![forbid(unsafe_code)]
+
+use glam::Vec3;
+use photon::sampling::Rng;
+
+use crate::{CacheParams, IrradianceCache, NewRecord, Pass, Weighting};
+
+fn rand01(rng: &mut Rng) -> Vec3 {
+    Vec3::new(rng.uniform(), rng.uniform(), rng.uniform())
+}
+
+pub(crate) fn new_rec(pos: Vec3, normal: Vec3, e: Vec3, r: f32, pixel_world: f32) -> NewRecord {
+    NewRecord {
+        pos,
+        normal,
+        e,
+        grad_r: [Vec3::ZERO; 3],
+        grad_t: [Vec3::ZERO; 3],
+        r_harmonic: r,
+        r_min: r,
+        dir: normal,
+        pixel_world,
+    }
+}
+
+fn cache(params: CacheParams) -> IrradianceCache {
+    IrradianceCache::new(Vec3::ZERO, Vec3::splat(10.0), params).unwrap()
+}
+
+/// Records on the plane z = 5 with random spacing radii; queries on the same plane.
+fn plane_points(rng: &mut Rng, n: usize) -> Vec<Vec3> {
+    (0..n).map(|_| Vec3::new(10.0 * rng.uniform(), 10.0 * rng.uniform(), 5.0)).collect()
+}
+
+#[test]
+fn constant_field_reproduced() {
+    for weight in [Weighting::TabellionLamorlette, Weighting::Ward] {
+        let mut rng = Rng::new(11);
+        let mut c = cache(CacheParams { weight, accuracy: 0.3, pass_b_accuracy: Some(0.6), ..Default::default() });
+        let e0 = Vec3::new(0.7, 1.3, 2.9);
+        for p in plane_points(&mut rng, 3000) {
+            c.insert(new_rec(p, Vec3::Z, e0, 0.05 + rng.uniform(), 0.02));
+        }
+        let mut n_hits = 0;
+        for p in plane_points(&mut rng, 3000) {
+            for pass in [Pass::A, Pass::B] {
+                if let Some(hit) = c.lookup(p, Vec3::Z, pass) {
+                    n_hits += 1;
+                    // Tolerance: a weighted mean of identical f32 values, a few ulps of rounding.
+                    assert!(((hit.e - e0) / e0).abs().max_element() < 1e-6, "{:?} vs {e0}", hit.e);
+                }
+            }
+        }
+        assert!(n_hits > 3000, "too few hits to test anything: {n_hits}");
+    }
+}
+
+#[test]
+fn linear_field_reproduced_with_gradients() {
+    let mut rng = Rng::new(12);
+    let mut c = cache(CacheParams::default());
+    // E_c(p) = e0_c + g_c · p, gradients in the plane. E ≥ 90 and |g| ≤ 1.5 make the gradient limit
+    // (E/|g| ≥ 60) larger than R' (≤ 20 px × 0.01), so insertion leaves the gradients untouched.
+    let e0 = Vec3::new(100.0, 120.0, 140.0);
+    let g = [Vec3::new(1.0, 0.5, 0.0), Vec3::new(-0.7, 0.2, 0.0), Vec3::new(0.0, -1.0, 0.0)];
+    let field = |p: Vec3| Vec3::new(e0.x + g[0].dot(p), e0.y + g[1].dot(p), e0.z + g[2].dot(p));
+    for p in plane_points(&mut rng, 4000) {
+        let mut r = new_rec(p, Vec3::Z, field(p), 1000.0, 0.01);
+        r.grad_t = g;
+        let stats = c.insert(r);
+        assert_eq!(stats.n_inserted, 1);
+    }
+    assert!(c.records().iter().all(|r| r.grad_t == g));
+    let mut n_hits = 0;
+    for p in plane_points(&mut rng, 4000) {
+        if let Some(hit) = c.lookup(p, Vec3::Z, Pass::B) {
+            n_hits += 1;
+            // Tolerance: f32 sums of values ≈ 100 with weights ≤ 1 over ≲ 30 records: ~1e-6 relative.
+            let rel = ((hit.e - field(p)) / field(p)).abs().max_element();
+            assert!(rel < 1e-5, "rel error {rel}");
+        }
+    }
+    assert!(n_hits > 2000, "{n_hits}");
+}
+
+#[test]
+fn rotational_gradient_applied() {
+    let mut c = cache(CacheParams::default());
+    let mut r = new_rec(Vec3::splat(5.0), Vec3::Z, Vec3::ONE, 1.0, 0.05);
+    r.grad_r = [Vec3::X, Vec3::Y, Vec3::ZERO];
+    c.insert(r);
+    // A query normal tilted by a small angle about x: n_i × n points along -x·sin θ.
+    let th: f32 = 0.05;
+    let n = Vec3::new(0.0, th.sin(), th.cos());
+    let hit = c.lookup(Vec3::splat(5.0), n, Pass::A).unwrap();
+    let axis = Vec3::Z.cross(n);
+    // Single record: E = E_i + (n_i × n)·∇r exactly (up to f32 rounding of the cross product).
+    assert!((hit.e.x - (1.0 + axis.x)).abs() < 1e-6);
+    assert!((hit.e.y - (1.0 + axis.y)).abs() < 1e-6);
+    assert_eq!(hit.e.z, 1.0);
+}
+
+#[test]
+fn neighbor_clamping_keeps_triangle_inequality() {
+    let mut rng = Rng::new(13);
+    let params = CacheParams::default();
+    let mut c = cache(params);
+    for step in 0..600 {
+        let p = rand01(&mut rng) * 10.0;
+        let n = (rand01(&mut rng) - Vec3::splat(0.5)).normalize_or(Vec3::Z);
+        let r = match step % 7 {
+            0 => f32::INFINITY, // a gather whose rays all leaked
+            1 => 0.001,
+            _ => 0.01 + 3.0 * rng.uniform(),
+        };
+        let pixel_world = 0.005 + 0.03 * rng.uniform();
+        let mut rec = new_rec(p, n, Vec3::ONE, r, pixel_world);
+        rec.grad_t = [Vec3::X * 0.1; 3];
+        c.insert(rec);
+        let recs = c.records();
+        for (j, a) in recs.iter().enumerate() {
+            // R' is R clamped to this record's bounds; ∇t carries the factor min(1, R/R').
+            let (lo, hi) = (params.min_spacing_px * a.pixel_world, params.max_spacing_px * a.pixel_world);
+            assert_eq!(a.r_clamped, a.r_harmonic.clamp(lo, hi));
+            let scale = if a.r_harmonic < a.r_clamped { a.r_harmonic / a.r_clamped } else { 1.0 };
+            // Tolerance: the scale is applied as a product of ratios, a few f32 roundings.
+            assert!((a.grad_t[0].x - 0.1 * scale).abs() < 1e-6 * 0.1 + 1e-9, "record {j}");
+            for b in &recs[j + 1..] {
+                let d = (a.pos - b.pos).length();
+                if d < a.r_clamped + b.r_clamped {
+                    // Exact in f32: clamping stores R_k + d computed with the same d.
+                    assert!(a.r_harmonic <= b.r_harmonic + d, "step {step}: {} > {} + {d}", a.r_harmonic, b.r_harmonic);
+                    assert!(b.r_harmonic <= a.r_harmonic + d, "step {step}: {} > {} + {d}", b.r_harmonic, a.r_harmonic);
+                }
+            }
+        }
+    }
+    assert!(c.insert_totals().n_shrunk_by_neighbors > 0);
+}
+
+#[test]
+fn octree_lookup_matches_brute_force() {
+    for weight in [Weighting::TabellionLamorlette, Weighting::Ward] {
+        let mut rng = Rng::new(14);
+        let params = CacheParams { weight, accuracy: 0.4, pass_b_accuracy: Some(0.9), ..Default::default() };
+        let mut c = IrradianceCache::new(Vec3::splat(1.0), Vec3::splat(9.0), params).unwrap();
+        // Records on a few tilted planes, some outside the index bounds.
+        let normals = [Vec3::Z, Vec3::new(0.3, 0.0, 1.0).normalize(), Vec3::X, -Vec3::Y];
+        for i in 0..3000 {
+            let n = normals[i % normals.len()];
+            let p = rand01(&mut rng) * 10.0;
+            let mut rec = new_rec(p, n, rand01(&mut rng) + Vec3::splat(0.1), 0.02 + rng.uniform(), 0.01 + 0.02 * rng.uniform());
+            rec.grad_t = [n.any_orthonormal_vector() * 0.05; 3];
+            rec.grad_r = [n.any_orthonormal_vector() * 0.02; 3];
+            c.insert(rec);
+        }
+        let mut n_hits = 0;
+        for i in 0..5000 {
+            let n = (normals[i % normals.len()] + 0.05 * (rand01(&mut rng) - Vec3::splat(0.5))).normalize();
+            let p = rand01(&mut rng) * 10.0;
+            for pass in [Pass::A, Pass::B] {
+                let fast = c.lookup(p, n, pass);
+                let slow = c.lookup_brute(p, n, pass);
+                let usable = c.usable_records_brute(p, n, pass);
+                assert_eq!(fast.map_or(0, |l| l.n_used as usize), usable.len());
+                match (fast, slow) {
+                    (None, None) => {}
+                    (Some(f), Some(s)) => {
+                        n_hits += 1;
+                        // Tolerance: same terms summed in another order (f32), ~n_used ulps.
+                        assert!((f.e - s.e).abs().max_element() <= 1e-5 * s.e.max_element().max(1.0));
+                    }
+                    (f, s) => panic!("octree {f:?} vs brute {s:?}"),
+                }
+            }
+        }
+        assert!(n_hits > 500, "{n_hits}");
+    }
+}
+
+#[test]
+fn gradient_limit_and_min_clamp() {
+    let mut c = cache(CacheParams::default());
+    let mut r = new_rec(Vec3::splat(5.0), Vec3::Z, Vec3::new(1.0, 2.0, 2.0), 5.0, 0.1);
+    r.grad_t = [Vec3::X * 10.0, Vec3::X, Vec3::ZERO];
+    let s = c.insert(r);
+    // R = min(5, 1/10, 2/1) = 0.1 < R_min = 3 px × 0.1 = 0.3, so R' = 0.3 and ∇t scales by 1/3.
+    assert_eq!((s.n_shrunk_by_gradient, s.n_clamped_min, s.n_clamped_max), (1, 1, 0));
+    let rec = c.records()[0];
+    assert_eq!(rec.r_harmonic, 0.1);
+    assert!((rec.r_clamped - 0.3).abs() < 1e-6);
+    assert!((rec.grad_t[0].x - 10.0 / 3.0).abs() < 1e-5);
+    // First-order extrapolation to the border of the record's reach stays non-negative.
+    let hit = c.lookup(Vec3::new(5.0 - 0.149, 5.0, 5.0), Vec3::Z, Pass::A).unwrap();
+    assert!(hit.e.x >= 0.0 && hit.e.x < 1.0);
+}
+
+#[test]
+fn bad_gathers_are_rejected_or_repaired() {
+    let mut c = cache(CacheParams::default());
+    let s = c.insert(new_rec(Vec3::splat(f32::NAN), Vec3::Z, Vec3::ONE, 1.0, 0.01));
+    assert_eq!((s.n_rejected, s.n_inserted), (1, 0));
+    let s = c.insert(new_rec(Vec3::ONE, Vec3::ZERO, Vec3::ONE, 1.0, 0.01));
+    assert_eq!(s.n_rejected, 1);
+    let s = c.insert(new_rec(Vec3::ONE, Vec3::Z, Vec3::ONE, 1.0, 0.0));
+    assert_eq!(s.n_rejected, 1);
+    let s = c.insert(new_rec(Vec3::ONE, Vec3::Z * 2.0, Vec3::new(f32::NAN, -1.0, 1.0), f32::NAN, 0.01));
+    assert_eq!((s.n_inserted, s.n_sanitized), (1, 1));
+    let hit = c.lookup(Vec3::ONE, Vec3::Z, Pass::A).unwrap();
+    assert_eq!(hit.e, Vec3::new(0.0, 0.0, 1.0));
+    assert!(c.lookup(Vec3::ONE, Vec3::splat(f32::NAN), Pass::A).is_none());
+}
+
+#[test]
+fn get_or_insert_gathers_only_on_miss() {
+    let mut c = cache(CacheParams::default());
+    let mut n_gathers = 0;
+    for i in 0..20 {
+        let p = Vec3::new(5.0 + 0.001 * i as f32, 5.0, 5.0);
+        let e = c.get_or_insert_with(p, Vec3::Z, 0.01, || {
+            n_gathers += 1;
+            new_rec(p, Vec3::Z, Vec3::splat(2.0), 1.0, 123.0)
+        });
+        assert_eq!(e, Vec3::splat(2.0));
+    }
+    assert_eq!(n_gathers, 1);
+    // The caller's footprint overrides the one the gather returned.
+    assert_eq!(c.records()[0].pixel_world, 0.01);
+    assert!(c.memory_bytes() > std::mem::size_of::<IrradianceCache>());
+}

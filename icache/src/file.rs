@@ -1,0 +1,208 @@
+//! Cache files: a second render of the same scene (another view, crop or machine) reuses the records.
+//!
+//! Layout, little-endian: magic `PMICACHE`, version u32, scene fingerprint u64 (the caller's hash of
+//! whatever makes records valid), parameters, index bounds, record count u64, records (33 × f32 each),
+//! then FNV-1a 64 of every preceding byte. Lengths are checked against the count before anything is
+//! allocated, and every field is validated, so a bad file is an error, never a panic.
+#![forbid(unsafe_code)]
+
+use std::path::Path;
+
+use glam::Vec3;
+
+use crate::cache::IrradianceCache;
+use crate::error::{Error, Result};
+use crate::params::{CacheParams, Weighting};
+use crate::record::{Record, RECORD_FLOATS};
+
+const MAGIC: &[u8; 8] = b"PMICACHE";
+pub const FILE_VERSION: u32 = 1;
+/// magic 8 + version 4 + fingerprint 8 + params 20 + bounds 24 + count 8.
+const HEADER_BYTES: usize = 72;
+const RECORD_BYTES: usize = RECORD_FLOATS * 4;
+const CHECKSUM_BYTES: usize = 8;
+
+/// FNV-1a, 64 bit.
+pub fn fnv1a64(bytes: &[u8]) -> u64 {
+    bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, &b| (h ^ b as u64).wrapping_mul(0x0000_0100_0000_01b3))
+}
+
+/// Little-endian reader over a slice whose total length was checked beforehand.
+struct Cursor<'a> {
+    bytes: &'a [u8],
+    at: usize,
+}
+
+impl Cursor<'_> {
+    fn take<const N: usize>(&mut self) -> [u8; N] {
+        let mut out = [0u8; N];
+        out.copy_from_slice(&self.bytes[self.at..self.at + N]);
+        self.at += N;
+        out
+    }
+    fn u8(&mut self) -> u8 {
+        self.take::<1>()[0]
+    }
+    fn u32(&mut self) -> u32 {
+        u32::from_le_bytes(self.take())
+    }
+    fn u64(&mut self) -> u64 {
+        u64::from_le_bytes(self.take())
+    }
+    fn f32(&mut self) -> f32 {
+        f32::from_le_bytes(self.take())
+    }
+    fn vec3(&mut self) -> Vec3 {
+        Vec3::new(self.f32(), self.f32(), self.f32())
+    }
+}
+
+fn write_params(out: &mut Vec<u8>, p: &CacheParams) {
+    out.extend_from_slice(&p.accuracy.to_le_bytes());
+    out.push(match p.weight {
+        Weighting::TabellionLamorlette => 0,
+        Weighting::Ward => 1,
+    });
+    out.push(p.neighbor_clamping as u8);
+    out.push(p.gradients as u8);
+    out.push(p.pass_b_accuracy.is_some() as u8);
+    out.extend_from_slice(&p.min_spacing_px.to_le_bytes());
+    out.extend_from_slice(&p.max_spacing_px.to_le_bytes());
+    out.extend_from_slice(&p.pass_b_accuracy.unwrap_or(0.0).to_le_bytes());
+}
+
+fn read_params(c: &mut Cursor) -> Result<CacheParams> {
+    let accuracy = c.f32();
+    let weight = match c.u8() {
+        0 => Weighting::TabellionLamorlette,
+        1 => Weighting::Ward,
+        w => return Err(Error::InvalidParams(format!("unknown weighting {w} in cache file"))),
+    };
+    let flag = |v: u8, name: &str| match v {
+        0 => Ok(false),
+        1 => Ok(true),
+        _ => Err(Error::InvalidParams(format!("flag {name} = {v} in cache file"))),
+    };
+    let neighbor_clamping = flag(c.u8(), "neighbor_clamping")?;
+    let gradients = flag(c.u8(), "gradients")?;
+    let has_b = flag(c.u8(), "pass_b_accuracy")?;
+    let (min_spacing_px, max_spacing_px, b) = (c.f32(), c.f32(), c.f32());
+    let p = CacheParams {
+        accuracy,
+        weight,
+        neighbor_clamping,
+        gradients,
+        min_spacing_px,
+        max_spacing_px,
+        pass_b_accuracy: has_b.then_some(b),
+    };
+    p.validate()?;
+    Ok(p)
+}
+
+/// Why a record read from a file cannot be used, if it cannot.
+fn record_problem(r: &Record) -> Option<&'static str> {
+    let vecs_finite = [r.pos, r.normal, r.e, r.dir].iter().chain(&r.grad_r).chain(&r.grad_t).all(|v| v.is_finite());
+    if !vecs_finite {
+        return Some("non-finite vector");
+    }
+    if (r.normal.length() - 1.0).abs() > 1e-3 {
+        return Some("normal is not unit length");
+    }
+    if r.e.min_element() < 0.0 {
+        return Some("negative irradiance");
+    }
+    if r.r_harmonic.is_nan() || r.r_harmonic < 0.0 {
+        return Some("invalid harmonic distance");
+    }
+    if !(r.r_clamped.is_finite() && r.r_clamped > 0.0 && r.pixel_world.is_finite() && r.pixel_world > 0.0) {
+        return Some("invalid radius or pixel footprint");
+    }
+    None
+}
+
+impl IrradianceCache {
+    /// Serialise the cache; `fingerprint` identifies the scene the records belong to.
+    pub fn to_bytes(&self, fingerprint: u64) -> Vec<u8> {
+        let mut out = Vec::with_capacity(HEADER_BYTES + self.records.len() * RECORD_BYTES + CHECKSUM_BYTES);
+        out.extend_from_slice(MAGIC);
+        out.extend_from_slice(&FILE_VERSION.to_le_bytes());
+        out.extend_from_slice(&fingerprint.to_le_bytes());
+        write_params(&mut out, &self.params);
+        for v in [self.bounds.0, self.bounds.1] {
+            v.to_array().iter().for_each(|f| out.extend_from_slice(&f.to_le_bytes()));
+        }
+        out.extend_from_slice(&(self.records.len() as u64).to_le_bytes());
+        for r in &self.records {
+            r.to_floats().iter().for_each(|f| out.extend_from_slice(&f.to_le_bytes()));
+        }
+        let sum = fnv1a64(&out);
+        out.extend_from_slice(&sum.to_le_bytes());
+        out
+    }
+
+    /// Read a cache written by [`to_bytes`](Self::to_bytes) for the scene with `fingerprint`.
+    pub fn from_bytes(bytes: &[u8], fingerprint: u64) -> Result<Self> {
+        let available = bytes.len() as u64;
+        let truncated = |what, needed: u64| Error::Truncated { what, needed, available };
+        if bytes.len() < MAGIC.len() + 4 {
+            return Err(if bytes.len() >= MAGIC.len() && &bytes[..8] != MAGIC {
+                Error::BadMagic
+            } else {
+                truncated("magic and version", (MAGIC.len() + 4) as u64)
+            });
+        }
+        let mut c = Cursor { bytes, at: 0 };
+        if &c.take::<8>() != MAGIC {
+            return Err(Error::BadMagic);
+        }
+        let version = c.u32();
+        if version != FILE_VERSION {
+            return Err(Error::UnsupportedVersion { found: version, supported: FILE_VERSION });
+        }
+        if bytes.len() < HEADER_BYTES + CHECKSUM_BYTES {
+            return Err(truncated("header", (HEADER_BYTES + CHECKSUM_BYTES) as u64));
+        }
+        let count = u64::from_le_bytes(bytes[HEADER_BYTES - 8..HEADER_BYTES].try_into().expect("8 bytes"));
+        let needed = (count as u128) * RECORD_BYTES as u128 + (HEADER_BYTES + CHECKSUM_BYTES) as u128;
+        if needed != available as u128 {
+            return Err(truncated("records", needed.min(u64::MAX as u128) as u64));
+        }
+        let body = bytes.len() - CHECKSUM_BYTES;
+        let stored = u64::from_le_bytes(bytes[body..].try_into().expect("8 bytes"));
+        let computed = fnv1a64(&bytes[..body]);
+        if stored != computed {
+            return Err(Error::ChecksumMismatch { stored, computed });
+        }
+        let found = c.u64();
+        if found != fingerprint {
+            return Err(Error::FingerprintMismatch { expected: fingerprint, found });
+        }
+        let params = read_params(&mut c)?;
+        let (lo, hi) = (c.vec3(), c.vec3());
+        let mut cache = IrradianceCache::new(lo, hi, params)?;
+        c.u64(); // count, read above
+        cache.records.reserve_exact(count as usize);
+        for index in 0..count {
+            let mut floats = [0f32; RECORD_FLOATS];
+            floats.iter_mut().for_each(|f| *f = c.f32());
+            let rec = Record::from_floats(&floats);
+            if let Some(reason) = record_problem(&rec) {
+                return Err(Error::CorruptRecord { index, reason });
+            }
+            cache.push_raw(rec);
+        }
+        Ok(cache)
+    }
+
+    /// Write the cache to a file.
+    pub fn save(&self, path: &Path, fingerprint: u64) -> Result<()> {
+        std::fs::write(path, self.to_bytes(fingerprint))?;
+        Ok(())
+    }
+
+    /// Read a cache file for the scene with `fingerprint`.
+    pub fn load(path: &Path, fingerprint: u64) -> Result<Self> {
+        Self::from_bytes(&std::fs::read(path)?, fingerprint)
+    }
+}

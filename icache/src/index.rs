@@ -1,0 +1,227 @@
+//! Spatial index over record spheres: an octree that references each record from every node (at one depth
+//! matched to the sphere's size) the sphere overlaps, so a point lookup walks a single root-to-leaf path.
+//!
+//! A sphere is stored at the deepest level whose cells are at least its diameter, so it touches at most
+//! 8 cells there. Radii may later shrink (neighbor clamping); the old cells still cover the smaller sphere,
+//! so nothing needs to move — the caller's exact weight test decides usability. Spheres reaching outside
+//! the root cube are also kept in an `outside` list, which is all a lookup outside the cube checks.
+#![forbid(unsafe_code)]
+
+use glam::Vec3;
+
+/// Depth cap: 2^-20 of the scene size is far below any pixel footprint we will see.
+const MAX_DEPTH: u32 = 20;
+
+#[derive(Clone, Debug, Default)]
+struct Node {
+    /// Index of the first of 8 consecutive children in `nodes`, 0 when a leaf (the root is node 0).
+    first_child: u32,
+    ids: Vec<u32>,
+}
+
+/// Octree of record spheres over a root cube.
+#[derive(Clone, Debug)]
+pub struct Octree {
+    origin: Vec3,
+    size: f32,
+    nodes: Vec<Node>,
+    outside: Vec<u32>,
+}
+
+/// Squared distance from `c` to the axis-aligned box [lo, lo + size]³.
+fn dist2_to_box(c: Vec3, lo: Vec3, size: f32) -> f32 {
+    let q = c.clamp(lo, lo + Vec3::splat(size));
+    (c - q).length_squared()
+}
+
+/// Offset of child `i` (bit 0: x, bit 1: y, bit 2: z) in units of the child size.
+fn child_offset(i: usize) -> Vec3 {
+    Vec3::new((i & 1) as f32, ((i >> 1) & 1) as f32, ((i >> 2) & 1) as f32)
+}
+
+impl Octree {
+    /// An empty octree whose root cube encloses [min, max] with a small margin. Non-finite or inverted
+    /// bounds give a unit cube at the origin: records outside the cube still work, via the outside list.
+    pub fn new(min: Vec3, max: Vec3) -> Self {
+        let ok = min.is_finite() && max.is_finite() && min.cmple(max).all();
+        let (min, max) = if ok { (min, max) } else { (Vec3::ZERO, Vec3::ONE) };
+        let extent = (max - min).max_element().max(1e-6);
+        let margin = 0.01 * extent;
+        Octree {
+            origin: min - Vec3::splat(margin),
+            size: extent + 2.0 * margin,
+            nodes: vec![Node::default()],
+            outside: Vec::new(),
+        }
+    }
+
+    fn in_root(&self, p: Vec3) -> bool {
+        p.cmpge(self.origin).all() && p.cmple(self.origin + Vec3::splat(self.size)).all()
+    }
+
+    /// Deepest level whose cell size is at least the sphere's diameter.
+    fn level_for(&self, radius: f32) -> u32 {
+        if !(radius.is_finite() && radius > 0.0) {
+            return if radius == 0.0 { MAX_DEPTH } else { 0 };
+        }
+        let mut level = 0;
+        let mut cell = self.size;
+        while level < MAX_DEPTH && 0.5 * cell >= 2.0 * radius {
+            cell *= 0.5;
+            level += 1;
+        }
+        level
+    }
+
+    /// Reference record `id` with sphere (`center`, `radius`) from every overlapping cell at its level.
+    pub fn insert(&mut self, id: u32, center: Vec3, radius: f32) {
+        let r = if radius.is_nan() { f32::INFINITY } else { radius.max(0.0) };
+        let contained = center.is_finite()
+            && r.is_finite()
+            && self.in_root(center - Vec3::splat(r))
+            && self.in_root(center + Vec3::splat(r));
+        if !contained {
+            self.outside.push(id);
+        }
+        if !center.is_finite() {
+            return;
+        }
+        let target = self.level_for(r);
+        self.insert_rec(0, self.origin, self.size, 0, target, center, r, id);
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn insert_rec(&mut self, node: usize, lo: Vec3, size: f32, depth: u32, target: u32, c: Vec3, r: f32, id: u32) {
+        if dist2_to_box(c, lo, size) > r * r {
+            return;
+        }
+        if depth == target {
+            self.nodes[node].ids.push(id);
+            return;
+        }
+        if self.nodes[node].first_child == 0 {
+            let first = self.nodes.len();
+            self.nodes.resize(first + 8, Node::default());
+            self.nodes[node].first_child = first as u32;
+        }
+        let first = self.nodes[node].first_child as usize;
+        let half = 0.5 * size;
+        for i in 0..8 {
+            self.insert_rec(first + i, lo + child_offset(i) * half, half, depth + 1, target, c, r, id);
+        }
+    }
+
+    /// Call `f` with every record whose sphere may contain `p` (a superset; each id at most once).
+    pub fn for_each_candidate(&self, p: Vec3, mut f: impl FnMut(u32)) {
+        if !self.in_root(p) {
+            self.outside.iter().for_each(|&id| f(id));
+            return;
+        }
+        let (mut node, mut lo, mut size) = (0usize, self.origin, self.size);
+        loop {
+            self.nodes[node].ids.iter().for_each(|&id| f(id));
+            let first = self.nodes[node].first_child as usize;
+            if first == 0 {
+                return;
+            }
+            size *= 0.5;
+            let mid = lo + Vec3::splat(size);
+            let i = (p.x >= mid.x) as usize | ((p.y >= mid.y) as usize) << 1 | ((p.z >= mid.z) as usize) << 2;
+            lo += child_offset(i) * size;
+            node = first + i;
+        }
+    }
+
+    /// Ids of every record whose sphere may overlap the sphere (`c`, `r`), sorted, without duplicates.
+    pub fn query_sphere(&self, c: Vec3, r: f32, out: &mut Vec<u32>) {
+        out.clear();
+        out.extend_from_slice(&self.outside);
+        if c.is_finite() && !r.is_nan() {
+            self.query_rec(0, self.origin, self.size, c, r.max(0.0), out);
+        }
+        out.sort_unstable();
+        out.dedup();
+    }
+
+    fn query_rec(&self, node: usize, lo: Vec3, size: f32, c: Vec3, r: f32, out: &mut Vec<u32>) {
+        if dist2_to_box(c, lo, size) > r * r {
+            return;
+        }
+        out.extend_from_slice(&self.nodes[node].ids);
+        let first = self.nodes[node].first_child as usize;
+        if first != 0 {
+            let half = 0.5 * size;
+            for i in 0..8 {
+                self.query_rec(first + i, lo + child_offset(i) * half, half, c, r, out);
+            }
+        }
+    }
+
+    /// Heap bytes held by the index.
+    pub fn memory_bytes(&self) -> usize {
+        let ids: usize = self.nodes.iter().map(|n| n.ids.capacity()).sum();
+        self.nodes.capacity() * std::mem::size_of::<Node>() + (ids + self.outside.capacity()) * 4
+    }
+
+    pub fn n_nodes(&self) -> usize {
+        self.nodes.len()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use photon::sampling::Rng;
+
+    fn rand_vec(rng: &mut Rng, lo: f32, hi: f32) -> Vec3 {
+        Vec3::new(rng.uniform(), rng.uniform(), rng.uniform()) * (hi - lo) + Vec3::splat(lo)
+    }
+
+    /// Every sphere containing a point is among the point's candidates, including spheres centred
+    /// outside the root cube and points outside it; sphere queries find every overlapping sphere.
+    #[test]
+    fn candidates_superset_of_truth() {
+        let mut rng = Rng::new(7);
+        let mut tree = Octree::new(Vec3::ZERO, Vec3::splat(10.0));
+        let spheres: Vec<(Vec3, f32)> = (0..2000)
+            .map(|_| (rand_vec(&mut rng, -1.0, 11.0), 0.01 + 2.0 * rng.uniform().powi(3)))
+            .collect();
+        for (i, &(c, r)) in spheres.iter().enumerate() {
+            tree.insert(i as u32, c, r);
+        }
+        let mut out = Vec::new();
+        for _ in 0..2000 {
+            let p = rand_vec(&mut rng, -1.5, 11.5);
+            let mut cand = Vec::new();
+            tree.for_each_candidate(p, |id| cand.push(id));
+            let n_before = cand.len();
+            cand.sort_unstable();
+            cand.dedup();
+            assert_eq!(cand.len(), n_before, "duplicate candidate");
+            for (i, &(c, r)) in spheres.iter().enumerate() {
+                if (p - c).length() <= r {
+                    assert!(cand.binary_search(&(i as u32)).is_ok(), "missed sphere {i}");
+                }
+            }
+            let qr = 0.5 * rng.uniform();
+            tree.query_sphere(p, qr, &mut out);
+            for (i, &(c, r)) in spheres.iter().enumerate() {
+                if (p - c).length() < r + qr {
+                    assert!(out.binary_search(&(i as u32)).is_ok(), "query missed sphere {i}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn degenerate_bounds_and_values_do_not_panic() {
+        let mut tree = Octree::new(Vec3::splat(f32::NAN), Vec3::ZERO);
+        tree.insert(0, Vec3::splat(f32::NAN), 1.0);
+        tree.insert(1, Vec3::ZERO, f32::NAN);
+        tree.insert(2, Vec3::ZERO, 0.0);
+        tree.insert(3, Vec3::ZERO, f32::INFINITY);
+        let mut n = 0;
+        tree.for_each_candidate(Vec3::splat(0.5), |_| n += 1);
+        assert!(n >= 2); // ids 1 and 3 reach everywhere
+    }
+}

@@ -1,0 +1,172 @@
+//! Adding a record, in the order that matters (DESIGN §2): gradient limit on R, clamp R' to the pixel-based
+//! spacing bounds, scale ∇t by R/R' where R < R', Křivánek's neighbor clamping on the unclamped R (with R'
+//! recomputed), then insertion into the index.
+//!
+//! Neighbor clamping is propagated (Dijkstra order over overlapping records) rather than applied one level
+//! deep: after every insertion R_j ≤ R_k + |p_j − p_k| holds both ways for every pair whose R' spheres
+//! overlap. Radii only decrease and edge weights are positive, so the propagation terminates.
+#![forbid(unsafe_code)]
+
+use std::cmp::Reverse;
+use std::collections::BinaryHeap;
+
+use glam::Vec3;
+
+use crate::cache::IrradianceCache;
+use crate::params::CacheParams;
+use crate::record::{NewRecord, Record};
+use crate::stats::InsertStats;
+
+/// [R_min, R_max] in world units at a record with the given pixel footprint.
+fn spacing_bounds(params: &CacheParams, pixel_world: f32) -> (f32, f32) {
+    (params.min_spacing_px * pixel_world, params.max_spacing_px * pixel_world)
+}
+
+/// The factor step 3 applies to ∇t: R/R' where R < R', else 1.
+fn grad_scale(r: f32, r_clamped: f32) -> f32 {
+    if r < r_clamped { r / r_clamped } else { 1.0 }
+}
+
+/// Set a record's unclamped R, recompute R' and keep ∇t scaled by min(1, R/R') for the new values.
+fn set_radius(params: &CacheParams, rec: &mut Record, r: f32) {
+    let old_scale = grad_scale(rec.r_harmonic, rec.r_clamped);
+    let (lo, hi) = spacing_bounds(params, rec.pixel_world);
+    rec.r_harmonic = r;
+    rec.r_clamped = r.clamp(lo, hi);
+    let new_scale = grad_scale(rec.r_harmonic, rec.r_clamped);
+    if old_scale > 0.0 && new_scale != old_scale {
+        let f = new_scale / old_scale;
+        rec.grad_t.iter_mut().for_each(|g| *g *= f);
+    }
+}
+
+fn finite_or_zero(v: Vec3) -> (Vec3, bool) {
+    if v.is_finite() { (v, false) } else { (Vec3::ZERO, true) }
+}
+
+/// Steps 1–3 on a gather result; `None` when the record cannot be placed at all.
+fn prepare(params: &CacheParams, new: &NewRecord, stats: &mut InsertStats) -> Option<Record> {
+    let normal = new.normal.try_normalize()?;
+    if !(new.pos.is_finite() && new.pixel_world.is_finite() && new.pixel_world > 0.0) {
+        return None;
+    }
+    let mut repaired = false;
+    let (e, bad) = finite_or_zero(new.e);
+    repaired |= bad || e.min_element() < 0.0;
+    let e = e.max(Vec3::ZERO);
+    let mut grad_r = new.grad_r;
+    let mut grad_t = new.grad_t;
+    for g in grad_r.iter_mut().chain(grad_t.iter_mut()) {
+        let (v, bad) = finite_or_zero(*g);
+        *g = v;
+        repaired |= bad;
+    }
+    let mut r = new.r_harmonic;
+    if r.is_nan() || r < 0.0 {
+        r = 0.0;
+        repaired = true;
+    }
+    stats.n_sanitized += repaired as u64;
+    // 1. Gradient limit: first-order extrapolation may not change any channel by more than 100 %.
+    let limit = (0..3)
+        .filter(|&c| grad_t[c].length() > 0.0)
+        .map(|c| e[c] / grad_t[c].length())
+        .fold(f32::INFINITY, f32::min);
+    if limit < r {
+        r = limit;
+        stats.n_shrunk_by_gradient += 1;
+    }
+    // 2. Clamp to the pixel-based spacing bounds.
+    let (lo, hi) = spacing_bounds(params, new.pixel_world);
+    stats.n_clamped_min += (r < lo) as u64;
+    stats.n_clamped_max += (r > hi) as u64;
+    let r_clamped = r.clamp(lo, hi);
+    // 3. A record spread wider than its R must not extrapolate to negative values.
+    let s = grad_scale(r, r_clamped);
+    grad_t.iter_mut().for_each(|g| *g *= s);
+    let (dir, _) = finite_or_zero(new.dir);
+    Some(Record { pos: new.pos, normal, e, grad_r, grad_t, r_harmonic: r, r_clamped, dir, pixel_world: new.pixel_world })
+}
+
+impl IrradianceCache {
+    /// Add a gather result as a new record (see the module header for the steps).
+    pub fn insert(&mut self, new: NewRecord) -> InsertStats {
+        let mut stats = InsertStats::default();
+        let Some(rec) = prepare(&self.params, &new, &mut stats) else {
+            stats.n_rejected += 1;
+            self.totals += stats;
+            return stats;
+        };
+        let j = self.records.len();
+        self.records.push(rec);
+        let mut shrunk = Vec::new();
+        if self.params.neighbor_clamping {
+            if self.clamp_new_record(j) {
+                shrunk.push(j as u32);
+            }
+        }
+        // 5. Insert into the index (before propagation, which must see the new record).
+        let rec = self.records[j];
+        self.index.insert(j as u32, rec.pos, rec.r_clamped * self.params.index_factor());
+        if self.params.neighbor_clamping {
+            self.propagate_clamping(j, &mut shrunk);
+        }
+        shrunk.sort_unstable();
+        shrunk.dedup();
+        stats.n_shrunk_by_neighbors += shrunk.len() as u64;
+        stats.n_inserted += 1;
+        self.totals += stats;
+        stats
+    }
+
+    /// 4a. R_j ← min(R_j, R_k + |p_j − p_k|) over existing records k overlapping j. True if R_j shrank.
+    fn clamp_new_record(&mut self, j: usize) -> bool {
+        let rec_j = self.records[j];
+        let mut ids = std::mem::take(&mut self.scratch);
+        self.index.query_sphere(rec_j.pos, rec_j.r_clamped, &mut ids);
+        let mut r_j = rec_j.r_harmonic;
+        for &k in &ids {
+            let rec_k = &self.records[k as usize];
+            let d = (rec_j.pos - rec_k.pos).length();
+            if d < rec_j.r_clamped + rec_k.r_clamped {
+                r_j = r_j.min(rec_k.r_harmonic + d);
+            }
+        }
+        self.scratch = ids;
+        if r_j < rec_j.r_harmonic {
+            set_radius(&self.params, &mut self.records[j], r_j);
+            return true;
+        }
+        false
+    }
+
+    /// 4b. R_k ← min(R_k, R_j + |p_j − p_k|) for overlapping k, propagated to their neighbours in
+    /// increasing order of R. Ids whose R shrank are appended to `shrunk`.
+    fn propagate_clamping(&mut self, j: usize, shrunk: &mut Vec<u32>) {
+        // Key: R's bits (order-preserving for R ≥ 0, including +∞), then id for a deterministic order.
+        let mut heap = BinaryHeap::new();
+        heap.push(Reverse((self.records[j].r_harmonic.to_bits(), j as u32)));
+        let mut ids = std::mem::take(&mut self.scratch);
+        while let Some(Reverse((bits, k))) = heap.pop() {
+            let rec_k = self.records[k as usize];
+            if rec_k.r_harmonic.to_bits() != bits {
+                continue; // stale entry: k shrank again after being pushed
+            }
+            self.index.query_sphere(rec_k.pos, rec_k.r_clamped, &mut ids);
+            for &m in &ids {
+                if m == k {
+                    continue;
+                }
+                let rec_m = &mut self.records[m as usize];
+                let d = (rec_m.pos - rec_k.pos).length();
+                let bound = rec_k.r_harmonic + d;
+                if d < rec_k.r_clamped + rec_m.r_clamped && rec_m.r_harmonic > bound {
+                    set_radius(&self.params, rec_m, bound);
+                    shrunk.push(m);
+                    heap.push(Reverse((bound.to_bits(), m)));
+                }
+            }
+        }
+        self.scratch = ids;
+    }
+}

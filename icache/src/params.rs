@@ -1,0 +1,135 @@
+//! Cache parameters, and how the one `accuracy` knob maps onto Ward's `a` and Tabellion–Lamorlette's κ.
+//!
+//! `accuracy` *is* Ward's `a`: with Ward's weight a record is usable where |p − pᵢ|/R'ᵢ + √(1 − n·nᵢ) < a,
+//! so on a flat surface it reaches a·R'ᵢ. With the TL weight a record reaches R'ᵢ/(2κ) (ε_p = d/(R'/2)).
+//! We set κ = 1/(2a) so both weightings reach the same distance for the same `accuracy`.
+//! Defaults: a = 0.5 in pass A (κ = 1, the TL fill value) and a = 1.0 in pass B (κ = 0.5, more smoothing),
+//! which are the values DESIGN §2 gives for the TL form. With Ward's weight those `a` are loose in the
+//! normal term (√(1 − n·nᵢ) < 0.5 accepts 41°); Ward users should lower `accuracy` (e.g. 0.2–0.3).
+#![forbid(unsafe_code)]
+
+use crate::error::{Error, Result};
+
+/// Which weighting function interpolation uses.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Weighting {
+    /// Tabellion & Lamorlette 2004: bounded, zero at the border (default).
+    TabellionLamorlette,
+    /// Ward, Rubinstein & Clear 1988: unbounded at the record, hard edge at w = 1/a.
+    Ward,
+}
+
+/// Which pass a lookup serves: the fill pass (A) or the shading pass (B, larger `a`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Pass {
+    A,
+    B,
+}
+
+/// Irradiance cache settings.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CacheParams {
+    /// Ward's `a` for pass A (see the module header for the TL mapping). Default 0.5 (κ = 1).
+    pub accuracy: f32,
+    pub weight: Weighting,
+    /// Křivánek 2006 neighbor clamping of R on insertion. Default on.
+    pub neighbor_clamping: bool,
+    /// Use the rotational and translational gradients in interpolation. Default on.
+    pub gradients: bool,
+    /// R'ᵢ ≥ this many pixels (projected at the record). Default 3 (TL's production value).
+    pub min_spacing_px: f32,
+    /// R'ᵢ ≤ this many pixels. Default 20 (TL's production form in DESIGN §2).
+    pub max_spacing_px: f32,
+    /// Ward's `a` for pass B; `None` means the pass-A value. Default `Some(1.0)` (κ = 0.5).
+    pub pass_b_accuracy: Option<f32>,
+}
+
+impl Default for CacheParams {
+    fn default() -> Self {
+        CacheParams {
+            accuracy: 0.5,
+            weight: Weighting::TabellionLamorlette,
+            neighbor_clamping: true,
+            gradients: true,
+            min_spacing_px: 3.0,
+            max_spacing_px: 20.0,
+            pass_b_accuracy: Some(1.0),
+        }
+    }
+}
+
+impl CacheParams {
+    /// Reject values that would make the cache meaningless (NaN, non-positive, inverted ranges).
+    /// Pass B must be at least as loose as pass A, so that pass-A coverage implies pass-B coverage.
+    pub fn validate(&self) -> Result<()> {
+        let bad = |s: String| Err(Error::InvalidParams(s));
+        if !(self.accuracy.is_finite() && self.accuracy > 0.0) {
+            return bad(format!("accuracy must be finite and > 0, got {}", self.accuracy));
+        }
+        if !(self.min_spacing_px.is_finite() && self.min_spacing_px > 0.0) {
+            return bad(format!("min_spacing_px must be finite and > 0, got {}", self.min_spacing_px));
+        }
+        if !(self.max_spacing_px.is_finite() && self.max_spacing_px >= self.min_spacing_px) {
+            return bad(format!(
+                "max_spacing_px must be finite and ≥ min_spacing_px ({}), got {}",
+                self.min_spacing_px, self.max_spacing_px
+            ));
+        }
+        if let Some(b) = self.pass_b_accuracy {
+            if !(b.is_finite() && b >= self.accuracy) {
+                return bad(format!("pass_b_accuracy must be finite and ≥ accuracy ({}), got {b}", self.accuracy));
+            }
+        }
+        Ok(())
+    }
+
+    /// Ward's `a` for a pass.
+    pub fn a(&self, pass: Pass) -> f32 {
+        match pass {
+            Pass::A => self.accuracy,
+            Pass::B => self.pass_b_accuracy.unwrap_or(self.accuracy),
+        }
+    }
+
+    /// Tabellion–Lamorlette κ for a pass: κ = 1/(2a).
+    pub fn kappa(&self, pass: Pass) -> f32 {
+        0.5 / self.a(pass)
+    }
+
+    /// How far a record reaches on its tangent plane, as a multiple of R'ᵢ, in the loosest pass.
+    pub fn support_factor(&self) -> f32 {
+        // Ward: d < a R'; TL: d < R'/(2κ) = a R'. The same by construction of κ.
+        self.a(Pass::A).max(self.a(Pass::B))
+    }
+
+    /// Radius factor the spatial index uses: the support, and at least R' itself because neighbor
+    /// clamping looks for records whose R' spheres overlap.
+    pub fn index_factor(&self) -> f32 {
+        self.support_factor().max(1.0)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn defaults_match_design_kappa() {
+        let p = CacheParams::default();
+        p.validate().unwrap();
+        assert_eq!(p.kappa(Pass::A), 1.0);
+        assert_eq!(p.kappa(Pass::B), 0.5);
+    }
+
+    #[test]
+    fn invalid_params_rejected() {
+        let mut p = CacheParams { accuracy: f32::NAN, ..Default::default() };
+        assert!(p.validate().is_err());
+        p.accuracy = 0.5;
+        p.pass_b_accuracy = Some(0.25);
+        assert!(p.validate().is_err());
+        p.pass_b_accuracy = None;
+        p.max_spacing_px = 1.0;
+        assert!(p.validate().is_err());
+    }
+}

@@ -1,0 +1,216 @@
+//! Thin FFI to Embree 3: one triangle-mesh BVH, closest-hit and occlusion queries.
+//!
+//! The only `unsafe` in the root crate besides the OpenImageIO shim. [`Bvh`] owns the device and the
+//! scene and releases them on drop; queries take `&self` and are safe to call from many threads
+//! (Embree's committed scenes are read-only).
+#![allow(non_camel_case_types)]
+
+use std::os::raw::{c_char, c_uint, c_void};
+
+use glam::Vec3;
+
+type RTCDevice = *mut c_void;
+type RTCScene = *mut c_void;
+type RTCGeometry = *mut c_void;
+
+const RTC_GEOMETRY_TYPE_TRIANGLE: c_uint = 0;
+const RTC_BUFFER_TYPE_INDEX: c_uint = 0;
+const RTC_BUFFER_TYPE_VERTEX: c_uint = 1;
+const RTC_FORMAT_UINT3: c_uint = 0x5003;
+const RTC_FORMAT_FLOAT3: c_uint = 0x9003;
+const RTC_SCENE_FLAG_ROBUST: c_uint = 1 << 2;
+const RTC_BUILD_QUALITY_HIGH: c_uint = 2;
+const RTC_INVALID_GEOMETRY_ID: c_uint = u32::MAX;
+
+#[repr(C)]
+struct RTCIntersectContext {
+    flags: c_uint,
+    filter: *const c_void,
+    inst_id: [c_uint; 1],
+}
+
+#[repr(C, align(16))]
+#[derive(Clone, Copy)]
+struct RTCRay {
+    org: [f32; 3],
+    tnear: f32,
+    dir: [f32; 3],
+    time: f32,
+    tfar: f32,
+    mask: c_uint,
+    id: c_uint,
+    flags: c_uint,
+}
+
+#[repr(C, align(16))]
+#[derive(Clone, Copy)]
+struct RTCHit {
+    ng: [f32; 3],
+    u: f32,
+    v: f32,
+    prim_id: c_uint,
+    geom_id: c_uint,
+    inst_id: [c_uint; 1],
+}
+
+#[repr(C, align(16))]
+struct RTCRayHit {
+    ray: RTCRay,
+    hit: RTCHit,
+}
+
+#[link(name = "embree3")]
+extern "C" {
+    fn rtcNewDevice(config: *const c_char) -> RTCDevice;
+    fn rtcReleaseDevice(device: RTCDevice);
+    fn rtcGetDeviceError(device: RTCDevice) -> c_uint;
+    fn rtcNewScene(device: RTCDevice) -> RTCScene;
+    fn rtcReleaseScene(scene: RTCScene);
+    fn rtcSetSceneFlags(scene: RTCScene, flags: c_uint);
+    fn rtcSetSceneBuildQuality(scene: RTCScene, quality: c_uint);
+    fn rtcNewGeometry(device: RTCDevice, ty: c_uint) -> RTCGeometry;
+    fn rtcSetNewGeometryBuffer(
+        geometry: RTCGeometry,
+        ty: c_uint,
+        slot: c_uint,
+        format: c_uint,
+        byte_stride: usize,
+        item_count: usize,
+    ) -> *mut c_void;
+    fn rtcCommitGeometry(geometry: RTCGeometry);
+    fn rtcAttachGeometry(scene: RTCScene, geometry: RTCGeometry) -> c_uint;
+    fn rtcReleaseGeometry(geometry: RTCGeometry);
+    fn rtcCommitScene(scene: RTCScene);
+    fn rtcIntersect1(scene: RTCScene, context: *mut RTCIntersectContext, rayhit: *mut RTCRayHit);
+    fn rtcOccluded1(scene: RTCScene, context: *mut RTCIntersectContext, ray: *mut RTCRay);
+}
+
+/// A closest hit: distance along the ray, triangle index, barycentrics and the unnormalised geometric
+/// normal as Embree reports it (orientation follows the winding).
+#[derive(Clone, Copy, Debug)]
+pub struct RawHit {
+    pub t: f32,
+    pub prim: u32,
+    pub u: f32,
+    pub v: f32,
+}
+
+/// An Embree BVH over one triangle soup.
+pub struct Bvh {
+    device: RTCDevice,
+    scene: RTCScene,
+}
+
+// SAFETY: a committed Embree scene is immutable and Embree documents concurrent rtcIntersect1 /
+// rtcOccluded1 calls on it as thread-safe; the handles are released only in Drop (&mut self).
+unsafe impl Send for Bvh {}
+unsafe impl Sync for Bvh {}
+
+#[derive(Debug, thiserror::Error)]
+pub enum BvhError {
+    #[error("Embree could not create a device (error code {0})")]
+    Device(u32),
+    #[error("Embree failed to build the scene (error code {0})")]
+    Build(u32),
+}
+
+impl Bvh {
+    /// Builds the BVH. `positions` are the vertices, `triangles` index into them (already validated).
+    pub fn build(positions: &[Vec3], triangles: &[[u32; 3]]) -> Result<Bvh, BvhError> {
+        // SAFETY: every pointer passed to Embree is either one it returned or a buffer it allocated for
+        // us with exactly the size we write; errors are checked after each phase.
+        unsafe {
+            let device = rtcNewDevice(std::ptr::null());
+            if device.is_null() {
+                return Err(BvhError::Device(rtcGetDeviceError(std::ptr::null_mut())));
+            }
+            let scene = rtcNewScene(device);
+            let bvh = Bvh { device, scene };
+            rtcSetSceneFlags(scene, RTC_SCENE_FLAG_ROBUST);
+            rtcSetSceneBuildQuality(scene, RTC_BUILD_QUALITY_HIGH);
+            if !triangles.is_empty() {
+                let geom = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
+                let vb = rtcSetNewGeometryBuffer(
+                    geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 12, positions.len(),
+                ) as *mut f32;
+                let ib = rtcSetNewGeometryBuffer(
+                    geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 12, triangles.len(),
+                ) as *mut u32;
+                if vb.is_null() || ib.is_null() {
+                    rtcReleaseGeometry(geom);
+                    return Err(BvhError::Build(rtcGetDeviceError(device)));
+                }
+                let vs = std::slice::from_raw_parts_mut(vb, positions.len() * 3);
+                for (i, p) in positions.iter().enumerate() {
+                    vs[3 * i..3 * i + 3].copy_from_slice(&p.to_array());
+                }
+                let is = std::slice::from_raw_parts_mut(ib, triangles.len() * 3);
+                for (i, t) in triangles.iter().enumerate() {
+                    is[3 * i..3 * i + 3].copy_from_slice(t);
+                }
+                rtcCommitGeometry(geom);
+                rtcAttachGeometry(scene, geom);
+                rtcReleaseGeometry(geom);
+            }
+            rtcCommitScene(scene);
+            let err = rtcGetDeviceError(device);
+            if err != 0 {
+                return Err(BvhError::Build(err));
+            }
+            Ok(bvh)
+        }
+    }
+
+    fn context() -> RTCIntersectContext {
+        RTCIntersectContext { flags: 0, filter: std::ptr::null(), inst_id: [RTC_INVALID_GEOMETRY_ID] }
+    }
+
+    fn ray(origin: Vec3, dir: Vec3, tmax: f32) -> RTCRay {
+        RTCRay {
+            org: origin.to_array(),
+            tnear: 0.0,
+            dir: dir.to_array(),
+            time: 0.0,
+            tfar: tmax,
+            mask: u32::MAX,
+            id: 0,
+            flags: 0,
+        }
+    }
+
+    /// Closest hit in (0, tmax).
+    pub fn intersect(&self, origin: Vec3, dir: Vec3, tmax: f32) -> Option<RawHit> {
+        let mut ctx = Self::context();
+        let mut rh = RTCRayHit {
+            ray: Self::ray(origin, dir, tmax),
+            hit: RTCHit { ng: [0.0; 3], u: 0.0, v: 0.0, prim_id: 0, geom_id: RTC_INVALID_GEOMETRY_ID, inst_id: [RTC_INVALID_GEOMETRY_ID] },
+        };
+        // SAFETY: scene is committed; ctx and rh are valid, aligned and live for the call.
+        unsafe { rtcIntersect1(self.scene, &mut ctx, &mut rh) };
+        (rh.hit.geom_id != RTC_INVALID_GEOMETRY_ID).then_some(RawHit {
+            t: rh.ray.tfar,
+            prim: rh.hit.prim_id,
+            u: rh.hit.u,
+            v: rh.hit.v,
+        })
+    }
+
+    /// Whether anything blocks the segment (0, tmax).
+    pub fn occluded(&self, origin: Vec3, dir: Vec3, tmax: f32) -> bool {
+        let mut ctx = Self::context();
+        let mut ray = Self::ray(origin, dir, tmax);
+        // SAFETY: as in `intersect`; Embree sets tfar to -inf when the ray is occluded.
+        unsafe { rtcOccluded1(self.scene, &mut ctx, &mut ray) };
+        ray.tfar < 0.0
+    }
+}
+
+impl Drop for Bvh {
+    fn drop(&mut self) {
+        // SAFETY: handles were created in `build` and are released exactly once.
+        unsafe {
+            rtcReleaseScene(self.scene);
+            rtcReleaseDevice(self.device);
+        }
+    }
+}

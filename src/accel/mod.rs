@@ -1,0 +1,2 @@
+//! Ray-tracing acceleration (Embree 3).
+pub mod embree;

@@ -1,0 +1,58 @@
+//! Pinhole camera with a vertical field of view and a box pixel filter.
+
+use glam::Vec3;
+
+#[derive(Clone, Debug)]
+pub struct Camera {
+    pub eye: Vec3,
+    forward: Vec3,
+    right: Vec3,
+    up: Vec3,
+    /// tan(fov/2): half the image-plane height at distance 1.
+    tan_half: f32,
+    pub width: u32,
+    pub height: u32,
+}
+
+impl Camera {
+    /// `up` must not be parallel to `target − eye` (checked by the scene loader).
+    pub fn new(eye: Vec3, target: Vec3, up: Vec3, fov_deg: f32, width: u32, height: u32) -> Camera {
+        let forward = (target - eye).normalize();
+        let right = forward.cross(up).normalize();
+        let up = right.cross(forward);
+        Camera { eye, forward, right, up, tan_half: (fov_deg.to_radians() * 0.5).tan(), width, height }
+    }
+
+    pub fn with_resolution(&self, width: u32, height: u32) -> Camera {
+        Camera { width, height, ..self.clone() }
+    }
+
+    /// Primary ray through image position (x, y) in pixels from the top-left corner (continuous).
+    pub fn ray(&self, x: f32, y: f32) -> Vec3 {
+        let aspect = self.width as f32 / self.height as f32;
+        let sx = (2.0 * x / self.width as f32 - 1.0) * self.tan_half * aspect;
+        let sy = (1.0 - 2.0 * y / self.height as f32) * self.tan_half;
+        (self.forward + sx * self.right + sy * self.up).normalize()
+    }
+
+    /// World-space width of one pixel at `distance` along a ray, on a surface seen at `cos_theta` to
+    /// its normal (the pixel footprint projected onto the tangent plane, along its longer axis).
+    pub fn pixel_world(&self, dir: Vec3, distance: f32, cos_theta: f32) -> f32 {
+        let along_axis = distance * self.forward.dot(dir).abs().max(1e-3);
+        let pixel = 2.0 * self.tan_half * along_axis / self.height as f32;
+        pixel / cos_theta.abs().max(0.05).sqrt()
+    }
+
+    /// Pixel coordinates of a world point, if in front of the camera.
+    pub fn project(&self, p: Vec3) -> Option<(f32, f32)> {
+        let d = p - self.eye;
+        let z = d.dot(self.forward);
+        if z <= 0.0 {
+            return None;
+        }
+        let aspect = self.width as f32 / self.height as f32;
+        let sx = d.dot(self.right) / (z * self.tan_half * aspect);
+        let sy = d.dot(self.up) / (z * self.tan_half);
+        Some(((sx + 1.0) * 0.5 * self.width as f32, (1.0 - sy) * 0.5 * self.height as f32))
+    }
+}

@@ -1,0 +1,195 @@
+//! Argument parsing, the progress bar, and the mapping of errors to exit codes (2 bad input, 1 runtime).
+
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+
+use clap::{Args, Parser, Subcommand};
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+
+use pmrender::error::{option, Error, Result};
+use pmrender::io::atomic::{check_writable, write_bytes};
+use pmrender::io::output::{write_exr, write_png, Layers};
+use pmrender::render::{self, tiles::Window, Options, Progress};
+use pmrender::scene::{self, Method, METHODS};
+
+#[derive(Parser)]
+#[command(name = "pmrender", version, about = "Two-pass photon-mapping renderer with a cached final gather")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Render a scene to a layered EXR (and optionally a PNG and a statistics JSON).
+    Render(RenderArgs),
+}
+
+#[derive(Args)]
+struct RenderArgs {
+    /// Scene file (TOML).
+    scene: PathBuf,
+    /// Output EXR (beauty in R,G,B; one layer per term for the photon-map methods).
+    #[arg(short = 'o', long = "output")]
+    output: PathBuf,
+    /// Also write an sRGB PNG of the beauty.
+    #[arg(long)]
+    png: Option<PathBuf>,
+    /// Print the statistics table and save it as JSON.
+    #[arg(long)]
+    stats: Option<PathBuf>,
+    #[arg(long, help = METHODS)]
+    method: Option<String>,
+    /// Samples per pixel.
+    #[arg(long)]
+    spp: Option<i64>,
+    #[arg(long)]
+    width: Option<i64>,
+    #[arg(long)]
+    height: Option<i64>,
+    /// Worker threads (default: all cores). The image does not depend on it.
+    #[arg(long)]
+    threads: Option<i64>,
+    #[arg(long)]
+    seed: Option<u64>,
+    /// Render only the window [X0, X1) × [Y0, Y1) of the image.
+    #[arg(long, num_args = 4, value_names = ["X0", "Y0", "X1", "Y1"])]
+    crop: Option<Vec<u32>>,
+    /// No progress bar.
+    #[arg(long)]
+    quiet: bool,
+}
+
+/// The bar on stderr, hidden with --quiet or when stderr is not a terminal.
+struct Bar {
+    bar: ProgressBar,
+}
+
+impl Bar {
+    fn new(quiet: bool) -> Bar {
+        let bar = ProgressBar::with_draw_target(Some(0), ProgressDrawTarget::stderr());
+        if quiet || !std::io::stderr().is_terminal() {
+            bar.set_draw_target(ProgressDrawTarget::hidden());
+        }
+        bar.set_style(
+            ProgressStyle::with_template("{msg:>12} [{bar:40}] {percent:>3}% {elapsed_precise} eta {eta}")
+                .unwrap_or_else(|_| ProgressStyle::default_bar())
+                .progress_chars("=> "),
+        );
+        Bar { bar }
+    }
+}
+
+impl Progress for Bar {
+    fn start(&self, phase: &str, total: u64) {
+        self.bar.reset();
+        self.bar.set_length(total);
+        self.bar.set_position(0);
+        self.bar.set_message(phase.to_string());
+    }
+    fn set(&self, done: u64) {
+        self.bar.set_position(done);
+    }
+    fn finish(&self) {
+        self.bar.finish_and_clear();
+    }
+}
+
+fn positive(name: &str, v: Option<i64>) -> Result<Option<u32>> {
+    match v {
+        Some(x) if !(1..=1 << 20).contains(&x) => Err(option(name, format!("{x} must be a positive integer"))),
+        x => Ok(x.map(|x| x as u32)),
+    }
+}
+
+fn options(a: &RenderArgs) -> Result<Options> {
+    let method = match &a.method {
+        Some(m) => Some(Method::parse(m).ok_or_else(|| option("--method", format!("unknown method '{m}' ({METHODS})")))?),
+        None => None,
+    };
+    let crop = a.crop.as_ref().map(|c| Window { x0: c[0], y0: c[1], x1: c[2], y1: c[3] });
+    Ok(Options {
+        method,
+        spp: positive("--spp", a.spp)?,
+        width: positive("--width", a.width)?,
+        height: positive("--height", a.height)?,
+        seed: a.seed,
+        crop,
+    })
+}
+
+fn check_outputs(a: &RenderArgs) -> Result<()> {
+    let ext_ok = |p: &Path, ext: &str| p.extension().map(|e| e.eq_ignore_ascii_case(ext)).unwrap_or(false);
+    if !ext_ok(&a.output, "exr") {
+        return Err(option("-o", format!("'{}' must end in .exr", a.output.display())));
+    }
+    check_writable(&a.output, "-o")?;
+    if let Some(p) = &a.png {
+        if !ext_ok(p, "png") {
+            return Err(option("--png", format!("'{}' must end in .png", p.display())));
+        }
+        check_writable(p, "--png")?;
+    }
+    if let Some(p) = &a.stats {
+        check_writable(p, "--stats")?;
+    }
+    Ok(())
+}
+
+fn render_command(a: RenderArgs, cancel: &AtomicBool) -> Result<()> {
+    let opts = options(&a)?;
+    let threads = match a.threads {
+        Some(t) if !(1..=1024).contains(&t) => return Err(option("--threads", format!("{t} must be in 1..=1024"))),
+        t => t.map(|t| t as usize).unwrap_or(0),
+    };
+    check_outputs(&a)?;
+    let scene = scene::load(&a.scene)?;
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().map_err(|e| Error::Runtime(e.to_string()))?;
+    let bar = Bar::new(a.quiet);
+    let (out, mut report) = pool.install(|| render::render(&scene, &opts, &bar, cancel))?;
+    let t = std::time::Instant::now();
+    let layers = Layers { beauty: &out.beauty, named: out.layers.iter().map(|(n, i)| (*n, i)).collect() };
+    write_exr(&a.output, &layers)?;
+    if let Some(p) = &a.png {
+        write_png(p, &out.beauty)?;
+    }
+    report.seconds("Time", "Write outputs", "time.write_outputs_s", t.elapsed().as_secs_f64());
+    if let Some(p) = &a.stats {
+        eprint!("{}", report.table());
+        let json = serde_json::to_string_pretty(&report.to_json()).map_err(|e| Error::Runtime(e.to_string()))?;
+        write_bytes(p, json.as_bytes())?;
+    }
+    Ok(())
+}
+
+pub fn run() -> i32 {
+    let cli = match Cli::try_parse() {
+        Ok(c) => c,
+        Err(e) => {
+            let code = if e.use_stderr() { 2 } else { 0 };
+            let _ = e.print();
+            return code;
+        }
+    };
+    let cancel = Arc::new(AtomicBool::new(false));
+    {
+        let c = cancel.clone();
+        let _ = ctrlc::set_handler(move || c.store(true, Ordering::Relaxed));
+    }
+    let result = match cli.command {
+        Command::Render(a) => render_command(a, &cancel),
+    };
+    match result {
+        Ok(()) => 0,
+        Err(e) => {
+            eprintln!("pmrender: {e}");
+            match e {
+                Error::Input(_) => 2,
+                Error::Interrupted => 130,
+                Error::Runtime(_) => 1,
+            }
+        }
+    }
+}

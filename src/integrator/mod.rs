@@ -1,0 +1,57 @@
+//! Integrators: the path-tracing reference and the photon-map methods built on Jensen's split.
+pub mod path;
+
+use glam::Vec3;
+
+use crate::geometry::Hit;
+
+/// Events counted per sample that must stay rare, and rays traced.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SampleCounters {
+    pub rays: u64,
+    pub shadow_rays: u64,
+    pub nan_or_negative: u64,
+    pub zero_pdf: u64,
+}
+
+impl std::ops::AddAssign for SampleCounters {
+    fn add_assign(&mut self, o: Self) {
+        self.rays += o.rays;
+        self.shadow_rays += o.shadow_rays;
+        self.nan_or_negative += o.nan_or_negative;
+        self.zero_pdf += o.zero_pdf;
+    }
+}
+
+/// Shading frame at a hit seen from direction `wo`: the shading normal turned toward `wo`, and
+/// whether `wo` is on the side the geometric normal points to.
+#[derive(Clone, Copy, Debug)]
+pub struct Frame {
+    pub n: Vec3,
+    /// Geometric normal turned toward `wo`.
+    pub ng: Vec3,
+    pub front: bool,
+}
+
+impl Frame {
+    pub fn new(hit: &Hit, wo: Vec3) -> Frame {
+        let front = wo.dot(hit.ng) >= 0.0;
+        let s = if front { 1.0 } else { -1.0 };
+        Frame { n: hit.ns * s, ng: hit.ng * s, front }
+    }
+
+    /// Reflection must stay on `wo`'s geometric side, or light leaks through shading normals.
+    pub fn same_side(&self, wi: Vec3) -> bool {
+        wi.dot(self.ng) > 0.0
+    }
+}
+
+/// Replaces a non-finite or negative radiance by zero, counting it.
+pub fn sanitize(l: Vec3, counters: &mut SampleCounters) -> Vec3 {
+    if l.is_finite() && l.min_element() >= 0.0 {
+        l
+    } else {
+        counters.nan_or_negative += 1;
+        Vec3::ZERO
+    }
+}

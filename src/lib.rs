@@ -1,0 +1,19 @@
+//! pmrender: a two-pass photon-mapping renderer whose final gather is cached in an irradiance cache.
+//!
+//! The root crate loads scenes, wraps Embree, holds materials, lights and the camera, combines the terms
+//! of Jensen's split, and writes images and statistics. `photon`, `gather` and `icache` are its passes.
+
+pub mod accel;
+pub mod camera;
+pub mod distribution;
+pub mod error;
+pub mod geometry;
+pub mod integrator;
+pub mod io;
+pub mod light;
+pub mod material;
+pub mod render;
+pub mod scene;
+pub mod stats;
+pub mod texture;
+pub mod warp;

@@ -1,0 +1,206 @@
+//! Materials: Lambert, ideal mirror, smooth dielectric, energy-conserving modified Phong; emission.
+//!
+//! All functions work in world space with `n` the shading normal turned toward `wo` (surfaces are
+//! two-sided); `front` says whether `wo` is on the side the unflipped normal points to, which matters
+//! only for glass (entering or leaving).
+
+use glam::Vec3;
+use std::f32::consts::PI;
+
+use crate::warp::{cosine_hemisphere, reflect, to_world};
+
+#[derive(Clone, Debug, PartialEq)]
+pub enum Bsdf {
+    Diffuse { albedo: Vec3, texture: Option<usize> },
+    Mirror { reflectance: Vec3 },
+    Glass { ior: f32, transmittance: Vec3 },
+    Glossy { albedo: Vec3, specular: Vec3, exponent: f32 },
+}
+
+#[derive(Clone, Debug)]
+pub struct Material {
+    pub name: String,
+    pub bsdf: Bsdf,
+    /// Radiance emitted on the front side (W/(m²·sr)); zero for non-emitters.
+    pub emission: Vec3,
+}
+
+/// Whether a radiance (camera) or importance (photon) path is being traced: refraction scales radiance by
+/// 1/η² but not photon power.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub enum Transport {
+    Radiance,
+    Importance,
+}
+
+#[derive(Clone, Copy, Debug)]
+pub struct BsdfSample {
+    pub wi: Vec3,
+    /// f · |cos θi| / pdf.
+    pub weight: Vec3,
+    pub pdf: f32,
+    /// A Dirac lobe (mirror or glass): no light sampling, no MIS.
+    pub delta: bool,
+}
+
+impl Bsdf {
+    /// Mirror and glass: a ray can only leave along a Dirac lobe.
+    pub fn is_specular(&self) -> bool {
+        matches!(self, Bsdf::Mirror { .. } | Bsdf::Glass { .. })
+    }
+
+    /// Diffuse reflectance (the part the irradiance estimates multiply); `kd` is the texture-resolved albedo.
+    pub fn diffuse_albedo(&self, kd: Vec3) -> Vec3 {
+        match self {
+            Bsdf::Diffuse { .. } => kd,
+            Bsdf::Glossy { .. } => kd,
+            _ => Vec3::ZERO,
+        }
+    }
+
+    /// f(wo, wi) without the cosine; zero for Dirac lobes.
+    pub fn eval(&self, kd: Vec3, n: Vec3, wo: Vec3, wi: Vec3) -> Vec3 {
+        if wi.dot(n) <= 0.0 || wo.dot(n) <= 0.0 {
+            return Vec3::ZERO;
+        }
+        match *self {
+            Bsdf::Diffuse { .. } => kd / PI,
+            Bsdf::Glossy { specular, exponent, .. } => {
+                let cos_a = reflect(wo, n).dot(wi).max(0.0);
+                kd / PI + specular * ((exponent + 2.0) / (2.0 * PI) * cos_a.powf(exponent))
+            }
+            _ => Vec3::ZERO,
+        }
+    }
+
+    /// Probability of choosing the diffuse lobe of a glossy material.
+    fn glossy_diffuse_prob(kd: Vec3, ks: Vec3) -> f32 {
+        let (d, s) = (kd.max_element(), ks.max_element());
+        if d + s <= 0.0 {
+            1.0
+        } else {
+            d / (d + s)
+        }
+    }
+
+    /// Solid-angle density of `sample` choosing `wi`.
+    pub fn pdf(&self, kd: Vec3, n: Vec3, wo: Vec3, wi: Vec3) -> f32 {
+        let cos_i = wi.dot(n);
+        if cos_i <= 0.0 || wo.dot(n) <= 0.0 {
+            return 0.0;
+        }
+        match *self {
+            Bsdf::Diffuse { .. } => cos_i / PI,
+            Bsdf::Glossy { specular, exponent, .. } => {
+                let pd = Self::glossy_diffuse_prob(kd, specular);
+                let cos_a = reflect(wo, n).dot(wi).max(0.0);
+                pd * cos_i / PI + (1.0 - pd) * (exponent + 1.0) / (2.0 * PI) * cos_a.powf(exponent)
+            }
+            _ => 0.0,
+        }
+    }
+
+    pub fn sample(&self, kd: Vec3, n: Vec3, wo: Vec3, front: bool, u: [f32; 3], mode: Transport) -> Option<BsdfSample> {
+        match *self {
+            Bsdf::Diffuse { .. } => {
+                let wi = to_world(n, cosine_hemisphere([u[0], u[1]]));
+                let pdf = wi.dot(n) / PI;
+                (pdf > 0.0).then_some(BsdfSample { wi, weight: kd, pdf, delta: false })
+            }
+            Bsdf::Glossy { specular, exponent, .. } => {
+                let pd = Self::glossy_diffuse_prob(kd, specular);
+                let wi = if u[2] < pd {
+                    to_world(n, cosine_hemisphere([u[0], u[1]]))
+                } else {
+                    let cos_a = u[0].powf(1.0 / (exponent + 1.0));
+                    let sin_a = (1.0 - cos_a * cos_a).max(0.0).sqrt();
+                    let phi = 2.0 * PI * u[1];
+                    let local = Vec3::new(sin_a * phi.cos(), sin_a * phi.sin(), cos_a);
+                    to_world(reflect(wo, n), local)
+                };
+                let pdf = self.pdf(kd, n, wo, wi);
+                if pdf <= 0.0 {
+                    return None;
+                }
+                let weight = self.eval(kd, n, wo, wi) * wi.dot(n) / pdf;
+                Some(BsdfSample { wi, weight, pdf, delta: false })
+            }
+            Bsdf::Mirror { reflectance } => {
+                Some(BsdfSample { wi: reflect(wo, n), weight: reflectance, pdf: 1.0, delta: true })
+            }
+            Bsdf::Glass { ior, transmittance } => sample_glass(ior, transmittance, n, wo, front, u[2], mode),
+        }
+    }
+}
+
+/// Unpolarised Fresnel reflectance of a smooth dielectric; `cos_i` > 0 on the incident side, `eta` =
+/// η_transmitted / η_incident. Returns (F, cos_t); F = 1 under total internal reflection.
+pub fn fresnel_dielectric(cos_i: f32, eta: f32) -> (f32, f32) {
+    let sin2_t = (1.0 - cos_i * cos_i).max(0.0) / (eta * eta);
+    if sin2_t >= 1.0 {
+        return (1.0, 0.0);
+    }
+    let cos_t = (1.0 - sin2_t).sqrt();
+    let rs = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
+    let rp = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
+    (0.5 * (rs * rs + rp * rp), cos_t)
+}
+
+fn sample_glass(ior: f32, transmittance: Vec3, n: Vec3, wo: Vec3, front: bool, u: f32, mode: Transport) -> Option<BsdfSample> {
+    let eta = if front { ior } else { 1.0 / ior };
+    let cos_i = wo.dot(n).clamp(0.0, 1.0);
+    let (f, cos_t) = fresnel_dielectric(cos_i, eta);
+    if u < f {
+        return Some(BsdfSample { wi: reflect(wo, n), weight: Vec3::ONE, pdf: f, delta: true });
+    }
+    let wi = (-wo / eta + (cos_i / eta - cos_t) * n).normalize();
+    let scale = match mode {
+        Transport::Radiance => 1.0 / (eta * eta),
+        Transport::Importance => 1.0,
+    };
+    Some(BsdfSample { wi, weight: transmittance * scale, pdf: 1.0 - f, delta: true })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fresnel_normal_incidence_and_tir() {
+        let (f, _) = fresnel_dielectric(1.0, 1.5);
+        assert!((f - 0.04).abs() < 1e-4);
+        let (f, _) = fresnel_dielectric(0.1, 1.0 / 1.5);
+        assert_eq!(f, 1.0);
+    }
+
+    #[test]
+    fn refraction_obeys_snell() {
+        let n = Vec3::Z;
+        let wo = Vec3::new(0.6, 0.0, 0.8);
+        // u = 0.999 picks refraction (F is small at this angle).
+        let s = sample_glass(1.5, Vec3::ONE, n, wo, true, 0.999, Transport::Importance).unwrap();
+        let sin_i = 0.6;
+        let sin_t = (1.0 - s.wi.z * s.wi.z).sqrt();
+        assert!((sin_i - 1.5 * sin_t).abs() < 1e-5, "{sin_i} vs {}", 1.5 * sin_t);
+        assert!(s.wi.z < 0.0 && s.wi.x < 0.0);
+    }
+
+    #[test]
+    fn glossy_conserves_energy_at_grazing_and_normal() {
+        let bsdf = Bsdf::Glossy { albedo: Vec3::splat(0.0), specular: Vec3::splat(1.0), exponent: 20.0 };
+        let n = Vec3::Z;
+        for wo in [Vec3::Z, Vec3::new(0.8, 0.0, 0.6).normalize()] {
+            let mut rng = photon::sampling::Rng::new(3);
+            let m = 200_000;
+            let mut sum = Vec3::ZERO;
+            for _ in 0..m {
+                let u = [rng.uniform(), rng.uniform(), rng.uniform()];
+                if let Some(s) = bsdf.sample(Vec3::ZERO, n, wo, true, u, Transport::Radiance) {
+                    sum += s.weight;
+                }
+            }
+            let albedo = sum.x / m as f32;
+            assert!(albedo <= 1.01, "albedo {albedo}");
+        }
+    }
+}

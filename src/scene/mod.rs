@@ -1,0 +1,128 @@
+//! A loaded scene: camera, triangles in an Embree BVH, materials, textures, lights and render settings.
+
+pub mod file;
+mod mtl;
+mod obj;
+mod build;
+
+use std::path::{Path, PathBuf};
+
+use glam::Vec3;
+
+pub use build::load;
+pub use file::{IcacheDesc, PhotonsDesc};
+
+use crate::accel::embree::Bvh;
+use crate::camera::Camera;
+use crate::geometry::{spawn, Geometry, Hit};
+use crate::light::Lights;
+use crate::material::Material;
+use crate::texture::Texture;
+
+/// The rendering method: the closed set.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Method {
+    Path,
+    Pm,
+    PmFg,
+    Photons,
+}
+
+impl Method {
+    pub fn parse(s: &str) -> Option<Method> {
+        match s {
+            "path" => Some(Method::Path),
+            "pm" => Some(Method::Pm),
+            "pm-fg" => Some(Method::PmFg),
+            "photons" => Some(Method::Photons),
+            _ => None,
+        }
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Method::Path => "path",
+            Method::Pm => "pm",
+            Method::PmFg => "pm-fg",
+            Method::Photons => "photons",
+        }
+    }
+}
+
+pub const METHODS: &str = "path | pm | pm-fg | photons";
+
+/// `[render]` after validation; `None` means "derive from the scene/method".
+#[derive(Clone, Debug)]
+pub struct RenderSettings {
+    pub method: Option<Method>,
+    pub spp: Option<u32>,
+    pub seed: u64,
+    pub max_depth: u32,
+    pub photons: PhotonsDesc,
+    pub icache: IcacheDesc,
+}
+
+pub struct Scene {
+    pub path: PathBuf,
+    pub camera: Camera,
+    pub geometry: Geometry,
+    pub materials: Vec<Material>,
+    pub textures: Vec<Texture>,
+    pub lights: Lights,
+    pub bvh: Bvh,
+    pub settings: RenderSettings,
+    pub bounds: (Vec3, Vec3),
+    /// Hash of everything that affects light transport (not the camera), for photon and cache files.
+    pub fingerprint: u64,
+}
+
+impl Scene {
+    pub fn intersect(&self, origin: Vec3, dir: Vec3) -> Option<Hit> {
+        self.bvh.intersect(origin, dir, f32::INFINITY).map(|raw| self.geometry.hit(origin, dir, raw))
+    }
+
+    /// Whether the segment from `hit` toward a light point is blocked.
+    pub fn occluded(&self, hit: &Hit, wi: Vec3, dist: f32) -> bool {
+        let o = spawn(hit, wi);
+        let tmax = if dist.is_finite() { (dist - (o - hit.p).length()) * (1.0 - 1e-4) } else { f32::INFINITY };
+        tmax > 0.0 && self.bvh.occluded(o, wi, tmax)
+    }
+
+    /// Diffuse albedo at a hit (texture-resolved).
+    pub fn albedo(&self, hit: &Hit) -> Vec3 {
+        match &self.materials[hit.material as usize].bsdf {
+            crate::material::Bsdf::Diffuse { albedo, texture } => match texture {
+                Some(t) => self.textures[*t].lookup(hit.uv),
+                None => *albedo,
+            },
+            crate::material::Bsdf::Glossy { albedo, .. } => *albedo,
+            _ => Vec3::ZERO,
+        }
+    }
+
+    pub fn material(&self, hit: &Hit) -> &Material {
+        &self.materials[hit.material as usize]
+    }
+
+    /// Radiance emitted from `hit` toward `wo` (one-sided emitters).
+    pub fn emitted(&self, hit: &Hit, wo: Vec3) -> Vec3 {
+        let m = self.material(hit);
+        if m.emission == Vec3::ZERO || wo.dot(self.geometry.emit_normal(hit.tri)) <= 0.0 {
+            Vec3::ZERO
+        } else {
+            m.emission
+        }
+    }
+
+    pub fn diagonal(&self) -> f32 {
+        (self.bounds.1 - self.bounds.0).length()
+    }
+
+    pub fn has_specular(&self) -> bool {
+        self.materials.iter().any(|m| m.bsdf.is_specular())
+    }
+
+    pub fn dir(&self) -> &Path {
+        self.path.parent().unwrap_or(Path::new("."))
+    }
+}

@@ -1,0 +1,129 @@
+//! The MTL → material mapping and the scene file's `[materials.NAME]` overrides.
+
+use std::path::Path;
+
+use glam::Vec3;
+
+use super::file::MaterialDesc;
+use crate::error::{at_line, Error, Result};
+use crate::material::{Bsdf, Material};
+
+fn v3(a: Option<[f32; 3]>) -> Option<Vec3> {
+    a.map(Vec3::from_array)
+}
+
+fn param3(m: &tobj::Material, key: &str) -> Option<Vec3> {
+    let s = m.unknown_param.get(key)?;
+    let v: Vec<f32> = s.split_whitespace().filter_map(|t| t.parse().ok()).collect();
+    match v.len() {
+        1 => Some(Vec3::splat(v[0])),
+        n if n >= 3 => Some(Vec3::new(v[0], v[1], v[2])),
+        _ => None,
+    }
+}
+
+/// The mapping: Ke > 0 → emission; illum 3/5 → mirror; 4/6/7 → glass; Ks > 0 with Ns > 1 →
+/// glossy; otherwise diffuse. Returns the material and the texture path (`map_Kd`), if any.
+pub fn from_mtl(m: &tobj::Material) -> (Material, Option<String>) {
+    let kd = v3(m.diffuse).unwrap_or(Vec3::splat(0.8));
+    let ks = v3(m.specular).unwrap_or(Vec3::ZERO);
+    let emission = v3(m.emissive).or_else(|| param3(m, "Ke")).unwrap_or(Vec3::ZERO).max(Vec3::ZERO);
+    let ns = m.shininess.unwrap_or(0.0);
+    let bsdf = match m.illumination_model {
+        Some(3) | Some(5) => Bsdf::Mirror { reflectance: ks },
+        Some(4) | Some(6) | Some(7) => {
+            let ni = m.optical_density.unwrap_or(1.5);
+            Bsdf::Glass {
+                ior: if ni <= 1.0 { 1.5 } else { ni },
+                transmittance: param3(m, "Tf").unwrap_or(Vec3::ONE),
+            }
+        }
+        _ if ks.max_element() > 0.0 && ns > 1.0 => glossy(kd, ks, ns),
+        _ => Bsdf::Diffuse { albedo: kd, texture: None },
+    };
+    let texture = match bsdf {
+        Bsdf::Diffuse { .. } => m.diffuse_texture.clone().filter(|t| !t.trim().is_empty()),
+        _ => None,
+    };
+    (Material { name: m.name.clone(), bsdf, emission }, texture)
+}
+
+/// Modified Phong, scaled down where kd + ks would reflect more than it receives.
+fn glossy(kd: Vec3, ks: Vec3, exponent: f32) -> Bsdf {
+    let total = (kd + ks).max_element();
+    let s = if total > 1.0 { 1.0 / total } else { 1.0 };
+    Bsdf::Glossy { albedo: kd * s, specular: ks * s, exponent }
+}
+
+/// Applies `[materials.NAME]` on top of the MTL material. Returns the new texture path, if set.
+pub fn apply_override(
+    scene: &Path,
+    line: usize,
+    mat: &mut Material,
+    d: &MaterialDesc,
+) -> Result<Option<String>> {
+    let err = |msg: String| -> Error { at_line(scene, line, format!("materials.{}: {msg}", mat.name)) };
+    let (kd, ks, ns) = match &mat.bsdf {
+        Bsdf::Diffuse { albedo, .. } => (*albedo, Vec3::ZERO, 1.0),
+        Bsdf::Glossy { albedo, specular, exponent } => (*albedo, *specular, *exponent),
+        _ => (Vec3::splat(0.8), Vec3::ZERO, 1.0),
+    };
+    let kind = d.kind.clone().unwrap_or_else(|| match mat.bsdf {
+        Bsdf::Diffuse { .. } => "diffuse".into(),
+        Bsdf::Mirror { .. } => "mirror".into(),
+        Bsdf::Glass { .. } => "glass".into(),
+        Bsdf::Glossy { .. } => "glossy".into(),
+    });
+    let allowed: &[&str] = match kind.as_str() {
+        "diffuse" => &["albedo", "texture"],
+        "mirror" => &["reflectance"],
+        "glass" => &["ior", "transmittance"],
+        "glossy" => &["albedo", "specular", "exponent"],
+        other => return Err(err(format!("unknown type '{other}' (diffuse | mirror | glass | glossy)"))),
+    };
+    let given = [
+        ("albedo", d.albedo.is_some()),
+        ("texture", d.texture.is_some()),
+        ("reflectance", d.reflectance.is_some()),
+        ("ior", d.ior.is_some()),
+        ("transmittance", d.transmittance.is_some()),
+        ("specular", d.specular.is_some()),
+        ("exponent", d.exponent.is_some()),
+    ];
+    if let Some((k, _)) = given.iter().find(|(k, g)| *g && !allowed.contains(k)) {
+        return Err(err(format!("key '{k}' does not apply to type '{kind}'")));
+    }
+    for (k, v) in [("albedo", d.albedo), ("reflectance", d.reflectance), ("transmittance", d.transmittance), ("specular", d.specular), ("emission", d.emission)] {
+        if let Some(v) = v {
+            if v.iter().any(|x| !x.is_finite() || *x < 0.0) {
+                return Err(err(format!("{k} must be finite and ≥ 0")));
+            }
+        }
+    }
+    let mut texture = None;
+    mat.bsdf = match kind.as_str() {
+        "diffuse" => {
+            texture = d.texture.clone();
+            Bsdf::Diffuse { albedo: v3(d.albedo).unwrap_or(kd), texture: None }
+        }
+        "mirror" => Bsdf::Mirror { reflectance: v3(d.reflectance).unwrap_or(if ks.max_element() > 0.0 { ks } else { Vec3::ONE }) },
+        "glass" => {
+            let ior = d.ior.unwrap_or(1.5);
+            if !(ior.is_finite() && ior > 1.0) {
+                return Err(err(format!("ior = {ior} must be > 1")));
+            }
+            Bsdf::Glass { ior, transmittance: v3(d.transmittance).unwrap_or(Vec3::ONE) }
+        }
+        _ => {
+            let exponent = d.exponent.unwrap_or(ns.max(1.0));
+            if !(exponent.is_finite() && exponent >= 0.0) {
+                return Err(err(format!("exponent = {exponent} must be ≥ 0")));
+            }
+            glossy(v3(d.albedo).unwrap_or(kd), v3(d.specular).unwrap_or(ks), exponent)
+        }
+    };
+    if let Some(e) = d.emission {
+        mat.emission = Vec3::from_array(e);
+    }
+    Ok(texture)
+}
