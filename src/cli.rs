@@ -43,14 +43,14 @@ struct RenderArgs {
     #[arg(long, help = METHODS)]
     method: Option<String>,
     /// Samples per pixel.
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     spp: Option<i64>,
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     width: Option<i64>,
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     height: Option<i64>,
     /// Worker threads (default: all cores). The image does not depend on it.
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     threads: Option<i64>,
     #[arg(long)]
     seed: Option<u64>,
@@ -167,10 +167,16 @@ fn render_command(a: RenderArgs, cancel: &AtomicBool) -> Result<()> {
 pub fn run() -> i32 {
     let cli = match Cli::try_parse() {
         Ok(c) => c,
+        Err(e) if e.use_stderr() => {
+            // One line, like every other input error.
+            let text = e.to_string();
+            let first = text.lines().next().unwrap_or("invalid arguments").trim_start_matches("error: ");
+            eprintln!("pmrender: {first} (see pmrender --help)");
+            return 2;
+        }
         Err(e) => {
-            let code = if e.use_stderr() { 2 } else { 0 };
             let _ = e.print();
-            return code;
+            return 0;
         }
     };
     let cancel = Arc::new(AtomicBool::new(false));

@@ -17,3 +17,4 @@ pub mod scene;
 pub mod stats;
 pub mod texture;
 pub mod warp;
+mod chi2;

@@ -214,3 +214,96 @@ impl Lights {
         self.lights.is_empty()
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::Triangle;
+
+    /// Two emissive triangles of different area and radiance above the origin.
+    fn two_emitters() -> (Geometry, Lights) {
+        let positions = vec![
+            Vec3::new(-1.0, -0.5, 1.0), Vec3::new(0.5, -0.5, 1.0), Vec3::new(-1.0, 1.0, 1.0),
+            Vec3::new(0.5, 0.5, 2.0), Vec3::new(2.0, 0.5, 2.0), Vec3::new(0.5, 1.5, 1.5),
+        ];
+        let mut geo = Geometry { normals: vec![Vec3::ZERO; 6], uvs: vec![glam::Vec2::ZERO; 6], positions, ..Default::default() };
+        let mut lights = Vec::new();
+        for (k, le) in [(0u32, 2.0f32), (1, 5.0)] {
+            let v = [3 * k, 3 * k + 1, 3 * k + 2];
+            let [a, b, c] = v.map(|i| geo.positions[i as usize]);
+            let cr = (b - a).cross(c - a);
+            // Face the origin (downward).
+            let (v, ng) = if cr.z > 0.0 { ([v[0], v[2], v[1]], -cr.normalize()) } else { (v, cr.normalize()) };
+            geo.triangles.push(Triangle { v, material: 0, ng, area: 0.5 * cr.length(), has_normals: false, has_uv: false });
+            lights.push(Light::Area { tri: k, le: Vec3::splat(le), n: ng, area: 0.5 * cr.length() });
+        }
+        let n = geo.triangles.len();
+        (geo, Lights::new(lights, n).unwrap())
+    }
+
+    fn ray_triangle(geo: &Geometry, tri: u32, o: Vec3, d: Vec3) -> Option<Vec3> {
+        let [a, b, c] = geo.triangles[tri as usize].v.map(|i| geo.positions[i as usize]);
+        let (e1, e2) = (b - a, c - a);
+        let pv = d.cross(e2);
+        let det = e1.dot(pv);
+        if det.abs() < 1e-12 {
+            return None;
+        }
+        let tv = o - a;
+        let u = tv.dot(pv) / det;
+        let qv = tv.cross(e1);
+        let v = d.dot(qv) / det;
+        let t = e2.dot(qv) / det;
+        (u >= 0.0 && v >= 0.0 && u + v <= 1.0 && t > 0.0).then_some(o + d * t)
+    }
+
+    #[test]
+    fn chi2_area_light_sampling() {
+        let (geo, lights) = two_emitters();
+        let p = Vec3::ZERO;
+        let mut rng = photon::sampling::Rng::new(2);
+        let mut sample = |_: usize| lights.sample(&geo, p, [rng.uniform(), rng.uniform(), rng.uniform()]).map(|s| s.wi);
+        let pdf = |wi: Vec3| -> f64 {
+            (0..2u32).filter_map(|t| ray_triangle(&geo, t, p, wi).map(|q| lights.pdf_hit(t, p, q) as f64)).sum()
+        };
+        let (stat, limit) = crate::chi2::run(300_000, &mut sample, &pdf);
+        assert!(stat < limit, "χ² = {stat} ≥ {limit}");
+    }
+
+    #[test]
+    fn lights_are_chosen_by_power() {
+        let (_, lights) = two_emitters();
+        let p: Vec<f32> = (0..2).map(|i| lights.select.prob(i)).collect();
+        let w: Vec<f32> = lights.lights.iter().map(|l| l.power().x).collect();
+        assert!((p[0] / p[1] - w[0] / w[1]).abs() < 1e-4);
+    }
+
+    #[test]
+    fn emitted_photon_power_sums_to_light_power() {
+        let (geo, lights) = two_emitters();
+        let n = 10_000;
+        let mut sum = Vec3::ZERO;
+        for i in 0..n {
+            let u = [0, 1, 2, 3, 4].map(|d| photon::sampling::halton(i, d, 1));
+            sum += lights.emit(&geo, u).unwrap().power;
+        }
+        let mean = sum / n as f32;
+        let total = lights.total_power();
+        assert!(((mean - total).length() / total.length()) < 1e-3, "{mean} vs {total}");
+    }
+
+    #[test]
+    fn spot_power_matches_falloff_integral() {
+        // Linear-in-angle falloff between 20° and 30°: compare with a fine numerical integral.
+        let l = Light::Spot { pos: Vec3::ZERO, dir: Vec3::Z, intensity: Vec3::ONE, cone: 30f32.to_radians(), falloff: 20f32.to_radians() };
+        let steps = 100_000;
+        let mut s = 0.0f64;
+        for i in 0..steps {
+            let t = (i as f64 + 0.5) / steps as f64 * std::f64::consts::PI;
+            let f = Light::spot_falloff(t.cos() as f32, 30f32.to_radians(), 20f32.to_radians()) as f64;
+            s += f * t.sin() * std::f64::consts::PI / steps as f64;
+        }
+        let expected = 2.0 * std::f64::consts::PI * s;
+        assert!((l.power().x as f64 - expected).abs() < 1e-3 * expected);
+    }
+}

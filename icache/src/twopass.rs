@@ -17,7 +17,7 @@ use crate::cache::IrradianceCache;
 use crate::order::HierarchicalOrder;
 use crate::params::Pass;
 use crate::record::NewRecord;
-use crate::stats::FillStats;
+use crate::stats::{FillStats, LookupStats};
 
 /// A visible surface point of a pixel.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -29,8 +29,9 @@ pub struct ShadingPoint {
     pub pixel_world: f32,
 }
 
-/// Pixels whose coverage is looked up together.
-const CHUNK_PIXELS: usize = 256;
+/// Pixels whose coverage is looked up together (then possibly gathered as one wave): small, so the first
+/// waves of an empty cache do not gather many points that would have covered each other.
+const CHUNK_PIXELS: usize = 64;
 /// Uncovered points gathered together; large enough to keep many threads busy, small enough that the
 /// records of one wave seldom overlap (they are spread over the image by the visiting order).
 const WAVE_GATHERS: usize = 64;
@@ -112,24 +113,24 @@ fn sweep(
         }
         done += chunk.len() as u64;
         let cache_ref: &IrradianceCache = cache;
-        let found: Vec<(u64, Vec<Candidate>)> = chunk
+        let found: Vec<(LookupStats, Vec<Candidate>)> = chunk
             .par_iter()
             .map(|&(x, y)| {
-                let points = shading_points(x, y);
-                let n_points = points.len() as u64;
-                let misses = points
-                    .into_iter()
-                    .enumerate()
-                    .filter(|(_, sp)| cache_ref.lookup(sp.pos, sp.normal, Pass::A).is_none())
-                    .map(|(i, sp)| Candidate { x, y, i, sp })
-                    .collect();
-                (n_points, misses)
+                let mut lookups = LookupStats::default();
+                let mut misses = Vec::new();
+                for (i, sp) in shading_points(x, y).into_iter().enumerate() {
+                    let hit = cache_ref.lookup(sp.pos, sp.normal, Pass::A);
+                    lookups.record(hit.as_ref());
+                    if hit.is_none() {
+                        misses.push(Candidate { x, y, i, sp });
+                    }
+                }
+                (lookups, misses)
             })
             .collect();
-        for (n_points, misses) in found {
-            stats.n_points += n_points;
-            stats.lookups.n_lookups += n_points;
-            stats.lookups.n_misses += misses.len() as u64;
+        for (lookups, misses) in found {
+            stats.n_points += lookups.n_lookups;
+            stats.lookups += lookups;
             pending.extend(misses);
         }
         if pending.len() >= WAVE_GATHERS {

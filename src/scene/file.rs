@@ -119,7 +119,7 @@ pub struct IcacheDesc {
 pub fn parse(path: &Path, text: &str) -> Result<SceneFile> {
     toml::from_str(text).map_err(|e| {
         let line = e.span().map(|s| line_of_offset(text, s.start)).unwrap_or(1);
-        at_line(path, line, e.message().trim())
+        at_line(path, line, e.message().trim().replace('\n', "; "))
     })
 }
 

@@ -1,0 +1,115 @@
+//! One final gather: trace one jittered ray per hemisphere stratum and reduce the answers to the
+//! irradiance, its two gradients, the hit-distance statistics and the dominant incoming direction —
+//! everything an irradiance-cache record needs.
+//!
+//! The crate knows no scene: the caller's `trace` closure shoots a ray from the gather point (with
+//! whatever offset and shading it likes) and reports its radiance and hit distance.
+#![forbid(unsafe_code)]
+
+use crate::gradient::{self, Grid};
+use crate::strata::{Frame, Strata, DEFAULT_RAYS};
+use glam::{DVec3, Vec3};
+use photon::sampling::Rng;
+
+/// How to gather.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct GatherParams {
+    /// Requested number of rays; the strata grid ([`crate::strata_for_rays`]) traces about this many.
+    pub rays: usize,
+}
+
+impl Default for GatherParams {
+    fn default() -> Self {
+        GatherParams { rays: DEFAULT_RAYS }
+    }
+}
+
+/// What one gather ray saw.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GatherRay {
+    /// Radiance arriving at the gather point along the ray.
+    pub radiance: Vec3,
+    /// Distance to the hit; `f32::INFINITY` on a miss.
+    pub distance: f32,
+}
+
+impl GatherRay {
+    /// A ray that escaped, seeing `radiance` from the environment.
+    pub fn miss(radiance: Vec3) -> Self {
+        GatherRay { radiance, distance: f32::INFINITY }
+    }
+}
+
+/// The irradiance at a point and what an irradiance-cache record needs besides.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GatherResult {
+    /// Irradiance, E = (π / MN) Σ L_jk.
+    pub e: Vec3,
+    /// Rotational gradient, one world vector per colour channel: E(n') ≈ E + (n × n') · grad_r[c].
+    pub grad_r: [Vec3; 3],
+    /// Translational gradient, one world vector (in the tangent plane) per colour channel:
+    /// E(p') ≈ E + (p' − p) · grad_t[c].
+    pub grad_t: [Vec3; 3],
+    /// Harmonic mean of the hit distances, misses counting as infinity; `INFINITY` if all missed.
+    pub r_harmonic: f32,
+    /// Smallest hit distance; `INFINITY` if all missed.
+    pub r_min: f32,
+    /// Dominant incoming direction: luminance-weighted mean of the ray directions, normalised;
+    /// the normal when that mean is zero.
+    pub dir: Vec3,
+    /// Rays traced (M · N).
+    pub n_rays: u32,
+}
+
+/// Rec. 709 luminance.
+#[inline]
+fn luminance(c: Vec3) -> f32 {
+    c.dot(Vec3::new(0.2126, 0.7152, 0.0722))
+}
+
+/// Gathers at `p` with unit normal `n`. One jitter pair per stratum is drawn, row by row, from
+/// `Rng::new(seed)`, so the same seed gives bitwise the same result. `trace` receives unit world
+/// directions in the hemisphere around `n`.
+pub fn gather(
+    p: Vec3,
+    n: Vec3,
+    params: &GatherParams,
+    seed: u64,
+    trace: &mut dyn FnMut(Vec3) -> GatherRay,
+) -> GatherResult {
+    // `p` only identifies the gather to the caller, whose closure knows where to shoot from.
+    let _ = p;
+    let strata = Strata::for_rays(params.rays);
+    let frame = Frame::from_normal(n);
+    let mut rng = Rng::new(seed);
+    let mut radiance = Vec::with_capacity(strata.len());
+    let mut distance = Vec::with_capacity(strata.len());
+    // E and 1/R are sums of thousands of like terms: f64 keeps them exact to f32 precision.
+    let (mut sum_l, mut sum_inv_r) = (DVec3::ZERO, 0.0f64);
+    let (mut sum_dir, mut r_min) = (Vec3::ZERO, f32::INFINITY);
+    for j in 0..strata.m {
+        for k in 0..strata.n {
+            let wi = frame.to_world(strata.direction(j, k, rng.uniform2())).normalize();
+            let ray = trace(wi);
+            sum_l += ray.radiance.as_dvec3();
+            sum_dir += wi * luminance(ray.radiance);
+            if ray.distance < f32::INFINITY {
+                sum_inv_r += 1.0 / ray.distance as f64;
+                r_min = r_min.min(ray.distance);
+            }
+            radiance.push(ray.radiance);
+            distance.push(ray.distance);
+        }
+    }
+    let n_rays = strata.len() as f64;
+    let grid = Grid { strata, frame, radiance: &radiance, distance: &distance };
+    GatherResult {
+        e: (sum_l * (std::f64::consts::PI / n_rays)).as_vec3(),
+        grad_r: gradient::rotational(&grid),
+        grad_t: gradient::translational(&grid),
+        r_harmonic: if sum_inv_r > 0.0 { (n_rays / sum_inv_r) as f32 } else { f32::INFINITY },
+        r_min,
+        dir: sum_dir.try_normalize().unwrap_or(n),
+        n_rays: strata.len() as u32,
+    }
+}

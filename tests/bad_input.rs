@@ -1,0 +1,156 @@
+//! Every kind of bad input gives one line naming the file and line (or the option), exit status 2, and
+//! no output file.
+
+mod common;
+use common::*;
+
+/// Runs a render that must fail; checks status 2, a one-line message containing `expect`, no output.
+fn fails(dir: &tempfile::TempDir, scene: &str, extra: &[&str], expect: &[&str]) {
+    let out = p(dir.path(), "out.exr");
+    let png = p(dir.path(), "out.png");
+    let mut args = vec!["render", scene, "-o", &out, "--png", &png, "--quiet"];
+    args.extend_from_slice(extra);
+    let r = run(&args);
+    let stderr = String::from_utf8_lossy(&r.stderr);
+    assert_eq!(r.status.code(), Some(2), "stderr: {stderr}");
+    assert_eq!(stderr.trim().lines().count(), 1, "one line expected: {stderr}");
+    for e in expect {
+        assert!(stderr.contains(e), "'{e}' not in: {stderr}");
+    }
+    assert!(!std::path::Path::new(&out).exists(), "no output on failure");
+    assert!(!std::path::Path::new(&png).exists(), "no output on failure");
+}
+
+fn with_toml(toml: &str) -> tempfile::TempDir {
+    scene_dir(&[("room.obj", ROOM_OBJ), ("room.mtl", ROOM_MTL), ("scene.toml", toml)])
+}
+
+#[test]
+fn the_good_room_renders() {
+    let d = room();
+    let out = p(d.path(), "out.exr");
+    let r = run(&["render", &p(d.path(), "scene.toml"), "-o", &out, "--quiet"]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    assert!(std::path::Path::new(&out).exists());
+}
+
+#[test]
+fn malformed_toml_names_the_line() {
+    let d = with_toml(&ROOM_TOML.replace("fov = 45.0", "fov = = 45"));
+    fails(&d, &p(d.path(), "scene.toml"), &[], &["scene.toml:5:"]);
+}
+
+#[test]
+fn unknown_key_is_an_error() {
+    let d = with_toml(&ROOM_TOML.replace("fov = 45.0", "fov = 45.0\nfocal = 3"));
+    fails(&d, &p(d.path(), "scene.toml"), &[], &["scene.toml:6:", "focal"]);
+}
+
+#[test]
+fn mistyped_value_is_an_error() {
+    let d = with_toml(&ROOM_TOML.replace("width = 24", "width = \"wide\""));
+    fails(&d, &p(d.path(), "scene.toml"), &[], &["scene.toml:6:"]);
+}
+
+#[test]
+fn missing_obj() {
+    let d = with_toml(&ROOM_TOML.replace("room.obj", "nothere.obj"));
+    fails(&d, &p(d.path(), "scene.toml"), &[], &["scene.toml:10:", "nothere.obj"]);
+}
+
+#[test]
+fn missing_mtl() {
+    let d = scene_dir(&[("room.obj", ROOM_OBJ), ("scene.toml", ROOM_TOML)]);
+    fails(&d, &p(d.path(), "scene.toml"), &[], &["room.obj:1:", "room.mtl"]);
+}
+
+#[test]
+fn missing_texture() {
+    let mtl = ROOM_MTL.replace("Kd 0.6 0.6 0.6", "Kd 0.6 0.6 0.6\nmap_Kd bricks.png");
+    let d = scene_dir(&[("room.obj", ROOM_OBJ), ("room.mtl", &mtl), ("scene.toml", ROOM_TOML)]);
+    fails(&d, &p(d.path(), "scene.toml"), &[], &["bricks.png", "not found"]);
+}
+
+#[test]
+fn face_index_out_of_range() {
+    let obj = ROOM_OBJ.replace("f 9 10 11 12", "f 9 10 11 13");
+    let d = scene_dir(&[("room.obj", &obj), ("room.mtl", ROOM_MTL), ("scene.toml", ROOM_TOML)]);
+    fails(&d, &p(d.path(), "scene.toml"), &[], &["room.obj:21:", "out of range"]);
+}
+
+#[test]
+fn nan_and_inf_coordinates() {
+    for bad in ["nan", "inf", "-inf"] {
+        let obj = ROOM_OBJ.replace("v 1 0 1", &format!("v 1 {bad} 1"));
+        let d = scene_dir(&[("room.obj", &obj), ("room.mtl", ROOM_MTL), ("scene.toml", ROOM_TOML)]);
+        fails(&d, &p(d.path(), "scene.toml"), &[], &["room.obj:3:"]);
+    }
+}
+
+#[test]
+fn no_lights() {
+    let mtl = ROOM_MTL.replace("Ke 10 10 10", "");
+    let d = scene_dir(&[("room.obj", ROOM_OBJ), ("room.mtl", &mtl), ("scene.toml", ROOM_TOML)]);
+    fails(&d, &p(d.path(), "scene.toml"), &[], &["scene.toml:1:", "no lights"]);
+}
+
+#[test]
+fn zero_area_emitters_only() {
+    let obj = ROOM_OBJ.replace("v 0.25 1.99 -0.25", "v -0.25 1.99 -0.25").replace("v 0.25 1.99 0.25", "v -0.25 1.99 0.25");
+    let d = scene_dir(&[("room.obj", &obj), ("room.mtl", ROOM_MTL), ("scene.toml", ROOM_TOML)]);
+    fails(&d, &p(d.path(), "scene.toml"), &[], &["zero area"]);
+}
+
+#[test]
+fn resolution_must_be_positive() {
+    for (from, to, line) in [("width = 24", "width = 0", "scene.toml:6:"), ("height = 16", "height = -3", "scene.toml:7:")] {
+        let d = with_toml(&ROOM_TOML.replace(from, to));
+        fails(&d, &p(d.path(), "scene.toml"), &[], &[line]);
+    }
+    let d = room();
+    fails(&d, &p(d.path(), "scene.toml"), &["--width", "0"], &["--width"]);
+    fails(&d, &p(d.path(), "scene.toml"), &["--height", "-1"], &["--height"]);
+}
+
+#[test]
+fn fov_must_be_in_open_interval() {
+    for fov in ["0.0", "180.0", "-5.0", "400.0"] {
+        let d = with_toml(&ROOM_TOML.replace("fov = 45.0", &format!("fov = {fov}")));
+        fails(&d, &p(d.path(), "scene.toml"), &[], &["scene.toml:5:", "fov"]);
+    }
+}
+
+#[test]
+fn unknown_method() {
+    let d = room();
+    fails(&d, &p(d.path(), "scene.toml"), &["--method", "magic"], &["--method", "magic"]);
+    let d = with_toml(&ROOM_TOML.replace("spp = 2", "spp = 2\nmethod = \"magic\""));
+    fails(&d, &p(d.path(), "scene.toml"), &[], &["scene.toml:14:", "magic"]);
+}
+
+#[test]
+fn unwritable_output_path() {
+    let d = room();
+    let r = run(&["render", &p(d.path(), "scene.toml"), "-o", "/nonexistent-dir/x.exr", "--quiet"]);
+    assert_eq!(r.status.code(), Some(2));
+    let stderr = String::from_utf8_lossy(&r.stderr);
+    assert!(stderr.contains("-o") && stderr.contains("nonexistent-dir"), "{stderr}");
+}
+
+#[test]
+fn missing_scene_file() {
+    let d = room();
+    fails(&d, &p(d.path(), "nope.toml"), &[], &["nope.toml"]);
+}
+
+#[test]
+fn failed_render_leaves_existing_output_untouched() {
+    let d = room();
+    let out = d.path().join("out.exr");
+    std::fs::write(&out, b"previous").unwrap();
+    let bad = p(d.path(), "bad.toml");
+    std::fs::write(&bad, "not toml [").unwrap();
+    let r = run(&["render", &bad, "-o", &out.to_string_lossy(), "--quiet"]);
+    assert_eq!(r.status.code(), Some(2));
+    assert_eq!(std::fs::read(&out).unwrap(), b"previous");
+}

@@ -1,0 +1,104 @@
+//! Helpers shared by the whole-render tests: temporary scenes, running the binary, reading EXRs.
+#![allow(dead_code)]
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use glam::Vec3;
+use pmrender::io::output::{read_layer, Image};
+
+pub fn bin() -> PathBuf {
+    PathBuf::from(env!("CARGO_BIN_EXE_pmrender"))
+}
+
+pub fn run(args: &[&str]) -> Output {
+    Command::new(bin()).args(args).output().expect("pmrender runs")
+}
+
+pub fn repo() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// A box-room OBJ/MTL pair: walls of albedo `kd` facing inward, a ceiling light quad of radiance `ke`.
+pub const ROOM_OBJ: &str = "mtllib room.mtl
+v -1 0 1
+v 1 0 1
+v 1 0 -1
+v -1 0 -1
+v -1 2 1
+v 1 2 1
+v 1 2 -1
+v -1 2 -1
+v -0.25 1.99 -0.25
+v 0.25 1.99 -0.25
+v 0.25 1.99 0.25
+v -0.25 1.99 0.25
+usemtl wall
+f 1 2 3 4
+f 8 7 6 5
+f 4 3 7 8
+f 1 4 8 5
+f 3 2 6 7
+usemtl light
+f 9 10 11 12
+";
+
+pub const ROOM_MTL: &str = "newmtl wall
+Kd 0.6 0.6 0.6
+newmtl light
+Kd 0 0 0
+Ke 10 10 10
+";
+
+pub const ROOM_TOML: &str = r#"version = 1
+[camera]
+eye = [0.0, 1.0, 3.0]
+target = [0.0, 1.0, 0.0]
+fov = 45.0
+width = 24
+height = 16
+
+[[mesh]]
+obj = "room.obj"
+
+[render]
+spp = 2
+"#;
+
+/// Writes `files` (name, contents) into a fresh temporary directory.
+pub fn scene_dir(files: &[(&str, &str)]) -> tempfile::TempDir {
+    let dir = tempfile::tempdir().expect("temp dir");
+    for (name, text) in files {
+        std::fs::write(dir.path().join(name), text).expect("write scene file");
+    }
+    dir
+}
+
+pub fn room() -> tempfile::TempDir {
+    scene_dir(&[("room.obj", ROOM_OBJ), ("room.mtl", ROOM_MTL), ("scene.toml", ROOM_TOML)])
+}
+
+pub fn p(dir: &Path, name: &str) -> String {
+    dir.join(name).to_string_lossy().into_owned()
+}
+
+pub fn read(path: &Path) -> Image {
+    read_layer(path, None).expect("readable EXR")
+}
+
+pub fn mean(img: &Image) -> Vec3 {
+    img.pixels.iter().copied().sum::<Vec3>() / img.pixels.len() as f32
+}
+
+/// relMSE = mean over pixels and channels of (x − r)² / (r² + 0.01).
+pub fn rel_mse(img: &Image, reference: &Image) -> f64 {
+    assert_eq!((img.width, img.height), (reference.width, reference.height));
+    let mut s = 0.0f64;
+    for (a, r) in img.pixels.iter().zip(&reference.pixels) {
+        for c in 0..3 {
+            let (a, r) = (a[c] as f64, r[c] as f64);
+            s += (a - r).powi(2) / (r * r + 0.01);
+        }
+    }
+    s / (3.0 * img.pixels.len() as f64)
+}

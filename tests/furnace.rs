@@ -1,0 +1,55 @@
+//! Analytic furnace: inside a closed sphere of albedo ρ whose inside emits Le, every ray sees
+//! L = Le / (1 − ρ) (the emission plus all its interreflections, a geometric series).
+
+mod common;
+use common::*;
+
+/// A closed latitude–longitude sphere of radius 1 with faces wound to face inward.
+pub fn inward_sphere(nu: usize, nv: usize) -> String {
+    let mut s = String::from("mtllib furnace.mtl\nusemtl inside\n");
+    for j in 0..=nv {
+        let th = std::f64::consts::PI * j as f64 / nv as f64;
+        for i in 0..nu {
+            let ph = 2.0 * std::f64::consts::PI * i as f64 / nu as f64;
+            s += &format!("v {} {} {}\n", th.sin() * ph.cos(), th.cos(), th.sin() * ph.sin());
+        }
+    }
+    let idx = |i: usize, j: usize| j * nu + (i % nu) + 1;
+    for j in 0..nv {
+        for i in 0..nu {
+            // (a, b, d) winds outward here; (a, d, b) faces the inside.
+            let (a, b, c, d) = (idx(i, j), idx(i + 1, j), idx(i + 1, j + 1), idx(i, j + 1));
+            s += &format!("f {a} {d} {b}\nf {b} {d} {c}\n");
+        }
+    }
+    s
+}
+
+fn furnace(rho: f32, le: f32, method: &str, spp: u32) -> (glam::Vec3, f32, f32) {
+    let mtl = format!("newmtl inside\nKd {rho} {rho} {rho}\nKe {le} {le} {le}\n");
+    let toml = "version = 1\n[camera]\neye = [0.1, 0.2, 0.05]\ntarget = [1.0, 0.3, 0.2]\nfov = 120.0\nwidth = 16\nheight = 16\n\n[[mesh]]\nobj = \"furnace.obj\"\n\n[render]\nmax_depth = 200\n";
+    let obj = inward_sphere(24, 12);
+    let d = scene_dir(&[("furnace.obj", &obj), ("furnace.mtl", &mtl), ("scene.toml", toml)]);
+    let out = p(d.path(), "out.exr");
+    let spp = spp.to_string();
+    let r = run(&["render", &p(d.path(), "scene.toml"), "-o", &out, "--method", method, "--spp", &spp, "--quiet"]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let img = read(std::path::Path::new(&out));
+    let lo = img.pixels.iter().map(|p| p.min_element()).fold(f32::INFINITY, f32::min);
+    let hi = img.pixels.iter().map(|p| p.max_element()).fold(0.0, f32::max);
+    (mean(&img), lo, hi)
+}
+
+#[test]
+fn path_tracer_furnace() {
+    for rho in [0.5f32, 0.8] {
+        let expected = 1.0 / (1.0 - rho);
+        let (m, lo, hi) = furnace(rho, 1.0, "path", 256);
+        // 256 pixels × 256 samples: the mean's standard error is well under 1 %; 2 % allows for it.
+        for c in m.to_array() {
+            assert!((c - expected).abs() < 0.02 * expected, "ρ={rho}: mean {c} vs {expected}");
+        }
+        // Single pixels (256 samples each) stay within 25 % — catches spatially varying bias.
+        assert!(lo > 0.75 * expected && hi < 1.25 * expected, "ρ={rho}: range [{lo}, {hi}] vs {expected}");
+    }
+}
