@@ -28,7 +28,7 @@ test-slow: build
 	$(CARGO) test --release --workspace -- --ignored
 
 bench: build
-	$(CARGO) run --release --bin pmrender -- bench
+	$(CARGO) bench --bench render
 
 clean:
 	$(CARGO) clean

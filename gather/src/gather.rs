@@ -36,7 +36,10 @@ pub struct GatherRay {
 impl GatherRay {
     /// A ray that escaped, seeing `radiance` from the environment.
     pub fn miss(radiance: Vec3) -> Self {
-        GatherRay { radiance, distance: f32::INFINITY }
+        GatherRay {
+            radiance,
+            distance: f32::INFINITY,
+        }
     }
 }
 
@@ -79,6 +82,10 @@ pub fn gather(
 ) -> GatherResult {
     // `p` only identifies the gather to the caller, whose closure knows where to shoot from.
     let _ = p;
+    debug_assert!(
+        (n.length() - 1.0).abs() < 1e-3,
+        "gather normal must be unit: {n}"
+    );
     let strata = Strata::for_rays(params.rays);
     let frame = Frame::from_normal(n);
     let mut rng = Rng::new(seed);
@@ -89,7 +96,9 @@ pub fn gather(
     let (mut sum_dir, mut r_min) = (Vec3::ZERO, f32::INFINITY);
     for j in 0..strata.m {
         for k in 0..strata.n {
-            let wi = frame.to_world(strata.direction(j, k, rng.uniform2())).normalize();
+            let wi = frame
+                .to_world(strata.direction(j, k, rng.uniform2()))
+                .normalize();
             let ray = trace(wi);
             sum_l += ray.radiance.as_dvec3();
             sum_dir += wi * luminance(ray.radiance);
@@ -102,12 +111,21 @@ pub fn gather(
         }
     }
     let n_rays = strata.len() as f64;
-    let grid = Grid { strata, frame, radiance: &radiance, distance: &distance };
+    let grid = Grid {
+        strata,
+        frame,
+        radiance: &radiance,
+        distance: &distance,
+    };
     GatherResult {
         e: (sum_l * (std::f64::consts::PI / n_rays)).as_vec3(),
         grad_r: gradient::rotational(&grid),
         grad_t: gradient::translational(&grid),
-        r_harmonic: if sum_inv_r > 0.0 { (n_rays / sum_inv_r) as f32 } else { f32::INFINITY },
+        r_harmonic: if sum_inv_r > 0.0 {
+            (n_rays / sum_inv_r) as f32
+        } else {
+            f32::INFINITY
+        },
         r_min,
         dir: sum_dir.try_normalize().unwrap_or(n),
         n_rays: strata.len() as u32,

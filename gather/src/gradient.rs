@@ -18,11 +18,12 @@
 //! that edge in direction space by −d⊥ / r: the polar boundary θ_j by −cos θ (d·u)/r, the azimuthal
 //! boundary φ_k by −(d·v)/(r sin θ). The irradiance swept from one cell to the other gives
 //!
-//! ∇_t E = Σ_k Σ_{j≥1} u_k (∫_k dφ-weighted) sin θ_j cos²θ_j (L_jk − L_{j−1,k}) / min(r_jk, r_{j−1,k})
+//! ∇_t E = Σ_k Σ_{j≥1} U_k sin θ_j cos²θ_j (L_jk − L_{j−1,k}) / min(r_jk, r_{j−1,k})
 //!       + Σ_k Σ_j v(φ_k) (sin θ_{j+1} − sin θ_j) (L_jk − L_{j,k−1}) / min(r_jk, r_{j,k−1})
 //!
-//! with θ_j, φ_k the stratum boundaries, and the φ-integral of u along a polar boundary done exactly
-//! (2 sin(π/N) u(φ_centre) instead of Ward & Heckbert's (2π/N) u_k, a 0.1 % difference at N = 38).
+//! with θ_j, φ_k the stratum boundaries (sin²θ_j = j/M, φ_k = 2πk/N) and U_k = ∫_k u(φ) dφ =
+//! 2 sin(π/N) u(φ_centre), the exact integral along the polar boundary in place of Ward & Heckbert's
+//! (2π/N) u_k (a 0.1 % difference at N = 38).
 //! This is Ward & Heckbert 1992. Křivánek et al. 2005 evaluate the azimuthal term with the cell-centre
 //! cos θ (cos θ_j − cos θ_{j+1}) / sin θ instead of the exact ∫ cos θ dθ = sin θ_{j+1} − sin θ_j; their
 //! real generalisation is to non-cosine sampling (radiance caching), which gathering does not need.
@@ -58,7 +59,12 @@ fn row_sin2_integral(strata: &Strata, j: usize) -> f32 {
 
 /// Ward & Heckbert's rotational gradient, one world-space vector per colour channel.
 pub(crate) fn rotational(grid: &Grid) -> [Vec3; 3] {
-    let Grid { strata, frame, radiance, .. } = grid;
+    let Grid {
+        strata,
+        frame,
+        radiance,
+        ..
+    } = grid;
     let arc = 2.0 * (PI / strata.n as f32).sin();
     let mut grad = [Vec3::ZERO; 3];
     for k in 0..strata.n {
@@ -82,7 +88,12 @@ fn inv_min_distance(a: f32, b: f32) -> Option<f32> {
 /// Ward & Heckbert's translational gradient, one world-space vector (in the tangent plane) per
 /// colour channel.
 pub(crate) fn translational(grid: &Grid) -> [Vec3; 3] {
-    let Grid { strata, frame, radiance, distance } = grid;
+    let Grid {
+        strata,
+        frame,
+        radiance,
+        distance,
+    } = grid;
     let (m, n) = (strata.m, strata.n);
     let arc = 2.0 * (PI / n as f32).sin();
     let mut grad = [Vec3::ZERO; 3];
@@ -91,7 +102,9 @@ pub(crate) fn translational(grid: &Grid) -> [Vec3; 3] {
         let u = frame.azimuth(strata.phi_centre(k)) * arc;
         for j in 1..m {
             let (a, b) = (strata.index(j, k), strata.index(j - 1, k));
-            let Some(inv_r) = inv_min_distance(distance[a], distance[b]) else { continue };
+            let Some(inv_r) = inv_min_distance(distance[a], distance[b]) else {
+                continue;
+            };
             let (s, c) = strata.theta_boundary(j);
             accumulate(&mut grad, u, s * c * c * inv_r, radiance[a] - radiance[b]);
         }
@@ -103,7 +116,9 @@ pub(crate) fn translational(grid: &Grid) -> [Vec3; 3] {
             let k_prev = (k + n - 1) % n;
             for j in 0..m {
                 let (a, b) = (strata.index(j, k), strata.index(j, k_prev));
-                let Some(inv_r) = inv_min_distance(distance[a], distance[b]) else { continue };
+                let Some(inv_r) = inv_min_distance(distance[a], distance[b]) else {
+                    continue;
+                };
                 let length = strata.theta_boundary(j + 1).0 - strata.theta_boundary(j).0;
                 accumulate(&mut grad, v, length * inv_r, radiance[a] - radiance[b]);
             }

@@ -147,7 +147,10 @@ mod tests {
             // N/M ≈ rays/M² = π (1 + δ/M)⁻²: rounding M by δ ≤ ½ moves the aspect by up to ≈ π/M,
             // and rounding N by ½ moves it by 1/(2M) more.
             let aspect = n as f32 / m as f32;
-            assert!(rays < 10 || (aspect - PI).abs() <= (PI + 0.5) / m as f32, "{rays}: {m}x{n}");
+            assert!(
+                rays < 10 || (aspect - PI).abs() <= (PI + 0.5) / m as f32,
+                "{rays}: {m}x{n}"
+            );
         }
         assert_eq!(strata_for_rays(0), (1, 1));
     }
@@ -167,7 +170,10 @@ mod tests {
             let f = Frame::from_normal(n);
             // f32 rounding in the Duff construction: a few ulps.
             let tol = 1e-5;
-            assert!((f.t.length() - 1.0).abs() < tol && (f.b.length() - 1.0).abs() < tol, "{n}");
+            assert!(
+                (f.t.length() - 1.0).abs() < tol && (f.b.length() - 1.0).abs() < tol,
+                "{n}"
+            );
             assert!(f.t.dot(f.b).abs() < tol && f.t.dot(n).abs() < tol && f.b.dot(n).abs() < tol);
             assert!((f.t.cross(f.b) - n).length() < 1e-4, "{n}");
             let v = Vec3::new(0.3, -0.5, 0.8);
@@ -201,7 +207,11 @@ mod tests {
         }
         let mut chi2 = 0.0f64;
         for bt in 0..N_THETA {
-            let edge = |i: usize| (i as f64 / N_THETA as f64 * std::f64::consts::FRAC_PI_2).sin().powi(2);
+            let edge = |i: usize| {
+                (i as f64 / N_THETA as f64 * std::f64::consts::FRAC_PI_2)
+                    .sin()
+                    .powi(2)
+            };
             let expected = total as f64 * (edge(bt + 1) - edge(bt)) / N_PHI as f64;
             assert!(expected > 5.0, "bins too small for χ²");
             for bp in 0..N_PHI {
@@ -239,7 +249,11 @@ mod tests {
         let dirs = (0..100_000).map(|_| {
             let [a, b] = rng.uniform2();
             let (theta, phi) = (a * 0.5 * PI, b * 2.0 * PI);
-            Vec3::new(theta.sin() * phi.cos(), theta.sin() * phi.sin(), theta.cos())
+            Vec3::new(
+                theta.sin() * phi.cos(),
+                theta.sin() * phi.sin(),
+                theta.cos(),
+            )
         });
         let (chi2, dof) = chi2_cosine(dirs);
         assert!(chi2 > chi2_quantile(dof, 3.09), "χ² = {chi2:.1}");

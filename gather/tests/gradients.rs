@@ -20,7 +20,10 @@ struct Placement {
 
 fn placements() -> [Placement; 2] {
     [
-        Placement { rot: Quat::IDENTITY, p_scene: Vec3::ZERO },
+        Placement {
+            rot: Quat::IDENTITY,
+            p_scene: Vec3::ZERO,
+        },
         Placement {
             rot: Quat::from_axis_angle(Vec3::new(0.3, -0.8, 0.5).normalize(), 1.1),
             p_scene: Vec3::new(0.3, 0.0, 0.2),
@@ -47,8 +50,15 @@ fn trace_wall(p: Vec3, d: Vec3) -> GatherRay {
     let hit = p + d * t;
     let inside = (WALL_Y.0..=WALL_Y.1).contains(&hit.y) && (WALL_Z.0..=WALL_Z.1).contains(&hit.z);
     if t > 0.0 && inside {
-        let radiance = if hit.z < 0.5 { Vec3::new(1.0, 0.0, 0.0) } else { Vec3::new(1.0, 1.0, 0.0) };
-        GatherRay { radiance, distance: t }
+        let radiance = if hit.z < 0.5 {
+            Vec3::new(1.0, 0.0, 0.0)
+        } else {
+            Vec3::new(1.0, 1.0, 0.0)
+        };
+        GatherRay {
+            radiance,
+            distance: t,
+        }
     } else {
         GatherRay::miss(Vec3::ZERO)
     }
@@ -92,8 +102,16 @@ fn check(what: &str, grad: &[Vec3; 3], axis: Vec3, fd: Vec3, rel: f32) {
     for c in 0..3 {
         let g = grad[c].dot(axis);
         let tol = rel * grad[c].length() + 1e-4;
-        eprintln!("{what} ch{c}: gradient {g:+.5}  finite difference {:+.5}  |grad| {:.5}", fd[c], grad[c].length());
-        assert!((g - fd[c]).abs() <= tol, "{what} channel {c}: gradient {g} vs finite difference {} (tol {tol})", fd[c]);
+        eprintln!(
+            "{what} ch{c}: gradient {g:+.5}  finite difference {:+.5}  |grad| {:.5}",
+            fd[c],
+            grad[c].length()
+        );
+        assert!(
+            (g - fd[c]).abs() <= tol,
+            "{what} channel {c}: gradient {g} vs finite difference {} (tol {tol})",
+            fd[c]
+        );
     }
 }
 
@@ -108,16 +126,29 @@ fn translational_gradient_matches_finite_differences() {
     for place in placements() {
         let (p, n) = (place.rot * place.p_scene, place.rot * Vec3::Y);
         let g = mean_gather(place, p, n, RAYS);
-        assert!(g.e.x > 0.1 && g.e.y > 0.01 && g.e.z == 0.0, "scene sanity: {:?}", g.e);
+        assert!(
+            g.e.x > 0.1 && g.e.y > 0.01 && g.e.z == 0.0,
+            "scene sanity: {:?}",
+            g.e
+        );
         let delta = 0.02;
         for axis in [place.rot * Vec3::X, place.rot * Vec3::Z] {
             let plus = mean_gather(place, p + axis * delta, n, RAYS).e;
             let minus = mean_gather(place, p - axis * delta, n, RAYS).e;
-            check("translation", &g.grad_t, axis, (plus - minus) / (2.0 * delta), 0.10);
+            check(
+                "translation",
+                &g.grad_t,
+                axis,
+                (plus - minus) / (2.0 * delta),
+                0.10,
+            );
         }
         for c in 0..3 {
             let normal_part = g.grad_t[c].dot(n).abs();
-            assert!(normal_part <= 1e-4 * (1.0 + g.grad_t[c].length()), "∇t E must lie in the tangent plane");
+            assert!(
+                normal_part <= 1e-4 * (1.0 + g.grad_t[c].length()),
+                "∇t E must lie in the tangent plane"
+            );
         }
     }
 }
@@ -136,7 +167,13 @@ fn rotational_gradient_matches_finite_differences() {
             let tilt = |a: f32| (n * a.cos() + axis.cross(n) * a.sin()).normalize();
             let plus = mean_gather(place, p, tilt(alpha), RAYS).e;
             let minus = mean_gather(place, p, tilt(-alpha), RAYS).e;
-            check("rotation", &g.grad_r, axis, (plus - minus) / (2.0 * alpha), 0.10);
+            check(
+                "rotation",
+                &g.grad_r,
+                axis,
+                (plus - minus) / (2.0 * alpha),
+                0.10,
+            );
         }
         // Sign sanity, independent of the finite differences: turning the floor normal about the
         // floor's +z turns it toward −x, away from the wall, so E must fall.
@@ -153,7 +190,10 @@ fn default_ray_count_gradients_are_close() {
         let reference = mean_gather(place, p, n, RAYS);
         let coarse = mean_gather(place, p, n, GatherParams::default().rays);
         for c in 0..2 {
-            let pairs = [(reference.grad_t[c], coarse.grad_t[c]), (reference.grad_r[c], coarse.grad_r[c])];
+            let pairs = [
+                (reference.grad_t[c], coarse.grad_t[c]),
+                (reference.grad_r[c], coarse.grad_r[c]),
+            ];
             for (fine, rough) in pairs {
                 let err = (fine - rough).length() / fine.length();
                 eprintln!("channel {c}: relative gradient difference at default rays {err:.3}");
