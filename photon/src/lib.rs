@@ -1,3 +1,21 @@
 //! Photon pass: emission and tracing of photons, global and caustic photon maps over FLANN kd-trees,
 //! density estimates and precomputed irradiance.
+//!
+//! `flann` is the only module with `unsafe` (FFI); every other module forbids it.
+pub mod defaults;
+pub mod error;
+pub mod file;
+pub mod flann;
+pub mod map;
+pub mod precomputed;
 pub mod sampling;
+pub mod trace;
+
+pub use error::{Error, Result};
+pub use file::{LoadedMaps, MapsInfo};
+pub use flann::{KdTree, Neighbor};
+pub use map::{Estimate, Filter, Photon, PhotonMap};
+pub use precomputed::{IrradiancePoint, PrecomputeStats, PrecomputedIrradiance};
+pub use trace::{
+    trace_photons, EmittedRay, PhotonMaps, PhotonScene, PhotonTargets, Scatter, SurfaceHit, TraceStats,
+};

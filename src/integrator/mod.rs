@@ -1,5 +1,10 @@
 //! Integrators: the path-tracing reference and the photon-map methods built on Jensen's split.
+pub mod cache_fill;
 pub mod path;
+pub mod photon_scene;
+pub mod photons;
+pub mod pm;
+pub mod terms;
 
 use glam::Vec3;
 
@@ -12,6 +17,10 @@ pub struct SampleCounters {
     pub shadow_rays: u64,
     pub nan_or_negative: u64,
     pub zero_pdf: u64,
+    /// Irradiance-cache lookups made while shading (pass B).
+    pub lookups: icache::LookupStats,
+    pub gathers: u64,
+    pub gather_rays: u64,
 }
 
 impl std::ops::AddAssign for SampleCounters {
@@ -20,6 +29,9 @@ impl std::ops::AddAssign for SampleCounters {
         self.shadow_rays += o.shadow_rays;
         self.nan_or_negative += o.nan_or_negative;
         self.zero_pdf += o.zero_pdf;
+        self.lookups += o.lookups;
+        self.gathers += o.gathers;
+        self.gather_rays += o.gather_rays;
     }
 }
 

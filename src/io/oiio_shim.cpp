@@ -26,6 +26,8 @@ extern "C" int pm_write_image(const char* path, int width, int height, int nchan
     spec.channelnames.clear();
     for (int c = 0; c < nchannels; ++c) spec.channelnames.push_back(names[c]);
     if (!is_u8) spec.attribute("compression", "zip");
+    // No timestamp: the same render must give byte-identical files.
+    spec.attribute("DateTime", "");
     if (!out->open(path, spec)) {
         set_err(err, errlen, out->geterror());
         return 1;

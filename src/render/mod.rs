@@ -1,6 +1,7 @@
 //! The render driver: a sequence of named phases chosen by the method, each returning its output and
 //! its statistics, readable top-down from [`render`].
 
+pub mod pm_phases;
 pub mod tiles;
 
 use std::sync::atomic::AtomicBool;
@@ -45,6 +46,8 @@ pub struct Options {
 pub struct RenderOutput {
     pub beauty: Image,
     pub layers: Vec<(&'static str, Image)>,
+    /// The irradiance cache `pm` filled (for `--save-cache` and `--cache-image`).
+    pub cache: Option<icache::IrradianceCache>,
 }
 
 /// Resolved settings of one render.
@@ -58,7 +61,7 @@ pub struct Plan {
 }
 
 pub fn plan(scene: &Scene, opts: &Options) -> Result<Plan> {
-    let method = opts.method.or(scene.settings.method).unwrap_or(Method::Path);
+    let method = opts.method.or(scene.settings.method).unwrap_or(Method::Pm);
     let spp = opts.spp.or(scene.settings.spp).unwrap_or(match method {
         Method::Path => 64,
         _ => 16,
@@ -94,11 +97,17 @@ pub fn render(scene: &Scene, opts: &Options, progress: &dyn Progress, cancel: &A
             progress.start("shade", plan.window.n_pixels());
             let (mut images, counters) = render_tiles(plan.width, plan.height, plan.window, plan.spp, plan.seed, 1, &sample, &|n| progress.set(n), cancel)?;
             progress.finish();
-            (RenderOutput { beauty: images.remove(0), layers: Vec::new() }, counters, t.elapsed().as_secs_f64())
+            let shade_s = t.elapsed().as_secs_f64();
+            report.seconds("Time", "Shade", "time.shade_s", shade_s);
+            (RenderOutput { beauty: images.remove(0), layers: Vec::new(), cache: None }, counters, shade_s)
         }
-        other => return Err(option("--method", format!("method '{}' is not implemented yet", other.name()))),
+        Method::Pm | Method::PmFg | Method::Photons => {
+            let run = pm_phases::render_pm(scene, &plan, &camera, progress, cancel)?;
+            let shade_s = run.report.rows.iter().filter(|r| r.key.starts_with("time.")).filter_map(|r| r.value.as_f64()).sum();
+            report.rows.extend(run.report.rows);
+            (run.output, run.counters, shade_s)
+        }
     };
-    report.seconds("Time", "Shade", "time.shade_s", shade_s);
     let total_s = t0.elapsed().as_secs_f64();
     report.seconds("Time", "Total", "time.total_s", total_s);
     let rays = counters.rays + counters.shadow_rays;

@@ -1,0 +1,78 @@
+//! Default photon counts, lookup sizes and radii, scaled with the scene so that a scene file needs no
+//! tuning.
+//!
+//! The radius rule: photons spread over the scene's surfaces, whose area is taken as `2 d²` for a
+//! scene of bounding-box diagonal `d` (the surface of a cube of diagonal `d` is `6 (d/√3)² = 2 d²`).
+//! With `n` photons the density is `n / (2 d²)`, so `k` photons are found within
+//! `r_k = sqrt(k · 2 d² / (π n))`. The maximum radius is [`MAX_RADIUS_FACTOR`] times that, so that it
+//! only limits the search where photons are sparser than average, and never more than
+//! [`MAX_RADIUS_FRACTION`] of the diagonal.
+#![forbid(unsafe_code)]
+
+use crate::trace::PhotonTargets;
+
+pub const DEFAULT_GLOBAL_PHOTONS: usize = 200_000;
+pub const DEFAULT_CAUSTIC_PHOTONS: usize = 100_000;
+/// Photons per global-map estimate (the precomputed irradiance uses it).
+pub const DEFAULT_K_GLOBAL: usize = 64;
+/// Photons per caustic estimate (sharper: fewer photons, cone filter).
+pub const DEFAULT_K_CAUSTIC: usize = 64;
+/// Cone filter constant for caustics (Jensen uses k ≈ 1.1).
+pub const DEFAULT_CONE_K: f32 = 1.1;
+pub const MAX_RADIUS_FACTOR: f32 = 2.0;
+pub const MAX_RADIUS_FRACTION: f32 = 0.1;
+/// Paths allowed per photon wanted before the pass gives up, and a floor for tiny targets.
+pub const PATHS_PER_TARGET_PHOTON: u64 = 100;
+pub const MIN_MAX_PATHS: u64 = 1_000_000;
+
+/// Maximum lookup radius for a map of `n_photons` in a scene of diagonal `scene_diagonal`, for
+/// estimates of [`DEFAULT_K_GLOBAL`] photons (see the module header for the rule).
+pub fn default_max_radius(scene_diagonal: f32, n_photons: usize) -> f32 {
+    max_radius_for_k(scene_diagonal, n_photons, DEFAULT_K_GLOBAL)
+}
+
+/// As [`default_max_radius`] for estimates of `k` photons.
+pub fn max_radius_for_k(scene_diagonal: f32, n_photons: usize, k: usize) -> f32 {
+    let d = if scene_diagonal.is_finite() && scene_diagonal > 0.0 { scene_diagonal } else { 1.0 };
+    let cap = MAX_RADIUS_FRACTION * d;
+    if n_photons == 0 {
+        return cap;
+    }
+    let r_k = (k as f32 * 2.0 * d * d / (std::f32::consts::PI * n_photons as f32)).sqrt();
+    (MAX_RADIUS_FACTOR * r_k).min(cap)
+}
+
+/// Default targets: the default counts, and a path budget of [`PATHS_PER_TARGET_PHOTON`] per photon.
+pub fn default_targets(global: usize, caustic: usize) -> PhotonTargets {
+    let wanted = (global as u64).saturating_add(caustic as u64);
+    PhotonTargets { global, caustic, max_paths: wanted.saturating_mul(PATHS_PER_TARGET_PHOTON).max(MIN_MAX_PATHS) }
+}
+
+impl Default for PhotonTargets {
+    fn default() -> Self {
+        default_targets(DEFAULT_GLOBAL_PHOTONS, DEFAULT_CAUSTIC_PHOTONS)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn radius_scales_with_scene_and_count() {
+        let r = default_max_radius(10.0, 100_000);
+        // 2 · sqrt(64 · 200 / (π · 1e5)) ≈ 0.404
+        assert!((r - 0.4037).abs() < 1e-3, "{r}");
+        assert!((default_max_radius(20.0, 100_000) - 2.0 * r).abs() < 1e-3);
+        assert!((default_max_radius(10.0, 400_000) - 0.5 * r).abs() < 1e-3);
+        assert_eq!(default_max_radius(10.0, 10), 1.0);
+        assert_eq!(default_max_radius(10.0, 0), 1.0);
+        assert_eq!(default_max_radius(f32::NAN, 0), 0.1);
+    }
+
+    #[test]
+    fn path_budget_has_a_floor() {
+        assert_eq!(default_targets(10, 0).max_paths, MIN_MAX_PATHS);
+        assert_eq!(PhotonTargets::default().max_paths, 30_000_000);
+    }
+}

@@ -1,0 +1,266 @@
+//! Photon-map files: the global and caustic maps (and optionally the precomputed irradiance) with the
+//! trace parameters, so that another render of the same scene can skip the photon pass.
+//!
+//! Layout (little-endian): magic `PMPHOTON`, version u32, flags u32, then u64s — scene fingerprint,
+//! seed, target global, target caustic, max paths, paths emitted, global paths, caustic paths, number of
+//! global photons, caustic photons, irradiance points — then the precomputed max radius f32 and 4 zero
+//! bytes (112-byte header); then the photons (12 f32 each: pos, wi, power, normal) and the irradiance
+//! points (9 f32: pos, normal, e); then an FNV-1a 64 checksum of everything between the magic and it.
+//! Loading checks magic, version, that the counts match the file length (before allocating), the
+//! checksum, then the scene fingerprint. Kd-trees are rebuilt on load.
+#![forbid(unsafe_code)]
+
+use std::fs::File;
+use std::io::{BufWriter, Read, Write};
+use std::path::Path;
+
+use glam::Vec3;
+
+use crate::error::{Error, Result};
+use crate::map::{Photon, PhotonMap};
+use crate::precomputed::{IrradiancePoint, PrecomputedIrradiance};
+use crate::trace::{PhotonMaps, PhotonTargets, TraceStats};
+
+pub const MAGIC: [u8; 8] = *b"PMPHOTON";
+pub const VERSION: u32 = 1;
+const HEADER_BYTES: usize = 112;
+const PHOTON_BYTES: u64 = 48;
+const POINT_BYTES: u64 = 36;
+const CHECKSUM_BYTES: u64 = 8;
+const HAS_GLOBAL: u32 = 1;
+const HAS_CAUSTIC: u32 = 2;
+const HAS_PRECOMPUTED: u32 = 4;
+
+/// What produced the maps: the caller's scene fingerprint and the trace parameters.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct MapsInfo {
+    pub fingerprint: u64,
+    pub seed: u64,
+    pub targets: PhotonTargets,
+    pub n_paths_emitted: u64,
+    pub n_global_paths: u64,
+    pub n_caustic_paths: u64,
+}
+
+impl MapsInfo {
+    pub fn new(fingerprint: u64, seed: u64, targets: PhotonTargets, stats: &TraceStats) -> MapsInfo {
+        MapsInfo {
+            fingerprint,
+            seed,
+            targets,
+            n_paths_emitted: stats.n_paths_emitted,
+            n_global_paths: stats.n_global_paths,
+            n_caustic_paths: stats.n_caustic_paths,
+        }
+    }
+}
+
+/// The contents of a photon-map file.
+pub struct LoadedMaps {
+    pub info: MapsInfo,
+    pub maps: PhotonMaps,
+    pub precomputed: Option<PrecomputedIrradiance>,
+}
+
+/// FNV-1a 64 over every byte written.
+struct Fnv<W> {
+    inner: W,
+    hash: u64,
+}
+
+fn fnv1a(mut hash: u64, bytes: &[u8]) -> u64 {
+    for &b in bytes {
+        hash = (hash ^ b as u64).wrapping_mul(0x0100_0000_01b3);
+    }
+    hash
+}
+const FNV_OFFSET: u64 = 0xcbf2_9ce4_8422_2325;
+
+impl<W: Write> Write for Fnv<W> {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        let n = self.inner.write(buf)?;
+        self.hash = fnv1a(self.hash, &buf[..n]);
+        Ok(n)
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.inner.flush()
+    }
+}
+
+/// Writes the file format to `w`.
+pub fn write_maps<W: Write>(
+    w: W,
+    info: &MapsInfo,
+    maps: &PhotonMaps,
+    precomputed: Option<&PrecomputedIrradiance>,
+) -> std::io::Result<()> {
+    let mut w = w;
+    w.write_all(&MAGIC)?;
+    let mut h = Fnv { inner: w, hash: FNV_OFFSET };
+    let global = maps.global.as_ref().map_or(&[][..], |m| m.photons());
+    let caustic = maps.caustic.as_ref().map_or(&[][..], |m| m.photons());
+    let points = precomputed.map_or(&[][..], |p| p.points());
+    let flags = maps.global.as_ref().map_or(0, |_| HAS_GLOBAL)
+        | maps.caustic.as_ref().map_or(0, |_| HAS_CAUSTIC)
+        | precomputed.map_or(0, |_| HAS_PRECOMPUTED);
+    h.write_all(&VERSION.to_le_bytes())?;
+    h.write_all(&flags.to_le_bytes())?;
+    let t = &info.targets;
+    for v in [
+        info.fingerprint,
+        info.seed,
+        t.global as u64,
+        t.caustic as u64,
+        t.max_paths,
+        info.n_paths_emitted,
+        info.n_global_paths,
+        info.n_caustic_paths,
+        global.len() as u64,
+        caustic.len() as u64,
+        points.len() as u64,
+    ] {
+        h.write_all(&v.to_le_bytes())?;
+    }
+    h.write_all(&precomputed.map_or(0.0f32, |p| p.max_radius()).to_le_bytes())?;
+    h.write_all(&[0u8; 4])?;
+    for ph in global.iter().chain(caustic) {
+        write_vecs(&mut h, &[ph.pos, ph.wi, ph.power, ph.normal])?;
+    }
+    for pt in points {
+        write_vecs(&mut h, &[pt.pos, pt.normal, pt.e])?;
+    }
+    let hash = h.hash;
+    let mut w = h.inner;
+    w.write_all(&hash.to_le_bytes())?;
+    w.flush()
+}
+
+fn write_vecs<W: Write>(w: &mut W, vs: &[Vec3]) -> std::io::Result<()> {
+    let mut buf = [0u8; 48];
+    for (i, x) in vs.iter().flat_map(|v| v.to_array()).enumerate() {
+        buf[4 * i..4 * i + 4].copy_from_slice(&x.to_le_bytes());
+    }
+    w.write_all(&buf[..12 * vs.len()])
+}
+
+/// Saves to `path` (through a temporary file renamed into place).
+pub fn save(path: &Path, info: &MapsInfo, maps: &PhotonMaps, precomputed: Option<&PrecomputedIrradiance>) -> Result<()> {
+    let io = |source| Error::Io { path: path.to_path_buf(), source };
+    let mut tmp = path.as_os_str().to_owned();
+    tmp.push(".tmp");
+    let file = File::create(&tmp).map_err(io)?;
+    write_maps(BufWriter::new(file), info, maps, precomputed).map_err(io)?;
+    std::fs::rename(&tmp, path).map_err(io)
+}
+
+/// Loads from `path`; the file must have been made for `expected_fingerprint`.
+pub fn load(path: &Path, expected_fingerprint: u64) -> Result<LoadedMaps> {
+    let io = |source| Error::Io { path: path.to_path_buf(), source };
+    let mut file = File::open(path).map_err(io)?;
+    let actual = file.metadata().map_err(io)?.len();
+    let mut header = vec![0u8; HEADER_BYTES.min(actual as usize)];
+    file.read_exact(&mut header).map_err(io)?;
+    let expected = Header::parse(&header)?.file_len()?;
+    if expected != actual {
+        return Err(Error::BadLength { expected, actual });
+    }
+    let mut bytes = header;
+    bytes.reserve_exact((actual as usize).saturating_sub(HEADER_BYTES));
+    file.read_to_end(&mut bytes).map_err(io)?;
+    read_maps(&bytes, expected_fingerprint)
+}
+
+struct Header {
+    flags: u32,
+    words: [u64; 11],
+    max_radius: f32,
+}
+
+impl Header {
+    fn parse(bytes: &[u8]) -> Result<Header> {
+        if bytes.len() < 8 || bytes[..8] != MAGIC {
+            return Err(Error::BadMagic);
+        }
+        if bytes.len() < HEADER_BYTES {
+            return Err(Error::BadLength { expected: HEADER_BYTES as u64 + CHECKSUM_BYTES, actual: bytes.len() as u64 });
+        }
+        let u32_at = |i: usize| u32::from_le_bytes(bytes[i..i + 4].try_into().unwrap_or_default());
+        let version = u32_at(8);
+        if version != VERSION {
+            return Err(Error::UnsupportedVersion { found: version, expected: VERSION });
+        }
+        let mut words = [0u64; 11];
+        for (k, w) in words.iter_mut().enumerate() {
+            let i = 16 + 8 * k;
+            *w = u64::from_le_bytes(bytes[i..i + 8].try_into().unwrap_or_default());
+        }
+        Ok(Header { flags: u32_at(12), words, max_radius: f32::from_bits(u32_at(104)) })
+    }
+
+    fn counts(&self) -> (u64, u64, u64) {
+        (self.words[8], self.words[9], self.words[10])
+    }
+
+    /// The file length the counts imply (overflow is corruption).
+    fn file_len(&self) -> Result<u64> {
+        let (g, c, p) = self.counts();
+        let photons = g.checked_add(c).and_then(|n| n.checked_mul(PHOTON_BYTES));
+        let points = p.checked_mul(POINT_BYTES);
+        photons
+            .zip(points)
+            .and_then(|(a, b)| a.checked_add(b))
+            .and_then(|n| n.checked_add(HEADER_BYTES as u64 + CHECKSUM_BYTES))
+            .ok_or_else(|| Error::Corrupt("photon counts overflow".into()))
+    }
+}
+
+/// Parses a whole file held in memory.
+pub fn read_maps(bytes: &[u8], expected_fingerprint: u64) -> Result<LoadedMaps> {
+    let header = Header::parse(bytes)?;
+    let expected = header.file_len()?;
+    if expected != bytes.len() as u64 {
+        return Err(Error::BadLength { expected, actual: bytes.len() as u64 });
+    }
+    let body_end = bytes.len() - CHECKSUM_BYTES as usize;
+    let stored = u64::from_le_bytes(bytes[body_end..].try_into().unwrap_or_default());
+    if fnv1a(FNV_OFFSET, &bytes[8..body_end]) != stored {
+        return Err(Error::Checksum);
+    }
+    let w = header.words;
+    if w[0] != expected_fingerprint {
+        return Err(Error::SceneMismatch { found: w[0], expected: expected_fingerprint });
+    }
+    let (n_global, n_caustic, n_points) = header.counts();
+    let flag = |f: u32| header.flags & f != 0;
+    if (!flag(HAS_GLOBAL) && n_global > 0) || (!flag(HAS_CAUSTIC) && n_caustic > 0) || (!flag(HAS_PRECOMPUTED) && n_points > 0) {
+        return Err(Error::Corrupt("photons present for a map flagged absent".into()));
+    }
+    let info = MapsInfo {
+        fingerprint: w[0],
+        seed: w[1],
+        targets: PhotonTargets { global: w[2] as usize, caustic: w[3] as usize, max_paths: w[4] },
+        n_paths_emitted: w[5],
+        n_global_paths: w[6],
+        n_caustic_paths: w[7],
+    };
+    let mut floats = bytes[HEADER_BYTES..body_end].chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]));
+    let mut vec3 = || Vec3::new(floats.next().unwrap_or(0.0), floats.next().unwrap_or(0.0), floats.next().unwrap_or(0.0));
+    let mut read_photons = |n: u64| -> Vec<Photon> {
+        (0..n).map(|_| Photon { pos: vec3(), wi: vec3(), power: vec3(), normal: vec3() }).collect()
+    };
+    let global = read_photons(n_global);
+    let caustic = read_photons(n_caustic);
+    let points: Vec<IrradiancePoint> =
+        (0..n_points).map(|_| IrradiancePoint { pos: vec3(), normal: vec3(), e: vec3() }).collect();
+    let corrupt = |e: Error| Error::Corrupt(format!("cannot rebuild a kd-tree: {e}"));
+    let map = |present: bool, photons: Vec<Photon>| -> Result<Option<PhotonMap>> {
+        if present { PhotonMap::new(photons).map(Some).map_err(corrupt) } else { Ok(None) }
+    };
+    let maps = PhotonMaps { global: map(flag(HAS_GLOBAL), global)?, caustic: map(flag(HAS_CAUSTIC), caustic)? };
+    let precomputed = if flag(HAS_PRECOMPUTED) {
+        Some(PrecomputedIrradiance::from_points(points, header.max_radius).map_err(corrupt)?)
+    } else {
+        None
+    };
+    Ok(LoadedMaps { info, maps, precomputed })
+}

@@ -1,0 +1,354 @@
+//! Photon emission and tracing: paths leave the lights, bounce with Russian roulette, and leave photons
+//! in the global map (every non-specular hit) and the caustic map (first non-specular hit of an
+//! L S+ D path).
+//!
+//! Determinism: path `i` draws its numbers from `halton(i, dim, seed)` for the first [`HALTON_DIMS`]
+//! dimensions (emission 0..5, then 4 per bounce: 3 for `scatter`, 1 for roulette) and from
+//! `Rng::new(hash_keys(&[seed, i]))` beyond. Paths run in parallel in fixed-size batches and are merged
+//! in path order; each map takes whole paths until it holds its target, so the maps are a function of
+//! `(scene, targets, seed)` only, whatever the thread count.
+#![forbid(unsafe_code)]
+
+use std::ops::AddAssign;
+use std::time::Instant;
+
+use glam::{Vec2, Vec3};
+use rayon::prelude::*;
+
+use crate::error::{Error, Result};
+use crate::map::{Photon, PhotonMap};
+use crate::sampling::{halton, hash_keys, Rng};
+
+/// Bounces after which a path is cut (its remaining power is lost; counted in the stats).
+pub const MAX_DEPTH: u32 = 64;
+/// Dimensions taken from the Halton sequence: emission (5) and the first two bounces (4 each).
+pub const HALTON_DIMS: usize = 13;
+/// Paths per batch: the granularity at which the driver checks the targets and reports progress.
+const BATCH_PATHS: u64 = 16_384;
+/// Paths per parallel work item.
+const CHUNK_PATHS: u64 = 256;
+
+/// What the photon pass needs from a scene; the root crate implements it.
+pub trait PhotonScene: Sync {
+    /// One photon path leaving the lights, chosen in proportion to emitted power. `u` are 5 numbers
+    /// in [0,1). Returns origin, unit direction and the path's power (W) divided by its sampling pdf,
+    /// so that the mean over N paths of `power` is the scene's total emitted power.
+    fn emit(&self, u: [f32; 5]) -> Option<EmittedRay>;
+    /// Closest surface hit along a ray.
+    fn intersect(&self, origin: Vec3, dir: Vec3) -> Option<SurfaceHit>;
+    /// Samples the continuation at a hit; `wo` points away from the surface toward where the photon
+    /// came from.
+    fn scatter(&self, hit: &SurfaceHit, wo: Vec3, u: [f32; 3]) -> Scatter;
+    /// Whether any surface is specular (mirror/glass); if false the caustic map is never built.
+    fn has_specular(&self) -> bool;
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EmittedRay {
+    pub origin: Vec3,
+    pub dir: Vec3,
+    pub power: Vec3,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SurfaceHit {
+    pub pos: Vec3,
+    /// Shading normal, flipped toward the incoming ray.
+    pub normal: Vec3,
+    pub specular: bool,
+    pub material: u32,
+    pub prim: u32,
+    pub uv: Vec2,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Scatter {
+    Absorbed,
+    /// `origin` is already offset (safe to trace from); `weight` is f·cos/pdf.
+    Continue { origin: Vec3, dir: Vec3, weight: Vec3 },
+}
+
+/// Photons to store per map, and the number of paths after which the pass gives up.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PhotonTargets {
+    pub global: usize,
+    pub caustic: usize,
+    pub max_paths: u64,
+}
+
+/// The two maps; `None` when not wanted (target 0, no specular surface) or, for caustics, when no
+/// caustic photon was stored.
+#[derive(Default)]
+pub struct PhotonMaps {
+    pub global: Option<PhotonMap>,
+    pub caustic: Option<PhotonMap>,
+}
+
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct TraceStats {
+    pub n_paths_emitted: u64,
+    /// Paths over which each map's power is normalised (emitted while the map was filling).
+    pub n_global_paths: u64,
+    pub n_caustic_paths: u64,
+    pub n_global_stored: u64,
+    pub n_caustic_stored: u64,
+    /// Paths abandoned on a non-finite or negative power, direction or hit (should stay ~0).
+    pub n_paths_dropped: u64,
+    /// Paths cut at [`MAX_DEPTH`].
+    pub n_paths_depth_capped: u64,
+    pub trace_s: f64,
+    pub global_build_s: f64,
+    pub caustic_build_s: f64,
+    pub global_memory_bytes: u64,
+    pub caustic_memory_bytes: u64,
+}
+
+impl AddAssign for TraceStats {
+    fn add_assign(&mut self, o: TraceStats) {
+        self.n_paths_emitted += o.n_paths_emitted;
+        self.n_global_paths += o.n_global_paths;
+        self.n_caustic_paths += o.n_caustic_paths;
+        self.n_global_stored += o.n_global_stored;
+        self.n_caustic_stored += o.n_caustic_stored;
+        self.n_paths_dropped += o.n_paths_dropped;
+        self.n_paths_depth_capped += o.n_paths_depth_capped;
+        self.trace_s += o.trace_s;
+        self.global_build_s += o.global_build_s;
+        self.caustic_build_s += o.caustic_build_s;
+        self.global_memory_bytes += o.global_memory_bytes;
+        self.caustic_memory_bytes += o.caustic_memory_bytes;
+    }
+}
+
+/// Traces photon paths until each wanted map holds its target (or `max_paths` is reached), then builds
+/// the kd-trees. `progress(stored, target)` is called after every batch, summed over both maps.
+pub fn trace_photons<S: PhotonScene + ?Sized>(
+    scene: &S,
+    targets: &PhotonTargets,
+    seed: u64,
+    progress: &(dyn Fn(u64, u64) + Sync),
+) -> Result<(PhotonMaps, TraceStats)> {
+    let start = Instant::now();
+    let caustic_target = if scene.has_specular() { targets.caustic } else { 0 };
+    let mut global = Filling::new(targets.global);
+    let mut caustic = Filling::new(caustic_target);
+    let mut stats = TraceStats::default();
+    let mut next_path = 0u64;
+    while (global.active || caustic.active) && next_path < targets.max_paths {
+        let n_batch = BATCH_PATHS.min(targets.max_paths - next_path);
+        let want = Want { global: global.active, caustic: caustic.active };
+        let chunks: Vec<ChunkOut> = (0..n_batch.div_ceil(CHUNK_PATHS))
+            .into_par_iter()
+            .map(|c| {
+                let first = next_path + c * CHUNK_PATHS;
+                let end = (first + CHUNK_PATHS).min(next_path + n_batch);
+                trace_chunk(scene, first..end, seed, want)
+            })
+            .collect();
+        for chunk in &chunks {
+            for j in 0..chunk.ends.len() {
+                let path = next_path;
+                next_path += 1;
+                let (g0, c0) = if j == 0 { (0, 0) } else { chunk.ends[j - 1] };
+                let (g1, c1) = chunk.ends[j];
+                global.take(&chunk.global[g0..g1], path);
+                caustic.take(&chunk.caustic[c0..c1], path);
+                match chunk.end_kinds[j] {
+                    PathEnd::Dropped => stats.n_paths_dropped += 1,
+                    PathEnd::DepthCapped => stats.n_paths_depth_capped += 1,
+                    PathEnd::Done => {}
+                }
+                if !global.active && !caustic.active {
+                    break;
+                }
+            }
+            if !global.active && !caustic.active {
+                break;
+            }
+        }
+        let stored = (global.photons.len() + caustic.photons.len()) as u64;
+        progress(stored, (global.target + caustic.target) as u64);
+    }
+    stats.n_paths_emitted = next_path;
+    stats.trace_s = start.elapsed().as_secs_f64();
+    if global.target > 0 && global.photons.is_empty() {
+        return Err(Error::NothingStored { n_paths_emitted: next_path });
+    }
+    let (global, n_global_paths) = global.finish(next_path);
+    let (caustic, n_caustic_paths) = caustic.finish(next_path);
+    stats.n_global_paths = n_global_paths;
+    stats.n_caustic_paths = n_caustic_paths;
+    stats.n_global_stored = global.as_ref().map_or(0, |p| p.len() as u64);
+    stats.n_caustic_stored = caustic.as_ref().map_or(0, |p| p.len() as u64);
+    let (global, caustic) = rayon::join(|| build_map(global), || build_map(caustic));
+    let (global, global_build_s) = global?;
+    let (caustic, caustic_build_s) = caustic?;
+    stats.global_build_s = global_build_s;
+    stats.caustic_build_s = caustic_build_s;
+    stats.global_memory_bytes = global.as_ref().map_or(0, |m| m.memory_bytes() as u64);
+    stats.caustic_memory_bytes = caustic.as_ref().map_or(0, |m| m.memory_bytes() as u64);
+    Ok((PhotonMaps { global, caustic }, stats))
+}
+
+fn build_map(photons: Option<Vec<Photon>>) -> Result<(Option<PhotonMap>, f64)> {
+    let start = Instant::now();
+    let map = photons.map(PhotonMap::new).transpose()?;
+    Ok((map, start.elapsed().as_secs_f64()))
+}
+
+/// A map while it fills: it takes whole paths until it holds `target` photons.
+struct Filling {
+    photons: Vec<Photon>,
+    target: usize,
+    active: bool,
+    /// Paths emitted while filling; set when the target is reached.
+    n_paths: Option<u64>,
+}
+
+impl Filling {
+    fn new(target: usize) -> Filling {
+        Filling { photons: Vec::new(), target, active: target > 0, n_paths: None }
+    }
+
+    fn take(&mut self, path_photons: &[Photon], path: u64) {
+        if !self.active {
+            return;
+        }
+        self.photons.extend_from_slice(path_photons);
+        if self.photons.len() >= self.target {
+            self.active = false;
+            self.n_paths = Some(path + 1);
+        }
+    }
+
+    /// The photons with power divided by the paths emitted while filling; `None` if none was stored.
+    fn finish(self, n_paths_emitted: u64) -> (Option<Vec<Photon>>, u64) {
+        let n_paths = self.n_paths.unwrap_or(n_paths_emitted);
+        if self.photons.is_empty() {
+            return (None, n_paths);
+        }
+        let scale = 1.0 / n_paths as f64;
+        let mut photons = self.photons;
+        for ph in &mut photons {
+            ph.power = (ph.power.as_dvec3() * scale).as_vec3();
+        }
+        (Some(photons), n_paths)
+    }
+}
+
+#[derive(Clone, Copy)]
+struct Want {
+    global: bool,
+    caustic: bool,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum PathEnd {
+    Done,
+    Dropped,
+    DepthCapped,
+}
+
+/// Photons of consecutive paths; `ends[j]` = (global, caustic) lengths after path j.
+struct ChunkOut {
+    global: Vec<Photon>,
+    caustic: Vec<Photon>,
+    ends: Vec<(usize, usize)>,
+    end_kinds: Vec<PathEnd>,
+}
+
+fn trace_chunk<S: PhotonScene + ?Sized>(scene: &S, paths: std::ops::Range<u64>, seed: u64, want: Want) -> ChunkOut {
+    let mut out = ChunkOut { global: Vec::new(), caustic: Vec::new(), ends: Vec::new(), end_kinds: Vec::new() };
+    for i in paths {
+        let (g, c) = (out.global.len(), out.caustic.len());
+        let mut sampler = PathSampler { index: i, seed, dim: 0, rng: None };
+        let end = trace_path(scene, &mut sampler, want, &mut out.global, &mut out.caustic);
+        if end == PathEnd::Dropped {
+            // A path that went bad leaves nothing behind.
+            out.global.truncate(g);
+            out.caustic.truncate(c);
+        }
+        out.ends.push((out.global.len(), out.caustic.len()));
+        out.end_kinds.push(end);
+    }
+    out
+}
+
+/// The numbers of one path, by dimension.
+struct PathSampler {
+    index: u64,
+    seed: u64,
+    dim: usize,
+    rng: Option<Rng>,
+}
+
+impl PathSampler {
+    fn next(&mut self) -> f32 {
+        let dim = self.dim;
+        self.dim += 1;
+        if dim < HALTON_DIMS {
+            halton(self.index, dim, self.seed)
+        } else {
+            let (seed, index) = (self.seed, self.index);
+            self.rng.get_or_insert_with(|| Rng::new(hash_keys(&[seed, index]))).uniform()
+        }
+    }
+}
+
+fn valid_power(power: Vec3) -> bool {
+    power.is_finite() && power.min_element() >= 0.0
+}
+
+fn trace_path<S: PhotonScene + ?Sized>(
+    scene: &S,
+    s: &mut PathSampler,
+    want: Want,
+    global: &mut Vec<Photon>,
+    caustic: &mut Vec<Photon>,
+) -> PathEnd {
+    let u = [s.next(), s.next(), s.next(), s.next(), s.next()];
+    let Some(ray) = scene.emit(u) else { return PathEnd::Done };
+    if !valid_power(ray.power) || !ray.origin.is_finite() || !ray.dir.is_finite() {
+        return PathEnd::Dropped;
+    }
+    let (mut origin, mut dir, mut power) = (ray.origin, ray.dir, ray.power);
+    let mut any_specular = false;
+    let mut any_diffuse = false;
+    for _ in 0..MAX_DEPTH {
+        let Some(hit) = scene.intersect(origin, dir) else { return PathEnd::Done };
+        if !hit.pos.is_finite() || !hit.normal.is_finite() {
+            return PathEnd::Dropped;
+        }
+        let wo = -dir;
+        if !hit.specular {
+            let photon = Photon { pos: hit.pos, wi: wo, power, normal: hit.normal };
+            if want.global {
+                global.push(photon);
+            }
+            if want.caustic && any_specular {
+                caustic.push(photon);
+            }
+            any_diffuse = true;
+            if !want.global {
+                return PathEnd::Done; // no later hit can be a caustic photon
+            }
+        }
+        let u = [s.next(), s.next(), s.next()];
+        let u_roulette = s.next();
+        let Scatter::Continue { origin: o, dir: d, weight } = scene.scatter(&hit, wo, u) else {
+            return PathEnd::Done;
+        };
+        // Specular bounces follow the scene's own (Fresnel) choice; roulette acts at diffuse ones.
+        let survive = if hit.specular { 1.0 } else { weight.max_element().min(1.0) };
+        if survive.is_nan() || survive <= 0.0 || u_roulette >= survive {
+            return PathEnd::Done;
+        }
+        any_specular |= hit.specular;
+        power *= weight / survive;
+        if !valid_power(power) || !o.is_finite() || !d.is_finite() {
+            return PathEnd::Dropped;
+        }
+        (origin, dir) = (o, d);
+    }
+    PathEnd::DepthCapped
+}

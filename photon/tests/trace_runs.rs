@@ -1,0 +1,80 @@
+//! The tracer's contract: identical maps whatever the thread count, exact targets, errors instead of
+//! hangs when light reaches no diffuse surface.
+
+mod common;
+
+use common::*;
+use glam::Vec3;
+use photon::trace::MAX_DEPTH;
+use photon::{trace_photons, Error, PhotonMaps, PhotonTargets, TraceStats};
+use std::sync::atomic::{AtomicU64, Ordering};
+
+fn run(scene: &PlaneScene, targets: PhotonTargets, threads: usize) -> (PhotonMaps, TraceStats) {
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+    pool.install(|| trace_photons(scene, &targets, 11, &|_, _| {}).unwrap())
+}
+
+#[test]
+fn maps_are_identical_with_one_and_two_threads() {
+    let scene = mirror_wall();
+    let targets = PhotonTargets { global: 30_000, caustic: 5_000, max_paths: 10_000_000 };
+    let (a, sa) = run(&scene, targets, 1);
+    let (b, sb) = run(&scene, targets, 2);
+    for (x, y) in [(&a.global, &b.global), (&a.caustic, &b.caustic)] {
+        let (x, y) = (x.as_ref().unwrap(), y.as_ref().unwrap());
+        assert_eq!(x.photons(), y.photons());
+    }
+    assert_eq!(
+        (sa.n_paths_emitted, sa.n_global_paths, sa.n_caustic_paths, sa.n_global_stored, sa.n_caustic_stored),
+        (sb.n_paths_emitted, sb.n_global_paths, sb.n_caustic_paths, sb.n_global_stored, sb.n_caustic_stored)
+    );
+}
+
+#[test]
+fn maps_stop_at_the_path_that_reaches_the_target() {
+    let scene = mirror_wall();
+    let small = PhotonTargets { global: 12_345, caustic: 0, max_paths: 10_000_000 };
+    let (maps, stats) = run(&scene, small, 2);
+    assert!(maps.caustic.is_none());
+    let n = stats.n_global_stored;
+    assert!((12_345..12_345 + MAX_DEPTH as u64).contains(&n), "{n}");
+    assert_eq!(stats.n_global_paths, stats.n_paths_emitted);
+    // A larger target traces the same first paths: the smaller map is a prefix of the larger one,
+    // with powers rescaled by the ratio of path counts.
+    let (big, big_stats) = run(&scene, PhotonTargets { global: 40_000, ..small }, 2);
+    let big = big.global.unwrap();
+    let scale = big_stats.n_global_paths as f32 / stats.n_global_paths as f32;
+    for (p, q) in maps.global.unwrap().photons().iter().zip(big.photons()) {
+        assert_eq!(p.pos, q.pos);
+        assert!((p.power - q.power * scale).abs().max_element() <= 1e-5 * p.power.max_element());
+    }
+}
+
+#[test]
+fn no_diffuse_surface_is_an_error_not_a_hang() {
+    let mut scene = mirror_wall();
+    scene.planes.remove(0); // only the mirror is left
+    let targets = PhotonTargets { global: 1_000, caustic: 1_000, max_paths: 50_000 };
+    let calls = AtomicU64::new(0);
+    let result = trace_photons(&scene, &targets, 0, &|stored, target| {
+        assert_eq!((stored, target), (0, 2_000));
+        calls.fetch_add(1, Ordering::Relaxed);
+    });
+    assert!(matches!(result, Err(Error::NothingStored { n_paths_emitted: 50_000 })), "{:?}", result.err());
+    assert!(calls.load(Ordering::Relaxed) >= 1);
+}
+
+#[test]
+fn a_mirror_the_light_cannot_reach_gives_no_caustic_map() {
+    let mut scene = mirror_wall();
+    // The mirror moves under the (black) floor, which shields it from the light.
+    let under_floor = |p: Vec3| p.x < 0.9;
+    scene.planes[1] = Plane { point: Vec3::new(0.0, 0.0, -5.0), normal: Vec3::Z, contains: under_floor, mirror: true, reflectance: 1.0 };
+    scene.planes[0].reflectance = 0.0;
+    let targets = PhotonTargets { global: 1_000, caustic: 1_000, max_paths: 100_000 };
+    let (maps, stats) = trace_photons(&scene, &targets, 0, &|_, _| {}).unwrap();
+    assert!(maps.global.is_some());
+    assert!(maps.caustic.is_none());
+    assert_eq!(stats.n_caustic_stored, 0);
+    assert_eq!(stats.n_paths_emitted, 100_000);
+}

@@ -1,0 +1,100 @@
+//! The photon pass as the render uses it: settings with scene-derived defaults, tracing both maps,
+//! precomputed irradiance, and the three kinds of lookup the integrators make.
+
+use glam::Vec3;
+use photon::{Filter, PhotonMap, PhotonMaps, PhotonTargets, PrecomputedIrradiance, TraceStats};
+
+use super::photon_scene::PhotonView;
+use crate::error::{at_line, Result};
+use crate::scene::file::line_of_key;
+use crate::scene::Scene;
+
+/// `[render.photons]` resolved.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PhotonSettings {
+    pub global: usize,
+    pub caustic: usize,
+    pub lookup: usize,
+    pub max_radius_global: f32,
+    pub max_radius_caustic: f32,
+    pub precompute_every: usize,
+    pub caustic_filter: Filter,
+}
+
+impl PhotonSettings {
+    /// Defaults: 200 k global photons, 100 k caustic photons when the scene has mirror or glass (none
+    /// otherwise), k = 100, radii from the scene's size and the photon count (see `photon::defaults`).
+    pub fn resolve(scene: &Scene) -> Result<PhotonSettings> {
+        let d = &scene.settings.photons;
+        let text = std::fs::read_to_string(&scene.path).unwrap_or_default();
+        let err = |key: &str, msg: &str| at_line(&scene.path, line_of_key(&text, "render.photons", 0, key), format!("render.photons.{key}: {msg}"));
+        let count = |key: &str, v: Option<i64>, default: usize, min: i64| -> Result<usize> {
+            match v {
+                Some(x) if x < min || x > 100_000_000 => Err(err(key, &format!("{x} must be in {min}..=100000000"))),
+                Some(x) => Ok(x as usize),
+                None => Ok(default),
+            }
+        };
+        let has_specular = scene.has_specular();
+        let global = count("global", d.global, 200_000, 1)?;
+        let caustic = count("caustic", d.caustic, if has_specular { 100_000 } else { 0 }, 0)?;
+        let lookup = count("lookup", d.lookup, 100, 1)?;
+        let precompute_every = count("precompute_every", d.precompute_every, 4, 1)?;
+        let diag = scene.diagonal();
+        let (max_radius_global, max_radius_caustic) = match d.max_radius {
+            Some(r) if !(r.is_finite() && r > 0.0) => return Err(err("max_radius", "must be a positive number")),
+            Some(r) => (r, r),
+            None => (
+                photon::defaults::max_radius_for_k(diag, global, lookup),
+                photon::defaults::max_radius_for_k(diag, caustic.max(1), lookup) * 0.5,
+            ),
+        };
+        let caustic_filter = match d.caustic_filter.as_deref() {
+            None | Some("cone") => Filter::Cone { k: 1.1 },
+            Some("none") | Some("box") => Filter::None,
+            Some(other) => return Err(err("caustic_filter", &format!("unknown filter '{other}' (cone | none)"))),
+        };
+        Ok(PhotonSettings { global, caustic, lookup, max_radius_global, max_radius_caustic, precompute_every, caustic_filter })
+    }
+}
+
+pub struct PhotonData {
+    pub maps: PhotonMaps,
+    pub precomputed: Option<PrecomputedIrradiance>,
+    pub settings: PhotonSettings,
+}
+
+impl PhotonData {
+    pub fn trace(scene: &Scene, settings: &PhotonSettings, seed: u64, progress: &(dyn Fn(u64, u64) + Sync)) -> Result<(PhotonMaps, TraceStats)> {
+        let targets = PhotonTargets { global: settings.global, caustic: settings.caustic, max_paths: (settings.global.max(settings.caustic) as u64).saturating_mul(200).max(1_000_000) };
+        photon::trace_photons(&PhotonView(scene), &targets, seed, progress)
+            .map_err(|e| crate::error::runtime(format!("photon pass: {e}")))
+    }
+
+    pub fn caustic_irradiance(&self, p: Vec3, n: Vec3) -> Vec3 {
+        match &self.maps.caustic {
+            Some(m) => m.irradiance(p, n, self.settings.lookup, self.settings.max_radius_caustic, self.settings.caustic_filter).e,
+            None => Vec3::ZERO,
+        }
+    }
+
+    /// Full irradiance from the global map at a final-gather hit: the precomputed value of the nearest
+    /// compatible photon, or a k-NN estimate where none is near.
+    pub fn precomputed_irradiance(&self, p: Vec3, n: Vec3) -> Vec3 {
+        if let Some(e) = self.precomputed.as_ref().and_then(|pre| pre.lookup(p, n)) {
+            return e;
+        }
+        self.global(|m| m.irradiance(p, n, self.settings.lookup, self.settings.max_radius_global, Filter::None).e)
+    }
+
+    /// Indirect-only irradiance read straight from the global map (method `photons`): photons that came
+    /// straight from a light, or through specular bounces only, are left out — direct and caustic
+    /// light have their own terms.
+    pub fn global_indirect_irradiance(&self, p: Vec3, n: Vec3) -> Vec3 {
+        self.global(|m| m.irradiance(p, n, self.settings.lookup, self.settings.max_radius_global, Filter::None).e)
+    }
+
+    fn global(&self, f: impl Fn(&PhotonMap) -> Vec3) -> Vec3 {
+        self.maps.global.as_ref().map(f).unwrap_or(Vec3::ZERO)
+    }
+}

@@ -1,0 +1,214 @@
+//! Methods `pm`, `pm-fg` and `photons`: Jensen's split of the light leaving a visible point into
+//! emission, direct, specular, caustic and soft indirect. They differ only in where the soft indirect
+//! irradiance comes from: the irradiance cache (`pm`), a fresh final gather per sample (`pm-fg`), or the
+//! global photon map read directly (`photons`).
+
+use std::f32::consts::PI;
+
+use glam::Vec3;
+use gather::{GatherParams, GatherRay, GatherResult};
+use icache::{IrradianceCache, Pass};
+use photon::sampling::{hash_keys, Rng};
+
+use super::photons::PhotonData;
+use super::terms::Terms;
+use super::{Frame, SampleCounters};
+use crate::geometry::{spawn, Hit};
+use crate::material::{Bsdf, Transport};
+use crate::scene::Scene;
+use crate::warp::{power_heuristic, reflect, to_world};
+
+/// Where soft indirect irradiance comes from.
+pub enum IndirectSource<'a> {
+    Cache(&'a IrradianceCache),
+    Gather,
+    PhotonMap,
+}
+
+pub struct PmContext<'a> {
+    pub scene: &'a Scene,
+    pub photons: &'a PhotonData,
+    pub source: IndirectSource<'a>,
+    pub gather: GatherParams,
+    pub max_depth: u32,
+    pub seed: u64,
+}
+
+/// How the ray being shaded was generated, for MIS of emission.
+#[derive(Clone, Copy)]
+enum Via {
+    /// From the camera or through Dirac lobes only: emission counts fully.
+    Delta,
+    /// Sampled from a glossy lobe at `from` with solid-angle pdf `pdf`.
+    Glossy { from: Vec3, pdf: f32 },
+}
+
+impl PmContext<'_> {
+    /// Radiance along a camera ray, split into terms.
+    pub fn shade(&self, origin: Vec3, dir: Vec3, rng: &mut Rng, c: &mut SampleCounters) -> Terms {
+        self.shade_ray(origin, dir, 0, Via::Delta, rng, c)
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn shade_ray(&self, o: Vec3, d: Vec3, depth: u32, via: Via, rng: &mut Rng, c: &mut SampleCounters) -> Terms {
+        let mut t = Terms::default();
+        c.rays += 1;
+        let Some(hit) = self.scene.intersect(o, d) else { return t };
+        let wo = -d;
+        let le = self.scene.emitted(&hit, wo);
+        t.emission = match via {
+            Via::Delta => le,
+            Via::Glossy { from, pdf } if le != Vec3::ZERO => le * power_heuristic(pdf, self.scene.lights.pdf_hit(hit.tri, from, hit.p)),
+            Via::Glossy { .. } => Vec3::ZERO,
+        };
+        let frame = Frame::new(&hit, wo);
+        let bsdf = &self.scene.material(&hit).bsdf;
+        let kd = self.scene.albedo(&hit);
+        if bsdf.is_specular() {
+            if depth + 1 < self.max_depth {
+                let u = [rng.uniform(), rng.uniform(), rng.uniform()];
+                if let Some(s) = bsdf.sample(kd, frame.n, wo, frame.front, u, Transport::Radiance) {
+                    let sub = self.shade_ray(spawn(&hit, s.wi), s.wi, depth + 1, Via::Delta, rng, c);
+                    t.specular = s.weight * sub.sum();
+                }
+            }
+            return t;
+        }
+        t.direct = self.direct(&hit, &frame, wo, kd, bsdf, rng, c);
+        let rho_d = bsdf.diffuse_albedo(kd) / PI;
+        if rho_d != Vec3::ZERO {
+            t.caustic = rho_d * self.photons.caustic_irradiance(hit.p, frame.n);
+            let via_glossy = matches!(via, Via::Glossy { .. });
+            t.indirect = rho_d * self.indirect(&hit, &frame, via_glossy, rng, c);
+        }
+        if let Bsdf::Glossy { specular, exponent, .. } = *bsdf {
+            if depth + 1 < self.max_depth && specular.max_element() > 0.0 {
+                t.specular = self.glossy_lobe(&hit, &frame, wo, specular, exponent, depth, rng, c);
+            }
+        }
+        t
+    }
+
+    /// Light sampling with the full BRDF; for glossy surfaces the specular part is MIS-weighted against
+    /// the glossy-lobe ray traced by `glossy_lobe` (the diffuse part has no other strategy: weight 1).
+    #[allow(clippy::too_many_arguments)]
+    fn direct(&self, hit: &Hit, frame: &Frame, wo: Vec3, kd: Vec3, bsdf: &Bsdf, rng: &mut Rng, c: &mut SampleCounters) -> Vec3 {
+        let u = [rng.uniform(), rng.uniform(), rng.uniform()];
+        let Some(ls) = self.scene.lights.sample(&self.scene.geometry, hit.p, u) else { return Vec3::ZERO };
+        if ls.pdf <= 0.0 || !frame.same_side(ls.wi) {
+            return Vec3::ZERO;
+        }
+        let cos = ls.wi.dot(frame.n).max(0.0);
+        let f = bsdf.eval(kd, frame.n, wo, ls.wi);
+        if f == Vec3::ZERO || cos == 0.0 {
+            return Vec3::ZERO;
+        }
+        c.shadow_rays += 1;
+        if self.scene.occluded(hit, ls.wi, ls.dist) {
+            return Vec3::ZERO;
+        }
+        let f_diffuse = bsdf.diffuse_albedo(kd) / PI;
+        let f_spec = f - f_diffuse;
+        let w = match *bsdf {
+            Bsdf::Glossy { exponent, .. } if !ls.delta => power_heuristic(ls.pdf, phong_pdf(reflect(wo, frame.n), ls.wi, exponent)),
+            _ => 1.0,
+        };
+        (f_diffuse + f_spec * w) * ls.li * cos / ls.pdf
+    }
+
+    /// The glossy lobe of modified Phong, sampled exactly; its light is all of the next hit's radiance.
+    #[allow(clippy::too_many_arguments)]
+    fn glossy_lobe(&self, hit: &Hit, frame: &Frame, wo: Vec3, ks: Vec3, exponent: f32, depth: u32, rng: &mut Rng, c: &mut SampleCounters) -> Vec3 {
+        let r = reflect(wo, frame.n);
+        let (u0, u1) = (rng.uniform(), rng.uniform());
+        let cos_a = u0.powf(1.0 / (exponent + 1.0));
+        let sin_a = (1.0 - cos_a * cos_a).max(0.0).sqrt();
+        let phi = 2.0 * PI * u1;
+        let wi = to_world(r, Vec3::new(sin_a * phi.cos(), sin_a * phi.sin(), cos_a));
+        let cos_i = wi.dot(frame.n);
+        if cos_i <= 0.0 || !frame.same_side(wi) {
+            return Vec3::ZERO;
+        }
+        // f_spec cos / pdf = ks (n+2)/(n+1) cos θi.
+        let weight = ks * ((exponent + 2.0) / (exponent + 1.0) * cos_i);
+        let pdf = phong_pdf(r, wi, exponent);
+        let sub = self.shade_ray(spawn(hit, wi), wi, depth + 1, Via::Glossy { from: hit.p, pdf }, rng, c);
+        weight * sub.sum()
+    }
+
+    /// Soft indirect irradiance at a non-specular point.
+    fn indirect(&self, hit: &Hit, frame: &Frame, via_glossy: bool, rng: &mut Rng, c: &mut SampleCounters) -> Vec3 {
+        // Points reached through glossy lobes are blurred by the lobe: the photon map suffices there.
+        if via_glossy {
+            return self.photons.precomputed_irradiance(hit.p, frame.n);
+        }
+        match self.source {
+            IndirectSource::PhotonMap => self.photons.global_indirect_irradiance(hit.p, frame.n),
+            IndirectSource::Cache(cache) => {
+                let found = cache.lookup(hit.p, frame.n, Pass::B);
+                c.lookups.record(found.as_ref());
+                match found {
+                    Some(l) => l.e,
+                    // A pass-B miss creates no record: gather for this sample only (counted).
+                    None => self.final_gather(hit, frame, rng.next_u32() as u64, c).e,
+                }
+            }
+            IndirectSource::Gather => self.final_gather(hit, frame, rng.next_u32() as u64, c).e,
+        }
+    }
+
+    /// One final gather from `hit`: rays read the global map's precomputed irradiance at their hits.
+    pub fn final_gather(&self, hit: &Hit, frame: &Frame, seed: u64, c: &mut SampleCounters) -> GatherResult {
+        let mut rng = Rng::new(hash_keys(&[self.seed, 0x6a7e, seed]));
+        let mut rays = 0u64;
+        let mut trace = |dir: Vec3| -> GatherRay {
+            rays += 1;
+            self.gather_ray(hit, dir, &mut rng, &mut rays)
+        };
+        let result = gather::gather(hit.p, frame.n, &self.gather, seed, &mut trace);
+        c.rays += rays;
+        c.gathers += 1;
+        c.gather_rays += rays;
+        result
+    }
+
+    /// Radiance arriving along one gather ray: Kd/π × precomputed irradiance at a non-specular hit
+    /// (no further recursion); emitters count zero (direct light is its own term); mirror and glass are
+    /// followed for a few bounces; a miss is zero.
+    fn gather_ray(&self, from: &Hit, dir: Vec3, rng: &mut Rng, rays: &mut u64) -> GatherRay {
+        const MAX_SPECULAR: u32 = 4;
+        let Some(first) = self.scene.intersect(spawn(from, dir), dir) else { return GatherRay::miss(Vec3::ZERO) };
+        let distance = first.t;
+        let (mut hit, mut d, mut beta) = (first, dir, Vec3::ONE);
+        for bounce in 0..=MAX_SPECULAR {
+            let frame = Frame::new(&hit, -d);
+            let bsdf = &self.scene.material(&hit).bsdf;
+            let kd = self.scene.albedo(&hit);
+            if !bsdf.is_specular() {
+                let e = self.photons.precomputed_irradiance(hit.p, frame.n);
+                return GatherRay { radiance: beta * bsdf.diffuse_albedo(kd) / PI * e, distance };
+            }
+            if bounce == MAX_SPECULAR {
+                break;
+            }
+            let u = [rng.uniform(), rng.uniform(), rng.uniform()];
+            let Some(s) = bsdf.sample(kd, frame.n, -d, frame.front, u, Transport::Radiance) else { break };
+            beta *= s.weight;
+            *rays += 1;
+            match self.scene.intersect(spawn(&hit, s.wi), s.wi) {
+                Some(h) => {
+                    hit = h;
+                    d = s.wi;
+                }
+                None => break,
+            }
+        }
+        GatherRay { radiance: Vec3::ZERO, distance }
+    }
+}
+
+/// Solid-angle pdf of the normalised Phong lobe about the mirror direction `r`.
+fn phong_pdf(r: Vec3, wi: Vec3, exponent: f32) -> f32 {
+    let cos_a = r.dot(wi).max(0.0);
+    (exponent + 1.0) / (2.0 * PI) * cos_a.powf(exponent)
+}

@@ -1,0 +1,210 @@
+//! The phases of the photon-map methods: `trace_photons`, `build_maps` (precomputed irradiance),
+//! `fill_cache` (pass A, `pm` only) and `shade` (pass B), each timed and reported.
+
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::Mutex;
+use std::time::Instant;
+
+use glam::Vec3;
+use gather::GatherParams;
+use icache::{CacheParams, CacheStats, FillStats, IrradianceCache, Weighting};
+use photon::sampling::Rng;
+use photon::PrecomputedIrradiance;
+
+use super::tiles::render_tiles;
+use super::{Plan, Progress, RenderOutput};
+use crate::camera::Camera;
+use crate::error::{at_line, runtime, Result};
+use crate::integrator::cache_fill::{gather_record, shading_hits};
+use crate::integrator::photons::{PhotonData, PhotonSettings};
+use crate::integrator::pm::{IndirectSource, PmContext};
+use crate::integrator::terms::{Terms, TERM_NAMES};
+use crate::integrator::SampleCounters;
+use crate::scene::file::line_of_key;
+use crate::scene::{Method, Scene};
+use crate::stats::Report;
+
+/// `[render.icache]` resolved: the cache parameters and the gather ray count.
+pub fn cache_settings(scene: &Scene) -> Result<(CacheParams, usize)> {
+    let d = &scene.settings.icache;
+    let text = std::fs::read_to_string(&scene.path).unwrap_or_default();
+    let err = |key: &str, msg: String| at_line(&scene.path, line_of_key(&text, "render.icache", 0, key), format!("render.icache.{key}: {msg}"));
+    let mut p = CacheParams::default();
+    if let Some(a) = d.accuracy {
+        p.accuracy = a;
+    }
+    if let Some(w) = &d.weight {
+        p.weight = match w.as_str() {
+            "tl" => Weighting::TabellionLamorlette,
+            "ward" => Weighting::Ward,
+            other => return Err(err("weight", format!("unknown weighting '{other}' (tl | ward)"))),
+        };
+    }
+    if let Some(v) = d.neighbor_clamping {
+        p.neighbor_clamping = v;
+    }
+    if let Some(v) = d.gradients {
+        p.gradients = v;
+    }
+    if let Some(v) = d.min_spacing_px {
+        p.min_spacing_px = v;
+    }
+    if let Some(v) = d.max_spacing_px {
+        p.max_spacing_px = v;
+    }
+    if let Some(v) = d.pass_b_accuracy {
+        p.pass_b_accuracy = Some(v);
+    }
+    p.validate().map_err(|e| err("accuracy", e.to_string()))?;
+    let rays = match d.rays {
+        Some(r) if !(4..=1_000_000).contains(&r) => return Err(err("rays", format!("{r} must be in 4..=1000000"))),
+        Some(r) => r as usize,
+        None => gather::DEFAULT_RAYS,
+    };
+    Ok((p, rays))
+}
+
+pub struct PmRun {
+    pub output: RenderOutput,
+    pub counters: SampleCounters,
+    pub report: Report,
+}
+
+pub fn render_pm(scene: &Scene, plan: &Plan, camera: &Camera, progress: &dyn Progress, cancel: &AtomicBool) -> Result<PmRun> {
+    let mut report = Report::default();
+    let settings = PhotonSettings::resolve(scene)?;
+    let (cache_params, rays) = cache_settings(scene)?;
+
+    let t = Instant::now();
+    progress.start("photons", (settings.global + settings.caustic) as u64);
+    let (maps, trace_stats) = PhotonData::trace(scene, &settings, plan.seed, &|done, _| progress.set(done))?;
+    progress.finish();
+    report.seconds("Time", "Trace photons", "time.trace_photons_s", t.elapsed().as_secs_f64());
+
+    let t = Instant::now();
+    let precomputed = match (&maps.global, plan.method) {
+        (Some(g), Method::Pm | Method::PmFg) => Some(PrecomputedIrradiance::build(g, settings.precompute_every, settings.lookup, settings.max_radius_global).map_err(runtime)?.0),
+        _ => None,
+    };
+    report.seconds("Time", "Build maps", "time.build_maps_s", t.elapsed().as_secs_f64());
+    photon_rows(&mut report, &trace_stats, &settings, precomputed.as_ref());
+    let photons = PhotonData { maps, precomputed, settings };
+
+    let mut ctx = PmContext {
+        scene,
+        photons: &photons,
+        source: IndirectSource::PhotonMap,
+        gather: GatherParams { rays },
+        max_depth: scene.settings.max_depth,
+        seed: plan.seed,
+    };
+    let mut cache = None;
+    let mut fill = FillStats::default();
+    let fill_counters = Mutex::new(SampleCounters::default());
+    if plan.method == Method::Pm {
+        let t = Instant::now();
+        let (lo, hi) = scene.bounds;
+        let mut c = IrradianceCache::new(lo, hi, cache_params).map_err(runtime)?;
+        progress.start("cache", plan.width as u64 * plan.height as u64);
+        let n_done = AtomicU64::new(0);
+        fill = icache::fill_pass_a(
+            &mut c,
+            plan.width,
+            plan.height,
+            &|x, y| shading_hits(&ctx, camera, x, y).into_iter().map(|(sp, _)| sp).collect(),
+            &|x, y, i, sp| {
+                let mut local = SampleCounters::default();
+                let r = gather_record(&ctx, camera, x, y, i, sp, &mut local);
+                if let Ok(mut g) = fill_counters.lock() {
+                    *g += local;
+                }
+                r
+            },
+            &|done, _| {
+                n_done.store(done, Ordering::Relaxed);
+                progress.set(done)
+            },
+        );
+        progress.finish();
+        report.seconds("Time", "Fill cache (pass A)", "time.fill_cache_s", t.elapsed().as_secs_f64());
+        cache = Some(c);
+    }
+    if cancel.load(Ordering::Relaxed) {
+        return Err(crate::error::Error::Interrupted);
+    }
+    ctx.source = match (&cache, plan.method) {
+        (Some(c), _) => IndirectSource::Cache(c),
+        (None, Method::PmFg) => IndirectSource::Gather,
+        _ => IndirectSource::PhotonMap,
+    };
+
+    let t = Instant::now();
+    let sample = |x: u32, y: u32, rng: &mut Rng, c: &mut SampleCounters| -> Vec<Vec3> {
+        let d = camera.ray(x as f32 + rng.uniform(), y as f32 + rng.uniform());
+        let terms: Terms = ctx.shade(camera.eye, d, rng, c);
+        terms.to_layers()
+    };
+    progress.start("shade", plan.window.n_pixels());
+    let (layers, counters) = render_tiles(plan.width, plan.height, plan.window, plan.spp, plan.seed, TERM_NAMES.len(), &sample, &|n| progress.set(n), cancel)?;
+    progress.finish();
+    report.seconds("Time", "Shade", "time.shade_s", t.elapsed().as_secs_f64());
+
+    let fc = fill_counters.into_inner().unwrap_or_default();
+    if let Some(c) = &cache {
+        cache_rows(&mut report, &CacheStats::collect(c, &fill, &counters.lookups), &fill, fc.gather_rays + counters.gather_rays);
+    }
+    report.count("Final gather", "Gathers", "gather.gathers", fc.gathers + counters.gathers);
+    report.count("Final gather", "Gather rays", "gather.rays", fc.gather_rays + counters.gather_rays);
+    let mut counters = counters;
+    counters += fc;
+    let mut beauty = crate::io::output::Image::new(plan.width, plan.height);
+    for l in &layers {
+        for (b, v) in beauty.pixels.iter_mut().zip(&l.pixels) {
+            *b += *v;
+        }
+    }
+    let layers = TERM_NAMES.iter().copied().zip(layers).collect();
+    Ok(PmRun { output: RenderOutput { beauty, layers, cache }, counters, report })
+}
+
+fn photon_rows(r: &mut Report, s: &photon::TraceStats, settings: &PhotonSettings, pre: Option<&PrecomputedIrradiance>) {
+    r.count("Photons", "Paths emitted", "photons.paths_emitted", s.n_paths_emitted);
+    r.count("Photons", "Global photons stored", "photons.global_stored", s.n_global_stored);
+    r.count("Photons", "Caustic photons stored", "photons.caustic_stored", s.n_caustic_stored);
+    r.seconds("Photons", "Trace time", "photons.trace_s", s.trace_s);
+    r.seconds("Photons", "Build time (kd-trees)", "photons.build_s", s.global_build_s + s.caustic_build_s);
+    r.bytes("Photons", "Memory, global map", "photons.global_memory_bytes", s.global_memory_bytes);
+    r.bytes("Photons", "Memory, caustic map", "photons.caustic_memory_bytes", s.caustic_memory_bytes);
+    r.bytes("Photons", "Memory", "photons.memory_bytes", s.global_memory_bytes + s.caustic_memory_bytes + pre.map(|p| p.memory_bytes() as u64).unwrap_or(0));
+    r.count("Photons", "Paths dropped (non-finite)", "rare.photon_paths_dropped", s.n_paths_dropped);
+    r.count("Photons", "Lookup k", "photons.lookup", settings.lookup as u64);
+    r.number("Photons", "Max radius (global)", "photons.max_radius_global", settings.max_radius_global as f64);
+    r.number("Photons", "Max radius (caustic)", "photons.max_radius_caustic", settings.max_radius_caustic as f64);
+    if let Some(p) = pre {
+        r.count("Photons", "Precomputed irradiance points", "photons.precomputed", p.points().len() as u64);
+    }
+}
+
+fn cache_rows(r: &mut Report, s: &CacheStats, fill: &FillStats, gather_rays: u64) {
+    r.count("Irradiance cache", "Records created in pass A", "icache.records_pass_a", s.records_pass_a);
+    r.count("Irradiance cache", "Records created in pass B", "icache.records_pass_b", s.records_pass_b);
+    r.count("Irradiance cache", "Lookups", "icache.lookups", s.lookups);
+    r.count("Irradiance cache", "Pass-B misses", "icache.misses_pass_b", s.misses_pass_b);
+    r.number("Irradiance cache", "Mean usable records per lookup", "icache.mean_records_per_lookup", s.mean_records_per_lookup());
+    r.count("Irradiance cache", "Gather rays", "icache.gather_rays", gather_rays);
+    let h = &s.radius_px;
+    r.value(
+        "Irradiance cache",
+        "Record radius (px) avg [min–max]",
+        "icache.radius_px",
+        serde_json::json!({"min": h.min_px, "avg": h.mean_px(), "max": h.max_px, "counts": h.counts.to_vec(), "edges": (0..=icache::stats::RADIUS_BINS).map(|i| h.edge(i)).collect::<Vec<_>>()}),
+        format!("{:.1} [{:.1}–{:.1}]", h.mean_px(), h.min_px, h.max_px),
+    );
+    r.count("Irradiance cache", "Shrunk by neighbor clamping", "icache.shrunk_by_clamping", s.shrunk_by_clamping);
+    r.count("Irradiance cache", "Shrunk by the gradient limit", "icache.shrunk_by_gradient", s.shrunk_by_gradient);
+    r.count("Irradiance cache", "Clamped to min spacing", "icache.clamped_min", s.clamped_min);
+    r.count("Irradiance cache", "Clamped to max spacing", "icache.clamped_max", s.clamped_max);
+    r.count("Irradiance cache", "Pass-A waves", "icache.waves", fill.n_waves);
+    r.count("Irradiance cache", "Points left uncovered after pass A", "icache.uncovered_after_fill", fill.n_uncovered_after);
+    r.bytes("Irradiance cache", "Memory", "icache.memory_bytes", s.memory_bytes);
+}

@@ -1,0 +1,195 @@
+"""Loads a pmrender scene file (TOML) with its OBJ meshes into mref_scene.Scene (world-space triangles).
+
+Used by tools/mitsuba_reference.py; not a command. See mref_scene.py for the semantics reproduced.
+"""
+import os
+import tomllib
+
+from mref_scene import (Material, Scene, SceneError, Triangle, apply, cross, inverse_transpose,
+                        material_from_mtl, matmul, norm, normalize, parse_mtl, resolve_texture, rot,
+                        set_glossy, sub, vec3)
+
+OVERRIDE_KEYS = {
+    "diffuse": {"albedo", "texture"},
+    "mirror": {"reflectance"},
+    "glass": {"ior", "transmittance"},
+    "glossy": {"albedo", "specular", "exponent"},
+}
+
+
+def transform(mesh):
+    s = mesh.get("scale", 1.0)
+    s = vec3(s, "mesh.scale")
+    r = vec3(mesh.get("rotate", [0.0, 0.0, 0.0]), "mesh.rotate")
+    t = vec3(mesh.get("translate", [0.0, 0.0, 0.0]), "mesh.translate")
+    if s[0] * s[1] * s[2] == 0.0:
+        raise SceneError("mesh.scale must be non-zero")
+    rmat = matmul(rot(2, r[2]), matmul(rot(1, r[1]), rot(0, r[0])))
+    m = [[rmat[i][j] * s[j] for j in range(3)] for i in range(3)]
+    return m, t, inverse_transpose(m)
+
+
+def read_obj(path):
+    """Yields (material_name or None, [(v, vt, vn) index triples]) per polygon, and the arrays."""
+    vs, vts, vns, faces, mtllibs, cur = [], [], [], [], [], None
+    with open(path, encoding="utf-8", errors="replace") as f:
+        for raw in f:
+            tok = raw.split("#", 1)[0].split()
+            if not tok:
+                continue
+            tag = tok[0]
+            if tag == "v":
+                vs.append(tuple(float(x) for x in tok[1:4]))
+            elif tag == "vt":
+                vts.append((float(tok[1]), float(tok[2]) if len(tok) > 2 else 0.0))
+            elif tag == "vn":
+                vns.append(tuple(float(x) for x in tok[1:4]))
+            elif tag == "usemtl":
+                cur = raw.split("#", 1)[0].strip()[6:].strip()
+            elif tag == "mtllib":
+                mtllibs.append(raw.split("#", 1)[0].strip()[6:].strip())
+            elif tag == "f":
+                corners = []
+                for c in tok[1:]:
+                    parts = c.split("/")
+                    idx = []
+                    for slot, arr in enumerate((vs, vts, vns)):
+                        p = parts[slot] if slot < len(parts) else ""
+                        if not p:
+                            idx.append(None)
+                            continue
+                        k = int(p)
+                        idx.append(k - 1 if k > 0 else len(arr) + k)
+                    corners.append(tuple(idx))
+                if len(corners) >= 3:
+                    faces.append((cur, corners))
+    return vs, vts, vns, faces, mtllibs
+
+
+def load_mesh(scene, mesh, toml_dir, by_name):
+    obj_path = os.path.join(toml_dir, mesh["obj"])
+    if not os.path.isfile(obj_path):
+        raise SceneError(f"mesh.obj: file '{obj_path}' not found")
+    m, t, nm = transform(mesh)
+    vs, vts, vns, faces, mtllibs = read_obj(obj_path)
+    obj_dir = os.path.dirname(obj_path)
+    local = {}
+    for lib in mtllibs:
+        lib_path = os.path.join(obj_dir, lib)
+        for name, d in parse_mtl(lib_path).items():
+            mat = material_from_mtl(name, d, os.path.dirname(lib_path))
+            local[name] = len(scene.materials)
+            by_name.setdefault(name, []).append(len(scene.materials))
+            scene.materials.append(mat)
+    xp = lambda p: tuple(a + b for a, b in zip(apply(m, p), t))
+    for mat_name, corners in faces:
+        if mat_name in local:
+            mi = local[mat_name]
+        else:
+            mi = default_material(scene)
+        has_n = all(c[2] is not None for c in corners)
+        has_uv = all(c[1] is not None for c in corners)
+        for k in range(1, len(corners) - 1):
+            tri = (corners[0], corners[k], corners[k + 1])
+            p = [xp(vs[c[0]]) for c in tri]
+            if not norm(cross(sub(p[1], p[0]), sub(p[2], p[0]))) > 0.0:
+                continue  # degenerate: pmrender drops it too
+            n = [normalize(apply(nm, vns[c[2]])) for c in tri] if has_n else None
+            uv = [vts[c[1]] for c in tri] if has_uv else None
+            scene.triangles.append(Triangle(p=p, n=n, uv=uv, material=mi))
+
+
+def default_material(scene):
+    for i, mat in enumerate(scene.materials):
+        if getattr(mat, "is_default", False):
+            return i
+    mat = Material(name="default")
+    mat.is_default = True
+    scene.materials.append(mat)
+    return len(scene.materials) - 1
+
+
+def apply_override(mat, d, toml_dir):
+    """`[materials.NAME]` as pmrender's mtl::apply_override: keys not given default from the current
+    material when it is diffuse or glossy (albedo, specular, exponent), else albedo 0.8, specular 0,
+    exponent 1; mirror reflectance defaults to that specular if > 0, else 1; glass to ior 1.5 and
+    transmittance 1. The type defaults to the current one."""
+    kind = d.get("type", mat.kind)
+    if kind not in OVERRIDE_KEYS:
+        raise SceneError(f"materials.{mat.name}: unknown type '{kind}'")
+    extra = set(d) - OVERRIDE_KEYS[kind] - {"type", "emission"}
+    if extra:
+        raise SceneError(f"materials.{mat.name}: keys {sorted(extra)} do not apply to type '{kind}'")
+    if mat.kind == "diffuse":
+        kd, ks, ns = mat.albedo, (0.0, 0.0, 0.0), 1.0
+    elif mat.kind == "glossy":
+        kd, ks, ns = mat.albedo, mat.specular, mat.exponent
+    else:
+        kd, ks, ns = (0.8, 0.8, 0.8), (0.0, 0.0, 0.0), 1.0
+    get = lambda k, dflt: vec3(d[k], f"materials.{mat.name}.{k}") if k in d else dflt
+    if kind != "diffuse" or mat.kind != "diffuse":
+        mat.texture = None
+    if kind == "diffuse":
+        mat.albedo = get("albedo", kd)
+        if "texture" in d:
+            mat.texture = resolve_texture(toml_dir, d["texture"])
+    elif kind == "mirror":
+        mat.reflectance = get("reflectance", ks if max(ks) > 0 else (1.0, 1.0, 1.0))
+    elif kind == "glass":
+        ior = float(d.get("ior", 1.5))
+        if not ior > 1.0:
+            raise SceneError(f"materials.{mat.name}.ior = {ior} must be > 1")
+        mat.ior, mat.transmittance = ior, get("transmittance", (1.0, 1.0, 1.0))
+    else:
+        set_glossy(mat, get("albedo", kd), get("specular", ks), float(d.get("exponent", max(ns, 1.0))))
+    mat.kind = kind
+    if "emission" in d:
+        mat.emission = vec3(d["emission"], f"materials.{mat.name}.emission")
+
+
+def load_light(d):
+    kind = d.get("type")
+    if kind == "point":
+        return {"type": "point", "position": vec3(d["position"], "light.position"),
+                "intensity": vec3(d["intensity"], "light.intensity")}
+    if kind == "spot":
+        cone = float(d.get("cone_angle", 30.0))
+        falloff = float(d.get("falloff_start", cone * 0.75))
+        if not (0.0 < cone <= 180.0 and 0.0 <= falloff <= cone):
+            raise SceneError(f"spot light: cone_angle {cone} / falloff_start {falloff} out of range")
+        return {"type": "spot", "position": vec3(d["position"], "light.position"),
+                "target": vec3(d["target"], "light.target"), "intensity": vec3(d["intensity"], "light.intensity"),
+                "cone_angle": cone, "falloff_start": falloff}
+    if kind == "directional":
+        return {"type": "directional", "direction": normalize(vec3(d["direction"], "light.direction")),
+                "irradiance": vec3(d["irradiance"], "light.irradiance")}
+    raise SceneError(f"unknown light type {kind!r}")
+
+
+def load(path):
+    with open(path, "rb") as f:
+        doc = tomllib.load(f)
+    if doc.get("version", 1) != 1:
+        raise SceneError(f"unsupported version {doc['version']}")
+    toml_dir = os.path.dirname(os.path.abspath(path))
+    cam = doc["camera"]
+    camera = {"eye": vec3(cam["eye"], "camera.eye"), "target": vec3(cam["target"], "camera.target"),
+              "up": vec3(cam.get("up", [0.0, 1.0, 0.0]), "camera.up"), "fov": float(cam["fov"]),
+              "width": int(cam["width"]), "height": int(cam["height"])}
+    r = doc.get("render", {})
+    scene = Scene(path=os.path.abspath(path), camera=camera, max_depth=int(r.get("max_depth", 64)),
+                  spp=r.get("spp"), seed=int(r.get("seed", 0)))
+    by_name = {}
+    for mesh in doc.get("mesh", []):
+        load_mesh(scene, mesh, toml_dir, by_name)
+    if not scene.triangles:
+        raise SceneError("the scene has no triangles")
+    for name, d in doc.get("materials", {}).items():
+        if name not in by_name:
+            raise SceneError(f"materials.{name}: no mesh uses a material named '{name}'")
+        for i in by_name[name]:
+            apply_override(scene.materials[i], d, toml_dir)
+    scene.lights = [load_light(d) for d in doc.get("light", [])]
+    if not scene.lights and not any(scene.materials[t.material].emissive() for t in scene.triangles):
+        raise SceneError("the scene has no lights (add a [[light]] or a material with Ke > 0)")
+    return scene
