@@ -11,6 +11,7 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use pmrender::error::{option, Error, Result};
 use pmrender::io::atomic::{check_writable, write_bytes};
 use pmrender::io::output::{write_exr, write_png, Layers};
+use pmrender::render::files::{cache_image, save_cache, FileOptions};
 use pmrender::render::{self, tiles::Window, Options, Progress};
 use pmrender::scene::{self, Method, METHODS};
 
@@ -60,6 +61,24 @@ struct RenderArgs {
     /// No progress bar.
     #[arg(long)]
     quiet: bool,
+    /// Save the photon maps (and precomputed irradiance) for later renders of the same scene.
+    #[arg(long)]
+    save_photons: Option<PathBuf>,
+    /// Use photon maps saved by --save-photons instead of tracing them.
+    #[arg(long)]
+    load_photons: Option<PathBuf>,
+    /// Write the photon maps as a PLY point cloud.
+    #[arg(long)]
+    dump_photons: Option<PathBuf>,
+    /// Save the irradiance cache (method pm).
+    #[arg(long)]
+    save_cache: Option<PathBuf>,
+    /// Use a cache saved by --save-cache instead of filling one (pass B only).
+    #[arg(long)]
+    load_cache: Option<PathBuf>,
+    /// PNG of the render with every cache record drawn as a dot coloured by its radius.
+    #[arg(long)]
+    cache_image: Option<PathBuf>,
 }
 
 /// The bar on stderr, hidden with --quiet or when stderr is not a terminal.
@@ -117,6 +136,14 @@ fn options(a: &RenderArgs) -> Result<Options> {
         height: positive("--height", a.height)?,
         seed: a.seed,
         crop,
+        files: FileOptions {
+            save_photons: a.save_photons.clone(),
+            load_photons: a.load_photons.clone(),
+            dump_photons: a.dump_photons.clone(),
+            save_cache: a.save_cache.clone(),
+            load_cache: a.load_cache.clone(),
+            cache_image: a.cache_image.clone(),
+        },
     })
 }
 
@@ -132,8 +159,17 @@ fn check_outputs(a: &RenderArgs) -> Result<()> {
         }
         check_writable(p, "--png")?;
     }
-    if let Some(p) = &a.stats {
-        check_writable(p, "--stats")?;
+    for (opt, p) in [("--stats", &a.stats), ("--save-photons", &a.save_photons), ("--dump-photons", &a.dump_photons), ("--save-cache", &a.save_cache), ("--cache-image", &a.cache_image)] {
+        if let Some(p) = p {
+            check_writable(p, opt)?;
+        }
+    }
+    for (opt, p) in [("--load-photons", &a.load_photons), ("--load-cache", &a.load_cache)] {
+        if let Some(p) = p {
+            if !p.is_file() {
+                return Err(option(opt, format!("'{}' not found", p.display())));
+            }
+        }
     }
     Ok(())
 }
@@ -154,6 +190,19 @@ fn render_command(a: RenderArgs, cancel: &AtomicBool) -> Result<()> {
     write_exr(&a.output, &layers)?;
     if let Some(p) = &a.png {
         write_png(p, &out.beauty)?;
+    }
+    match (&out.cache, &a.save_cache, &a.cache_image) {
+        (None, Some(_), _) | (None, _, Some(_)) => eprintln!("pmrender: note: no irradiance cache with this method; --save-cache/--cache-image ignored"),
+        (Some(c), save, img) => {
+            if let Some(p) = save {
+                save_cache(p, c, scene.fingerprint)?;
+            }
+            if let Some(p) = img {
+                let cam = scene.camera.with_resolution(out.beauty.width, out.beauty.height);
+                cache_image(p, &out.beauty, c, &cam)?;
+            }
+        }
+        _ => {}
     }
     report.seconds("Time", "Write outputs", "time.write_outputs_s", t.elapsed().as_secs_f64());
     if let Some(p) = &a.stats {

@@ -19,3 +19,15 @@ fn path_is_identical_with_one_and_two_threads() {
     let d = tempfile::tempdir().unwrap();
     assert_eq!(render_bytes("path", "1", d.path()), render_bytes("path", "2", d.path()));
 }
+
+#[test]
+fn pm_is_identical_with_one_and_two_threads() {
+    let d = tempfile::tempdir().unwrap();
+    assert_eq!(render_bytes("pm", "1", d.path()), render_bytes("pm", "2", d.path()));
+}
+
+#[test]
+fn photons_is_identical_with_one_and_two_threads() {
+    let d = tempfile::tempdir().unwrap();
+    assert_eq!(render_bytes("photons", "1", d.path()), render_bytes("photons", "2", d.path()));
+}

@@ -29,6 +29,10 @@ struct Accum {
     n_used: u32,
 }
 
+thread_local! {
+    static CANDIDATES: std::cell::RefCell<Vec<u32>> = const { std::cell::RefCell::new(Vec::new()) };
+}
+
 /// Ward's irradiance cache with gradients, TL weighting and neighbor clamping.
 #[derive(Clone, Debug)]
 pub struct IrradianceCache {
@@ -97,9 +101,20 @@ impl IrradianceCache {
         if !(p.is_finite() && n.is_finite()) {
             return None;
         }
-        let mut acc = Accum::default();
-        self.index.for_each_candidate(p, |id| self.accumulate(&self.records[id as usize], p, n, pass, &mut acc));
-        self.finish(acc)
+        // Sum in record order, not in index order: the index of a cache loaded from a file can hold the
+        // same records in other nodes, and the image must not change in the last bit.
+        CANDIDATES.with(|cell| {
+            let mut ids = cell.borrow_mut();
+            ids.clear();
+            self.index.for_each_candidate(p, |id| ids.push(id));
+            ids.sort_unstable();
+            ids.dedup();
+            let mut acc = Accum::default();
+            for &id in ids.iter() {
+                self.accumulate(&self.records[id as usize], p, n, pass, &mut acc);
+            }
+            self.finish(acc)
+        })
     }
 
     /// The same as [`lookup`](Self::lookup) by scanning every record: the oracle for the index.

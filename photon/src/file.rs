@@ -4,7 +4,7 @@
 //! Layout (little-endian): magic `PMPHOTON`, version u32, flags u32, then u64s — scene fingerprint,
 //! seed, target global, target caustic, max paths, paths emitted, global paths, caustic paths, number of
 //! global photons, caustic photons, irradiance points — then the precomputed max radius f32 and 4 zero
-//! bytes (112-byte header); then the photons (12 f32 each: pos, wi, power, normal) and the irradiance
+//! bytes (112-byte header); then the photons (13 f32 each: pos, wi, power, normal, indirect flag 0/1) and the irradiance
 //! points (9 f32: pos, normal, e); then an FNV-1a 64 checksum of everything between the magic and it.
 //! Loading checks magic, version, that the counts match the file length (before allocating), the
 //! checksum, then the scene fingerprint. Kd-trees are rebuilt on load.
@@ -22,9 +22,9 @@ use crate::precomputed::{IrradiancePoint, PrecomputedIrradiance};
 use crate::trace::{PhotonMaps, PhotonTargets, TraceStats};
 
 pub const MAGIC: [u8; 8] = *b"PMPHOTON";
-pub const VERSION: u32 = 1;
+pub const VERSION: u32 = 2;
 const HEADER_BYTES: usize = 112;
-const PHOTON_BYTES: u64 = 48;
+const PHOTON_BYTES: u64 = 52;
 const POINT_BYTES: u64 = 36;
 const CHECKSUM_BYTES: u64 = 8;
 const HAS_GLOBAL: u32 = 1;
@@ -125,6 +125,7 @@ pub fn write_maps<W: Write>(
     h.write_all(&[0u8; 4])?;
     for ph in global.iter().chain(caustic) {
         write_vecs(&mut h, &[ph.pos, ph.wi, ph.power, ph.normal])?;
+        h.write_all(&(ph.indirect as u8 as f32).to_le_bytes())?;
     }
     for pt in points {
         write_vecs(&mut h, &[pt.pos, pt.normal, pt.e])?;
@@ -144,7 +145,12 @@ fn write_vecs<W: Write>(w: &mut W, vs: &[Vec3]) -> std::io::Result<()> {
 }
 
 /// Saves to `path` (through a temporary file renamed into place).
-pub fn save(path: &Path, info: &MapsInfo, maps: &PhotonMaps, precomputed: Option<&PrecomputedIrradiance>) -> Result<()> {
+pub fn save(
+    path: &Path,
+    info: &MapsInfo,
+    maps: &PhotonMaps,
+    precomputed: Option<&PrecomputedIrradiance>,
+) -> Result<()> {
     let io = |source| Error::Io { path: path.to_path_buf(), source };
     let mut tmp = path.as_os_str().to_owned();
     tmp.push(".tmp");
@@ -182,7 +188,10 @@ impl Header {
             return Err(Error::BadMagic);
         }
         if bytes.len() < HEADER_BYTES {
-            return Err(Error::BadLength { expected: HEADER_BYTES as u64 + CHECKSUM_BYTES, actual: bytes.len() as u64 });
+            return Err(Error::BadLength {
+                expected: HEADER_BYTES as u64 + CHECKSUM_BYTES,
+                actual: bytes.len() as u64,
+            });
         }
         let u32_at = |i: usize| u32::from_le_bytes(bytes[i..i + 4].try_into().unwrap_or_default());
         let version = u32_at(8);
@@ -232,7 +241,10 @@ pub fn read_maps(bytes: &[u8], expected_fingerprint: u64) -> Result<LoadedMaps> 
     }
     let (n_global, n_caustic, n_points) = header.counts();
     let flag = |f: u32| header.flags & f != 0;
-    if (!flag(HAS_GLOBAL) && n_global > 0) || (!flag(HAS_CAUSTIC) && n_caustic > 0) || (!flag(HAS_PRECOMPUTED) && n_points > 0) {
+    if (!flag(HAS_GLOBAL) && n_global > 0)
+        || (!flag(HAS_CAUSTIC) && n_caustic > 0)
+        || (!flag(HAS_PRECOMPUTED) && n_points > 0)
+    {
         return Err(Error::Corrupt("photons present for a map flagged absent".into()));
     }
     let info = MapsInfo {
@@ -243,18 +255,30 @@ pub fn read_maps(bytes: &[u8], expected_fingerprint: u64) -> Result<LoadedMaps> 
         n_global_paths: w[6],
         n_caustic_paths: w[7],
     };
-    let mut floats = bytes[HEADER_BYTES..body_end].chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]));
-    let mut vec3 = || Vec3::new(floats.next().unwrap_or(0.0), floats.next().unwrap_or(0.0), floats.next().unwrap_or(0.0));
+    let mut floats =
+        bytes[HEADER_BYTES..body_end].chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]));
+    let mut next = || floats.next().unwrap_or(0.0);
     let mut read_photons = |n: u64| -> Vec<Photon> {
-        (0..n).map(|_| Photon { pos: vec3(), wi: vec3(), power: vec3(), normal: vec3() }).collect()
+        (0..n)
+            .map(|_| {
+                let mut v = || Vec3::new(next(), next(), next());
+                let (pos, wi, power, normal) = (v(), v(), v(), v());
+                Photon { pos, wi, power, normal, indirect: next() != 0.0 }
+            })
+            .collect()
     };
     let global = read_photons(n_global);
     let caustic = read_photons(n_caustic);
+    let mut vec3 = || Vec3::new(next(), next(), next());
     let points: Vec<IrradiancePoint> =
         (0..n_points).map(|_| IrradiancePoint { pos: vec3(), normal: vec3(), e: vec3() }).collect();
     let corrupt = |e: Error| Error::Corrupt(format!("cannot rebuild a kd-tree: {e}"));
     let map = |present: bool, photons: Vec<Photon>| -> Result<Option<PhotonMap>> {
-        if present { PhotonMap::new(photons).map(Some).map_err(corrupt) } else { Ok(None) }
+        if present {
+            PhotonMap::new(photons).map(Some).map_err(corrupt)
+        } else {
+            Ok(None)
+        }
     };
     let maps = PhotonMaps { global: map(flag(HAS_GLOBAL), global)?, caustic: map(flag(HAS_CAUSTIC), caustic)? };
     let precomputed = if flag(HAS_PRECOMPUTED) {

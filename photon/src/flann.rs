@@ -6,6 +6,10 @@
 //! `srand` when `random_seed > 0`. Queries pass `log_level = -1` and `random_seed = 0`, so they write no
 //! global state and concurrent queries on one tree are safe. The log level is set once, under a
 //! `Once`, before the first index exists. `cores = 1` keeps FLANN's OpenMP region to the calling thread.
+//!
+//! Queries use `flann_radius_search_float` with `max_neighbors = k`: FLANN's `KNNRadiusResultSet` then
+//! returns the k nearest strictly inside the radius, sorted, in one call (`flann_find_nearest_neighbors_index_float`
+//! has no radius and pads missing neighbours).
 
 use std::cell::RefCell;
 use std::ffi::{c_int, c_long, c_uint, c_void};
@@ -281,7 +285,11 @@ mod tests {
             let tree = KdTree::build(&pts).unwrap();
             let mut out = Vec::new();
             for qi in 0..200 {
-                let q = if qi % 4 == 0 { pts[qi % pts.len()] } else { Vec3::new(rng.uniform(), rng.uniform(), rng.uniform()) * 1.2 - 0.1 };
+                let q = if qi % 4 == 0 {
+                    pts[qi % pts.len()]
+                } else {
+                    Vec3::new(rng.uniform(), rng.uniform(), rng.uniform()) * 1.2 - 0.1
+                };
                 for &k in &[1usize, 5, 32, 100_000] {
                     for &r in &[f32::INFINITY, 0.05, 0.2] {
                         tree.knn(q, k, r, &mut out);

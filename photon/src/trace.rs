@@ -65,10 +65,15 @@ pub struct SurfaceHit {
 pub enum Scatter {
     Absorbed,
     /// `origin` is already offset (safe to trace from); `weight` is f·cos/pdf.
-    Continue { origin: Vec3, dir: Vec3, weight: Vec3 },
+    Continue {
+        origin: Vec3,
+        dir: Vec3,
+        weight: Vec3,
+    },
 }
 
-/// Photons to store per map, and the number of paths after which the pass gives up.
+/// Photons to store per map, and the number of paths after which the pass gives up. A map takes whole
+/// paths, so it may end up to `MAX_DEPTH − 1` photons over its target.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct PhotonTargets {
     pub global: usize,
@@ -321,11 +326,11 @@ fn trace_path<S: PhotonScene + ?Sized>(
         }
         let wo = -dir;
         if !hit.specular {
-            let photon = Photon { pos: hit.pos, wi: wo, power, normal: hit.normal };
+            let photon = Photon { pos: hit.pos, wi: wo, power, normal: hit.normal, indirect: any_diffuse };
             if want.global {
                 global.push(photon);
             }
-            if want.caustic && any_specular {
+            if want.caustic && any_specular && !any_diffuse {
                 caustic.push(photon);
             }
             any_diffuse = true;

@@ -69,7 +69,13 @@ fn a_mirror_the_light_cannot_reach_gives_no_caustic_map() {
     let mut scene = mirror_wall();
     // The mirror moves under the (black) floor, which shields it from the light.
     let under_floor = |p: Vec3| p.x < 0.9;
-    scene.planes[1] = Plane { point: Vec3::new(0.0, 0.0, -5.0), normal: Vec3::Z, contains: under_floor, mirror: true, reflectance: 1.0 };
+    scene.planes[1] = Plane {
+        point: Vec3::new(0.0, 0.0, -5.0),
+        normal: Vec3::Z,
+        contains: under_floor,
+        mirror: true,
+        reflectance: 1.0,
+    };
     scene.planes[0].reflectance = 0.0;
     let targets = PhotonTargets { global: 1_000, caustic: 1_000, max_paths: 100_000 };
     let (maps, stats) = trace_photons(&scene, &targets, 0, &|_, _| {}).unwrap();

@@ -66,9 +66,13 @@ pub struct PhotonData {
 
 impl PhotonData {
     pub fn trace(scene: &Scene, settings: &PhotonSettings, seed: u64, progress: &(dyn Fn(u64, u64) + Sync)) -> Result<(PhotonMaps, TraceStats)> {
-        let targets = PhotonTargets { global: settings.global, caustic: settings.caustic, max_paths: (settings.global.max(settings.caustic) as u64).saturating_mul(200).max(1_000_000) };
-        photon::trace_photons(&PhotonView(scene), &targets, seed, progress)
+        photon::trace_photons(&PhotonView(scene), &Self::targets(settings), seed, progress)
             .map_err(|e| crate::error::runtime(format!("photon pass: {e}")))
+    }
+
+    /// Stored-photon targets, with a path budget after which the pass stops instead of looping.
+    pub fn targets(settings: &PhotonSettings) -> PhotonTargets {
+        photon::defaults::default_targets(settings.global, settings.caustic)
     }
 
     pub fn caustic_irradiance(&self, p: Vec3, n: Vec3) -> Vec3 {
@@ -91,7 +95,7 @@ impl PhotonData {
     /// straight from a light, or through specular bounces only, are left out — direct and caustic
     /// light have their own terms.
     pub fn global_indirect_irradiance(&self, p: Vec3, n: Vec3) -> Vec3 {
-        self.global(|m| m.irradiance(p, n, self.settings.lookup, self.settings.max_radius_global, Filter::None).e)
+        self.global(|m| m.irradiance_indirect(p, n, self.settings.lookup, self.settings.max_radius_global).e)
     }
 
     fn global(&self, f: impl Fn(&PhotonMap) -> Vec3) -> Vec3 {

@@ -1,6 +1,7 @@
 //! The render driver: a sequence of named phases chosen by the method, each returning its output and
 //! its statistics, readable top-down from [`render`].
 
+pub mod files;
 pub mod pm_phases;
 pub mod tiles;
 
@@ -40,6 +41,7 @@ pub struct Options {
     pub height: Option<u32>,
     pub seed: Option<u64>,
     pub crop: Option<Window>,
+    pub files: files::FileOptions,
 }
 
 /// What a render produced: beauty and the per-term layers of Jensen's split (empty for `path`).
@@ -102,7 +104,7 @@ pub fn render(scene: &Scene, opts: &Options, progress: &dyn Progress, cancel: &A
             (RenderOutput { beauty: images.remove(0), layers: Vec::new(), cache: None }, counters, shade_s)
         }
         Method::Pm | Method::PmFg | Method::Photons => {
-            let run = pm_phases::render_pm(scene, &plan, &camera, progress, cancel)?;
+            let run = pm_phases::render_pm(scene, &plan, opts, &camera, progress, cancel)?;
             let shade_s = run.report.rows.iter().filter(|r| r.key.starts_with("time.")).filter_map(|r| r.value.as_f64()).sum();
             report.rows.extend(run.report.rows);
             (run.output, run.counters, shade_s)

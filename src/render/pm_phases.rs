@@ -12,7 +12,8 @@ use photon::sampling::Rng;
 use photon::PrecomputedIrradiance;
 
 use super::tiles::render_tiles;
-use super::{Plan, Progress, RenderOutput};
+use super::files::{dump_photons, load_cache, load_photons, save_photons};
+use super::{Options, Plan, Progress, RenderOutput};
 use crate::camera::Camera;
 use crate::error::{at_line, runtime, Result};
 use crate::integrator::cache_fill::{gather_record, shading_hits};
@@ -70,24 +71,12 @@ pub struct PmRun {
     pub report: Report,
 }
 
-pub fn render_pm(scene: &Scene, plan: &Plan, camera: &Camera, progress: &dyn Progress, cancel: &AtomicBool) -> Result<PmRun> {
+pub fn render_pm(scene: &Scene, plan: &Plan, opts: &Options, camera: &Camera, progress: &dyn Progress, cancel: &AtomicBool) -> Result<PmRun> {
     let mut report = Report::default();
     let settings = PhotonSettings::resolve(scene)?;
     let (cache_params, rays) = cache_settings(scene)?;
 
-    let t = Instant::now();
-    progress.start("photons", (settings.global + settings.caustic) as u64);
-    let (maps, trace_stats) = PhotonData::trace(scene, &settings, plan.seed, &|done, _| progress.set(done))?;
-    progress.finish();
-    report.seconds("Time", "Trace photons", "time.trace_photons_s", t.elapsed().as_secs_f64());
-
-    let t = Instant::now();
-    let precomputed = match (&maps.global, plan.method) {
-        (Some(g), Method::Pm | Method::PmFg) => Some(PrecomputedIrradiance::build(g, settings.precompute_every, settings.lookup, settings.max_radius_global).map_err(runtime)?.0),
-        _ => None,
-    };
-    report.seconds("Time", "Build maps", "time.build_maps_s", t.elapsed().as_secs_f64());
-    photon_rows(&mut report, &trace_stats, &settings, precomputed.as_ref());
+    let (maps, precomputed) = photon_maps(scene, plan, &settings, opts, progress, &mut report)?;
     let photons = PhotonData { maps, precomputed, settings };
 
     let mut ctx = PmContext {
@@ -99,9 +88,14 @@ pub fn render_pm(scene: &Scene, plan: &Plan, camera: &Camera, progress: &dyn Pro
         seed: plan.seed,
     };
     let mut cache = None;
+    let mut n_loaded = 0u64;
     let mut fill = FillStats::default();
     let fill_counters = Mutex::new(SampleCounters::default());
-    if plan.method == Method::Pm {
+    if let (Method::Pm, Some(path)) = (plan.method, &opts.files.load_cache) {
+        let c = load_cache(path, scene.fingerprint)?;
+        n_loaded = c.len() as u64;
+        cache = Some(c);
+    } else if plan.method == Method::Pm {
         let t = Instant::now();
         let (lo, hi) = scene.bounds;
         let mut c = IrradianceCache::new(lo, hi, cache_params).map_err(runtime)?;
@@ -151,7 +145,10 @@ pub fn render_pm(scene: &Scene, plan: &Plan, camera: &Camera, progress: &dyn Pro
 
     let fc = fill_counters.into_inner().unwrap_or_default();
     if let Some(c) = &cache {
-        cache_rows(&mut report, &CacheStats::collect(c, &fill, &counters.lookups), &fill, fc.gather_rays + counters.gather_rays);
+        let mut cs = CacheStats::collect(c, &fill, &counters.lookups);
+        cs.records_pass_b -= n_loaded.min(cs.records_pass_b);
+        report.count("Irradiance cache", "Records loaded from file", "icache.records_loaded", n_loaded);
+        cache_rows(&mut report, &cs, &fill, fc.gather_rays + counters.gather_rays);
     }
     report.count("Final gather", "Gathers", "gather.gathers", fc.gathers + counters.gathers);
     report.count("Final gather", "Gather rays", "gather.rays", fc.gather_rays + counters.gather_rays);
@@ -165,6 +162,54 @@ pub fn render_pm(scene: &Scene, plan: &Plan, camera: &Camera, progress: &dyn Pro
     }
     let layers = TERM_NAMES.iter().copied().zip(layers).collect();
     Ok(PmRun { output: RenderOutput { beauty, layers, cache }, counters, report })
+}
+
+/// `trace_photons` and `build_maps`, or a photon file loaded instead; saved and dumped on request.
+fn photon_maps(scene: &Scene, plan: &Plan, settings: &PhotonSettings, opts: &Options, progress: &dyn Progress, report: &mut Report) -> Result<(photon::PhotonMaps, Option<PrecomputedIrradiance>)> {
+    let want_precomputed = matches!(plan.method, Method::Pm | Method::PmFg);
+    if let Some(path) = &opts.files.load_photons {
+        let t = Instant::now();
+        let loaded = load_photons(path, scene.fingerprint)?;
+        let mut pre = loaded.precomputed;
+        if pre.is_none() && want_precomputed {
+            if let Some(g) = &loaded.maps.global {
+                pre = Some(PrecomputedIrradiance::build(g, settings.precompute_every, settings.lookup, settings.max_radius_global).map_err(runtime)?.0);
+            }
+        }
+        report.seconds("Time", "Load photons", "time.load_photons_s", t.elapsed().as_secs_f64());
+        let stats = photon::TraceStats {
+            n_paths_emitted: loaded.info.n_paths_emitted,
+            n_global_stored: loaded.maps.global.as_ref().map_or(0, |m| m.len() as u64),
+            n_caustic_stored: loaded.maps.caustic.as_ref().map_or(0, |m| m.len() as u64),
+            global_memory_bytes: loaded.maps.global.as_ref().map_or(0, |m| m.memory_bytes() as u64),
+            caustic_memory_bytes: loaded.maps.caustic.as_ref().map_or(0, |m| m.memory_bytes() as u64),
+            ..Default::default()
+        };
+        photon_rows(report, &stats, settings, pre.as_ref());
+        return Ok((loaded.maps, pre));
+    }
+    let t = Instant::now();
+    progress.start("photons", (settings.global + settings.caustic) as u64);
+    let (maps, trace_stats) = PhotonData::trace(scene, settings, plan.seed, &|done, _| progress.set(done))?;
+    progress.finish();
+    report.seconds("Time", "Trace photons", "time.trace_photons_s", t.elapsed().as_secs_f64());
+    let t = Instant::now();
+    let precomputed = match &maps.global {
+        Some(g) if want_precomputed || opts.files.save_photons.is_some() => {
+            Some(PrecomputedIrradiance::build(g, settings.precompute_every, settings.lookup, settings.max_radius_global).map_err(runtime)?.0)
+        }
+        _ => None,
+    };
+    report.seconds("Time", "Build maps", "time.build_maps_s", t.elapsed().as_secs_f64());
+    photon_rows(report, &trace_stats, settings, precomputed.as_ref());
+    if let Some(path) = &opts.files.save_photons {
+        let info = photon::MapsInfo::new(scene.fingerprint, plan.seed, PhotonData::targets(settings), &trace_stats);
+        save_photons(path, &info, &maps, precomputed.as_ref())?;
+    }
+    if let Some(path) = &opts.files.dump_photons {
+        dump_photons(path, &maps)?;
+    }
+    Ok((maps, precomputed))
 }
 
 fn photon_rows(r: &mut Report, s: &photon::TraceStats, settings: &PhotonSettings, pre: Option<&PrecomputedIrradiance>) {

@@ -102,3 +102,36 @@ pub fn rel_mse(img: &Image, reference: &Image) -> f64 {
     }
     s / (3.0 * img.pixels.len() as f64)
 }
+
+/// Means over `b`×`b` blocks: bias shows through, per-pixel noise averages out.
+pub fn block_means(img: &Image, b: u32) -> Image {
+    let (w, h) = (img.width / b, img.height / b);
+    let mut out = Image { width: w, height: h, pixels: vec![Vec3::ZERO; (w * h) as usize] };
+    for y in 0..h * b {
+        for x in 0..w * b {
+            out.pixels[((y / b) * w + x / b) as usize] += img.pixels[(y * img.width + x) as usize] / (b * b) as f32;
+        }
+    }
+    out
+}
+
+/// Renders the shipped caustic scene at the reference's 160×128 and returns (image, stats JSON).
+pub fn render_cornell(method: &str, spp: u32, dir: &Path, extra: &[&str]) -> (Image, serde_json::Value) {
+    let scene = repo().join("scenes/cornell-caustics.toml");
+    let out = dir.join(format!("{method}-{spp}.exr"));
+    let stats = dir.join(format!("{method}-{spp}.json"));
+    let spp_s = spp.to_string();
+    let mut args = vec![
+        "render", scene.to_str().unwrap(), "-o", out.to_str().unwrap(), "--stats", stats.to_str().unwrap(),
+        "--method", method, "--spp", &spp_s, "--width", "160", "--height", "128", "--quiet",
+    ];
+    args.extend_from_slice(extra);
+    let r = run(&args);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let json = serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap();
+    (read(&out), json)
+}
+
+pub fn cornell_reference() -> Image {
+    read(&repo().join("tests/reference/cornell-caustics-path.exr"))
+}

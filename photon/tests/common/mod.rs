@@ -49,7 +49,14 @@ impl PhotonScene for PlaneScene {
         let (t, i) = best?;
         let pl = &self.planes[i];
         let normal = if pl.normal.dot(dir) > 0.0 { -pl.normal } else { pl.normal };
-        Some(SurfaceHit { pos: origin + t * dir, normal, specular: pl.mirror, material: i as u32, prim: i as u32, uv: Vec2::ZERO })
+        Some(SurfaceHit {
+            pos: origin + t * dir,
+            normal,
+            specular: pl.mirror,
+            material: i as u32,
+            prim: i as u32,
+            uv: Vec2::ZERO,
+        })
     }
 
     fn scatter(&self, hit: &SurfaceHit, wo: Vec3, u: [f32; 3]) -> Scatter {
@@ -110,4 +117,18 @@ pub fn mirror_wall() -> PlaneScene {
 pub fn mirror_wall_caustic(p: Vec3) -> f32 {
     let d = Vec3::new(2.0, 0.0, 1.0) - p;
     MIRROR_R * d.z / d.length().powi(3)
+}
+
+/// [`mirror_wall`] with a diffuse ceiling z = 3 over the floor (albedo 0.5): light the ceiling sends
+/// to the mirror and on to the floor is L D S D, which must stay out of the caustic map.
+pub fn mirror_wall_with_ceiling() -> PlaneScene {
+    let mut scene = mirror_wall();
+    scene.planes.push(Plane {
+        point: Vec3::new(0.0, 0.0, 3.0),
+        normal: -Vec3::Z,
+        contains: |p| p.x < 1.0,
+        mirror: false,
+        reflectance: 0.5,
+    });
+    scene
 }

@@ -1,0 +1,87 @@
+//! Photon-map and cache files around a render: load/save (atomic, fingerprinted), the PLY dump of the
+//! photons, and the cache-record image.
+
+use std::path::{Path, PathBuf};
+
+use glam::Vec3;
+use icache::IrradianceCache;
+use photon::{MapsInfo, PhotonMaps, PrecomputedIrradiance};
+
+use crate::camera::Camera;
+use crate::error::{option, Result};
+use crate::io::atomic::write_bytes;
+use crate::io::output::{write_png, Image};
+
+/// Files a render reads or writes besides its images.
+#[derive(Clone, Debug, Default)]
+pub struct FileOptions {
+    pub save_photons: Option<PathBuf>,
+    pub load_photons: Option<PathBuf>,
+    pub dump_photons: Option<PathBuf>,
+    pub save_cache: Option<PathBuf>,
+    pub load_cache: Option<PathBuf>,
+    pub cache_image: Option<PathBuf>,
+}
+
+pub fn load_photons(path: &Path, fingerprint: u64) -> Result<photon::LoadedMaps> {
+    photon::file::load(path, fingerprint).map_err(|e| option("--load-photons", format!("{}: {e}", path.display())))
+}
+
+pub fn save_photons(path: &Path, info: &MapsInfo, maps: &PhotonMaps, pre: Option<&PrecomputedIrradiance>) -> Result<()> {
+    let mut bytes = Vec::new();
+    photon::file::write_maps(&mut bytes, info, maps, pre).map_err(|e| crate::error::runtime(format!("{}: {e}", path.display())))?;
+    write_bytes(path, &bytes)
+}
+
+pub fn load_cache(path: &Path, fingerprint: u64) -> Result<IrradianceCache> {
+    IrradianceCache::load(path, fingerprint).map_err(|e| option("--load-cache", format!("{}: {e}", path.display())))
+}
+
+pub fn save_cache(path: &Path, cache: &IrradianceCache, fingerprint: u64) -> Result<()> {
+    write_bytes(path, &cache.to_bytes(fingerprint))
+}
+
+/// ASCII PLY of both maps: position, normal, power (W) and the map (0 global, 1 caustic).
+pub fn dump_photons(path: &Path, maps: &PhotonMaps) -> Result<()> {
+    let lists: Vec<(u8, &[photon::Photon])> = [(0u8, maps.global.as_ref()), (1, maps.caustic.as_ref())]
+        .into_iter()
+        .filter_map(|(k, m)| m.map(|m| (k, m.photons())))
+        .collect();
+    let n: usize = lists.iter().map(|(_, l)| l.len()).sum();
+    let mut s = format!(
+        "ply\nformat ascii 1.0\ncomment pmrender photon maps\nelement vertex {n}\nproperty float x\nproperty float y\nproperty float z\n\
+         property float nx\nproperty float ny\nproperty float nz\nproperty float power_r\nproperty float power_g\nproperty float power_b\n\
+         property uchar map\nend_header\n"
+    );
+    for (k, list) in lists {
+        for p in list {
+            s += &format!(
+                "{} {} {} {} {} {} {:e} {:e} {:e} {k}\n",
+                p.pos.x, p.pos.y, p.pos.z, p.normal.x, p.normal.y, p.normal.z, p.power.x, p.power.y, p.power.z
+            );
+        }
+    }
+    write_bytes(path, s.as_bytes())
+}
+
+/// The beauty with a dot at every record, coloured by its radius in pixels (blue small → red large,
+/// log scale between the cache's min and max spacing).
+pub fn cache_image(path: &Path, beauty: &Image, cache: &IrradianceCache, camera: &Camera) -> Result<()> {
+    let mut img = beauty.clone();
+    let p = cache.params();
+    let (lo, hi) = (p.min_spacing_px.max(1e-3).ln(), p.max_spacing_px.max(1e-3).ln());
+    for r in cache.records() {
+        let Some((x, y)) = camera.project(r.pos) else { continue };
+        let t = ((r.radius_px().max(1e-3).ln() - lo) / (hi - lo).max(1e-6)).clamp(0.0, 1.0);
+        let colour = Vec3::new(t, 1.0 - (2.0 * t - 1.0).abs(), 1.0 - t);
+        for dy in -1i32..=1 {
+            for dx in -1i32..=1 {
+                let (px, py) = (x as i32 + dx, y as i32 + dy);
+                if px >= 0 && py >= 0 && (px as u32) < img.width && (py as u32) < img.height {
+                    img.pixels[(py as u32 * img.width + px as u32) as usize] = colour;
+                }
+            }
+        }
+    }
+    write_png(path, &img)
+}

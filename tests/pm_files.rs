@@ -1,0 +1,80 @@
+//! Photon-map and cache files: save → load → identical render; a crop rendered with a loaded cache
+//! equals the same pixels of the full render; damaged or mismatched files are clear errors (exit 2).
+
+mod common;
+use common::*;
+use std::path::Path;
+
+fn render(dir: &Path, name: &str, extra: &[&str]) -> std::process::Output {
+    let scene = repo().join("scenes/cornell-caustics.toml");
+    let out = dir.join(name);
+    let mut args = vec!["render", scene.to_str().unwrap(), "-o", out.to_str().unwrap(), "--width", "64", "--height", "64", "--spp", "2", "--quiet"];
+    args.extend_from_slice(extra);
+    run(&args)
+}
+
+#[test]
+fn saved_maps_and_cache_reproduce_the_render() {
+    let d = tempfile::tempdir().unwrap();
+    let ph = p(d.path(), "maps.phot");
+    let cache = p(d.path(), "cache.ic");
+    let r = render(d.path(), "full.exr", &["--save-photons", &ph, "--save-cache", &cache]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let r = render(d.path(), "again.exr", &["--load-photons", &ph, "--load-cache", &cache]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let full = std::fs::read(d.path().join("full.exr")).unwrap();
+    assert_eq!(full, std::fs::read(d.path().join("again.exr")).unwrap());
+
+    let r = render(d.path(), "crop.exr", &["--load-photons", &ph, "--load-cache", &cache, "--crop", "10", "20", "40", "50"]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let (a, b) = (read(&d.path().join("full.exr")), read(&d.path().join("crop.exr")));
+    for y in 20..50 {
+        for x in 10..40 {
+            let i = (y * 64 + x) as usize;
+            assert_eq!(a.pixels[i], b.pixels[i], "pixel ({x}, {y})");
+        }
+    }
+}
+
+#[test]
+fn damaged_and_mismatched_files_are_input_errors() {
+    let d = tempfile::tempdir().unwrap();
+    let ph = p(d.path(), "maps.phot");
+    let cache = p(d.path(), "cache.ic");
+    assert!(render(d.path(), "full.exr", &["--save-photons", &ph, "--save-cache", &cache]).status.success());
+    let bytes = std::fs::read(&ph).unwrap();
+    let truncated = p(d.path(), "trunc.phot");
+    std::fs::write(&truncated, &bytes[..bytes.len() / 2]).unwrap();
+    let mut flipped = bytes.clone();
+    let mid = flipped.len() / 2;
+    flipped[mid] ^= 0x40;
+    let flipped_path = p(d.path(), "flip.phot");
+    std::fs::write(&flipped_path, &flipped).unwrap();
+    let cbytes = std::fs::read(&cache).unwrap();
+    let ctrunc = p(d.path(), "trunc.ic");
+    std::fs::write(&ctrunc, &cbytes[..cbytes.len() - 7]).unwrap();
+    // Another scene: the furnace-free room.
+    let room = room();
+    let room_out = p(room.path(), "o.exr");
+    let cases: Vec<Vec<&str>> = vec![
+        vec!["--load-photons", &truncated],
+        vec!["--load-photons", &flipped_path],
+        vec!["--load-photons", &cache],
+        vec!["--load-cache", &ctrunc],
+        vec!["--load-cache", &ph],
+    ];
+    for extra in cases {
+        let r = render(d.path(), "bad.exr", &extra);
+        let stderr = String::from_utf8_lossy(&r.stderr);
+        assert_eq!(r.status.code(), Some(2), "{extra:?}: {stderr}");
+        assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
+        assert!(stderr.contains(extra[0]), "{stderr}");
+        assert!(!d.path().join("bad.exr").exists());
+    }
+    // Maps of one scene loaded into another.
+    let r = run(&["render", &p(room.path(), "scene.toml"), "-o", &room_out, "--load-photons", &ph, "--quiet"]);
+    let stderr = String::from_utf8_lossy(&r.stderr);
+    assert_eq!(r.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("--load-photons"), "{stderr}");
+    assert!(!Path::new(&room_out).exists());
+}
