@@ -29,6 +29,7 @@ test-slow: build
 
 bench: build
 	$(CARGO) bench --bench render
+	$(CARGO) bench --bench passes
 
 clean:
 	$(CARGO) clean

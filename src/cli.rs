@@ -26,6 +26,34 @@ struct Cli {
 enum Command {
     /// Render a scene to a layered EXR (and optionally a PNG and a statistics JSON).
     Render(RenderArgs),
+    /// Photon-count convergence: error of the image and of its caustic and indirect terms against the
+    /// photon count, as a table (converge.md, converge.json) and a chart (converge.png).
+    Converge(ConvergeArgs),
+}
+
+#[derive(Args)]
+struct ConvergeArgs {
+    scene: PathBuf,
+    /// Photon counts, comma-separated (e.g. 1e4,3e4,1e5,3e5,1e6); each sets both maps' targets.
+    #[arg(long, value_delimiter = ',', required = true)]
+    photons: Vec<String>,
+    /// Reference EXR (its size sets the render size).
+    #[arg(long)]
+    reference: PathBuf,
+    /// Output directory.
+    #[arg(short = 'o', long = "output")]
+    output: PathBuf,
+    /// photons (default: the maps read directly) or pm.
+    #[arg(long, default_value = "photons")]
+    method: String,
+    #[arg(long, allow_negative_numbers = true)]
+    spp: Option<i64>,
+    #[arg(long, allow_negative_numbers = true)]
+    threads: Option<i64>,
+    #[arg(long)]
+    seed: Option<u64>,
+    #[arg(long)]
+    quiet: bool,
 }
 
 #[derive(Args)]
@@ -213,6 +241,45 @@ fn render_command(a: RenderArgs, cancel: &AtomicBool) -> Result<()> {
     Ok(())
 }
 
+fn pool(threads: Option<i64>) -> Result<rayon::ThreadPool> {
+    let n = match threads {
+        Some(t) if !(1..=1024).contains(&t) => return Err(option("--threads", format!("{t} must be in 1..=1024"))),
+        t => t.map(|t| t as usize).unwrap_or(0),
+    };
+    rayon::ThreadPoolBuilder::new().num_threads(n).build().map_err(|e| Error::Runtime(e.to_string()))
+}
+
+fn converge_command(a: ConvergeArgs) -> Result<()> {
+    let counts = a
+        .photons
+        .iter()
+        .map(|s| match s.trim().parse::<f64>() {
+            Ok(x) if x >= 1.0 && x <= 1e9 => Ok(x.round() as usize),
+            _ => Err(option("--photons", format!("'{s}' is not a photon count in 1..1e9"))),
+        })
+        .collect::<Result<Vec<_>>>()?;
+    let method = match Method::parse(&a.method) {
+        Some(m @ (Method::Photons | Method::Pm)) => m,
+        _ => return Err(option("--method", format!("'{}' must be photons or pm", a.method))),
+    };
+    if !a.reference.is_file() {
+        return Err(option("--reference", format!("'{}' not found", a.reference.display())));
+    }
+    if !a.output.is_dir() {
+        std::fs::create_dir_all(&a.output).map_err(|e| option("-o", format!("cannot create '{}': {e}", a.output.display())))?;
+    }
+    let mut scene = scene::load(&a.scene)?;
+    let opts = Options { spp: positive("--spp", a.spp)?, seed: a.seed, ..Default::default() };
+    let bar = Bar::new(a.quiet);
+    let rows = pool(a.threads)?.install(|| pmrender::converge::converge(&mut scene, &counts, &a.reference, method, &opts, &a.output, &bar))?;
+    println!("{:>10} {:>9} {:>14} {:>14} {:>14}", "photons", "time s", "beauty relMSE", "caustic", "indirect");
+    for r in rows {
+        println!("{:>10} {:>9.2} {:>14.5} {:>14.5} {:>14.5}", r.photons, r.time_s, r.beauty, r.caustic, r.indirect);
+    }
+    println!("wrote {}/converge.md, converge.json, converge.png", a.output.display());
+    Ok(())
+}
+
 pub fn run() -> i32 {
     let cli = match Cli::try_parse() {
         Ok(c) => c,
@@ -235,6 +302,7 @@ pub fn run() -> i32 {
     }
     let result = match cli.command {
         Command::Render(a) => render_command(a, &cancel),
+        Command::Converge(a) => converge_command(a),
     };
     match result {
         Ok(()) => 0,

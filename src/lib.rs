@@ -5,6 +5,8 @@
 
 pub mod accel;
 pub mod camera;
+pub mod chart;
+pub mod converge;
 pub mod distribution;
 pub mod error;
 pub mod geometry;

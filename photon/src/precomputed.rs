@@ -111,6 +111,14 @@ impl PrecomputedIrradiance {
     pub fn lookup(&self, p: Vec3, n: Vec3) -> Option<Vec3> {
         CANDIDATES.with(|cell| {
             let mut found = cell.borrow_mut();
+            // Most queries are answered by the single nearest point; a 1-NN search is several times
+            // cheaper than the k-candidate search, which runs only when that point faces another way.
+            self.tree.knn(p, 1, self.max_radius, &mut found);
+            if let Some(pt) = found.first().map(|nb| &self.points[nb.index as usize]) {
+                if pt.normal.dot(n) > MIN_NORMAL_COS {
+                    return Some(pt.e);
+                }
+            }
             self.tree.knn(p, LOOKUP_CANDIDATES, self.max_radius, &mut found);
             found
                 .iter()
