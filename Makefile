@@ -26,6 +26,14 @@ test: build
 
 test-slow: build
 	$(CARGO) test --release --workspace -- --ignored
+	python3 tools/chart.py --quick --out out/charts-quick
+
+chart: build
+	pip install -q -r tools/chart_requirements.txt
+	python3 tools/chart.py --out charts
+
+fuzz: build
+	FUZZ_ITERS=200000 $(CARGO) test --release --test fuzz -- --nocapture
 
 bench: build
 	$(CARGO) bench --bench render

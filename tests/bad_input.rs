@@ -154,3 +154,23 @@ fn failed_render_leaves_existing_output_untouched() {
     assert_eq!(r.status.code(), Some(2));
     assert_eq!(std::fs::read(&out).unwrap(), b"previous");
 }
+
+#[test]
+fn interrupted_render_leaves_no_output() {
+    let scene = repo().join("scenes/cornell-caustics.toml");
+    let d = tempfile::tempdir().unwrap();
+    let out = d.path().join("big.exr");
+    let mut child = std::process::Command::new(bin())
+        .args(["render", scene.to_str().unwrap(), "-o", out.to_str().unwrap(), "--method", "path", "--spp", "4096", "--quiet"])
+        .spawn()
+        .unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(1500));
+    // SIGINT, as Ctrl-C sends.
+    let _ = std::process::Command::new("kill").args(["-INT", &child.id().to_string()]).status();
+    let status = child.wait().unwrap();
+    assert!(!status.success());
+    assert_eq!(status.code(), Some(130));
+    assert!(!out.exists());
+    let leftovers: Vec<_> = std::fs::read_dir(d.path()).unwrap().collect();
+    assert!(leftovers.is_empty(), "temporary files left: {leftovers:?}");
+}

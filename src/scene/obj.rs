@@ -92,14 +92,19 @@ fn precheck_mtl(path: &Path, text: &str) -> Result<()> {
         let mut it = raw.split_whitespace();
         let Some(tag) = it.next() else { continue };
         if matches!(tag, "Kd" | "Ks" | "Ke" | "Ka" | "Tf" | "Ns" | "Ni") {
+            let mut n = 0;
             for tok in it {
                 if tok.starts_with('#') {
                     break;
                 }
                 match tok.parse::<f32>() {
-                    Ok(x) if x.is_finite() => {}
+                    Ok(x) if x.is_finite() => n += 1,
                     _ => return Err(at_line(path, i + 1, format!("{tag}: '{tok}' is not a finite number"))),
                 }
+            }
+            let want = if matches!(tag, "Ns" | "Ni") { 1 } else { 3 };
+            if n < want {
+                return Err(at_line(path, i + 1, format!("{tag} needs {want} number(s), found {n}")));
             }
         }
     }
@@ -110,7 +115,10 @@ pub fn load(path: &Path) -> Result<ObjData> {
     let text = std::fs::read_to_string(path).map_err(|e| in_file(path, format!("cannot read OBJ: {e}")))?;
     precheck(path, &text)?;
     let opts = tobj::LoadOptions { single_index: true, triangulate: true, ignore_points: true, ignore_lines: true, ..Default::default() };
-    let (models, materials) = tobj::load_obj(path, &opts).map_err(|e| in_file(path, format!("OBJ: {e}")))?;
+    // tobj can panic on inputs the check above does not foresee; that is still bad input, not a crash.
+    let loaded = std::panic::catch_unwind(|| tobj::load_obj(path, &opts))
+        .map_err(|_| in_file(path, "OBJ/MTL could not be parsed (malformed statement)"))?;
+    let (models, materials) = loaded.map_err(|e| in_file(path, format!("OBJ: {e}")))?;
     let materials = materials.map_err(|e| in_file(path, format!("MTL: {e}")))?;
     let models = models
         .into_iter()
