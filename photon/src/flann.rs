@@ -72,6 +72,15 @@ extern "C" {
         radius: f32,
         params: *mut FlannParameters,
     ) -> c_int;
+    fn flann_find_nearest_neighbors_index_float(
+        index: *mut c_void,
+        testset: *mut f32,
+        trows: c_int,
+        indices: *mut c_int,
+        dists: *mut f32,
+        nn: c_int,
+        params: *mut FlannParameters,
+    ) -> c_int;
     fn flann_used_memory_float(index: *mut c_void) -> c_int;
     fn flann_free_index_float(index: *mut c_void, params: *mut FlannParameters) -> c_int;
 }
@@ -199,6 +208,44 @@ impl KdTree {
             );
         });
         out.sort_unstable_by(|a, b| a.dist2.total_cmp(&b.dist2).then(a.index.cmp(&b.index)));
+    }
+
+    /// The nearest point to each query, in ONE FLANN call (FLANN's per-call cost, an OpenMP region and
+    /// result-set set-up, is paid once per batch instead of once per query). `out[i]` is `None` for a
+    /// non-finite query or an empty tree. No radius limit: callers compare `dist2` themselves.
+    pub fn nearest_batch(&self, queries: &[Vec3], out: &mut Vec<Option<Neighbor>>) {
+        out.clear();
+        out.resize(queries.len(), None);
+        let Some(index) = self.index else { return };
+        let finite: Vec<usize> = (0..queries.len()).filter(|&i| queries[i].is_finite()).collect();
+        if finite.is_empty() || finite.len() > c_int::MAX as usize {
+            return;
+        }
+        let mut flat: Vec<f32> = finite.iter().flat_map(|&i| queries[i].to_array()).collect();
+        let mut indices = vec![-1 as c_int; finite.len()];
+        let mut dists = vec![f32::INFINITY; finite.len()];
+        let mut p = params(1);
+        // SAFETY: `flat` holds rows × 3 floats, `indices` and `dists` hold rows × nn (= 1) entries; the
+        // index is alive and only read.
+        let rc = unsafe {
+            flann_find_nearest_neighbors_index_float(
+                index.as_ptr(),
+                flat.as_mut_ptr(),
+                finite.len() as c_int,
+                indices.as_mut_ptr(),
+                dists.as_mut_ptr(),
+                1,
+                &mut p,
+            )
+        };
+        if rc < 0 {
+            return;
+        }
+        for (k, &i) in finite.iter().enumerate() {
+            if indices[k] >= 0 {
+                out[i] = Some(Neighbor { index: indices[k] as u32, dist2: dists[k] });
+            }
+        }
     }
 
     /// [`knn`](Self::knn) for many queries, in parallel; result `i` belongs to `queries[i]`.

@@ -128,6 +128,22 @@ impl PrecomputedIrradiance {
         })
     }
 
+    /// [`lookup`](Self::lookup) for many queries: one batched nearest-neighbour call, then the
+    /// candidate search only for the queries whose nearest point is out of range or faces another way.
+    pub fn lookup_batch(&self, ps: &[Vec3], ns: &[Vec3], out: &mut Vec<Option<Vec3>>) {
+        let mut nearest = Vec::new();
+        self.tree.nearest_batch(ps, &mut nearest);
+        let r2 = self.max_radius * self.max_radius;
+        out.clear();
+        out.extend(ps.iter().zip(ns).zip(&nearest).map(|((&p, &n), nb)| {
+            let pt = nb.filter(|nb| nb.dist2 < r2).map(|nb| &self.points[nb.index as usize]);
+            match pt {
+                Some(pt) if pt.normal.dot(n) > MIN_NORMAL_COS => Some(pt.e),
+                _ => self.lookup(p, n),
+            }
+        }));
+    }
+
     pub fn memory_bytes(&self) -> usize {
         self.points.capacity() * std::mem::size_of::<IrradiancePoint>() + self.tree.memory_bytes()
     }

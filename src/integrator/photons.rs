@@ -91,6 +91,20 @@ impl PhotonData {
         self.global(|m| m.irradiance(p, n, self.settings.lookup, self.settings.max_radius_global, Filter::None).e)
     }
 
+    /// [`precomputed_irradiance`](Self::precomputed_irradiance) for a whole final gather's hits at once.
+    pub fn precomputed_irradiance_batch(&self, ps: &[Vec3], ns: &[Vec3]) -> Vec<Vec3> {
+        let mut found = Vec::new();
+        match &self.precomputed {
+            Some(pre) => pre.lookup_batch(ps, ns, &mut found),
+            None => found.resize(ps.len(), None),
+        }
+        found
+            .into_iter()
+            .zip(ps.iter().zip(ns))
+            .map(|(e, (&p, &n))| e.unwrap_or_else(|| self.global(|m| m.irradiance(p, n, self.settings.lookup, self.settings.max_radius_global, Filter::None).e)))
+            .collect()
+    }
+
     /// Indirect-only irradiance read straight from the global map (method `photons`): photons that came
     /// straight from a light, or through specular bounces only, are left out — direct and caustic
     /// light have their own terms.

@@ -158,26 +158,45 @@ impl PmContext<'_> {
     }
 
     /// One final gather from `hit`: rays read the global map's precomputed irradiance at their hits.
+    ///
+    /// Two rounds over the same deterministic directions: the first traces every ray and collects the
+    /// non-specular points they reach, one batched FLANN lookup reads those points' irradiance, and
+    /// the second round hands each ray its radiance (per-query FLANN calls cost far more than the rays).
     pub fn final_gather(&self, hit: &Hit, frame: &Frame, seed: u64, c: &mut SampleCounters) -> GatherResult {
         let mut rng = Rng::new(hash_keys(&[self.seed, 0x6a7e, seed]));
         let mut rays = 0u64;
-        let mut trace = |dir: Vec3| -> GatherRay {
+        let mut ends: Vec<GatherEnd> = Vec::with_capacity(self.gather.rays + 8);
+        gather::gather(hit.p, frame.n, &self.gather, seed, &mut |dir: Vec3| -> GatherRay {
             rays += 1;
-            self.gather_ray(hit, dir, &mut rng, &mut rays)
-        };
-        let result = gather::gather(hit.p, frame.n, &self.gather, seed, &mut trace);
+            let end = self.gather_ray(hit, dir, &mut rng, &mut rays);
+            let distance = end.distance;
+            ends.push(end);
+            GatherRay { radiance: Vec3::ZERO, distance }
+        });
+        let (ps, ns): (Vec<Vec3>, Vec<Vec3>) = ends.iter().filter(|e| e.weight != Vec3::ZERO).map(|e| (e.p, e.n)).unzip();
+        let irradiance = self.photons.precomputed_irradiance_batch(&ps, &ns);
+        let mut lit = irradiance.into_iter();
+        let mut replay = ends.into_iter();
+        let result = gather::gather(hit.p, frame.n, &self.gather, seed, &mut |_dir: Vec3| -> GatherRay {
+            match replay.next() {
+                Some(end) if end.weight != Vec3::ZERO => GatherRay { radiance: end.weight * lit.next().unwrap_or(Vec3::ZERO), distance: end.distance },
+                Some(end) => GatherRay { radiance: Vec3::ZERO, distance: end.distance },
+                None => GatherRay::miss(Vec3::ZERO),
+            }
+        });
         c.rays += rays;
         c.gathers += 1;
         c.gather_rays += rays;
         result
     }
 
-    /// Radiance arriving along one gather ray: Kd/π × precomputed irradiance at a non-specular hit
-    /// (no further recursion); emitters count zero (direct light is its own term); mirror and glass are
-    /// followed for a few bounces; a miss is zero.
-    fn gather_ray(&self, from: &Hit, dir: Vec3, rng: &mut Rng, rays: &mut u64) -> GatherRay {
+    /// Where one gather ray ends: the first non-specular surface it reaches (following mirror and glass
+    /// for a few bounces), whose radiance toward the ray is `weight` × its irradiance (Kd/π × the
+    /// throughput of the specular chain). Emitters count zero (direct light is its own term) except
+    /// for what they reflect; a miss is zero.
+    fn gather_ray(&self, from: &Hit, dir: Vec3, rng: &mut Rng, rays: &mut u64) -> GatherEnd {
         const MAX_SPECULAR: u32 = 4;
-        let Some(first) = self.scene.intersect(spawn(from, dir), dir) else { return GatherRay::miss(Vec3::ZERO) };
+        let Some(first) = self.scene.intersect(spawn(from, dir), dir) else { return GatherEnd::MISS };
         let distance = first.t;
         let (mut hit, mut d, mut beta) = (first, dir, Vec3::ONE);
         for bounce in 0..=MAX_SPECULAR {
@@ -185,8 +204,7 @@ impl PmContext<'_> {
             let bsdf = &self.scene.material(&hit).bsdf;
             let kd = self.scene.albedo(&hit);
             if !bsdf.is_specular() {
-                let e = self.photons.precomputed_irradiance(hit.p, frame.n);
-                return GatherRay { radiance: beta * bsdf.diffuse_albedo(kd) / PI * e, distance };
+                return GatherEnd { p: hit.p, n: frame.n, weight: beta * bsdf.diffuse_albedo(kd) / PI, distance };
             }
             if bounce == MAX_SPECULAR {
                 break;
@@ -203,8 +221,20 @@ impl PmContext<'_> {
                 None => break,
             }
         }
-        GatherRay { radiance: Vec3::ZERO, distance }
+        GatherEnd { distance, ..GatherEnd::MISS }
     }
+}
+
+/// The end of one gather ray (see `gather_ray`).
+struct GatherEnd {
+    p: Vec3,
+    n: Vec3,
+    weight: Vec3,
+    distance: f32,
+}
+
+impl GatherEnd {
+    const MISS: GatherEnd = GatherEnd { p: Vec3::ZERO, n: Vec3::ZERO, weight: Vec3::ZERO, distance: f32::INFINITY };
 }
 
 /// Solid-angle pdf of the normalised Phong lobe about the mirror direction `r`.
