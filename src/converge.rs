@@ -60,13 +60,16 @@ pub fn converge(scene: &mut Scene, counts: &[usize], reference: &Path, method: M
     }
     let Some((_, _, last)) = renders.last() else { return Err(option("--photons", "give at least one count")) };
     let self_terms: Vec<Option<Image>> = ["caustic", "indirect"].iter().map(|n| layer(&last.layers, n).cloned()).collect();
+    let n_renders = renders.len();
     let rows: Vec<ConvergeRow> = renders
         .iter()
-        .map(|(n, t, out)| {
+        .enumerate()
+        .map(|(i, (n, t, out))| {
             let term_err = |k: usize, name: &str| -> f64 {
                 let r = ref_terms[k].as_ref().or(self_terms[k].as_ref());
+                let is_own_reference = ref_terms[k].is_none() && i + 1 == n_renders;
                 match (layer(&out.layers, name), r) {
-                    (Some(a), Some(r)) => rel_mse(a, r),
+                    (Some(a), Some(r)) if !is_own_reference => rel_mse(a, r),
                     _ => f64::NAN,
                 }
             };
@@ -84,7 +87,8 @@ fn write_outputs(rows: &[ConvergeRow], terms_from_reference: bool, out_dir: &Pat
          | photons | time (s) | beauty relMSE | caustic relMSE | indirect relMSE |\n|---:|---:|---:|---:|---:|\n"
     );
     for r in rows {
-        md += &format!("| {} | {:.2} | {:.5} | {:.5} | {:.5} |\n", r.photons, r.time_s, r.beauty, r.caustic, r.indirect);
+        let f = |x: f64| if x.is_finite() { format!("{x:.5}") } else { "—".to_string() };
+        md += &format!("| {} | {:.2} | {} | {} | {} |\n", r.photons, r.time_s, f(r.beauty), f(r.caustic), f(r.indirect));
     }
     md += &format!("\nChart `converge.png`: x = photons, y = relMSE; {} = beauty, {} = caustic, {} = indirect.\n", PALETTE[0].0, PALETTE[1].0, PALETTE[2].0);
     write_bytes(&out_dir.join("converge.md"), md.as_bytes())?;
