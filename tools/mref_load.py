@@ -112,8 +112,9 @@ def default_material(scene):
 def apply_override(mat, d, toml_dir):
     """`[materials.NAME]` as pmrender's mtl::apply_override: keys not given default from the current
     material when it is diffuse or glossy (albedo, specular, exponent), else albedo 0.8, specular 0,
-    exponent 1; mirror reflectance defaults to that specular if > 0, else 1; glass to ior 1.5 and
-    transmittance 1. The type defaults to the current one."""
+    exponent 1; mirror reflectance defaults to the current mirror's, else that specular if > 0, else 1;
+    glass to the current glass's ior and transmittance, else 1.5 and 1. The type defaults to the
+    current one."""
     kind = d.get("type", mat.kind)
     if kind not in OVERRIDE_KEYS:
         raise SceneError(f"materials.{mat.name}: unknown type '{kind}'")
@@ -127,6 +128,7 @@ def apply_override(mat, d, toml_dir):
     else:
         kd, ks, ns = (0.8, 0.8, 0.8), (0.0, 0.0, 0.0), 1.0
     get = lambda k, dflt: vec3(d[k], f"materials.{mat.name}.{k}") if k in d else dflt
+    was = mat.kind
     if kind != "diffuse" or mat.kind != "diffuse":
         mat.texture = None
     if kind == "diffuse":
@@ -134,12 +136,14 @@ def apply_override(mat, d, toml_dir):
         if "texture" in d:
             mat.texture = resolve_texture(toml_dir, d["texture"])
     elif kind == "mirror":
-        mat.reflectance = get("reflectance", ks if max(ks) > 0 else (1.0, 1.0, 1.0))
+        own = mat.reflectance if was == "mirror" else None
+        mat.reflectance = get("reflectance", own or (ks if max(ks) > 0 else (1.0, 1.0, 1.0)))
     elif kind == "glass":
-        ior = float(d.get("ior", 1.5))
+        ior = float(d.get("ior", mat.ior if was == "glass" else 1.5))
         if not ior > 1.0:
             raise SceneError(f"materials.{mat.name}.ior = {ior} must be > 1")
-        mat.ior, mat.transmittance = ior, get("transmittance", (1.0, 1.0, 1.0))
+        own_t = mat.transmittance if was == "glass" else (1.0, 1.0, 1.0)
+        mat.ior, mat.transmittance = ior, get("transmittance", own_t)
     else:
         set_glossy(mat, get("albedo", kd), get("specular", ks), float(d.get("exponent", max(ns, 1.0))))
     mat.kind = kind

@@ -68,6 +68,15 @@ pub fn apply_override(
         Bsdf::Glossy { albedo, specular, exponent } => (*albedo, *specular, *exponent),
         _ => (Vec3::splat(0.8), Vec3::ZERO, 1.0),
     };
+    // Keys not given keep the material's own values when it already has that type.
+    let mirror_r = match mat.bsdf {
+        Bsdf::Mirror { reflectance } => Some(reflectance),
+        _ => None,
+    };
+    let (glass_ior, glass_t) = match mat.bsdf {
+        Bsdf::Glass { ior, transmittance } => (Some(ior), Some(transmittance)),
+        _ => (None, None),
+    };
     let kind = d.kind.clone().unwrap_or_else(|| match mat.bsdf {
         Bsdf::Diffuse { .. } => "diffuse".into(),
         Bsdf::Mirror { .. } => "mirror".into(),
@@ -106,13 +115,15 @@ pub fn apply_override(
             texture = d.texture.clone();
             Bsdf::Diffuse { albedo: v3(d.albedo).unwrap_or(kd), texture: None }
         }
-        "mirror" => Bsdf::Mirror { reflectance: v3(d.reflectance).unwrap_or(if ks.max_element() > 0.0 { ks } else { Vec3::ONE }) },
+        "mirror" => Bsdf::Mirror {
+            reflectance: v3(d.reflectance).or(mirror_r).unwrap_or(if ks.max_element() > 0.0 { ks } else { Vec3::ONE }),
+        },
         "glass" => {
-            let ior = d.ior.unwrap_or(1.5);
+            let ior = d.ior.or(glass_ior).unwrap_or(1.5);
             if !(ior.is_finite() && ior > 1.0) {
                 return Err(err(format!("ior = {ior} must be > 1")));
             }
-            Bsdf::Glass { ior, transmittance: v3(d.transmittance).unwrap_or(Vec3::ONE) }
+            Bsdf::Glass { ior, transmittance: v3(d.transmittance).or(glass_t).unwrap_or(Vec3::ONE) }
         }
         _ => {
             let exponent = d.exponent.unwrap_or(ns.max(1.0));
@@ -126,4 +137,24 @@ pub fn apply_override(
         mat.emission = Vec3::from_array(e);
     }
     Ok(texture)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn overrides_keep_the_values_they_do_not_set() {
+        let mut glass = Material { name: "g".into(), bsdf: Bsdf::Glass { ior: 2.5, transmittance: Vec3::splat(0.1) }, emission: Vec3::ZERO };
+        let d = MaterialDesc { transmittance: Some([1.0; 3]), ..Default::default() };
+        apply_override(Path::new("s.toml"), 1, &mut glass, &d).unwrap();
+        assert_eq!(glass.bsdf, Bsdf::Glass { ior: 2.5, transmittance: Vec3::ONE });
+        let mut mirror = Material { name: "m".into(), bsdf: Bsdf::Mirror { reflectance: Vec3::splat(0.9) }, emission: Vec3::ZERO };
+        let d = MaterialDesc { emission: Some([1.0; 3]), ..Default::default() };
+        apply_override(Path::new("s.toml"), 1, &mut mirror, &d).unwrap();
+        assert_eq!(mirror.bsdf, Bsdf::Mirror { reflectance: Vec3::splat(0.9) });
+        assert_eq!(mirror.emission, Vec3::ONE);
+        let d = MaterialDesc { kind: Some("glass".into()), reflectance: Some([1.0; 3]), ..Default::default() };
+        assert!(apply_override(Path::new("s.toml"), 1, &mut mirror, &d).is_err());
+    }
 }
