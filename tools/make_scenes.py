@@ -166,7 +166,7 @@ def interior_diffuse():
     o.box("column2", "stone", (0.9, 0, -1.9), (1.3, h, -1.5))
     o.box("boxRed", "red", (-1.5, 0, -0.6), (-0.8, 0.7, 0.1))
     o.box("boxBlue", "blue", (0.2, 0, -0.9), (0.9, 0.45, -0.2))
-    o.box("shelf", "plaster", (1.2, 0, 0.3), (2.5, 1.1, 1.0))
+    o.box("shelf", "plaster", (1.9, 0, -1.0), (2.5, 1.1, -0.1))
     o.write("interior-diffuse", """
 newmtl wood
 Kd 0.45 0.32 0.2
@@ -191,7 +191,7 @@ Ke 12 9 5
 
 def wave(x, z):
     """Height offset and slope (d/dx, d/dz) of the water surface: a sum of sines."""
-    terms = [(0.018, 7.0, 2.0, 0.3), (0.014, -3.0, 8.0, 1.7), (0.010, 11.0, -6.0, 4.1)]
+    terms = [(0.022, 13.0, 4.0, 0.3), (0.018, -5.0, 12.0, 1.7), (0.014, 9.0, -10.0, 4.1)]
     hgt, dx, dz = 0.0, 0.0, 0.0
     for a, kx, kz, ph in terms:
         arg = kx * x + kz * z + ph
@@ -248,7 +248,7 @@ newmtl stone
 Kd 0.55 0.2 0.12
 newmtl light
 Kd 0.78 0.78 0.78
-Ke 60 56 48
+Ke 40 37 32
 newmtl water
 Kd 0 0 0
 Ks 1 1 1
@@ -259,7 +259,7 @@ illum 7
 
 def spot_point():
     """An open box (x, z in [-1.5, 1.5], y in [0, 2.2], open toward +z) with no emitting surface: the
-    scene's spot and point lights are [[light]] entries. A glossy sphere, a glossy pedestal, a diffuse box."""
+    scene's spot and point lights are [[light]] entries. A glossy sphere (modified Phong), a pedestal and a box."""
     o = Obj()
     w, h = 1.5, 2.2
     o.quad("floor", "floor", (-w, 0, w), (w, 0, w), (w, 0, -w), (-w, 0, -w))
@@ -268,7 +268,7 @@ def spot_point():
     o.quad("left", "ochre", (-w, 0, w), (-w, 0, -w), (-w, h, -w), (-w, h, w))
     o.quad("right", "white", (w, 0, -w), (w, 0, w), (w, h, w), (w, h, -w))
     o.sphere("glossySphere", "glossyRed", (0.35, 0.45, -0.2), 0.45)
-    o.box("pedestal", "glossyGrey", (-1.0, 0, -0.9), (-0.4, 0.8, -0.3))
+    o.box("pedestal", "grey", (-1.0, 0, -0.9), (-0.4, 0.8, -0.3))
     o.box("crate", "wood", (0.6, 0, 0.5), (1.1, 0.35, 1.0))
     o.write("spot-point", """
 newmtl floor
@@ -285,10 +285,8 @@ newmtl glossyRed
 Kd 0.45 0.06 0.05
 Ks 0.4 0.4 0.4
 Ns 60
-newmtl glossyGrey
-Kd 0.3 0.3 0.32
-Ks 0.3 0.3 0.3
-Ns 15
+newmtl grey
+Kd 0.45 0.45 0.47
 """)
 
 

@@ -101,6 +101,8 @@ pub struct TraceStats {
     pub n_paths_dropped: u64,
     /// Paths cut at [`MAX_DEPTH`].
     pub n_paths_depth_capped: u64,
+    /// 1 when the caustic map stopped short of its target at [`CAUSTIC_PATH_BUDGET`].
+    pub n_caustic_cut: u64,
     pub trace_s: f64,
     pub global_build_s: f64,
     pub caustic_build_s: f64,
@@ -117,6 +119,7 @@ impl AddAssign for TraceStats {
         self.n_caustic_stored += o.n_caustic_stored;
         self.n_paths_dropped += o.n_paths_dropped;
         self.n_paths_depth_capped += o.n_paths_depth_capped;
+        self.n_caustic_cut += o.n_caustic_cut;
         self.trace_s += o.trace_s;
         self.global_build_s += o.global_build_s;
         self.caustic_build_s += o.caustic_build_s;
@@ -158,6 +161,16 @@ pub fn trace_photons<S: PhotonScene + ?Sized>(
                 let (g1, c1) = chunk.ends[j];
                 global.take(&chunk.global[g0..g1], path);
                 caustic.take(&chunk.caustic[c0..c1], path);
+                // Where little light reaches specular surfaces, the caustic map would keep emission going
+                // for a long time for a dim effect: it gets CAUSTIC_PATH_BUDGET × the paths the global
+                // map needed, and is normalised by the paths emitted while it filled.
+                if let (false, true, Some(g)) = (global.active, caustic.active, global.n_paths) {
+                    if path + 1 >= g.saturating_mul(CAUSTIC_PATH_BUDGET) {
+                        caustic.active = false;
+                        caustic.n_paths = Some(path + 1);
+                        stats.n_caustic_cut = 1;
+                    }
+                }
                 match chunk.end_kinds[j] {
                     PathEnd::Dropped => stats.n_paths_dropped += 1,
                     PathEnd::DepthCapped => stats.n_paths_depth_capped += 1,
@@ -202,6 +215,9 @@ fn build_map(photons: Option<Vec<Photon>>) -> Result<(Option<PhotonMap>, f64)> {
 }
 
 /// A map while it fills: it takes whole paths until it holds `target` photons.
+/// Paths the caustic map may take, as a multiple of the paths that filled the global map.
+pub const CAUSTIC_PATH_BUDGET: u64 = 10;
+
 struct Filling {
     photons: Vec<Photon>,
     target: usize,

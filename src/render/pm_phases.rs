@@ -222,6 +222,7 @@ fn photon_rows(r: &mut Report, s: &photon::TraceStats, settings: &PhotonSettings
     r.bytes("Photons", "Memory, caustic map", "photons.caustic_memory_bytes", s.caustic_memory_bytes);
     r.bytes("Photons", "Memory", "photons.memory_bytes", s.global_memory_bytes + s.caustic_memory_bytes + pre.map(|p| p.memory_bytes() as u64).unwrap_or(0));
     r.count("Photons", "Paths dropped (non-finite)", "rare.photon_paths_dropped", s.n_paths_dropped);
+    r.count("Photons", "Caustic map stopped by its path budget", "photons.caustic_cut", s.n_caustic_cut);
     r.count("Photons", "Lookup k", "photons.lookup", settings.lookup as u64);
     r.number("Photons", "Max radius (global)", "photons.max_radius_global", settings.max_radius_global as f64);
     r.number("Photons", "Max radius (caustic)", "photons.max_radius_caustic", settings.max_radius_caustic as f64);
