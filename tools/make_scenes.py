@@ -191,7 +191,7 @@ Ke 12 9 5
 
 def wave(x, z):
     """Height offset and slope (d/dx, d/dz) of the water surface: a sum of sines."""
-    terms = [(0.022, 13.0, 4.0, 0.3), (0.018, -5.0, 12.0, 1.7), (0.014, 9.0, -10.0, 4.1)]
+    terms = [(0.03, 13.0, 4.0, 0.3), (0.025, -5.0, 12.0, 1.7), (0.02, 9.0, -10.0, 4.1)]
     hgt, dx, dz = 0.0, 0.0, 0.0
     for a, kx, kz, ph in terms:
         arg = kx * x + kz * z + ph
@@ -204,7 +204,7 @@ def wave(x, z):
 def water_caustics(n=72):
     """A tank (x, z in [-1, 1], y in [0, 2], open toward +z) half filled with water: a wavy glass surface
     (ior 1.33, vertex normals from the analytic slope) over a bright floor, closed at the front by a flat
-    water face; a small bright ceiling light throws a caustic pattern onto the floor."""
+    water face; a bright ceiling light throws a caustic pattern onto the floor."""
     o = Obj()
     o.quad("floor", "tile", (-1, 0, 1), (1, 0, 1), (1, 0, -1), (-1, 0, -1))
     o.quad("ceiling", "white", (-1, 2, -1), (1, 2, -1), (1, 2, 1), (-1, 2, 1))
@@ -212,7 +212,7 @@ def water_caustics(n=72):
     o.quad("left", "poolwall", (-1, 0, 1), (-1, 0, -1), (-1, 2, -1), (-1, 2, 1))
     o.quad("right", "poolwall", (1, 0, -1), (1, 0, 1), (1, 2, 1), (1, 2, -1))
     o.box("stone", "stone", (-0.55, 0, -0.45), (-0.15, 0.22, -0.05))
-    s = 0.18
+    s = 0.35  # big enough for a path-traced reference of the caustic within minutes
     o.quad("light", "light", (0.1 - s, 1.98, -0.2 - s), (0.1 + s, 1.98, -0.2 - s),
            (0.1 + s, 1.98, -0.2 + s), (0.1 - s, 1.98, -0.2 + s))
     level = 0.5
@@ -248,7 +248,7 @@ newmtl stone
 Kd 0.55 0.2 0.12
 newmtl light
 Kd 0.78 0.78 0.78
-Ke 40 37 32
+Ke 11 10 8.5
 newmtl water
 Kd 0 0 0
 Ks 1 1 1

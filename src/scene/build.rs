@@ -322,31 +322,20 @@ fn light(cx: &Ctx, i: usize, l: &LightDesc, center: Vec3, radius: f32) -> Result
     })
 }
 
-/// FNV-1a over positions, triangles, materials and lights.
+/// FNV-1a (the cache file's checksum function) over positions, triangles, materials and lights.
 fn fingerprint(geo: &Geometry, materials: &[Material], lights: &Lights) -> u64 {
-    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-    let mut eat = |bytes: &[u8]| {
-        for b in bytes {
-            h ^= *b as u64;
-            h = h.wrapping_mul(0x100_0000_01b3);
-        }
-    };
+    let mut bytes: Vec<u8> = Vec::with_capacity(geo.positions.len() * 12 + geo.triangles.len() * 16);
     for p in &geo.positions {
-        for x in p.to_array() {
-            eat(&x.to_le_bytes());
-        }
+        bytes.extend(p.to_array().iter().flat_map(|x| x.to_le_bytes()));
     }
     for t in &geo.triangles {
-        for k in t.v {
-            eat(&k.to_le_bytes());
-        }
-        eat(&t.material.to_le_bytes());
+        bytes.extend(t.v.iter().chain([&t.material]).flat_map(|k| k.to_le_bytes()));
     }
     for m in materials {
-        eat(format!("{:?}{:?}", m.bsdf, m.emission).as_bytes());
+        bytes.extend(format!("{:?}{:?}", m.bsdf, m.emission).bytes());
     }
     for l in &lights.lights {
-        eat(format!("{l:?}").as_bytes());
+        bytes.extend(format!("{l:?}").bytes());
     }
-    h
+    icache::file::fnv1a64(&bytes)
 }
