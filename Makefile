@@ -1,7 +1,7 @@
 # pmrender — build, test, render, benchmark.
 SHELL := /bin/bash
 CARGO ?= cargo
-DEB_PACKAGES := libembree-dev libflann-dev libopenimageio-dev libopenexr-dev pkg-config g++ libclang-dev liblz4-dev
+DEB_PACKAGES := libembree-dev libflann-dev libopenimageio-dev libopenexr-dev pkg-config g++ liblz4-dev
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 BIN := target/release/pmrender
 
