@@ -202,19 +202,19 @@ def wave(x, z):
 
 
 def water_caustics(n=72):
-    """A tank (x, z in [-1, 1], y in [0, 2], open toward +z) half filled with water: a wavy glass surface
+    """A tank (x, z in [-1, 1], y in [0, 1.5], open toward +z) half filled with water: a wavy glass surface
     (ior 1.33, vertex normals from the analytic slope) over a bright floor, closed at the front by a flat
     water face; a bright ceiling light throws a caustic pattern onto the floor."""
     o = Obj()
     o.quad("floor", "tile", (-1, 0, 1), (1, 0, 1), (1, 0, -1), (-1, 0, -1))
-    o.quad("ceiling", "white", (-1, 2, -1), (1, 2, -1), (1, 2, 1), (-1, 2, 1))
-    o.quad("back", "poolwall", (-1, 0, -1), (1, 0, -1), (1, 2, -1), (-1, 2, -1))
-    o.quad("left", "poolwall", (-1, 0, 1), (-1, 0, -1), (-1, 2, -1), (-1, 2, 1))
-    o.quad("right", "poolwall", (1, 0, -1), (1, 0, 1), (1, 2, 1), (1, 2, -1))
+    o.quad("ceiling", "white", (-1, 1.5, -1), (1, 1.5, -1), (1, 1.5, 1), (-1, 1.5, 1))
+    o.quad("back", "poolwall", (-1, 0, -1), (1, 0, -1), (1, 1.5, -1), (-1, 1.5, -1))
+    o.quad("left", "poolwall", (-1, 0, 1), (-1, 0, -1), (-1, 1.5, -1), (-1, 1.5, 1))
+    o.quad("right", "poolwall", (1, 0, -1), (1, 0, 1), (1, 1.5, 1), (1, 1.5, -1))
     o.box("stone", "stone", (-0.55, 0, -0.45), (-0.15, 0.22, -0.05))
-    s = 0.35  # big enough for a path-traced reference of the caustic within minutes
-    o.quad("light", "light", (0.1 - s, 1.98, -0.2 - s), (0.1 + s, 1.98, -0.2 - s),
-           (0.1 + s, 1.98, -0.2 + s), (0.1 - s, 1.98, -0.2 + s))
+    s = 0.45  # big and near enough for a path-traced reference of the caustic within minutes
+    o.quad("light", "light", (0.1 - s, 1.49, -0.2 - s), (0.1 + s, 1.49, -0.2 - s),
+           (0.1 + s, 1.49, -0.2 + s), (0.1 - s, 1.49, -0.2 + s))
     level = 0.5
     verts, normals, tris = [], [], []
     for j in range(n + 1):
@@ -248,7 +248,7 @@ newmtl stone
 Kd 0.55 0.2 0.12
 newmtl light
 Kd 0.78 0.78 0.78
-Ke 11 10 8.5
+Ke 5 4.6 4
 newmtl water
 Kd 0 0 0
 Ks 1 1 1

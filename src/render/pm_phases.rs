@@ -147,7 +147,9 @@ pub fn render_pm(scene: &Scene, plan: &Plan, opts: &Options, camera: &Camera, pr
     if let Some(c) = &cache {
         let mut cs = CacheStats::collect(c, &fill, &counters.lookups);
         cs.records_pass_b -= n_loaded.min(cs.records_pass_b);
-        report.count("Irradiance cache", "Records loaded from file", "icache.records_loaded", n_loaded);
+        if n_loaded > 0 {
+            report.count("Irradiance cache", "Records loaded from file", "icache.records_loaded", n_loaded);
+        }
         cache_rows(&mut report, &cs, &fill, fc.gather_rays + counters.gather_rays);
     }
     report.count("Final gather", "Gathers", "gather.gathers", fc.gathers + counters.gathers);
