@@ -163,9 +163,9 @@ pub fn trace_photons<S: PhotonScene + ?Sized>(
                 caustic.take(&chunk.caustic[c0..c1], path);
                 // Where little light reaches specular surfaces, the caustic map would keep emission going
                 // for a long time for a dim effect: it gets CAUSTIC_PATH_BUDGET × the paths the global
-                // map needed, and is normalised by the paths emitted while it filled.
+                // map needed (at least CAUSTIC_MIN_PATHS), normalised by the paths emitted while it filled.
                 if let (false, true, Some(g)) = (global.active, caustic.active, global.n_paths) {
-                    if path + 1 >= g.saturating_mul(CAUSTIC_PATH_BUDGET) {
+                    if path + 1 >= g.saturating_mul(CAUSTIC_PATH_BUDGET).max(CAUSTIC_MIN_PATHS) {
                         caustic.active = false;
                         caustic.n_paths = Some(path + 1);
                         stats.n_caustic_cut = 1;
@@ -186,6 +186,9 @@ pub fn trace_photons<S: PhotonScene + ?Sized>(
         }
         let stored = (global.photons.len() + caustic.photons.len()) as u64;
         progress(stored, (global.target + caustic.target) as u64);
+        if stored == 0 && next_path >= GIVE_UP_EMPTY_PATHS {
+            break; // nothing reaches a non-specular surface: more paths will not change that
+        }
     }
     stats.n_paths_emitted = next_path;
     stats.trace_s = start.elapsed().as_secs_f64();
@@ -215,8 +218,13 @@ fn build_map(photons: Option<Vec<Photon>>) -> Result<(Option<PhotonMap>, f64)> {
 }
 
 /// A map while it fills: it takes whole paths until it holds `target` photons.
-/// Paths the caustic map may take, as a multiple of the paths that filled the global map.
+/// Paths after which a pass that has stored nothing at all stops (`NothingStored`).
+pub const GIVE_UP_EMPTY_PATHS: u64 = 200_000;
+
+/// Paths the caustic map may take, as a multiple of the paths that filled the global map …
 pub const CAUSTIC_PATH_BUDGET: u64 = 10;
+/// … but never fewer than this many.
+pub const CAUSTIC_MIN_PATHS: u64 = 2_000_000;
 
 struct Filling {
     photons: Vec<Photon>,

@@ -66,8 +66,15 @@ pub struct PhotonData {
 
 impl PhotonData {
     pub fn trace(scene: &Scene, settings: &PhotonSettings, seed: u64, progress: &(dyn Fn(u64, u64) + Sync)) -> Result<(PhotonMaps, TraceStats)> {
-        photon::trace_photons(&PhotonView(scene), &Self::targets(settings), seed, progress)
-            .map_err(|e| crate::error::runtime(format!("photon pass: {e}")))
+        match photon::trace_photons(&PhotonView(scene), &Self::targets(settings), seed, progress) {
+            Ok(r) => Ok(r),
+            // No light reaches any non-specular surface: there is no caustic or indirect light to
+            // estimate, so the render goes on with empty maps (counted in the statistics).
+            Err(photon::Error::NothingStored { n_paths_emitted }) => {
+                Ok((PhotonMaps::default(), TraceStats { n_paths_emitted, ..Default::default() }))
+            }
+            Err(e) => Err(crate::error::runtime(format!("photon pass: {e}"))),
+        }
     }
 
     /// Stored-photon targets, with a path budget after which the pass stops instead of looping.
