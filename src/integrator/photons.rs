@@ -112,6 +112,22 @@ impl PhotonData {
             .collect()
     }
 
+    /// Radiance leaving a glossy surface toward `wo` through its specular lobe, estimated from the global
+    /// map with the lobe as BRDF (Jensen's estimate at final-gather hits); zero for other materials.
+    pub fn glossy_radiance(&self, bsdf: &crate::material::Bsdf, hit: &crate::geometry::Hit, frame: &super::Frame, wo: Vec3) -> Vec3 {
+        let crate::material::Bsdf::Glossy { specular, exponent, .. } = *bsdf else { return Vec3::ZERO };
+        if specular == Vec3::ZERO {
+            return Vec3::ZERO;
+        }
+        let n = frame.n;
+        let r = crate::warp::reflect(wo, n);
+        let lobe = |wi: Vec3| -> Vec3 {
+            let cos_a = r.dot(wi).max(0.0);
+            specular * ((exponent + 2.0) / (2.0 * std::f32::consts::PI) * cos_a.powf(exponent))
+        };
+        self.global(|m| m.radiance_with(hit.p, n, self.settings.lookup, self.settings.max_radius_global, Filter::None, lobe).e)
+    }
+
     /// Indirect-only irradiance read straight from the global map (method `photons`): photons that came
     /// straight from a light, or through specular bounces only, are left out — direct and caustic
     /// light have their own terms.

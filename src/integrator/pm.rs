@@ -179,8 +179,8 @@ impl PmContext<'_> {
         let mut replay = ends.into_iter();
         let result = gather::gather(hit.p, frame.n, &self.gather, seed, &mut |_dir: Vec3| -> GatherRay {
             match replay.next() {
-                Some(end) if end.weight != Vec3::ZERO => GatherRay { radiance: end.weight * lit.next().unwrap_or(Vec3::ZERO), distance: end.distance },
-                Some(end) => GatherRay { radiance: Vec3::ZERO, distance: end.distance },
+                Some(end) if end.weight != Vec3::ZERO => GatherRay { radiance: end.weight * lit.next().unwrap_or(Vec3::ZERO) + end.glossy, distance: end.distance },
+                Some(end) => GatherRay { radiance: end.glossy, distance: end.distance },
                 None => GatherRay::miss(Vec3::ZERO),
             }
         });
@@ -204,7 +204,8 @@ impl PmContext<'_> {
             let bsdf = &self.scene.material(&hit).bsdf;
             let kd = self.scene.albedo(&hit);
             if !bsdf.is_specular() {
-                return GatherEnd { p: hit.p, n: frame.n, weight: beta * bsdf.diffuse_albedo(kd) / PI, distance };
+                let glossy = self.photons.glossy_radiance(bsdf, &hit, &frame, -d) * beta;
+                return GatherEnd { p: hit.p, n: frame.n, weight: beta * bsdf.diffuse_albedo(kd) / PI, glossy, distance };
             }
             if bounce == MAX_SPECULAR {
                 break;
@@ -230,11 +231,13 @@ struct GatherEnd {
     p: Vec3,
     n: Vec3,
     weight: Vec3,
+    /// Radiance of a glossy surface's specular lobe toward the ray (a photon-map estimate).
+    glossy: Vec3,
     distance: f32,
 }
 
 impl GatherEnd {
-    const MISS: GatherEnd = GatherEnd { p: Vec3::ZERO, n: Vec3::ZERO, weight: Vec3::ZERO, distance: f32::INFINITY };
+    const MISS: GatherEnd = GatherEnd { p: Vec3::ZERO, n: Vec3::ZERO, weight: Vec3::ZERO, glossy: Vec3::ZERO, distance: f32::INFINITY };
 }
 
 /// Solid-angle pdf of the normalised Phong lobe about the mirror direction `r`.
