@@ -109,11 +109,15 @@ pub fn offset_origin(p: Vec3, n: Vec3) -> Vec3 {
     const INT_SCALE: f32 = 256.0;
     let of_i = (n * INT_SCALE).to_array().map(|x| x as i32);
     let pa = p.to_array();
+    // Near the origin the paper moves by a fixed FLOAT_SCALE; in a scene much smaller than 1/32 that is
+    // far too much (shadow rays start beyond a light 10 µm under a ceiling), so the fixed step shrinks
+    // with the point's own magnitude.
+    let float_scale = FLOAT_SCALE * (p.abs().max_element() / ORIGIN).clamp(1e-4, 1.0);
     let mut out = [0.0f32; 3];
     for k in 0..3 {
         let bits = pa[k].to_bits() as i32;
         let moved = f32::from_bits((bits + if pa[k] < 0.0 { -of_i[k] } else { of_i[k] }) as u32);
-        out[k] = if pa[k].abs() < ORIGIN { pa[k] + FLOAT_SCALE * n.to_array()[k] } else { moved };
+        out[k] = if pa[k].abs() < ORIGIN { pa[k] + float_scale * n.to_array()[k] } else { moved };
     }
     Vec3::from_array(out)
 }

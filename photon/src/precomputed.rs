@@ -115,17 +115,20 @@ impl PrecomputedIrradiance {
             // cheaper than the k-candidate search, which runs only when that point faces another way.
             self.tree.knn(p, 1, self.max_radius, &mut found);
             if let Some(pt) = found.first().map(|nb| &self.points[nb.index as usize]) {
-                if pt.normal.dot(n) > MIN_NORMAL_COS {
+                if self.compatible(pt, p, n) {
                     return Some(pt.e);
                 }
             }
             self.tree.knn(p, LOOKUP_CANDIDATES, self.max_radius, &mut found);
-            found
-                .iter()
-                .map(|nb| &self.points[nb.index as usize])
-                .find(|pt| pt.normal.dot(n) > MIN_NORMAL_COS)
-                .map(|pt| pt.e)
+            found.iter().map(|nb| &self.points[nb.index as usize]).find(|pt| self.compatible(pt, p, n)).map(|pt| pt.e)
         })
+    }
+
+    /// A point may stand for the query if it faces the same way and lies near the query's tangent
+    /// plane (as in the photon estimate's disc): a surface parallel to the query's, a little above or
+    /// below it — the inside of a box resting on or floating over a floor — has seen other light.
+    fn compatible(&self, pt: &IrradiancePoint, p: Vec3, n: Vec3) -> bool {
+        pt.normal.dot(n) > MIN_NORMAL_COS && (pt.pos - p).dot(n).abs() <= crate::map::DISC_HALF_THICKNESS * self.max_radius
     }
 
     /// [`lookup`](Self::lookup) for many queries: one batched nearest-neighbour call, then the
@@ -138,7 +141,7 @@ impl PrecomputedIrradiance {
         out.extend(ps.iter().zip(ns).zip(&nearest).map(|((&p, &n), nb)| {
             let pt = nb.filter(|nb| nb.dist2 < r2).map(|nb| &self.points[nb.index as usize]);
             match pt {
-                Some(pt) if pt.normal.dot(n) > MIN_NORMAL_COS => Some(pt.e),
+                Some(pt) if self.compatible(pt, p, n) => Some(pt.e),
                 _ => self.lookup(p, n),
             }
         }));

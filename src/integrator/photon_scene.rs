@@ -6,7 +6,7 @@ use photon::{EmittedRay, PhotonScene, Scatter, SurfaceHit};
 
 use super::Frame;
 use crate::geometry::{offset_origin, spawn, Hit};
-use crate::material::{Bsdf, Transport};
+use crate::material::Transport;
 use crate::scene::Scene;
 
 pub struct PhotonView<'a>(pub &'a Scene);
@@ -55,6 +55,6 @@ impl PhotonScene for PhotonView<'_> {
     }
 
     fn has_specular(&self) -> bool {
-        self.0.materials.iter().any(|m| matches!(m.bsdf, Bsdf::Mirror { .. } | Bsdf::Glass { .. }))
+        self.0.has_specular()
     }
 }

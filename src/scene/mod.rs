@@ -118,8 +118,9 @@ impl Scene {
         (self.bounds.1 - self.bounds.0).length()
     }
 
+    /// Whether any triangle is mirror or glass (unused MTL entries do not count).
     pub fn has_specular(&self) -> bool {
-        self.materials.iter().any(|m| m.bsdf.is_specular())
+        self.geometry.triangles.iter().any(|t| self.materials[t.material as usize].bsdf.is_specular())
     }
 
     pub fn dir(&self) -> &Path {
