@@ -174,3 +174,9 @@ fn interrupted_render_leaves_no_output() {
     let leftovers: Vec<_> = std::fs::read_dir(d.path()).unwrap().collect();
     assert!(leftovers.is_empty(), "temporary files left: {leftovers:?}");
 }
+
+#[test]
+fn empty_scene() {
+    let d = with_toml("version = 1\n[camera]\neye = [0.0, 1.0, 3.0]\ntarget = [0.0, 1.0, 0.0]\nfov = 45.0\nwidth = 8\nheight = 8\n");
+    fails(&d, &p(d.path(), "scene.toml"), &[], &["scene.toml:1:", "no triangles"]);
+}
