@@ -50,6 +50,8 @@ pub struct Emission {
 pub struct Lights {
     pub lights: Vec<Light>,
     select: Distribution,
+    /// Selection among area lights only (by power), for integrators that evaluate every delta light.
+    select_area: Option<Distribution>,
     /// For each triangle, the index of its area light (u32::MAX if not emissive).
     light_of_tri: Vec<u32>,
 }
@@ -98,13 +100,15 @@ impl Lights {
     pub fn new(lights: Vec<Light>, n_triangles: usize) -> Option<Lights> {
         let weights: Vec<f64> = lights.iter().map(|l| mean(l.power())).collect();
         let select = Distribution::new(&weights)?;
+        let area_weights: Vec<f64> = lights.iter().zip(&weights).map(|(l, w)| if matches!(l, Light::Area { .. }) { *w } else { 0.0 }).collect();
+        let select_area = Distribution::new(&area_weights);
         let mut light_of_tri = vec![u32::MAX; n_triangles];
         for (i, l) in lights.iter().enumerate() {
             if let Light::Area { tri, .. } = l {
                 light_of_tri[*tri as usize] = i as u32;
             }
         }
-        Some(Lights { lights, select, light_of_tri })
+        Some(Lights { lights, select, select_area, light_of_tri })
     }
 
     pub fn total_power(&self) -> Vec3 {
@@ -114,6 +118,29 @@ impl Lights {
     /// Samples incident light at `p` (`u` = [select, u1, u2]).
     pub fn sample(&self, geo: &Geometry, p: Vec3, u: [f32; 3]) -> Option<LightSample> {
         let (i, p_sel) = self.select.sample(u[0]);
+        self.sample_light(i, p_sel, geo, p, u)
+    }
+
+    /// Samples one area light (chosen by power among area lights only); None without area lights.
+    pub fn sample_area(&self, geo: &Geometry, p: Vec3, u: [f32; 3]) -> Option<LightSample> {
+        let (i, p_sel) = self.select_area.as_ref()?.sample(u[0]);
+        self.sample_light(i, p_sel, geo, p, u)
+    }
+
+    /// The incident light from every point, spot and directional light at `p` (no randomness).
+    pub fn delta_samples<'a>(&'a self, geo: &'a Geometry, p: Vec3) -> impl Iterator<Item = LightSample> + 'a {
+        (0..self.lights.len()).filter(|&i| !matches!(self.lights[i], Light::Area { .. })).filter_map(move |i| self.sample_light(i, 1.0, geo, p, [0.5; 3]))
+    }
+
+    /// Solid-angle pdf with which `sample_area` would pick point `q` on emissive triangle `tri` from `p`.
+    pub fn pdf_hit_area(&self, tri: u32, p: Vec3, q: Vec3) -> f32 {
+        match &self.select_area {
+            Some(d) => self.pdf_hit_with(d, tri, p, q),
+            None => 0.0,
+        }
+    }
+
+    fn sample_light(&self, i: usize, p_sel: f32, geo: &Geometry, p: Vec3, u: [f32; 3]) -> Option<LightSample> {
         match self.lights[i] {
             Light::Area { tri, le, n, area } => {
                 let (b1, b2) = uniform_triangle([u[1], u[2]]);
@@ -160,6 +187,10 @@ impl Lights {
 
     /// Solid-angle pdf with which `sample` would pick point `q` on emissive triangle `tri` from `p`.
     pub fn pdf_hit(&self, tri: u32, p: Vec3, q: Vec3) -> f32 {
+        self.pdf_hit_with(&self.select, tri, p, q)
+    }
+
+    fn pdf_hit_with(&self, select: &Distribution, tri: u32, p: Vec3, q: Vec3) -> f32 {
         let Some(&li) = self.light_of_tri.get(tri as usize) else { return 0.0 };
         if li == u32::MAX {
             return 0.0;
@@ -171,7 +202,7 @@ impl Lights {
         if cos_l <= 0.0 {
             return 0.0;
         }
-        self.select.prob(li as usize) * dist2 / (cos_l * area)
+        select.prob(li as usize) * dist2 / (cos_l * area)
     }
 
     /// One photon path's start: `u` = [select, position u1, u2, direction u1, u2].
