@@ -60,6 +60,40 @@ fn path_samples_per_s(scene: &Scene, size: u32, spp: u32) -> (f64, f64) {
     ((size * size * spp) as f64 / s, rays)
 }
 
+/// Our `pm` time against our `path` time at equal error (relMSE vs the Mitsuba reference) on the caustic
+/// scene: path's spp doubles until its error is at most pm's.
+fn pm_vs_path_at_equal_error(root: &Path) {
+    let scene = match scene::load(&root.join("scenes/cornell-caustics.toml")) {
+        Ok(s) => s,
+        Err(e) => return println!("pm vs path: skipped ({e})"),
+    };
+    let reference = match pmrender::io::output::read_layer(&root.join("tests/reference/cornell-caustics-path.exr"), None) {
+        Ok(r) => r,
+        Err(e) => return println!("pm vs path: skipped ({e})"),
+    };
+    let run = |method: Method, spp: Option<u32>| {
+        let opts = Options { method: Some(method), spp, width: Some(reference.width), height: Some(reference.height), ..Default::default() };
+        let t = Instant::now();
+        let (out, _) = render(&scene, &opts, &NoProgress, &AtomicBool::new(false)).expect("render");
+        (t.elapsed().as_secs_f64(), pmrender::converge::rel_mse(&out.beauty, &reference))
+    };
+    let (t_pm, e_pm) = run(Method::Pm, None);
+    let mut spp = 64;
+    loop {
+        let (t_path, e_path) = run(Method::Path, Some(spp));
+        if e_path <= e_pm || spp >= 16384 {
+            println!(
+                "cornell-caustics {}×{}: pm (defaults) relMSE {e_pm:.5} in {t_pm:.2} s; path reaches {e_path:.5} at {spp} spp in {t_path:.2} s; time ratio pm/path {:.3}",
+                reference.width,
+                reference.height,
+                t_pm / t_path
+            );
+            break;
+        }
+        spp *= 2;
+    }
+}
+
 fn main() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let scenes = [
@@ -93,4 +127,5 @@ fn main() {
             load_s
         );
     }
+    pm_vs_path_at_equal_error(root);
 }
