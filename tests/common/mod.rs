@@ -90,17 +90,10 @@ pub fn mean(img: &Image) -> Vec3 {
     img.pixels.iter().copied().sum::<Vec3>() / img.pixels.len() as f32
 }
 
-/// relMSE = mean over pixels and channels of (x − r)² / (r² + 0.01).
+/// relMSE = mean over pixels and channels of (x − r)² / (r² + 0.01) (the renderer's own definition).
 pub fn rel_mse(img: &Image, reference: &Image) -> f64 {
     assert_eq!((img.width, img.height), (reference.width, reference.height));
-    let mut s = 0.0f64;
-    for (a, r) in img.pixels.iter().zip(&reference.pixels) {
-        for c in 0..3 {
-            let (a, r) = (a[c] as f64, r[c] as f64);
-            s += (a - r).powi(2) / (r * r + 0.01);
-        }
-    }
-    s / (3.0 * img.pixels.len() as f64)
+    pmrender::converge::rel_mse(img, reference)
 }
 
 /// Means over `b`×`b` blocks: bias shows through, per-pixel noise averages out.
