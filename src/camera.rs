@@ -23,6 +23,21 @@ impl Camera {
         Camera { eye, forward, right, up, tan_half: (fov_deg.to_radians() * 0.5).tan(), width, height }
     }
 
+    /// Unit viewing direction.
+    pub fn forward(&self) -> Vec3 {
+        self.forward
+    }
+
+    /// Unit image-up direction (orthogonal to `forward`).
+    pub fn up_vector(&self) -> Vec3 {
+        self.up
+    }
+
+    /// Vertical field of view in degrees.
+    pub fn fov_deg(&self) -> f32 {
+        2.0 * self.tan_half.atan().to_degrees()
+    }
+
     pub fn with_resolution(&self, width: u32, height: u32) -> Camera {
         Camera { width, height, ..self.clone() }
     }

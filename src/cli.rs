@@ -29,6 +29,17 @@ enum Command {
     /// Photon-count convergence: error of the image and of its caustic and indirect terms against the
     /// photon count, as a table (converge.md, converge.json) and a chart (converge.png).
     Converge(ConvergeArgs),
+    /// Write the scene as a Mitsuba 3 scene (DIR/scene.xml + OBJs) for independent references.
+    ExportMitsuba(ExportArgs),
+}
+
+#[derive(Args)]
+struct ExportArgs {
+    scene: PathBuf,
+    dir: PathBuf,
+    /// Samples per pixel written into the sensor.
+    #[arg(long, default_value_t = 1024)]
+    spp: u32,
 }
 
 #[derive(Args)]
@@ -303,6 +314,7 @@ pub fn run() -> i32 {
     let result = match cli.command {
         Command::Render(a) => render_command(a, &cancel),
         Command::Converge(a) => converge_command(a),
+        Command::ExportMitsuba(a) => scene::load(&a.scene).and_then(|s| pmrender::export::export_mitsuba(&s, &a.dir, a.spp.max(1))),
     };
     match result {
         Ok(()) => 0,

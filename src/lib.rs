@@ -9,6 +9,7 @@ pub mod chart;
 pub mod converge;
 pub mod distribution;
 pub mod error;
+pub mod export;
 pub mod geometry;
 pub mod integrator;
 pub mod io;

@@ -7,6 +7,8 @@ use glam::{Vec2, Vec3};
 use crate::io::oiio;
 
 pub struct Texture {
+    /// The file it was read from.
+    pub path: PathBuf,
     pub width: u32,
     pub height: u32,
     /// Linear RGB, top row first.
@@ -54,7 +56,7 @@ impl Texture {
                 }
             })
             .collect();
-        Ok(Texture { width: img.width, height: img.height, texels })
+        Ok(Texture { path: path.to_path_buf(), width: img.width, height: img.height, texels })
     }
 
     /// Bilinear lookup; OBJ's v runs upward, image rows downward.

@@ -1,0 +1,120 @@
+//! `pmrender export-mitsuba SCENE.toml DIR`: the scene as a Mitsuba 3 scene (scene.xml + one OBJ per
+//! material group, transforms applied), for rendering independent references. Same camera (vertical fov,
+//! box filter), materials, lights and resolution. The glossy model has no Mitsuba 3 plugin: it is written
+//! as `pm_phong`, which `tools/mref_phong.py` registers (tools/mitsuba_reference.py renders these scenes).
+
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+use std::path::Path;
+
+use glam::Vec3;
+
+use crate::error::{option, Result};
+use crate::io::atomic::write_bytes;
+use crate::light::Light;
+use crate::material::Bsdf;
+use crate::scene::Scene;
+
+fn rgb(name: &str, c: Vec3) -> String {
+    format!(r#"<rgb name="{name}" value="{} {} {}"/>"#, c.x, c.y, c.z)
+}
+
+fn v(p: Vec3) -> String {
+    format!("{}, {}, {}", p.x, p.y, p.z)
+}
+
+fn bsdf_xml(scene: &Scene, m: usize) -> String {
+    let mat = &scene.materials[m];
+    match &mat.bsdf {
+        Bsdf::Diffuse { albedo, texture } => {
+            let refl = match texture {
+                Some(t) => {
+                    let path = std::fs::canonicalize(&scene.textures[*t].path).unwrap_or_else(|_| scene.textures[*t].path.clone());
+                    format!(r#"<texture type="bitmap" name="reflectance"><string name="filename" value="{}"/></texture>"#, path.display())
+                }
+                None => rgb("reflectance", *albedo),
+            };
+            format!(r#"<bsdf type="twosided"><bsdf type="diffuse">{refl}</bsdf></bsdf>"#)
+        }
+        Bsdf::Mirror { reflectance } => format!(
+            r#"<bsdf type="twosided"><bsdf type="conductor"><string name="material" value="none"/>{}</bsdf></bsdf>"#,
+            rgb("specular_reflectance", *reflectance)
+        ),
+        Bsdf::Glass { ior, transmittance } => format!(
+            r#"<bsdf type="dielectric"><float name="int_ior" value="{ior}"/><float name="ext_ior" value="1"/>{}</bsdf>"#,
+            rgb("specular_transmittance", *transmittance)
+        ),
+        Bsdf::Glossy { albedo, specular, exponent } => format!(
+            r#"<bsdf type="pm_phong">{}{}<float name="exponent" value="{exponent}"/></bsdf>"#,
+            rgb("diffuse_reflectance", *albedo),
+            rgb("specular_reflectance", *specular)
+        ),
+    }
+}
+
+/// Writes DIR/scene.xml and DIR/mesh_<material>_<kind>.obj.
+pub fn export_mitsuba(scene: &Scene, dir: &Path, spp: u32) -> Result<()> {
+    std::fs::create_dir_all(dir).map_err(|e| option("DIR", format!("cannot create '{}': {e}", dir.display())))?;
+    // Group triangles: (material, emissive-flat or smooth-with-normals or flat).
+    let mut groups: BTreeMap<(usize, u8), Vec<u32>> = BTreeMap::new();
+    for (i, t) in scene.geometry.triangles.iter().enumerate() {
+        let emissive = scene.materials[t.material as usize].emission.max_element() > 0.0;
+        let kind = if emissive { 0 } else if t.has_normals { 1 } else { 2 };
+        groups.entry((t.material as usize, kind)).or_default().push(i as u32);
+    }
+    let cam = &scene.camera;
+    let (eye, target, up) = (cam.eye, cam.eye + cam.forward(), cam.up_vector());
+    let mut xml = String::from("<scene version=\"3.0.0\">\n");
+    let _ = writeln!(xml, r#"  <integrator type="path"><integer name="max_depth" value="{}"/></integrator>"#, scene.settings.max_depth + 1);
+    let _ = writeln!(
+        xml,
+        r#"  <sensor type="perspective"><string name="fov_axis" value="y"/><float name="fov" value="{}"/><transform name="to_world"><lookat origin="{}" target="{}" up="{}"/></transform><sampler type="independent"><integer name="sample_count" value="{spp}"/></sampler><film type="hdrfilm"><integer name="width" value="{}"/><integer name="height" value="{}"/><rfilter type="box"/><string name="pixel_format" value="rgb"/></film></sensor>"#,
+        cam.fov_deg(), v(eye), v(target), v(up), cam.width, cam.height
+    );
+    for ((m, kind), tris) in &groups {
+        let name = format!("mesh_{m}_{kind}.obj");
+        let mut obj = String::new();
+        for &ti in tris {
+            let t = &scene.geometry.triangles[ti as usize];
+            let mut vs = t.v;
+            if *kind == 0 && scene.geometry.emit_normal(ti).dot(t.ng) < 0.0 {
+                vs.swap(1, 2); // Mitsuba emits along the face normal: wind it toward our emitting side.
+            }
+            for k in vs {
+                let p = scene.geometry.positions[k as usize];
+                let uv = scene.geometry.uvs[k as usize];
+                let _ = writeln!(obj, "v {} {} {}\nvt {} {}", p.x, p.y, p.z, uv.x, uv.y);
+                if *kind == 1 {
+                    let n = scene.geometry.normals[k as usize];
+                    let _ = writeln!(obj, "vn {} {} {}", n.x, n.y, n.z);
+                }
+            }
+        }
+        for i in 0..tris.len() {
+            let b = 3 * i + 1;
+            let _ = match kind {
+                1 => writeln!(obj, "f {b}/{b}/{b} {}/{}/{} {}/{}/{}", b + 1, b + 1, b + 1, b + 2, b + 2, b + 2),
+                _ => writeln!(obj, "f {b}/{b} {}/{} {}/{}", b + 1, b + 1, b + 2, b + 2),
+            };
+        }
+        write_bytes(&dir.join(&name), obj.as_bytes())?;
+        let mat = &scene.materials[*m];
+        let emitter = if *kind == 0 { format!(r#"<emitter type="area">{}</emitter>"#, rgb("radiance", mat.emission)) } else { String::new() };
+        let flat = if *kind == 1 { "" } else { r#"<boolean name="face_normals" value="true"/>"# };
+        let _ = writeln!(xml, r#"  <shape type="obj"><string name="filename" value="{name}"/>{flat}{}{emitter}</shape>"#, bsdf_xml(scene, *m));
+    }
+    for l in &scene.lights.lights {
+        let line = match *l {
+            Light::Area { .. } => continue,
+            Light::Point { pos, intensity } => format!(r#"<emitter type="point"><point name="position" value="{}"/>{}</emitter>"#, v(pos), rgb("intensity", intensity)),
+            Light::Spot { pos, dir, intensity, cone, falloff } => format!(
+                r#"<emitter type="spot"><transform name="to_world"><lookat origin="{}" target="{}" up="{}"/></transform>{}<float name="cutoff_angle" value="{}"/><float name="beam_width" value="{}"/></emitter>"#,
+                v(pos), v(pos + dir), v(if dir.y.abs() > 0.9 { Vec3::X } else { Vec3::Y }), rgb("intensity", intensity), cone.to_degrees(), falloff.to_degrees()
+            ),
+            Light::Directional { dir, irradiance, .. } => format!(r#"<emitter type="directional"><vector name="direction" value="{}"/>{}</emitter>"#, v(dir), rgb("irradiance", irradiance)),
+        };
+        let _ = writeln!(xml, "  {line}");
+    }
+    xml.push_str("</scene>\n");
+    write_bytes(&dir.join("scene.xml"), xml.as_bytes())
+}
