@@ -1,7 +1,7 @@
 //! The phases of the photon-map methods: `trace_photons`, `build_maps` (precomputed irradiance),
 //! `fill_cache` (pass A, `pm` only) and `shade` (pass B), each timed and reported.
 
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Mutex;
 use std::time::Instant;
 
@@ -100,7 +100,6 @@ pub fn render_pm(scene: &Scene, plan: &Plan, opts: &Options, camera: &Camera, pr
         let (lo, hi) = scene.bounds;
         let mut c = IrradianceCache::new(lo, hi, cache_params).map_err(runtime)?;
         progress.start("cache", plan.width as u64 * plan.height as u64);
-        let n_done = AtomicU64::new(0);
         fill = icache::fill_pass_a(
             &mut c,
             plan.width,
@@ -114,10 +113,7 @@ pub fn render_pm(scene: &Scene, plan: &Plan, opts: &Options, camera: &Camera, pr
                 }
                 r
             },
-            &|done, _| {
-                n_done.store(done, Ordering::Relaxed);
-                progress.set(done)
-            },
+            &|done, _| progress.set(done),
         );
         progress.finish();
         report.seconds("Time", "Fill cache (pass A)", "time.fill_cache_s", t.elapsed().as_secs_f64());
