@@ -98,6 +98,12 @@ impl IrradianceCache {
 
     /// Interpolated irradiance at `p` with unit normal `n`, or `None` when no record is usable there.
     pub fn lookup(&self, p: Vec3, n: Vec3, pass: Pass) -> Option<Lookup> {
+        self.lookup_first(p, n, pass, usize::MAX)
+    }
+
+    /// [`lookup`](Self::lookup) over the first `n_records` records only (in insertion order): what the
+    /// cache held at that moment of a one-pass fill.
+    pub fn lookup_first(&self, p: Vec3, n: Vec3, pass: Pass, n_records: usize) -> Option<Lookup> {
         if !(p.is_finite() && n.is_finite()) {
             return None;
         }
@@ -106,7 +112,11 @@ impl IrradianceCache {
         CANDIDATES.with(|cell| {
             let mut ids = cell.borrow_mut();
             ids.clear();
-            self.index.for_each_candidate(p, |id| ids.push(id));
+            self.index.for_each_candidate(p, |id| {
+                if (id as usize) < n_records {
+                    ids.push(id)
+                }
+            });
             ids.sort_unstable();
             ids.dedup();
             let mut acc = Accum::default();

@@ -134,3 +134,36 @@ fn interpolation_error(cache: &IrradianceCache, lookups: &mut LookupStats) -> (f
     }
     (sum_rel / lookups.n_lookups.max(1) as f64, max_rel)
 }
+
+#[test]
+fn one_pass_fill_covers_each_pixel_with_the_records_that_existed_then() {
+    let mut cache = IrradianceCache::new(Vec3::new(-3.0, -1.0, -6.0), Vec3::new(3.0, 2.0, 1.0), CacheParams::default()).unwrap();
+    let (stats, order) = crate::fill_one_pass(&mut cache, W, H, &shading_points, &gather, &|_, _| {});
+    assert!(cache.len() > 50, "{}", cache.len());
+    assert_eq!(stats.n_gathers, cache.len() as u64 + stats.insert.n_rejected);
+    let mut last = 0;
+    let mut limited = 0;
+    for y in 0..H {
+        for x in 0..W {
+            let n = order.visible_records(x, y);
+            assert!(n >= last && n <= cache.len(), "({x}, {y}): {n} after {last}");
+            last = n;
+            for sp in shading_points(x, y) {
+                let first = cache.lookup_first(sp.pos, sp.normal, Pass::A, n);
+                // Neighbor clamping by later records can shrink a record below this point: rare.
+                if first.is_none() {
+                    limited += 1;
+                }
+                // Later records were never visible here: the prefix lookup sees only records < n.
+                if let Some(f) = first {
+                    assert!(f.n_used as usize <= n);
+                }
+            }
+        }
+    }
+    assert_eq!(last, cache.len());
+    assert!(limited < (W * H / 100) as usize, "{limited} points lost their cover");
+    // The prefix lookup is the full lookup when every record is visible.
+    let sp = shading_points(W / 2, H / 2)[0];
+    assert_eq!(cache.lookup_first(sp.pos, sp.normal, Pass::B, usize::MAX), cache.lookup(sp.pos, sp.normal, Pass::B));
+}

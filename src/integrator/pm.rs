@@ -22,12 +22,18 @@ use crate::warp::{power_heuristic, reflect, to_world};
 const AREA_LIGHT_SAMPLES: u32 = 4;
 
 /// Where soft indirect irradiance comes from.
+#[derive(Clone, Copy)]
 pub enum IndirectSource<'a> {
+    /// A filled cache read with pass-B accuracy.
     Cache(&'a IrradianceCache),
+    /// The first n records of a one-pass cache (what the fill had made when it reached the pixel), read
+    /// with pass-B accuracy, so the two fills differ only in which records a pixel can see.
+    CacheUpTo(&'a IrradianceCache, usize),
     Gather,
     PhotonMap,
 }
 
+#[derive(Clone, Copy)]
 pub struct PmContext<'a> {
     pub scene: &'a Scene,
     pub photons: &'a PhotonData,
@@ -164,16 +170,20 @@ impl PmContext<'_> {
         }
         match self.source {
             IndirectSource::PhotonMap => self.photons.global_indirect_irradiance(hit.p, frame.n),
-            IndirectSource::Cache(cache) => {
-                let found = cache.lookup(hit.p, frame.n, Pass::B);
-                c.lookups.record(found.as_ref());
-                match found {
-                    Some(l) => l.e,
-                    // A pass-B miss creates no record: gather for this sample only (counted).
-                    None => self.final_gather(hit, frame, rng.next_u32() as u64, c).e,
-                }
+            IndirectSource::Cache(cache) => self.cached(cache.lookup(hit.p, frame.n, Pass::B), hit, frame, rng, c),
+            IndirectSource::CacheUpTo(cache, n) => {
+                self.cached(cache.lookup_first(hit.p, frame.n, Pass::B, n), hit, frame, rng, c)
             }
             IndirectSource::Gather => self.final_gather(hit, frame, rng.next_u32() as u64, c).e,
+        }
+    }
+
+    /// A cache lookup's irradiance; a miss creates no record: gather for this sample only (counted).
+    fn cached(&self, found: Option<icache::Lookup>, hit: &Hit, frame: &Frame, rng: &mut Rng, c: &mut SampleCounters) -> Vec3 {
+        c.lookups.record(found.as_ref());
+        match found {
+            Some(l) => l.e,
+            None => self.final_gather(hit, frame, rng.next_u32() as u64, c).e,
         }
     }
 

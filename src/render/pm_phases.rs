@@ -25,8 +25,18 @@ use crate::scene::file::line_of_key;
 use crate::scene::{Method, Scene};
 use crate::stats::Report;
 
-/// `[render.icache]` resolved: the cache parameters and the gather ray count.
-pub fn cache_settings(scene: &Scene) -> Result<(CacheParams, usize)> {
+/// How `pm` fills its irradiance cache (`[render.icache] fill`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FillMode {
+    /// Pass A fills in hierarchical order, pass B only reads (the default).
+    TwoPass,
+    /// Ward's original lazy fill in scanline order: each pixel sees only the records made before it.
+    /// Slower (sequential gathers) and with order artifacts; kept to measure what the two-pass fill removes.
+    OnePass,
+}
+
+/// `[render.icache]` resolved: the cache parameters, the gather ray count and the fill mode.
+pub fn cache_settings(scene: &Scene) -> Result<(CacheParams, usize, FillMode)> {
     let d = &scene.settings.icache;
     let text = std::fs::read_to_string(&scene.path).unwrap_or_default();
     let err = |key: &str, msg: String| at_line(&scene.path, line_of_key(&text, "render.icache", 0, key), format!("render.icache.{key}: {msg}"));
@@ -56,13 +66,18 @@ pub fn cache_settings(scene: &Scene) -> Result<(CacheParams, usize)> {
     if let Some(v) = d.pass_b_accuracy {
         p.pass_b_accuracy = Some(v);
     }
+    let fill = match d.fill.as_deref() {
+        None | Some("two-pass") => FillMode::TwoPass,
+        Some("one-pass") => FillMode::OnePass,
+        Some(other) => return Err(err("fill", format!("unknown fill '{other}' (two-pass | one-pass)"))),
+    };
     p.validate().map_err(|e| err("accuracy", e.to_string()))?;
     let rays = match d.rays {
         Some(r) if !(4..=1_000_000).contains(&r) => return Err(err("rays", format!("{r} must be in 4..=1000000"))),
         Some(r) => r as usize,
         None => gather::DEFAULT_RAYS,
     };
-    Ok((p, rays))
+    Ok((p, rays, fill))
 }
 
 pub struct PmRun {
@@ -74,7 +89,7 @@ pub struct PmRun {
 pub fn render_pm(scene: &Scene, plan: &Plan, opts: &Options, camera: &Camera, progress: &dyn Progress, cancel: &AtomicBool) -> Result<PmRun> {
     let mut report = Report::default();
     let settings = PhotonSettings::resolve(scene)?;
-    let (cache_params, rays) = cache_settings(scene)?;
+    let (cache_params, rays, fill_mode) = cache_settings(scene)?;
 
     let (maps, precomputed) = photon_maps(scene, plan, &settings, opts, progress, &mut report)?;
     let photons = PhotonData { maps, precomputed, settings };
@@ -90,6 +105,7 @@ pub fn render_pm(scene: &Scene, plan: &Plan, opts: &Options, camera: &Camera, pr
     let mut cache = None;
     let mut n_loaded = 0u64;
     let mut fill = FillStats::default();
+    let mut one_pass: Option<icache::OnePassFill> = None;
     let fill_counters = Mutex::new(SampleCounters::default());
     if let (Method::Pm, Some(path)) = (plan.method, &opts.files.load_cache) {
         let c = load_cache(path, scene.fingerprint)?;
@@ -100,21 +116,24 @@ pub fn render_pm(scene: &Scene, plan: &Plan, opts: &Options, camera: &Camera, pr
         let (lo, hi) = scene.bounds;
         let mut c = IrradianceCache::new(lo, hi, cache_params).map_err(runtime)?;
         progress.start("cache", plan.width as u64 * plan.height as u64);
-        fill = icache::fill_pass_a(
-            &mut c,
-            plan.width,
-            plan.height,
-            &|x, y| shading_hits(&ctx, camera, x, y).into_iter().map(|(sp, _)| sp).collect(),
-            &|x, y, i, sp| {
-                let mut local = SampleCounters::default();
-                let r = gather_record(&ctx, camera, x, y, i, sp, &mut local);
-                if let Ok(mut g) = fill_counters.lock() {
-                    *g += local;
-                }
-                r
-            },
-            &|done, _| progress.set(done),
-        );
+        let points = |x, y| shading_hits(&ctx, camera, x, y).into_iter().map(|(sp, _)| sp).collect();
+        let gather = |x, y, i, sp: &icache::ShadingPoint| {
+            let mut local = SampleCounters::default();
+            let r = gather_record(&ctx, camera, x, y, i, sp, &mut local);
+            if let Ok(mut g) = fill_counters.lock() {
+                *g += local;
+            }
+            r
+        };
+        let report_progress = |done, _| progress.set(done);
+        match fill_mode {
+            FillMode::TwoPass => fill = icache::fill_pass_a(&mut c, plan.width, plan.height, &points, &gather, &report_progress),
+            FillMode::OnePass => {
+                let (f, order) = icache::fill_one_pass(&mut c, plan.width, plan.height, &points, &gather, &report_progress);
+                fill = f;
+                one_pass = Some(order);
+            }
+        }
         progress.finish();
         report.seconds("Time", "Fill cache (pass A)", "time.fill_cache_s", t.elapsed().as_secs_f64());
         cache = Some(c);
@@ -131,7 +150,13 @@ pub fn render_pm(scene: &Scene, plan: &Plan, opts: &Options, camera: &Camera, pr
     let t = Instant::now();
     let sample = |x: u32, y: u32, rng: &mut Rng, c: &mut SampleCounters| -> Vec<Vec3> {
         let d = camera.ray(x as f32 + rng.uniform(), y as f32 + rng.uniform());
-        let terms: Terms = ctx.shade(camera.eye, d, rng, c);
+        let terms: Terms = match (&one_pass, &ctx.source) {
+            (Some(order), IndirectSource::Cache(cache)) => {
+                let seen = IndirectSource::CacheUpTo(cache, order.visible_records(x, y));
+                PmContext { source: seen, ..ctx }.shade(camera.eye, d, rng, c)
+            }
+            _ => ctx.shade(camera.eye, d, rng, c),
+        };
         terms.to_layers()
     };
     progress.start("shade", plan.window.n_pixels());

@@ -113,6 +113,7 @@ pub struct IcacheDesc {
     pub neighbor_clamping: Option<bool>,
     pub gradients: Option<bool>,
     pub pass_b_accuracy: Option<f32>,
+    pub fill: Option<String>,
 }
 
 /// Parses the scene file text; errors name the file and line.
