@@ -265,7 +265,7 @@ fn converge_command(a: ConvergeArgs) -> Result<()> {
         .photons
         .iter()
         .map(|s| match s.trim().parse::<f64>() {
-            Ok(x) if x >= 1.0 && x <= 1e9 => Ok(x.round() as usize),
+            Ok(x) if (1.0..=1e9).contains(&x) => Ok(x.round() as usize),
             _ => Err(option("--photons", format!("'{s}' is not a photon count in 1..1e9"))),
         })
         .collect::<Result<Vec<_>>>()?;

@@ -180,3 +180,11 @@ fn empty_scene() {
     let d = with_toml("version = 1\n[camera]\neye = [0.0, 1.0, 3.0]\ntarget = [0.0, 1.0, 0.0]\nfov = 45.0\nwidth = 8\nheight = 8\n");
     fails(&d, &p(d.path(), "scene.toml"), &[], &["scene.toml:1:", "no triangles"]);
 }
+
+#[test]
+fn unknown_cache_fill_or_weighting() {
+    let d = with_toml(&format!("{ROOM_TOML}\n[render.icache]\naccuracy = 0.5\nfill = \"three-pass\"\n"));
+    fails(&d, &p(d.path(), "scene.toml"), &["--method", "pm"], &["scene.toml:17:", "render.icache.fill", "three-pass"]);
+    let d = with_toml(&format!("{ROOM_TOML}\n[render.icache]\nweight = \"gauss\"\n"));
+    fails(&d, &p(d.path(), "scene.toml"), &["--method", "pm"], &["scene.toml:16:", "render.icache.weight", "gauss"]);
+}

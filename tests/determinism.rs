@@ -31,3 +31,25 @@ fn photons_is_identical_with_one_and_two_threads() {
     let d = tempfile::tempdir().unwrap();
     assert_eq!(render_bytes("photons", "1", d.path()), render_bytes("photons", "2", d.path()));
 }
+
+#[test]
+fn one_pass_pm_is_identical_with_one_and_two_threads() {
+    let d = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(repo().join("scenes/cornell-caustics.toml")).unwrap();
+    let models = repo().join("scenes/models");
+    let text = text.replace("\"models/", &format!("\"{}/", models.display()));
+    let scene = d.path().join("one-pass.toml");
+    std::fs::write(&scene, format!("{text}\n[render.icache]\nfill = \"one-pass\"\n")).unwrap();
+    let render = |threads: &str| {
+        let out = d.path().join(format!("one-{threads}.exr"));
+        let r = run(&[
+            "render", &scene.to_string_lossy(), "-o", &out.to_string_lossy(), "--method", "pm", "--threads", threads,
+            "--width", "48", "--height", "48", "--spp", "4", "--quiet",
+        ]);
+        assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+        std::fs::read(out).expect("output written")
+    };
+    let one = render("1");
+    assert_eq!(one, render("2"));
+    assert_ne!(one, render_bytes("pm", "2", d.path()), "the one-pass fill must differ from the two-pass fill");
+}

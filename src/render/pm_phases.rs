@@ -135,7 +135,8 @@ pub fn render_pm(scene: &Scene, plan: &Plan, opts: &Options, camera: &Camera, pr
             }
         }
         progress.finish();
-        report.seconds("Time", "Fill cache (pass A)", "time.fill_cache_s", t.elapsed().as_secs_f64());
+        let label = if fill_mode == FillMode::OnePass { "Fill cache (one pass)" } else { "Fill cache (pass A)" };
+        report.seconds("Time", label, "time.fill_cache_s", t.elapsed().as_secs_f64());
         cache = Some(c);
     }
     if cancel.load(Ordering::Relaxed) {

@@ -197,7 +197,7 @@ fn append_model(geo: &mut Geometry, model: &obj::ObjModel, xf: &Mat4, nxf: &Mat3
         let [a, b, c] = v.map(|i| geo.positions[i as usize]);
         let cross = (b - a).cross(c - a);
         let area = 0.5 * cross.length();
-        if !(area > 0.0 && area.is_finite()) || !cross.normalize().is_finite() {
+        if !(area > 0.0 && area.is_finite() && cross.normalize().is_finite()) {
             geo.n_degenerate += 1;
             continue;
         }

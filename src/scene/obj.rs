@@ -114,7 +114,7 @@ fn precheck_mtl(path: &Path, text: &str) -> Result<()> {
 pub fn load(path: &Path) -> Result<ObjData> {
     let text = std::fs::read_to_string(path).map_err(|e| in_file(path, format!("cannot read OBJ: {e}")))?;
     precheck(path, &text)?;
-    let opts = tobj::LoadOptions { single_index: true, triangulate: true, ignore_points: true, ignore_lines: true, ..Default::default() };
+    let opts = tobj::LoadOptions { single_index: true, triangulate: true, ignore_points: true, ignore_lines: true };
     // tobj can panic on inputs the check above does not foresee; that is still bad input, not a crash.
     let loaded = std::panic::catch_unwind(|| tobj::load_obj(path, &opts))
         .map_err(|_| in_file(path, "OBJ/MTL could not be parsed (malformed statement)"))?;
