@@ -76,9 +76,12 @@ impl PmContext<'_> {
         if bsdf.is_specular() {
             if depth + 1 < self.max_depth {
                 let u = [rng.uniform(), rng.uniform(), rng.uniform()];
-                if let Some(s) = bsdf.sample(kd, frame.n, wo, frame.front, u, Transport::Radiance) {
-                    let sub = self.shade_ray(spawn(&hit, s.wi), s.wi, depth + 1, Via::Delta, rng, c);
-                    t.specular = s.weight * sub.sum();
+                match bsdf.sample(kd, frame.n, wo, frame.front, u, Transport::Radiance) {
+                    Some(s) => {
+                        let sub = self.shade_ray(spawn(&hit, s.wi), s.wi, depth + 1, Via::Delta, rng, c);
+                        t.specular = s.weight * sub.sum();
+                    }
+                    None => c.zero_pdf += 1,
                 }
             }
             return t;
@@ -121,7 +124,11 @@ impl PmContext<'_> {
 
     #[allow(clippy::too_many_arguments)]
     fn light_contribution(&self, hit: &Hit, frame: &Frame, wo: Vec3, kd: Vec3, bsdf: &Bsdf, ls: &crate::light::LightSample, c: &mut SampleCounters) -> Vec3 {
-        if ls.pdf <= 0.0 || !frame.same_side(ls.wi) {
+        if !(ls.pdf > 0.0) {
+            c.zero_pdf += 1;
+            return Vec3::ZERO;
+        }
+        if !frame.same_side(ls.wi) {
             return Vec3::ZERO;
         }
         let cos = ls.wi.dot(frame.n).max(0.0);
