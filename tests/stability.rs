@@ -375,38 +375,29 @@ fn sealed_box(y0: f32) -> (Render, Render, Render) {
 
 /// i. A point light sealed inside a closed diffuse box; the camera outside must see a black box (the walls
 /// have no thickness: photons stored on their inside must not be seen from outside).
-/// Box floating 0.3 above the floor: `photons` and `path` are black, but `pm` is not (BUG, see
-/// `i_sealed_floating_box_is_black_with_pm`): the bound here is the measured leak, to catch it growing.
+/// Box floating 0.3 above the floor: `pm`, `photons` and `path` must all be exactly black. This was a bug
+/// the suite found (`PrecomputedIrradiance::lookup` accepted the nearest point on its normal alone, so
+/// final-gather rays hitting the floor under the box read the irradiance of the box's inside bottom face
+/// 0.3 above it and the box glowed, up to 2.7 W/(m²·sr)); fixed with a tangent-plane distance test.
 /// Box resting on the floor: its bottom is coplanar with the floor, so photons inside lie in the floor's
-/// plane within a lookup radius — the crack leak of case a at zero distance (a photon-map limitation).
+/// plane within a lookup radius of the floor outside — the crack leak of case a at zero distance, a
+/// photon-map limitation (only a visibility test per photon would stop it). The bound is the measured leak,
+/// to catch it growing.
 #[test]
 fn i_light_sealed_in_a_box() {
     let zero = black(32, 32);
     let (pm, ph, path) = sealed_box(0.3);
-    let (e, e_ph) = (err(&pm.img, &zero), err(&ph.img, &zero));
-    report(
-        "i floating",
-        &[("pm", e), ("pm max", max_value(&pm.img) as f64), ("photons max", max_value(&ph.img) as f64)],
-    );
+    report("i floating", &[("pm max", max_value(&pm.img) as f64), ("photons max", max_value(&ph.img) as f64)]);
     assert!(stat(&pm, "photons", "global_stored") > 0.0, "i: the photons are inside the box");
     assert_eq!(max_value(&path.img), 0.0);
-    assert_eq!(e_ph, 0.0, "i: photons seen through a wall");
-    check("i floating", "pm", e, 38.0); // measured 18.9 (max pixel 2.7): the precomputed-irradiance leak
+    assert_eq!(max_value(&ph.img), 0.0, "i: photons seen through a wall");
+    assert_eq!(max_value(&pm.img), 0.0, "i: light leaks out of a sealed floating box");
     let (pm, ph, path) = sealed_box(0.0);
     let (e, e_ph) = (err(&pm.img, &zero), err(&ph.img, &zero));
     report("i on the floor", &[("pm", e), ("photons", e_ph), ("pm max", max_value(&pm.img) as f64)]);
     assert_eq!(max_value(&path.img), 0.0);
     check("i on the floor", "pm", e, 100.0); // measured 51 (max pixel 5.3)
     check("i on the floor", "photons", e_ph, 180.0); // measured 89 (max pixel 10.3)
-}
-
-/// Was a bug (`PrecomputedIrradiance::lookup` accepted the nearest point on its normal alone, so final-gather
-/// rays hitting the floor under a floating sealed box read the irradiance of the box's inside bottom face
-/// 0.3 above it and the box glowed, up to 2.7 W/(m²·sr)); fixed with a tangent-plane distance test.
-#[test]
-fn i_sealed_floating_box_is_black_with_pm() {
-    let (pm, _, _) = sealed_box(0.3);
-    assert_eq!(max_value(&pm.img), 0.0, "light leaks out of a sealed box");
 }
 
 /// j. A broken copy of the open room: zero-area and degenerate triangles, duplicated vertices, a wall wound
