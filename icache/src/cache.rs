@@ -43,6 +43,9 @@ pub struct IrradianceCache {
     pub(crate) totals: InsertStats,
     /// Reused buffer for neighbor queries during insertion.
     pub(crate) scratch: Vec<u32>,
+    /// While `Some`: (position, reach before the shrink) of every existing record that neighbor clamping
+    /// shrank, for the fill's repair sweeps (only points inside those spheres can have lost their cover).
+    pub(crate) shrink_log: Option<Vec<(Vec3, f32)>>,
 }
 
 impl IrradianceCache {
@@ -59,6 +62,7 @@ impl IrradianceCache {
             index: Octree::new(bounds_min, bounds_max),
             totals: InsertStats::default(),
             scratch: Vec::new(),
+            shrink_log: None,
         })
     }
 
@@ -186,6 +190,16 @@ impl IrradianceCache {
             None if fallback.is_finite() => fallback.max(Vec3::ZERO),
             None => Vec3::ZERO,
         }
+    }
+
+    /// Start (or stop) logging the records that neighbor clamping shrinks; see [`Self::take_shrink_log`].
+    pub(crate) fn log_shrinks(&mut self, on: bool) {
+        self.shrink_log = on.then(Vec::new);
+    }
+
+    /// The spheres (position, largest pass-A or pass-B reach before the shrink) logged since the last call.
+    pub(crate) fn take_shrink_log(&mut self) -> Vec<(Vec3, f32)> {
+        self.shrink_log.as_mut().map(std::mem::take).unwrap_or_default()
     }
 
     /// Put a finished record back (file loading): no gradient limit, clamping or neighbor clamping.

@@ -160,6 +160,9 @@ impl IrradianceCache {
                 let d = (rec_m.pos - rec_k.pos).length();
                 let bound = rec_k.r_harmonic + d;
                 if d < rec_k.r_clamped + rec_m.r_clamped && rec_m.r_harmonic > bound {
+                    if let Some(log) = &mut self.shrink_log {
+                        log.push((rec_m.pos, rec_m.r_clamped * self.params.index_factor()));
+                    }
                     set_radius(&self.params, rec_m, bound);
                     shrunk.push(m);
                     heap.push(Reverse((bound.to_bits(), m)));

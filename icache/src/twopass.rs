@@ -6,14 +6,17 @@
 //! accumulate until a wave holds `WAVE_GATHERS` of them (or the image ends). Then the wave's gathers run in
 //! parallel and the records are inserted sequentially in visiting order, each re-checked against records
 //! inserted earlier in the wave. Chunk and wave boundaries depend only on the data, never on timing.
-//! Neighbor clamping can shrink a record after it covered a point, so full-image repair sweeps follow
-//! until one inserts nothing (at most `MAX_REPAIR_SWEEPS`).
+//! Neighbor clamping can shrink a record after it covered a point, so repair sweeps follow: each revisits
+//! only the pixels with a point inside the old reach of a record shrunk since the last sweep (the cache
+//! logs them; points are kept from the first sweep, not traced again), until a sweep shrinks nothing (at
+//! most `MAX_REPAIR_SWEEPS`).
 #![forbid(unsafe_code)]
 
 use glam::Vec3;
 use rayon::prelude::*;
 
 use crate::cache::IrradianceCache;
+use crate::index::Octree;
 use crate::order::HierarchicalOrder;
 use crate::params::Pass;
 use crate::record::NewRecord;
@@ -62,48 +65,95 @@ pub fn fill_pass_a(
 ) -> FillStats {
     let mut stats = FillStats::default();
     let total = width as u64 * height as u64;
-    let inserted = sweep(cache, width, height, shading_points, gather, &mut stats, &|done| progress(done, total));
+    let mut store = PointStore::new(width, height);
+    cache.log_shrinks(true);
+    let order = HierarchicalOrder::new(width, height);
+    let first = sweep(cache, order, shading_points, Some(&mut store), gather, &mut stats, &|done| progress(done, total));
     stats.n_pixels = total;
-    if inserted > 0 {
-        repair(cache, width, height, shading_points, gather, &mut stats);
+    if first > 0 {
+        repair(cache, width, height, &store, gather, &mut stats);
     }
+    cache.log_shrinks(false);
     progress(total, total);
     stats
 }
 
-/// Sweep again until a sweep inserts nothing; count what is left uncovered if the limit is reached.
-fn repair(
-    cache: &mut IrradianceCache,
+/// Every shading point of the first sweep, by pixel, so repair sweeps need not trace them again.
+struct PointStore {
     width: u32,
-    height: u32,
-    shading_points: &ShadingPointsFn,
-    gather: &GatherFn,
-    stats: &mut FillStats,
-) {
-    loop {
-        if stats.n_repair_sweeps == MAX_REPAIR_SWEEPS {
-            stats.n_uncovered_after = count_uncovered(cache, width, height, shading_points);
-            return;
-        }
-        stats.n_repair_sweeps += 1;
-        if sweep(cache, width, height, shading_points, gather, stats, &|_| {}) == 0 {
-            return;
-        }
+    /// Pixel y·width + x → its range in `points`.
+    ranges: Vec<(u32, u32)>,
+    points: Vec<ShadingPoint>,
+}
+
+impl PointStore {
+    fn new(width: u32, height: u32) -> Self {
+        PointStore { width, ranges: vec![(0, 0); width as usize * height as usize], points: Vec::new() }
+    }
+
+    fn push(&mut self, x: u32, y: u32, points: &[ShadingPoint]) {
+        let start = self.points.len() as u32;
+        self.points.extend_from_slice(points);
+        self.ranges[(y * self.width + x) as usize] = (start, self.points.len() as u32);
+    }
+
+    fn get(&self, x: u32, y: u32) -> &[ShadingPoint] {
+        let (a, b) = self.ranges[(y * self.width + x) as usize];
+        &self.points[a as usize..b as usize]
     }
 }
 
-/// One pass over every pixel in hierarchical order; returns the number of records inserted.
+/// Neighbor clamping can shrink a record after it covered a point. Only points inside the logged
+/// spheres of shrunk records can have lost their cover, so each repair sweep revisits just the pixels
+/// holding such points, until a sweep shrinks nothing (at most `MAX_REPAIR_SWEEPS`).
+fn repair(cache: &mut IrradianceCache, width: u32, height: u32, store: &PointStore, gather: &GatherFn, stats: &mut FillStats) {
+    let cached = |x: u32, y: u32| store.get(x, y).to_vec();
+    loop {
+        let log = cache.take_shrink_log();
+        if log.is_empty() {
+            return;
+        }
+        if stats.n_repair_sweeps == MAX_REPAIR_SWEEPS {
+            stats.n_uncovered_after = count_uncovered(cache, width, height, &cached);
+            return;
+        }
+        stats.n_repair_sweeps += 1;
+        let (lo, hi) = cache.bounds();
+        let mut spheres = Octree::new(lo, hi);
+        for (id, &(pos, reach)) in log.iter().enumerate() {
+            spheres.insert(id as u32, pos, reach);
+        }
+        let pixels: Vec<(u32, u32)> = HierarchicalOrder::new(width, height).collect();
+        let dirty: Vec<bool> = pixels
+            .par_iter()
+            .map(|&(x, y)| {
+                store.get(x, y).iter().any(|sp| {
+                    let mut inside = false;
+                    spheres.for_each_candidate(sp.pos, |id| {
+                        let (pos, reach) = log[id as usize];
+                        inside |= sp.pos.distance_squared(pos) <= reach * reach;
+                    });
+                    inside
+                })
+            })
+            .collect();
+        let order = pixels.into_iter().zip(dirty).filter(|(_, d)| *d).map(|(p, _)| p);
+        sweep(cache, order, &cached, None, gather, stats, &|_| {});
+    }
+}
+
+/// One pass over `order`'s pixels; returns the number of records inserted. With `store`, every pixel's
+/// shading points are kept there.
 fn sweep(
     cache: &mut IrradianceCache,
-    width: u32,
-    height: u32,
+    mut order: impl Iterator<Item = (u32, u32)>,
     shading_points: &ShadingPointsFn,
+    mut store: Option<&mut PointStore>,
     gather: &GatherFn,
     stats: &mut FillStats,
     progress: &(dyn Fn(u64) + Sync),
 ) -> u64 {
     let before = stats.insert.n_inserted;
-    let mut order = HierarchicalOrder::new(width, height);
     let mut pending: Vec<Candidate> = Vec::new();
     let mut done = 0u64;
     loop {
@@ -113,22 +163,27 @@ fn sweep(
         }
         done += chunk.len() as u64;
         let cache_ref: &IrradianceCache = cache;
-        let found: Vec<(LookupStats, Vec<Candidate>)> = chunk
+        let keep = store.is_some();
+        let found: Vec<(LookupStats, Vec<Candidate>, Vec<ShadingPoint>)> = chunk
             .par_iter()
             .map(|&(x, y)| {
                 let mut lookups = LookupStats::default();
                 let mut misses = Vec::new();
-                for (i, sp) in shading_points(x, y).into_iter().enumerate() {
+                let points = shading_points(x, y);
+                for (i, &sp) in points.iter().enumerate() {
                     let hit = cache_ref.lookup(sp.pos, sp.normal, Pass::A);
                     lookups.record(hit.as_ref());
                     if hit.is_none() {
                         misses.push(Candidate { x, y, i, sp });
                     }
                 }
-                (lookups, misses)
+                (lookups, misses, if keep { points } else { Vec::new() })
             })
             .collect();
-        for (lookups, misses) in found {
+        for (&(x, y), (lookups, misses, points)) in chunk.iter().zip(found) {
+            if let Some(store) = store.as_deref_mut() {
+                store.push(x, y, &points);
+            }
             stats.n_points += lookups.n_lookups;
             stats.lookups += lookups;
             pending.extend(misses);

@@ -7,6 +7,7 @@ pub mod error;
 pub mod file;
 pub mod flann;
 pub mod map;
+pub mod pointtree;
 pub mod precomputed;
 pub mod sampling;
 pub mod trace;

@@ -1,6 +1,7 @@
 //! Precomputed irradiance (Christensen 1999): irradiance estimated once at every n-th global photon and
 //! stored with the photon's position and normal, so that a final-gather ray needs a nearest-neighbour
-//! lookup instead of a k-nearest density estimate.
+//! lookup instead of a k-nearest density estimate. The estimates use the global map (FLANN); the points
+//! are read through [`PointTree`] (see there why not FLANN).
 #![forbid(unsafe_code)]
 
 use std::cell::RefCell;
@@ -11,13 +12,13 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use crate::error::{Error, Result};
-use crate::flann::{KdTree, Neighbor};
 use crate::map::{Filter, PhotonMap};
+use crate::pointtree::PointTree;
 use crate::sampling::mix64;
 
 /// Default spacing: one irradiance point per this many global photons.
 pub const DEFAULT_EVERY: usize = 4;
-/// Candidates examined per lookup for a compatible normal.
+/// Candidates examined per lookup for a compatible point.
 pub const LOOKUP_CANDIDATES: usize = 8;
 /// A point is usable where its normal is within ~45° of the query's.
 pub const MIN_NORMAL_COS: f32 = 0.7;
@@ -48,16 +49,16 @@ impl AddAssign for PrecomputeStats {
     }
 }
 
+thread_local! {
+    static CANDIDATES: RefCell<Vec<(u32, f32)>> = const { RefCell::new(Vec::new()) };
+}
+
 /// Irradiance points over their own kd-tree.
 pub struct PrecomputedIrradiance {
     points: Vec<IrradiancePoint>,
-    tree: KdTree,
+    tree: PointTree,
     /// Lookups farther than this from every point find nothing (the estimate's own max radius).
     max_radius: f32,
-}
-
-thread_local! {
-    static CANDIDATES: RefCell<Vec<Neighbor>> = const { RefCell::new(Vec::new()) };
 }
 
 impl PrecomputedIrradiance {
@@ -94,7 +95,7 @@ impl PrecomputedIrradiance {
     /// Wraps already computed points (e.g. read from a file).
     pub fn from_points(points: Vec<IrradiancePoint>, max_radius: f32) -> Result<Self> {
         let positions: Vec<Vec3> = points.iter().map(|p| p.pos).collect();
-        let tree = KdTree::build(&positions)?;
+        let tree = PointTree::build(&positions);
         Ok(PrecomputedIrradiance { points, tree, max_radius })
     }
 
@@ -106,21 +107,21 @@ impl PrecomputedIrradiance {
         self.max_radius
     }
 
-    /// Irradiance of the nearest point whose normal is compatible with `n` (cos > 0.7) among the
-    /// [`LOOKUP_CANDIDATES`] nearest within the max radius; `None` if there is none.
+    /// Irradiance of the nearest point that is [compatible](Self::compatible) with the query among the
+    /// [`LOOKUP_CANDIDATES`] nearest within the max radius; `None` if there is none. (Searching the whole
+    /// radius for a compatible point reaches through thin closed objects: the stability suite's sealed box
+    /// leaked more light that way.)
     pub fn lookup(&self, p: Vec3, n: Vec3) -> Option<Vec3> {
+        // Most queries are answered by the single nearest point.
+        let (id, _) = self.tree.nearest_where(p, self.max_radius, |_| true)?;
+        let pt = &self.points[id as usize];
+        if self.compatible(pt, p, n) {
+            return Some(pt.e);
+        }
         CANDIDATES.with(|cell| {
             let mut found = cell.borrow_mut();
-            // Most queries are answered by the single nearest point; a 1-NN search is several times
-            // cheaper than the k-candidate search, which runs only when that point faces another way.
-            self.tree.knn(p, 1, self.max_radius, &mut found);
-            if let Some(pt) = found.first().map(|nb| &self.points[nb.index as usize]) {
-                if self.compatible(pt, p, n) {
-                    return Some(pt.e);
-                }
-            }
             self.tree.knn(p, LOOKUP_CANDIDATES, self.max_radius, &mut found);
-            found.iter().map(|nb| &self.points[nb.index as usize]).find(|pt| self.compatible(pt, p, n)).map(|pt| pt.e)
+            found.iter().map(|&(id, _)| &self.points[id as usize]).find(|pt| self.compatible(pt, p, n)).map(|pt| pt.e)
         })
     }
 
@@ -131,20 +132,10 @@ impl PrecomputedIrradiance {
         pt.normal.dot(n) > MIN_NORMAL_COS && (pt.pos - p).dot(n).abs() <= crate::map::DISC_HALF_THICKNESS * self.max_radius
     }
 
-    /// [`lookup`](Self::lookup) for many queries: one batched nearest-neighbour call, then the
-    /// candidate search only for the queries whose nearest point is out of range or faces another way.
+    /// [`lookup`](Self::lookup) for many queries.
     pub fn lookup_batch(&self, ps: &[Vec3], ns: &[Vec3], out: &mut Vec<Option<Vec3>>) {
-        let mut nearest = Vec::new();
-        self.tree.nearest_batch(ps, &mut nearest);
-        let r2 = self.max_radius * self.max_radius;
         out.clear();
-        out.extend(ps.iter().zip(ns).zip(&nearest).map(|((&p, &n), nb)| {
-            let pt = nb.filter(|nb| nb.dist2 < r2).map(|nb| &self.points[nb.index as usize]);
-            match pt {
-                Some(pt) if self.compatible(pt, p, n) => Some(pt.e),
-                _ => self.lookup(p, n),
-            }
-        }));
+        out.extend(ps.iter().zip(ns).map(|(&p, &n)| self.lookup(p, n)));
     }
 
     pub fn memory_bytes(&self) -> usize {
