@@ -86,17 +86,53 @@ impl PointTree {
     /// `accept(id)` holds; among equally distant points the smallest id. `accept` is called only for points
     /// closer than the best accepted so far.
     pub fn nearest_where(&self, q: Vec3, max_radius: f32, mut accept: impl FnMut(u32) -> bool) -> Option<(u32, f32)> {
-        if self.nodes.is_empty() || !q.is_finite() || max_radius.is_nan() || max_radius <= 0.0 {
-            return None;
-        }
         let mut best: Option<(u32, f32)> = None;
-        let mut best_d2 = max_radius * max_radius;
+        self.search(q, max_radius, |id, d2| {
+            let better = match best {
+                Some((b, bd)) => d2 < bd || (d2 == bd && id < b),
+                None => true,
+            };
+            if better && accept(id) {
+                best = Some((id, d2));
+            }
+            best.map(|(_, bd)| bd)
+        });
+        best
+    }
+
+    /// The `k` nearest points strictly closer than `max_radius`, as (id, squared distance) sorted by
+    /// distance then id, into `out` (cleared first).
+    pub fn knn(&self, q: Vec3, k: usize, max_radius: f32, out: &mut Vec<(u32, f32)>) {
+        out.clear();
+        if k == 0 {
+            return;
+        }
+        self.search(q, max_radius, |id, d2| {
+            let full = out.len() == k;
+            if !full || d2 < out[k - 1].1 || (d2 == out[k - 1].1 && id < out[k - 1].0) {
+                let at = out.partition_point(|&(b, bd)| bd < d2 || (bd == d2 && b < id));
+                out.insert(at, (id, d2));
+                out.truncate(k);
+            }
+            (out.len() == k).then(|| out[k - 1].1)
+        });
+    }
+
+    /// Depth-first traversal nearest side first: `visit(id, d2)` sees every point strictly inside
+    /// `max_radius` and not farther than the bound it last returned (`None`: still the radius); subtrees
+    /// farther than the bound are skipped.
+    fn search(&self, q: Vec3, max_radius: f32, mut visit: impl FnMut(u32, f32) -> Option<f32>) {
+        if self.nodes.is_empty() || !q.is_finite() || max_radius.is_nan() || max_radius <= 0.0 {
+            return;
+        }
+        let limit = max_radius * max_radius;
+        let mut bound = limit;
         let mut stack: [(u32, f32); 64] = [(0, 0.0); 64];
         let mut top = 1usize;
         while top > 0 {
             top -= 1;
             let (mut node, d2min) = stack[top];
-            if d2min > best_d2 {
+            if d2min > bound {
                 continue;
             }
             loop {
@@ -104,14 +140,8 @@ impl PointTree {
                     Node::Leaf { lo, hi } => {
                         for i in lo as usize..hi as usize {
                             let d2 = self.points[i].distance_squared(q);
-                            let id = self.ids[i];
-                            let better = match best {
-                                Some((b, _)) => d2 < best_d2 || (d2 == best_d2 && id < b),
-                                None => d2 < best_d2,
-                            };
-                            if better && accept(id) {
-                                best = Some((id, d2));
-                                best_d2 = d2;
+                            if d2 < limit && d2 <= bound {
+                                bound = visit(self.ids[i], d2).unwrap_or(limit);
                             }
                         }
                         break;
@@ -120,57 +150,7 @@ impl PointTree {
                         let diff = q[axis as usize] - split;
                         let (near, far) = if diff < 0.0 { (node + 1, right) } else { (right, node + 1) };
                         // Depth ≤ log2(n / LEAF) + 1 < 64 for any point count that fits in u32.
-                        if diff * diff <= best_d2 && top < stack.len() {
-                            stack[top] = (far, diff * diff);
-                            top += 1;
-                        }
-                        node = near;
-                    }
-                }
-            }
-        }
-        best
-    }
-}
-
-impl PointTree {
-    /// The `k` nearest points strictly closer than `max_radius`, as (id, squared distance) sorted by
-    /// distance then id, into `out` (cleared first).
-    pub fn knn(&self, q: Vec3, k: usize, max_radius: f32, out: &mut Vec<(u32, f32)>) {
-        out.clear();
-        if self.nodes.is_empty() || k == 0 || !q.is_finite() || max_radius.is_nan() || max_radius <= 0.0 {
-            return;
-        }
-        let limit = max_radius * max_radius;
-        let worst = |out: &Vec<(u32, f32)>| if out.len() == k { out[k - 1].1 } else { limit };
-        let mut stack: [(u32, f32); 64] = [(0, 0.0); 64];
-        let mut top = 1usize;
-        while top > 0 {
-            top -= 1;
-            let (mut node, d2min) = stack[top];
-            if d2min > worst(out) {
-                continue;
-            }
-            loop {
-                match self.nodes[node as usize] {
-                    Node::Leaf { lo, hi } => {
-                        for i in lo as usize..hi as usize {
-                            let d2 = self.points[i].distance_squared(q);
-                            let id = self.ids[i];
-                            let w = worst(out);
-                            let full = out.len() == k;
-                            if d2 < limit && (!full || d2 < w || (d2 == w && id < out[k - 1].0)) {
-                                let at = out.partition_point(|&(b, bd)| bd < d2 || (bd == d2 && b < id));
-                                out.insert(at, (id, d2));
-                                out.truncate(k);
-                            }
-                        }
-                        break;
-                    }
-                    Node::Split { axis, split, right } => {
-                        let diff = q[axis as usize] - split;
-                        let (near, far) = if diff < 0.0 { (node + 1, right) } else { (right, node + 1) };
-                        if diff * diff <= worst(out) && top < stack.len() {
+                        if diff * diff <= bound && top < stack.len() {
                             stack[top] = (far, diff * diff);
                             top += 1;
                         }
