@@ -53,3 +53,24 @@ fn path_tracer_furnace() {
         assert!(lo > 0.75 * expected && hi < 1.25 * expected, "ρ={rho}: range [{lo}, {hi}] vs {expected}");
     }
 }
+
+/// The photon-map methods in the same furnace: every term of the split (emission, direct from the area
+/// light that is the whole sphere, caustic none, soft indirect from the cache, the gather or the global
+/// map) must add up to the geometric series. Bias, not noise, is what this catches: a term counted twice
+/// or lost, or density estimates that lose light on a curved surface. Measured (8 spp): means within
+/// 0.8 % (pm 1.9950 / 4.9691, pm-fg 1.9944 / 4.9649, photons 1.9928 / 4.9908 for 2 / 5); bound 3 %.
+/// Pixels: within 12 % (photons at ρ = 0.8, the global map read directly); bound 20 %.
+#[test]
+fn photon_map_methods_furnace() {
+    for (method, spp) in [("pm", 8), ("pm-fg", 8), ("photons", 8)] {
+        for rho in [0.5f32, 0.8] {
+            let expected = 1.0 / (1.0 - rho);
+            let (m, lo, hi) = furnace(rho, 1.0, method, spp);
+            eprintln!("[furnace] {method} ρ={rho}: mean {:.4} (expected {expected:.4}), range [{lo:.3}, {hi:.3}]", m.x);
+            for c in m.to_array() {
+                assert!((c - expected).abs() < 0.03 * expected, "{method} ρ={rho}: mean {c} vs {expected}");
+            }
+            assert!(lo > 0.8 * expected && hi < 1.2 * expected, "{method} ρ={rho}: range [{lo}, {hi}] vs {expected}");
+        }
+    }
+}

@@ -290,12 +290,76 @@ Kd 0.45 0.45 0.47
 """)
 
 
+def slat(o, group, mat, y, x0, x1, z, depth, thick, tilt_deg):
+    """One blind slat: a thin box of `depth` along z and `thick` along y, centred at (y, z), rotated by
+    `tilt_deg` about the x axis."""
+    t = math.radians(tilt_deg)
+    c, s = math.cos(t), math.sin(t)
+    corners = []
+    for (dz, dy) in ((-depth / 2, -thick / 2), (depth / 2, -thick / 2), (depth / 2, thick / 2), (-depth / 2, thick / 2)):
+        corners.append((z + dz * c - dy * s, y + dz * s + dy * c))
+    (za, ya), (zb, yb), (zc, yc), (zd, yd) = corners
+    # four long faces (counter-clockwise seen from outside) and two end caps
+    for (z1, y1), (z2, y2) in (((za, ya), (zb, yb)), ((zb, yb), (zc, yc)), ((zc, yc), (zd, yd)), ((zd, yd), (za, ya))):
+        o.quad(group, mat, (x0, y1, z1), (x0, y2, z2), (x1, y2, z2), (x1, y1, z1))
+    o.quad(group, mat, (x1, ya, za), (x1, yb, zb), (x1, yc, zc), (x1, yd, zd))
+    o.quad(group, mat, (x0, yd, zd), (x0, yc, zc), (x0, yb, zb), (x0, ya, za))
+
+
+def blinds_room():
+    """A closed meeting room (x in [-3, 3], y in [0, 2.8], z in [-6, 0]) lit only by six point lights under
+    the ceiling ([[light]] entries): venetian blinds of 3 mm slats 3 cm apart in front of the back wall, a
+    stack of thin vertical fins (a radiator) on the left wall, a table and chairs. Thin, closely stacked
+    geometry is where photon density estimates lose light at edges (issue 10)."""
+    o = Obj()
+    W, H, D = 3.0, 2.8, 6.0
+    o.quad("floor", "carpet", (-W, 0, 0), (W, 0, 0), (W, 0, -D), (-W, 0, -D))
+    o.quad("ceiling", "ceiling", (-W, H, -D), (W, H, -D), (W, H, 0), (-W, H, 0))
+    o.quad("back", "wall", (-W, 0, -D), (W, 0, -D), (W, H, -D), (-W, H, -D))
+    o.quad("front", "wall", (W, 0, 0), (-W, 0, 0), (-W, H, 0), (W, H, 0))
+    o.quad("left", "wall", (-W, 0, 0), (-W, 0, -D), (-W, H, -D), (-W, H, 0))
+    o.quad("right", "wall", (W, 0, -D), (W, 0, 0), (W, H, 0), (W, H, -D))
+    y = 0.8
+    while y < 2.6:
+        slat(o, "blinds", "slat", y, -2.0, 2.0, -D + 0.12, 0.05, 0.003, 25.0)
+        y += 0.03
+    for i in range(24):
+        z = -3.6 + i * 0.025
+        o.box("radiator", "radiator", (-W + 0.04, 0.15, z), (-W + 0.12, 0.75, z + 0.003))
+    o.box("tabletop", "wood", (-1.2, 0.72, -4.2), (1.2, 0.76, -2.4))
+    for (x, z) in ((-1.1, -4.1), (1.1, -4.1), (-1.1, -2.5), (1.1, -2.5)):
+        o.box("tableleg", "wood", (x - 0.03, 0, z - 0.03), (x + 0.03, 0.72, z + 0.03))
+    for i in range(4):
+        x = -0.9 + i * 0.6
+        for (zs, zback) in ((-2.1, -1.92), (-4.5, -4.7)):  # seat centre, back rest on the side away from the table
+            o.box("chair", "chair", (x - 0.22, 0.42, zs - 0.2), (x + 0.22, 0.46, zs + 0.2))
+            o.box("chair", "chair", (x - 0.22, 0.46, zback - 0.01), (x + 0.22, 0.95, zback + 0.01))
+            o.box("chair", "chair", (x - 0.02, 0.0, zs - 0.02), (x + 0.02, 0.42, zs + 0.02))
+    o.write("blinds-room", """
+newmtl carpet
+Kd 0.32 0.3 0.28
+newmtl ceiling
+Kd 0.8 0.8 0.78
+newmtl wall
+Kd 0.7 0.68 0.62
+newmtl slat
+Kd 0.75 0.75 0.75
+newmtl radiator
+Kd 0.7 0.7 0.7
+newmtl wood
+Kd 0.42 0.28 0.16
+newmtl chair
+Kd 0.12 0.14 0.2
+""")
+
+
 def main():
     os.makedirs(OUT, exist_ok=True)
     cornell_caustics()
     interior_diffuse()
     water_caustics()
     spot_point()
+    blinds_room()
 
 
 if __name__ == "__main__":

@@ -5,7 +5,7 @@
 //! seed, target global, target caustic, max paths, paths emitted, global paths, caustic paths, number of
 //! global photons, caustic photons, irradiance points — then the precomputed max radius f32 and 4 zero
 //! bytes (112-byte header); then the photons (13 f32 each: pos, wi, power, normal, indirect flag 0/1) and the irradiance
-//! points (9 f32: pos, normal, e); then an FNV-1a 64 checksum of everything between the magic and it.
+//! points (12 f32: pos, normal, e, e_indirect); then an FNV-1a 64 checksum of everything between the magic and it.
 //! Loading checks magic, version, that the counts match the file length (before allocating), the
 //! checksum, then the scene fingerprint. Kd-trees are rebuilt on load.
 #![forbid(unsafe_code)]
@@ -22,10 +22,10 @@ use crate::precomputed::{IrradiancePoint, PrecomputedIrradiance};
 use crate::trace::{PhotonMaps, PhotonTargets, TraceStats};
 
 pub const MAGIC: [u8; 8] = *b"PMPHOTON";
-pub const VERSION: u32 = 2;
+pub const VERSION: u32 = 3;
 const HEADER_BYTES: usize = 112;
 const PHOTON_BYTES: u64 = 52;
-const POINT_BYTES: u64 = 36;
+const POINT_BYTES: u64 = 48;
 const CHECKSUM_BYTES: u64 = 8;
 const HAS_GLOBAL: u32 = 1;
 const HAS_CAUSTIC: u32 = 2;
@@ -128,7 +128,7 @@ pub fn write_maps<W: Write>(
         h.write_all(&(ph.indirect as u8 as f32).to_le_bytes())?;
     }
     for pt in points {
-        write_vecs(&mut h, &[pt.pos, pt.normal, pt.e])?;
+        write_vecs(&mut h, &[pt.pos, pt.normal, pt.e, pt.e_indirect])?;
     }
     let hash = h.hash;
     let mut w = h.inner;
@@ -271,7 +271,7 @@ pub fn read_maps(bytes: &[u8], expected_fingerprint: u64) -> Result<LoadedMaps> 
     let caustic = read_photons(n_caustic);
     let mut vec3 = || Vec3::new(next(), next(), next());
     let points: Vec<IrradiancePoint> =
-        (0..n_points).map(|_| IrradiancePoint { pos: vec3(), normal: vec3(), e: vec3() }).collect();
+        (0..n_points).map(|_| IrradiancePoint { pos: vec3(), normal: vec3(), e: vec3(), e_indirect: vec3() }).collect();
     let corrupt = |e: Error| Error::Corrupt(format!("cannot rebuild a kd-tree: {e}"));
     let map = |present: bool, photons: Vec<Photon>| -> Result<Option<PhotonMap>> {
         if present {

@@ -15,7 +15,7 @@ pub mod trace;
 pub use error::{Error, Result};
 pub use file::{LoadedMaps, MapsInfo};
 pub use flann::{KdTree, Neighbor};
-pub use map::{Estimate, Filter, Photon, PhotonMap};
+pub use map::{Coverage, Estimate, Filter, FullDisc, Photon, PhotonMap};
 pub use precomputed::{IrradiancePoint, PrecomputeStats, PrecomputedIrradiance};
 pub use trace::{
     trace_photons, EmittedRay, PhotonMaps, PhotonScene, PhotonTargets, Scatter, SurfaceHit, TraceStats,

@@ -12,7 +12,7 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use crate::error::{Error, Result};
-use crate::map::{Filter, PhotonMap};
+use crate::map::{Coverage, PhotonMap};
 use crate::pointtree::PointTree;
 use crate::sampling::mix64;
 
@@ -28,7 +28,11 @@ pub const MIN_NORMAL_COS: f32 = 0.7;
 pub struct IrradiancePoint {
     pub pos: Vec3,
     pub normal: Vec3,
+    /// Irradiance from every photon: what a final-gather ray reaching this surface sees.
     pub e: Vec3,
+    /// Irradiance from the photons flagged `indirect` only: the soft indirect term of a point that has
+    /// its own direct and caustic terms (one reached through a glossy lobe).
+    pub e_indirect: Vec3,
 }
 
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -64,7 +68,7 @@ pub struct PrecomputedIrradiance {
 impl PrecomputedIrradiance {
     /// Estimates irradiance (k nearest within `max_radius`, no filter) at one photon out of each block
     /// of `every` consecutive global photons, in parallel; the result does not depend on the thread count.
-    pub fn build(global: &PhotonMap, every: usize, k: usize, max_radius: f32) -> Result<(Self, PrecomputeStats)> {
+    pub fn build(global: &PhotonMap, every: usize, k: usize, max_radius: f32, cov: &dyn Coverage) -> Result<(Self, PrecomputeStats)> {
         if every == 0 || k == 0 || max_radius.is_nan() || max_radius <= 0.0 {
             return Err(Error::InvalidParameter(format!(
                 "precomputed irradiance needs every ≥ 1, k ≥ 1, max_radius > 0 (got {every}, {k}, {max_radius})"
@@ -76,8 +80,8 @@ impl PrecomputedIrradiance {
             .into_par_iter()
             .map(|block| {
                 let ph = &photons[pick_in_block(block, every, photons.len())];
-                let est = global.irradiance(ph.pos, ph.normal, k, max_radius, Filter::None);
-                (IrradiancePoint { pos: ph.pos, normal: ph.normal, e: est.e }, est.hit_max_radius)
+                let (est, e_indirect) = global.irradiance_and_indirect(ph.pos, ph.normal, k, max_radius, cov);
+                (IrradiancePoint { pos: ph.pos, normal: ph.normal, e: est.e, e_indirect }, est.hit_max_radius)
             })
             .collect();
         let n_hit_max_radius = estimates.iter().filter(|(_, hit)| *hit).count() as u64;
@@ -107,21 +111,21 @@ impl PrecomputedIrradiance {
         self.max_radius
     }
 
-    /// Irradiance of the nearest point that is [compatible](Self::compatible) with the query among the
+    /// The nearest point that is [compatible](Self::compatible) with the query among the
     /// [`LOOKUP_CANDIDATES`] nearest within the max radius; `None` if there is none. (Searching the whole
     /// radius for a compatible point reaches through thin closed objects: the stability suite's sealed box
     /// leaked more light that way.)
-    pub fn lookup(&self, p: Vec3, n: Vec3) -> Option<Vec3> {
+    pub fn lookup(&self, p: Vec3, n: Vec3) -> Option<&IrradiancePoint> {
         // Most queries are answered by the single nearest point.
         let (id, _) = self.tree.nearest_where(p, self.max_radius, |_| true)?;
         let pt = &self.points[id as usize];
         if self.compatible(pt, p, n) {
-            return Some(pt.e);
+            return Some(pt);
         }
         CANDIDATES.with(|cell| {
             let mut found = cell.borrow_mut();
             self.tree.knn(p, LOOKUP_CANDIDATES, self.max_radius, &mut found);
-            found.iter().map(|&(id, _)| &self.points[id as usize]).find(|pt| self.compatible(pt, p, n)).map(|pt| pt.e)
+            found.iter().map(|&(id, _)| &self.points[id as usize]).find(|pt| self.compatible(pt, p, n))
         })
     }
 
@@ -135,7 +139,7 @@ impl PrecomputedIrradiance {
     /// [`lookup`](Self::lookup) for many queries.
     pub fn lookup_batch(&self, ps: &[Vec3], ns: &[Vec3], out: &mut Vec<Option<Vec3>>) {
         out.clear();
-        out.extend(ps.iter().zip(ns).map(|(&p, &n)| self.lookup(p, n)));
+        out.extend(ps.iter().zip(ns).map(|(&p, &n)| self.lookup(p, n).map(|pt| pt.e)));
     }
 
     pub fn memory_bytes(&self) -> usize {
@@ -155,7 +159,7 @@ fn pick_in_block(block: usize, every: usize, n_photons: usize) -> usize {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::map::Photon;
+    use crate::map::{FullDisc, Photon};
     use crate::sampling::Rng;
 
     fn two_sided_plane(n: usize) -> PhotonMap {
@@ -175,16 +179,18 @@ mod tests {
     fn lookup_returns_the_nearest_compatible_estimate() {
         let map = two_sided_plane(100_000);
         // Photons alternate sides; a fixed stride of 4 would see only the top side.
-        let (pre, stats) = PrecomputedIrradiance::build(&map, 4, 400, 0.5).unwrap();
+        let (pre, stats) = PrecomputedIrradiance::build(&map, 4, 400, 0.5, &FullDisc).unwrap();
         assert_eq!(stats.n_points, 25_000);
         assert_eq!(stats.n_hit_max_radius, 0);
         // 400 neighbours, about 200 on the queried side: ±7 % (1σ); the bound is 4σ.
-        let top = pre.lookup(Vec3::new(0.1, 0.2, 0.0), Vec3::Z).unwrap();
+        let top = pre.lookup(Vec3::new(0.1, 0.2, 0.0), Vec3::Z).unwrap().e;
         assert!((top.x - 1.0).abs() < 0.3, "{top}");
-        let bottom = pre.lookup(Vec3::new(0.1, 0.2, 0.0), -Vec3::Z).unwrap();
+        let bottom = pre.lookup(Vec3::new(0.1, 0.2, 0.0), -Vec3::Z).unwrap().e;
         assert!((bottom.x - 0.25).abs() < 0.075, "{bottom}");
         assert_eq!(pre.lookup(Vec3::new(0.1, 0.2, 0.0), Vec3::X), None);
         assert_eq!(pre.lookup(Vec3::new(5.0, 0.0, 0.0), Vec3::Z), None);
+        // Every test photon is flagged direct.
+        assert_eq!(pre.lookup(Vec3::new(0.1, 0.2, 0.0), Vec3::Z).unwrap().e_indirect, Vec3::ZERO);
     }
 
     #[test]
@@ -192,7 +198,7 @@ mod tests {
         let map = two_sided_plane(20_000);
         let run = |threads| {
             let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
-            pool.install(|| PrecomputedIrradiance::build(&map, 3, 50, 0.5).unwrap().0.points().to_vec())
+            pool.install(|| PrecomputedIrradiance::build(&map, 3, 50, 0.5, &FullDisc).unwrap().0.points().to_vec())
         };
         assert_eq!(run(1), run(2));
     }
@@ -210,7 +216,7 @@ mod tests {
     #[test]
     fn bad_parameters_are_errors() {
         let map = two_sided_plane(10);
-        assert!(PrecomputedIrradiance::build(&map, 0, 10, 1.0).is_err());
-        assert!(PrecomputedIrradiance::build(&map, 1, 10, f32::NAN).is_err());
+        assert!(PrecomputedIrradiance::build(&map, 0, 10, 1.0, &FullDisc).is_err());
+        assert!(PrecomputedIrradiance::build(&map, 1, 10, f32::NAN, &FullDisc).is_err());
     }
 }

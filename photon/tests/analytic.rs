@@ -5,7 +5,7 @@ mod common;
 
 use common::*;
 use glam::Vec3;
-use photon::{trace_photons, Filter, PhotonTargets, PrecomputedIrradiance};
+use photon::{trace_photons, Filter, FullDisc, PhotonTargets, PrecomputedIrradiance};
 
 fn no_progress(_: u64, _: u64) {}
 
@@ -20,7 +20,7 @@ fn global_map_matches_point_light_on_a_floor() {
     assert_eq!(stats.n_global_stored, 200_000);
     let hit_fraction = stats.n_global_stored as f64 / stats.n_global_paths as f64;
     assert!((hit_fraction - 0.5).abs() < 0.01, "{hit_fraction}");
-    let (pre, _) = PrecomputedIrradiance::build(&global, 4, 400, 1.0).unwrap();
+    let (pre, _) = PrecomputedIrradiance::build(&global, 4, 400, 1.0, &FullDisc).unwrap();
     // k = 400: Poisson noise of the count would be 1/√400 = 5 %; Halton-stratified emission does much
     // better (worst point over seeds 0–5: 1.1 %). The curvature bias is < 1 % here (r ≤ 0.21).
     // Tolerance 5 %. The precomputed value is an estimate at a photon a little way off (worst over
@@ -29,15 +29,15 @@ fn global_map_matches_point_light_on_a_floor() {
         let p = Vec3::new(x, 0.3 * x, 0.0);
         let want = lit_floor_irradiance(p);
         for filter in [Filter::None, Filter::Cone { k: 1.1 }] {
-            let est = global.irradiance(p, Vec3::Z, 400, 1.0, filter);
+            let est = global.irradiance(p, Vec3::Z, 400, 1.0, filter, &FullDisc);
             assert!(!est.hit_max_radius);
             let rel = (est.e.x / want - 1.0).abs();
             assert!(rel < 0.05, "x={x} {filter:?}: {} vs {want}", est.e.x);
         }
-        let e = pre.lookup(p, Vec3::Z).unwrap();
+        let e = pre.lookup(p, Vec3::Z).unwrap().e;
         assert!((e.x / want - 1.0).abs() < 0.08, "precomputed x={x}: {} vs {want}", e.x);
         // Nothing arrives at the underside.
-        assert_eq!(global.irradiance(p, -Vec3::Z, 400, 1.0, Filter::None).n_found, 0);
+        assert_eq!(global.irradiance(p, -Vec3::Z, 400, 1.0, Filter::None, &FullDisc).n_found, 0);
     }
 }
 
@@ -54,7 +54,7 @@ fn caustic_rms_error(n_caustic: usize, k: usize) -> f64 {
         for j in 0..4 {
             let p = Vec3::new(-1.0 + 0.3 * i as f32, -0.9 + 0.6 * j as f32, 0.0);
             let want = mirror_wall_caustic(p);
-            let est = caustic.irradiance(p, Vec3::Z, k, 1.0, Filter::Cone { k: 1.1 });
+            let est = caustic.irradiance(p, Vec3::Z, k, 1.0, Filter::Cone { k: 1.1 }, &FullDisc);
             sum += ((est.e.x / want - 1.0) as f64).powi(2);
             n += 1;
         }

@@ -12,7 +12,7 @@ fn encoded() -> (Vec<u8>, MapsInfo) {
     let scene = mirror_wall();
     let targets = PhotonTargets { global: 3_000, caustic: 500, max_paths: 1_000_000 };
     let (maps, stats) = trace_photons(&scene, &targets, 5, &|_, _| {}).unwrap();
-    let (pre, _) = PrecomputedIrradiance::build(maps.global.as_ref().unwrap(), 4, 50, 0.5).unwrap();
+    let (pre, _) = PrecomputedIrradiance::build(maps.global.as_ref().unwrap(), 4, 50, 0.5, &photon::FullDisc).unwrap();
     let info = MapsInfo::new(FINGERPRINT, 5, targets, &stats);
     let mut bytes = Vec::new();
     write_maps(&mut bytes, &info, &maps, Some(&pre)).unwrap();

@@ -1,5 +1,6 @@
 //! Integrators: the path-tracing reference and the photon-map methods built on Jensen's split.
 pub mod cache_fill;
+pub mod coverage;
 pub mod path;
 pub mod photon_scene;
 pub mod photons;

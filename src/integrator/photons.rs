@@ -4,6 +4,7 @@
 use glam::Vec3;
 use photon::{Filter, PhotonMap, PhotonMaps, PhotonTargets, PrecomputedIrradiance, TraceStats};
 
+use super::coverage::SceneCoverage;
 use super::photon_scene::PhotonView;
 use crate::error::{at_line, Result};
 use crate::scene::file::line_of_key;
@@ -58,13 +59,15 @@ impl PhotonSettings {
     }
 }
 
-pub struct PhotonData {
+pub struct PhotonData<'a> {
     pub maps: PhotonMaps,
     pub precomputed: Option<PrecomputedIrradiance>,
     pub settings: PhotonSettings,
+    /// What part of each estimate's disc is surface (the scene's geometry answers).
+    pub coverage: SceneCoverage<'a>,
 }
 
-impl PhotonData {
+impl PhotonData<'_> {
     pub fn trace(scene: &Scene, settings: &PhotonSettings, seed: u64, progress: &(dyn Fn(u64, u64) + Sync)) -> Result<(PhotonMaps, TraceStats)> {
         match photon::trace_photons(&PhotonView(scene), &Self::targets(settings), seed, progress) {
             Ok(r) => Ok(r),
@@ -84,7 +87,7 @@ impl PhotonData {
 
     pub fn caustic_irradiance(&self, p: Vec3, n: Vec3) -> Vec3 {
         match &self.maps.caustic {
-            Some(m) => m.irradiance(p, n, self.settings.lookup, self.settings.max_radius_caustic, self.settings.caustic_filter).e,
+            Some(m) => m.irradiance(p, n, self.settings.lookup, self.settings.max_radius_caustic, self.settings.caustic_filter, &self.coverage).e,
             None => Vec3::ZERO,
         }
     }
@@ -92,10 +95,19 @@ impl PhotonData {
     /// Full irradiance from the global map at a final-gather hit: the precomputed value of the nearest
     /// compatible photon, or a k-NN estimate where none is near.
     pub fn precomputed_irradiance(&self, p: Vec3, n: Vec3) -> Vec3 {
-        if let Some(e) = self.precomputed.as_ref().and_then(|pre| pre.lookup(p, n)) {
-            return e;
+        if let Some(pt) = self.precomputed.as_ref().and_then(|pre| pre.lookup(p, n)) {
+            return pt.e;
         }
-        self.global(|m| m.irradiance(p, n, self.settings.lookup, self.settings.max_radius_global, Filter::None).e)
+        self.global(|m| m.irradiance(p, n, self.settings.lookup, self.settings.max_radius_global, Filter::None, &self.coverage).e)
+    }
+
+    /// Soft indirect irradiance (direct and caustic photons left out) at a point that has its own
+    /// direct and caustic terms: the precomputed value where there is one, else the global map.
+    pub fn indirect_irradiance(&self, p: Vec3, n: Vec3) -> Vec3 {
+        match self.precomputed.as_ref().and_then(|pre| pre.lookup(p, n)) {
+            Some(pt) => pt.e_indirect,
+            None => self.global_indirect_irradiance(p, n),
+        }
     }
 
     /// [`precomputed_irradiance`](Self::precomputed_irradiance) for a whole final gather's hits at once.
@@ -108,7 +120,7 @@ impl PhotonData {
         found
             .into_iter()
             .zip(ps.iter().zip(ns))
-            .map(|(e, (&p, &n))| e.unwrap_or_else(|| self.global(|m| m.irradiance(p, n, self.settings.lookup, self.settings.max_radius_global, Filter::None).e)))
+            .map(|(e, (&p, &n))| e.unwrap_or_else(|| self.global(|m| m.irradiance(p, n, self.settings.lookup, self.settings.max_radius_global, Filter::None, &self.coverage).e)))
             .collect()
     }
 
@@ -125,14 +137,14 @@ impl PhotonData {
             let cos_a = r.dot(wi).max(0.0);
             specular * ((exponent + 2.0) / (2.0 * std::f32::consts::PI) * cos_a.powf(exponent))
         };
-        self.global(|m| m.radiance_with(hit.p, n, self.settings.lookup, self.settings.max_radius_global, Filter::None, lobe).e)
+        self.global(|m| m.radiance_with(hit.p, n, self.settings.lookup, self.settings.max_radius_global, Filter::None, &self.coverage, lobe).e)
     }
 
     /// Indirect-only irradiance read straight from the global map (method `photons`): photons that came
     /// straight from a light, or through specular bounces only, are left out — direct and caustic
     /// light have their own terms.
     pub fn global_indirect_irradiance(&self, p: Vec3, n: Vec3) -> Vec3 {
-        self.global(|m| m.irradiance_indirect(p, n, self.settings.lookup, self.settings.max_radius_global).e)
+        self.global(|m| m.irradiance_indirect(p, n, self.settings.lookup, self.settings.max_radius_global, &self.coverage).e)
     }
 
     fn global(&self, f: impl Fn(&PhotonMap) -> Vec3) -> Vec3 {

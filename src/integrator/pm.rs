@@ -36,7 +36,7 @@ pub enum IndirectSource<'a> {
 #[derive(Clone, Copy)]
 pub struct PmContext<'a> {
     pub scene: &'a Scene,
-    pub photons: &'a PhotonData,
+    pub photons: &'a PhotonData<'a>,
     pub source: IndirectSource<'a>,
     pub gather: GatherParams,
     pub max_depth: u32,
@@ -171,9 +171,10 @@ impl PmContext<'_> {
 
     /// Soft indirect irradiance at a non-specular point.
     fn indirect(&self, hit: &Hit, frame: &Frame, via_glossy: bool, rng: &mut Rng, c: &mut SampleCounters) -> Vec3 {
-        // Points reached through glossy lobes are blurred by the lobe: the photon map suffices there.
+        // Points reached through glossy lobes are blurred by the lobe: the photon map suffices there. The
+        // point has its own direct and caustic terms, so only the photons that are neither count.
         if via_glossy {
-            return self.photons.precomputed_irradiance(hit.p, frame.n);
+            return self.photons.indirect_irradiance(hit.p, frame.n);
         }
         match self.source {
             IndirectSource::PhotonMap => self.photons.global_indirect_irradiance(hit.p, frame.n),

@@ -17,6 +17,7 @@ use super::{Options, Plan, Progress, RenderOutput};
 use crate::camera::Camera;
 use crate::error::{at_line, runtime, Result};
 use crate::integrator::cache_fill::{gather_record, shading_hits};
+use crate::integrator::coverage::SceneCoverage;
 use crate::integrator::photons::{PhotonData, PhotonSettings};
 use crate::integrator::pm::{IndirectSource, PmContext};
 use crate::integrator::terms::{Terms, TERM_NAMES};
@@ -92,7 +93,7 @@ pub fn render_pm(scene: &Scene, plan: &Plan, opts: &Options, camera: &Camera, pr
     let (cache_params, rays, fill_mode) = cache_settings(scene)?;
 
     let (maps, precomputed) = photon_maps(scene, plan, &settings, opts, progress, &mut report)?;
-    let photons = PhotonData { maps, precomputed, settings };
+    let photons = PhotonData { maps, precomputed, settings, coverage: SceneCoverage(scene) };
 
     let mut ctx = PmContext {
         scene,
@@ -197,7 +198,7 @@ fn photon_maps(scene: &Scene, plan: &Plan, settings: &PhotonSettings, opts: &Opt
         let mut pre = loaded.precomputed;
         if pre.is_none() && want_precomputed {
             if let Some(g) = &loaded.maps.global {
-                pre = Some(PrecomputedIrradiance::build(g, settings.precompute_every, settings.lookup, settings.max_radius_global).map_err(runtime)?.0);
+                pre = Some(PrecomputedIrradiance::build(g, settings.precompute_every, settings.lookup, settings.max_radius_global, &SceneCoverage(scene)).map_err(runtime)?.0);
             }
         }
         report.seconds("Time", "Load photons", "time.load_photons_s", t.elapsed().as_secs_f64());
@@ -220,7 +221,7 @@ fn photon_maps(scene: &Scene, plan: &Plan, settings: &PhotonSettings, opts: &Opt
     let t = Instant::now();
     let precomputed = match &maps.global {
         Some(g) if want_precomputed || opts.files.save_photons.is_some() => {
-            Some(PrecomputedIrradiance::build(g, settings.precompute_every, settings.lookup, settings.max_radius_global).map_err(runtime)?.0)
+            Some(PrecomputedIrradiance::build(g, settings.precompute_every, settings.lookup, settings.max_radius_global, &SceneCoverage(scene)).map_err(runtime)?.0)
         }
         _ => None,
     };
@@ -259,7 +260,9 @@ fn cache_rows(r: &mut Report, s: &CacheStats, fill: &FillStats, gather_rays: u64
     r.count("Irradiance cache", "Records created in pass A", "icache.records_pass_a", s.records_pass_a);
     r.count("Irradiance cache", "Records created in pass B", "icache.records_pass_b", s.records_pass_b);
     r.count("Irradiance cache", "Lookups", "icache.lookups", s.lookups);
-    r.count("Irradiance cache", "Pass-B misses", "icache.misses_pass_b", s.misses_pass_b);
+    r.count("Irradiance cache", "Pass-B lookups", "icache.lookups_pass_b", s.lookups_pass_b);
+    r.count("Irradiance cache", "Pass-B misses (full gather)", "icache.misses_pass_b", s.misses_pass_b);
+    r.count("Irradiance cache", "Pass-B lookups from one record", "icache.single_record_pass_b", s.single_record_pass_b);
     r.number("Irradiance cache", "Mean usable records per lookup", "icache.mean_records_per_lookup", s.mean_records_per_lookup());
     r.count("Irradiance cache", "Gather rays", "icache.gather_rays", gather_rays);
     let h = &s.radius_px;
