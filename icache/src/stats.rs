@@ -39,6 +39,8 @@ impl AddAssign for InsertStats {
 pub struct LookupStats {
     pub n_lookups: u64,
     pub n_misses: u64,
+    /// Lookups answered by a single record: extrapolated, not interpolated (the blotches of a sparse cache).
+    pub n_single_record: u64,
     /// Sum over lookups of the usable records used.
     pub n_records_used: u64,
 }
@@ -47,7 +49,10 @@ impl LookupStats {
     pub fn record(&mut self, hit: Option<&Lookup>) {
         self.n_lookups += 1;
         match hit {
-            Some(l) => self.n_records_used += l.n_used as u64,
+            Some(l) => {
+                self.n_records_used += l.n_used as u64;
+                self.n_single_record += (l.n_used == 1) as u64;
+            }
             None => self.n_misses += 1,
         }
     }
@@ -57,6 +62,7 @@ impl AddAssign for LookupStats {
     fn add_assign(&mut self, o: Self) {
         self.n_lookups += o.n_lookups;
         self.n_misses += o.n_misses;
+        self.n_single_record += o.n_single_record;
         self.n_records_used += o.n_records_used;
     }
 }
@@ -164,7 +170,11 @@ pub struct CacheStats {
     /// Records created after the fill (lazily, by `get_or_insert_with`); 0 in a proper two-pass render.
     pub records_pass_b: u64,
     pub lookups: u64,
+    /// Pass-B lookups (one per shading sample on a surface with a diffuse part).
+    pub lookups_pass_b: u64,
     pub misses_pass_b: u64,
+    /// Pass-B lookups answered by a single record.
+    pub single_record_pass_b: u64,
     /// Lookups that found a usable record, and the sum of usable records over them.
     pub n_hits: u64,
     pub n_records_used: u64,
@@ -189,7 +199,9 @@ impl CacheStats {
             records_pass_a: fill.insert.n_inserted,
             records_pass_b: n_records.saturating_sub(fill.insert.n_inserted),
             lookups: fill.lookups.n_lookups + pass_b.n_lookups,
+            lookups_pass_b: pass_b.n_lookups,
             misses_pass_b: pass_b.n_misses,
+            single_record_pass_b: pass_b.n_single_record,
             n_hits: (fill.lookups.n_lookups - fill.lookups.n_misses) + (pass_b.n_lookups - pass_b.n_misses),
             n_records_used: fill.lookups.n_records_used + pass_b.n_records_used,
             radius_px,
@@ -213,7 +225,9 @@ impl AddAssign for CacheStats {
         self.records_pass_a += o.records_pass_a;
         self.records_pass_b += o.records_pass_b;
         self.lookups += o.lookups;
+        self.lookups_pass_b += o.lookups_pass_b;
         self.misses_pass_b += o.misses_pass_b;
+        self.single_record_pass_b += o.single_record_pass_b;
         self.n_hits += o.n_hits;
         self.n_records_used += o.n_records_used;
         self.radius_px += o.radius_px;
