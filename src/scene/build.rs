@@ -169,14 +169,27 @@ fn append_model(geo: &mut Geometry, model: &obj::ObjModel, xf: &Mat4, nxf: &Mat3
     for f in model.indices.chunks_exact(3) {
         let v = if mirrored { [base + f[0], base + f[2], base + f[1]] } else { [base + f[0], base + f[1], base + f[2]] };
         let [a, b, c] = v.map(|i| geo.positions[i as usize]);
-        let cross = (b - a).cross(c - a);
-        let area = 0.5 * cross.length();
-        if !(area > 0.0 && area.is_finite() && cross.normalize().is_finite()) {
+        let Some((ng, area)) = normal_and_area(a, b, c) else {
             geo.n_degenerate += 1;
             continue;
-        }
-        geo.triangles.push(Triangle { v, material, ng: cross.normalize(), area, has_normals, has_uv });
+        };
+        geo.triangles.push(Triangle { v, material, ng, area, has_normals, has_uv });
     }
+}
+
+/// Unit normal (counter-clockwise) and area of a triangle; `None` when the area is zero. Edges of a
+/// triangle within the coordinate limit fit f32, but their cross product's squared length may not: then
+/// the same is computed in f64.
+fn normal_and_area(a: Vec3, b: Vec3, c: Vec3) -> Option<(Vec3, f32)> {
+    let cross = (b - a).cross(c - a);
+    let (ng, area) = (cross.normalize(), 0.5 * cross.length());
+    if area > 0.0 && area.is_finite() && ng.is_finite() {
+        return Some((ng, area));
+    }
+    let cross = (b.as_dvec3() - a.as_dvec3()).cross(c.as_dvec3() - a.as_dvec3());
+    let len = cross.length();
+    let area = (0.5 * len) as f32;
+    (len > 0.0 && area > 0.0 && area.is_finite()).then(|| ((cross / len).as_vec3(), area))
 }
 
 fn textures(cx: &Ctx, materials: &mut [Material], tex_paths: TexPaths) -> Result<Vec<Texture>> {
