@@ -15,11 +15,12 @@ pub struct Camera {
 }
 
 impl Camera {
-    /// `up` must not be parallel to `target − eye` (checked by the scene loader).
+    /// `up` must not be parallel to `target − eye` (checked by the scene loader). The frame is built in
+    /// f64: `target − eye` of two finite f32 points, or its length squared, may overflow f32.
     pub fn new(eye: Vec3, target: Vec3, up: Vec3, fov_deg: f32, width: u32, height: u32) -> Camera {
-        let forward = (target - eye).normalize();
-        let right = forward.cross(up).normalize();
-        let up = right.cross(forward);
+        let forward = (target.as_dvec3() - eye.as_dvec3()).normalize();
+        let right = forward.cross(up.as_dvec3()).normalize();
+        let (up, forward, right) = (right.cross(forward).as_vec3(), forward.as_vec3(), right.as_vec3());
         Camera { eye, forward, right, up, tan_half: (fov_deg.to_radians() * 0.5).tan(), width, height }
     }
 

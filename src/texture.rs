@@ -23,32 +23,55 @@ fn srgb_to_linear(c: f32) -> f32 {
     }
 }
 
-/// Finds `name` in `dir`, also when the MTL spells the file name with another letter case.
-pub fn resolve(dir: &Path, name: &str) -> Option<PathBuf> {
+/// Largest texture, in pixels (8192 × 8192), checked from the file's header before it is decoded.
+pub const MAX_TEXTURE_PIXELS: u64 = 1 << 26;
+
+/// Finds the regular file `name` in `dir`, also when the MTL spells the file name with another letter
+/// case. Directories, devices and FIFOs are never returned: reading them could block or never end.
+pub fn resolve(dir: &Path, name: &str) -> Result<PathBuf, String> {
     let name = name.replace('\\', "/");
     let direct = dir.join(&name);
     if direct.is_file() {
-        return Some(direct);
+        return Ok(direct);
     }
-    let wanted = direct.file_name()?.to_string_lossy().to_lowercase();
-    let parent = direct.parent()?;
-    std::fs::read_dir(parent).ok()?.flatten().map(|e| e.path()).find(|p| {
-        p.file_name().map(|f| f.to_string_lossy().to_lowercase() == wanted).unwrap_or(false)
-    })
+    let parent = match direct.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    let not_found = || format!("not found in '{}'", parent.display());
+    let wanted = direct.file_name().ok_or_else(not_found)?.to_string_lossy().to_lowercase();
+    let same_name = |p: &PathBuf| p.file_name().is_some_and(|f| f.to_string_lossy().to_lowercase() == wanted);
+    let candidates: Vec<PathBuf> = std::fs::read_dir(&parent).map_err(|_| not_found())?.flatten().map(|e| e.path()).filter(same_name).collect();
+    match candidates.iter().find(|p| p.is_file()) {
+        Some(p) => Ok(p.clone()),
+        None if direct.exists() || !candidates.is_empty() => Err("is not a regular file".into()),
+        None => Err(not_found()),
+    }
 }
 
 impl Texture {
     /// Loads an 8-bit (sRGB-encoded) or float (linear) image.
+    /// Grey and grey+alpha images are grey (alpha is ignored). The size in the file's header is checked
+    /// against [`MAX_TEXTURE_PIXELS`] before any pixel is decoded.
     pub fn load(path: &Path) -> Result<Texture, String> {
+        let (width, height, channels) = oiio::image_size(path)?;
+        let n_pixels = width as u64 * height as u64;
+        if n_pixels > MAX_TEXTURE_PIXELS || channels == 0 {
+            return Err(format!(
+                "{width}×{height} pixels × {channels} channels: more than the limit of {MAX_TEXTURE_PIXELS} pixels (8192×8192)"
+            ));
+        }
         let img = oiio::read(path)?;
+        if img.channels == 0 {
+            return Err("image has no channels".into());
+        }
         let is_float = matches!(path.extension().and_then(|e| e.to_str()).map(str::to_lowercase).as_deref(), Some("exr" | "hdr"));
         let nc = img.channels as usize;
         let texels = img
             .data
             .chunks_exact(nc)
             .map(|px| {
-                let c = |k: usize| px[k.min(nc - 1)];
-                let v = Vec3::new(c(0), c(1), c(2));
+                let v = if nc >= 3 { Vec3::new(px[0], px[1], px[2]) } else { Vec3::splat(px[0]) };
                 if is_float {
                     v
                 } else {

@@ -52,8 +52,10 @@ impl IrradianceCache {
     /// An empty cache whose index covers [bounds_min, bounds_max] (records outside still work, more slowly).
     pub fn new(bounds_min: Vec3, bounds_max: Vec3, params: CacheParams) -> Result<Self> {
         params.validate()?;
-        if !(bounds_min.is_finite() && bounds_max.is_finite() && bounds_min.cmple(bounds_max).all()) {
-            return Err(Error::InvalidBounds(format!("[{bounds_min}, {bounds_max}]")));
+        // The extent must be finite too: octree cells halve it, and an infinite cell never shrinks.
+        let extent = (bounds_max - bounds_min).max_element() * 1.02;
+        if !(bounds_min.is_finite() && bounds_max.is_finite() && bounds_min.cmple(bounds_max).all() && extent.is_finite()) {
+            return Err(Error::InvalidBounds(format!("[{bounds_min}, {bounds_max}] (its extent must be finite)")));
         }
         Ok(IrradianceCache {
             params,

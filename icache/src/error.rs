@@ -10,6 +10,10 @@ pub enum Error {
     InvalidBounds(String),
     #[error("i/o error on cache file: {0}")]
     Io(#[from] std::io::Error),
+    #[error("cache file is not a regular file")]
+    NotRegularFile,
+    #[error("cache file has {bytes} bytes, more than the limit of {limit}")]
+    TooLarge { bytes: u64, limit: u64 },
     #[error("not an irradiance cache file (bad magic)")]
     BadMagic,
     #[error("unsupported cache file version {found} (this build reads {supported})")]

@@ -21,6 +21,8 @@ pub const FILE_VERSION: u32 = 1;
 const HEADER_BYTES: usize = 72;
 const RECORD_BYTES: usize = RECORD_FLOATS * 4;
 const CHECKSUM_BYTES: usize = 8;
+/// Largest cache file read: 32 million records (a cache holds thousands to a few million).
+pub const MAX_FILE_BYTES: u64 = HEADER_BYTES as u64 + (32 << 20) * RECORD_BYTES as u64 + CHECKSUM_BYTES as u64;
 
 /// FNV-1a, 64 bit.
 pub fn fnv1a64(bytes: &[u8]) -> u64 {
@@ -201,8 +203,22 @@ impl IrradianceCache {
         Ok(())
     }
 
-    /// Read a cache file for the scene with `fingerprint`.
+    /// Read a cache file for the scene with `fingerprint`: only a regular file (a FIFO would block, a
+    /// device never end) of at most [`MAX_FILE_BYTES`].
     pub fn load(path: &Path, fingerprint: u64) -> Result<Self> {
-        Self::from_bytes(&std::fs::read(path)?, fingerprint)
+        use std::io::Read;
+        let meta = std::fs::metadata(path)?;
+        if !meta.is_file() {
+            return Err(Error::NotRegularFile);
+        }
+        if meta.len() > MAX_FILE_BYTES {
+            return Err(Error::TooLarge { bytes: meta.len(), limit: MAX_FILE_BYTES });
+        }
+        let mut bytes = Vec::with_capacity(meta.len() as usize);
+        std::fs::File::open(path)?.take(MAX_FILE_BYTES + 1).read_to_end(&mut bytes)?;
+        if bytes.len() as u64 > MAX_FILE_BYTES {
+            return Err(Error::TooLarge { bytes: bytes.len() as u64, limit: MAX_FILE_BYTES });
+        }
+        Self::from_bytes(&bytes, fingerprint)
     }
 }

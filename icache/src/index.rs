@@ -41,9 +41,9 @@ fn child_offset(i: usize) -> Vec3 {
 
 impl Octree {
     /// An empty octree whose root cube encloses [min, max] with a small margin. Non-finite or inverted
-    /// bounds give a unit cube at the origin: records outside the cube still work, via the outside list.
+    /// bounds, or an extent that overflows, give a unit cube at the origin: records outside the cube still work, via the outside list.
     pub fn new(min: Vec3, max: Vec3) -> Self {
-        let ok = min.is_finite() && max.is_finite() && min.cmple(max).all();
+        let ok = min.is_finite() && max.is_finite() && min.cmple(max).all() && ((max - min).max_element() * 1.02).is_finite();
         let (min, max) = if ok { (min, max) } else { (Vec3::ZERO, Vec3::ONE) };
         let extent = (max - min).max_element().max(1e-6);
         let margin = 0.01 * extent;

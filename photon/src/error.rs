@@ -17,6 +17,10 @@ pub enum Error {
     NothingStored { n_paths_emitted: u64 },
     #[error("{path}: {source}")]
     Io { path: PathBuf, source: std::io::Error },
+    #[error("not a regular file")]
+    NotRegularFile { path: PathBuf },
+    #[error("{bytes} bytes, larger than the limit for a photon-map file ({limit} bytes)")]
+    TooLarge { path: PathBuf, bytes: u64, limit: u64 },
     #[error("not a photon-map file (bad magic)")]
     BadMagic,
     #[error("photon-map file version {found}, this build reads version {expected}")]

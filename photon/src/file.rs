@@ -7,7 +7,10 @@
 //! bytes (112-byte header); then the photons (13 f32 each: pos, wi, power, normal, indirect flag 0/1) and the irradiance
 //! points (12 f32: pos, normal, e, e_indirect); then an FNV-1a 64 checksum of everything between the magic and it.
 //! Loading checks magic, version, that the counts match the file length (before allocating), the
-//! checksum, then the scene fingerprint. Kd-trees are rebuilt on load.
+//! checksum, then the scene fingerprint, then every value: positions finite, directions and normals unit
+//! length, power and irradiance finite and non-negative, the max radius positive (a file edited with its
+//! checksum recomputed is still refused). Only regular files up to [`MAX_FILE_BYTES`] are opened.
+//! Kd-trees are rebuilt on load.
 #![forbid(unsafe_code)]
 
 use std::fs::File;
@@ -30,6 +33,8 @@ const CHECKSUM_BYTES: u64 = 8;
 const HAS_GLOBAL: u32 = 1;
 const HAS_CAUSTIC: u32 = 2;
 const HAS_PRECOMPUTED: u32 = 4;
+/// Largest photon-map file read: 100 million photons in each map and as many irradiance points.
+pub const MAX_FILE_BYTES: u64 = HEADER_BYTES as u64 + 100_000_000 * (2 * PHOTON_BYTES + POINT_BYTES) + CHECKSUM_BYTES;
 
 /// What produced the maps: the caller's scene fingerprint and the trace parameters.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -162,6 +167,14 @@ pub fn save(
 /// Loads from `path`; the file must have been made for `expected_fingerprint`.
 pub fn load(path: &Path, expected_fingerprint: u64) -> Result<LoadedMaps> {
     let io = |source| Error::Io { path: path.to_path_buf(), source };
+    // Only a regular file: opening a FIFO blocks, a device may never end.
+    let meta = std::fs::metadata(path).map_err(io)?;
+    if !meta.is_file() {
+        return Err(Error::NotRegularFile { path: path.to_path_buf() });
+    }
+    if meta.len() > MAX_FILE_BYTES {
+        return Err(Error::TooLarge { path: path.to_path_buf(), bytes: meta.len(), limit: MAX_FILE_BYTES });
+    }
     let mut file = File::open(path).map_err(io)?;
     let actual = file.metadata().map_err(io)?.len();
     let mut header = vec![0u8; HEADER_BYTES.min(actual as usize)];
@@ -223,6 +236,42 @@ impl Header {
     }
 }
 
+fn is_unit(v: Vec3) -> bool {
+    v.is_finite() && (v.length() - 1.0).abs() < 1e-3
+}
+
+/// Why a photon read from a file cannot be used (the checksum only proves it is what was written).
+fn photon_problem(pos: Vec3, wi: Vec3, power: Vec3, normal: Vec3, flag: f32) -> Option<&'static str> {
+    if !pos.is_finite() {
+        Some("position is not finite")
+    } else if !is_unit(wi) {
+        Some("direction is not a unit vector")
+    } else if !(power.is_finite() && power.min_element() >= 0.0) {
+        Some("power is not finite and non-negative")
+    } else if !is_unit(normal) {
+        Some("normal is not a unit vector")
+    } else if flag != 0.0 && flag != 1.0 {
+        Some("indirect flag is neither 0 nor 1")
+    } else {
+        None
+    }
+}
+
+/// Why a precomputed irradiance point read from a file cannot be used.
+fn point_problem(p: &IrradiancePoint) -> Option<&'static str> {
+    if !p.pos.is_finite() {
+        Some("position is not finite")
+    } else if !is_unit(p.normal) {
+        Some("normal is not a unit vector")
+    } else if !(p.e.is_finite() && p.e.min_element() >= 0.0) {
+        Some("irradiance is not finite and non-negative")
+    } else if !(p.e_indirect.is_finite() && p.e_indirect.min_element() >= 0.0) {
+        Some("indirect irradiance is not finite and non-negative")
+    } else {
+        None
+    }
+}
+
 /// Parses a whole file held in memory.
 pub fn read_maps(bytes: &[u8], expected_fingerprint: u64) -> Result<LoadedMaps> {
     let header = Header::parse(bytes)?;
@@ -257,21 +306,31 @@ pub fn read_maps(bytes: &[u8], expected_fingerprint: u64) -> Result<LoadedMaps> 
     };
     let mut floats =
         bytes[HEADER_BYTES..body_end].chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]));
-    let mut next = || floats.next().unwrap_or(0.0);
-    let mut read_photons = |n: u64| -> Vec<Photon> {
+    let mut next = || floats.next().unwrap_or(f32::NAN);
+    let mut read_photons = |map: &str, n: u64| -> Result<Vec<Photon>> {
         (0..n)
-            .map(|_| {
+            .map(|index| {
                 let mut v = || Vec3::new(next(), next(), next());
                 let (pos, wi, power, normal) = (v(), v(), v(), v());
-                Photon { pos, wi, power, normal, indirect: next() != 0.0 }
+                let flag = next();
+                match photon_problem(pos, wi, power, normal, flag) {
+                    Some(why) => Err(Error::Corrupt(format!("{map} photon {index}: {why}"))),
+                    None => Ok(Photon { pos, wi, power, normal, indirect: flag == 1.0 }),
+                }
             })
             .collect()
     };
-    let global = read_photons(n_global);
-    let caustic = read_photons(n_caustic);
+    let global = read_photons("global", n_global)?;
+    let caustic = read_photons("caustic", n_caustic)?;
     let mut vec3 = || Vec3::new(next(), next(), next());
     let points: Vec<IrradiancePoint> =
         (0..n_points).map(|_| IrradiancePoint { pos: vec3(), normal: vec3(), e: vec3(), e_indirect: vec3() }).collect();
+            if let Some((index, why)) = points.iter().enumerate().find_map(|(i, p)| point_problem(p).map(|w| (i, w))) {
+        return Err(Error::Corrupt(format!("irradiance point {index}: {why}")));
+    }
+    if flag(HAS_PRECOMPUTED) && !(header.max_radius.is_finite() && header.max_radius > 0.0) {
+        return Err(Error::Corrupt(format!("precomputed max radius {} is not a positive number", header.max_radius)));
+    }
     let corrupt = |e: Error| Error::Corrupt(format!("cannot rebuild a kd-tree: {e}"));
     let map = |present: bool, photons: Vec<Photon>| -> Result<Option<PhotonMap>> {
         if present {

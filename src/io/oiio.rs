@@ -26,6 +26,7 @@ extern "C" {
         errlen: usize,
     ) -> c_int;
     fn pm_image_channels(path: *const c_char, names: *mut c_char, len: usize, err: *mut c_char, errlen: usize) -> c_int;
+    fn pm_image_size(path: *const c_char, width: *mut c_int, height: *mut c_int, nchannels: *mut c_int, err: *mut c_char, errlen: usize) -> c_int;
     fn pm_free_image(data: *mut f32);
 }
 
@@ -33,8 +34,13 @@ fn c_path(path: &Path) -> Result<CString, String> {
     CString::new(path.to_string_lossy().as_bytes()).map_err(|_| "path contains a NUL byte".to_string())
 }
 
-fn err_text(buf: &[u8]) -> String {
+fn c_text(buf: &[u8]) -> String {
     CStr::from_bytes_until_nul(buf).map(|c| c.to_string_lossy().into_owned()).unwrap_or_default()
+}
+
+/// An error from the shim on one line (OpenImageIO joins several with newlines).
+fn err_text(buf: &[u8]) -> String {
+    c_text(buf).lines().map(str::trim).filter(|l| !l.is_empty()).collect::<Vec<_>>().join("; ")
 }
 
 /// Pixel data handed to the writer: float (EXR) or 8-bit (PNG), interleaved by channel.
@@ -105,6 +111,20 @@ pub fn read(path: &Path) -> Result<ImageData, String> {
     }
 }
 
+/// Width, height and channel count from an image file's header, without decoding its pixels.
+pub fn image_size(path: &Path) -> Result<(u32, u32, u32), String> {
+    let cpath = c_path(path)?;
+    let (mut w, mut h, mut c) = (0, 0, 0);
+    let mut err = vec![0u8; 1024];
+    // SAFETY: out-pointers and the error buffer are valid for the call; its length is passed.
+    let rc = unsafe { pm_image_size(cpath.as_ptr(), &mut w, &mut h, &mut c, err.as_mut_ptr() as *mut c_char, err.len()) };
+    if rc != 0 {
+        return Err(err_text(&err));
+    }
+    let dim = |v: c_int| u32::try_from(v).map_err(|_| format!("image header gives a negative size ({w}×{h}×{c})"));
+    Ok((dim(w)?, dim(h)?, dim(c)?))
+}
+
 /// The channel names stored in an image file.
 pub fn channel_names(path: &Path) -> Result<Vec<String>, String> {
     let cpath = c_path(path)?;
@@ -117,5 +137,5 @@ pub fn channel_names(path: &Path) -> Result<Vec<String>, String> {
     if rc != 0 {
         return Err(err_text(&err));
     }
-    Ok(err_text(&names).lines().map(str::to_string).collect())
+    Ok(c_text(&names).lines().map(str::to_string).collect())
 }

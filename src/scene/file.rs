@@ -128,33 +128,67 @@ pub fn line_of_offset(text: &str, offset: usize) -> usize {
     text.as_bytes()[..offset.min(text.len())].iter().filter(|&&b| b == b'\n').count() + 1
 }
 
-/// The line on which `key` is set inside the table `[table]` (or `[[table]]` number `index`), for
-/// messages about values that parsed but are out of range. Falls back to the table's line, then 1.
+/// The line on which `key` is set inside the table `table` (dotted, e.g. `render.icache`; entry `index`
+/// of an array of tables such as `[[mesh]]`), for messages about values that parsed but are out of
+/// range. Falls back to the deepest enclosing table or key that is present, then to line 1.
 pub fn line_of_key(text: &str, table: &str, index: usize, key: &str) -> usize {
-    let mut in_table = table.is_empty();
-    let mut seen = 0usize;
-    let mut table_line = 1;
-    for (i, raw) in text.lines().enumerate() {
-        let line = raw.trim();
-        if line.starts_with('[') {
-            let name = line.trim_start_matches('[').split(']').next().unwrap_or("").trim();
-            if name == table {
-                in_table = seen == index;
-                seen += 1;
-                if in_table {
-                    table_line = i + 1;
-                }
-            } else {
-                in_table = false;
-            }
-            continue;
-        }
-        if in_table {
-            let k = line.split('=').next().unwrap_or("").trim();
-            if k == key {
-                return i + 1;
-            }
+    let mut keys: Vec<&str> = table.split('.').filter(|k| !k.is_empty()).collect();
+    keys.push(key);
+    line_of(text, &keys, index)
+}
+
+/// The line of the value at the path `keys` (each a bare key, so names with dots or spaces work),
+/// whatever TOML spelling set it: `[table]` sections, dotted keys, inline tables. An array met on the
+/// way (`[[mesh]]`, or `mesh = [{ … }]`) is entered at `index`.
+pub fn line_of(text: &str, keys: &[&str], index: usize) -> usize {
+    use toml_edit::{Item, TableLike, Value};
+    enum Node<'a> {
+        Table(&'a dyn TableLike),
+        Tables(&'a toml_edit::ArrayOfTables),
+        Array(&'a toml_edit::Array),
+        Leaf,
+    }
+    fn of_value(v: &Value) -> Node<'_> {
+        match v {
+            Value::InlineTable(t) => Node::Table(t),
+            Value::Array(a) => Node::Array(a),
+            _ => Node::Leaf,
         }
     }
-    table_line
+    fn of_item(i: &Item) -> Node<'_> {
+        match i {
+            Item::Table(t) => Node::Table(t),
+            Item::ArrayOfTables(a) => Node::Tables(a),
+            Item::Value(v) => of_value(v),
+            Item::None => Node::Leaf,
+        }
+    }
+    let Ok(doc) = toml_edit::ImDocument::parse(text) else { return 1 };
+    let mut node = Node::Table(doc.as_table());
+    let mut offset = None;
+    for key in keys {
+        // Enter an array of tables at the requested entry first.
+        node = match node {
+            Node::Tables(a) => match a.get(index) {
+                Some(t) => {
+                    offset = t.span().map(|s| s.start).or(offset);
+                    Node::Table(t)
+                }
+                None => break,
+            },
+            Node::Array(a) => match a.get(index) {
+                Some(v) => {
+                    offset = v.span().map(|s| s.start).or(offset);
+                    of_value(v)
+                }
+                None => break,
+            },
+            other => other,
+        };
+        let Node::Table(t) = node else { break };
+        let Some((k, item)) = t.get_key_value(key) else { break };
+        offset = k.span().or_else(|| item.span()).map(|s| s.start).or(offset);
+        node = of_item(item);
+    }
+    offset.map_or(1, |o| line_of_offset(text, o))
 }

@@ -1,9 +1,14 @@
 //! A loaded scene: camera, triangles in an Embree BVH, materials, textures, lights and render settings.
 
 pub mod file;
+pub mod input;
+pub mod limits;
 mod mtl;
 mod obj;
+mod objcheck;
 mod build;
+mod lights;
+mod settings;
 
 use std::path::{Path, PathBuf};
 

@@ -5,6 +5,7 @@ use std::path::Path;
 use glam::Vec3;
 
 use super::file::MaterialDesc;
+use super::limits::{self, MAX_EXPONENT, MAX_IOR};
 use crate::error::{at_line, Error, Result};
 use crate::material::{Bsdf, Material};
 
@@ -27,7 +28,8 @@ fn param3(m: &tobj::Material, key: &str) -> Option<Vec3> {
 pub fn from_mtl(m: &tobj::Material) -> (Material, Option<String>) {
     let kd = v3(m.diffuse).unwrap_or(Vec3::splat(0.8));
     let ks = v3(m.specular).unwrap_or(Vec3::ZERO);
-    let emission = v3(m.emissive).or_else(|| param3(m, "Ke")).unwrap_or(Vec3::ZERO).max(Vec3::ZERO);
+    // The MTL check has put every colour in its range already.
+    let emission = v3(m.emissive).or_else(|| param3(m, "Ke")).unwrap_or(Vec3::ZERO);
     let ns = m.shininess.unwrap_or(0.0);
     let bsdf = match m.illumination_model {
         Some(3) | Some(5) => Bsdf::Mirror { reflectance: ks },
@@ -56,13 +58,16 @@ fn glossy(kd: Vec3, ks: Vec3, exponent: f32) -> Bsdf {
 }
 
 /// Applies `[materials.NAME]` on top of the MTL material. Returns the new texture path, if set.
+/// `line_of(key)` is the scene file's line of that key in this material's table.
 pub fn apply_override(
     scene: &Path,
-    line: usize,
+    line_of: &dyn Fn(&str) -> usize,
     mat: &mut Material,
     d: &MaterialDesc,
 ) -> Result<Option<String>> {
-    let err = |msg: String| -> Error { at_line(scene, line, format!("materials.{}: {msg}", mat.name)) };
+    let name = mat.name.clone();
+    let key_err = |key: &str, msg: String| -> Error { at_line(scene, line_of(key), format!("materials.{name}.{key}: {msg}")) };
+    let err = |msg: String| -> Error { at_line(scene, line_of("type"), format!("materials.{name}: {msg}")) };
     let (kd, ks, ns) = match &mat.bsdf {
         Bsdf::Diffuse { albedo, .. } => (*albedo, Vec3::ZERO, 1.0),
         Bsdf::Glossy { albedo, specular, exponent } => (*albedo, *specular, *exponent),
@@ -102,12 +107,13 @@ pub fn apply_override(
     if let Some((k, _)) = given.iter().find(|(k, g)| *g && !allowed.contains(k)) {
         return Err(err(format!("key '{k}' does not apply to type '{kind}'")));
     }
-    for (k, v) in [("albedo", d.albedo), ("reflectance", d.reflectance), ("transmittance", d.transmittance), ("specular", d.specular), ("emission", d.emission)] {
-        if let Some(v) = v {
-            if v.iter().any(|x| !x.is_finite() || *x < 0.0) {
-                return Err(err(format!("{k} must be finite and ≥ 0")));
-            }
+    for (k, v) in [("albedo", d.albedo), ("reflectance", d.reflectance), ("transmittance", d.transmittance), ("specular", d.specular)] {
+        if let Some(p) = v.and_then(limits::unit_interval) {
+            return Err(key_err(k, p));
         }
+    }
+    if let Some(p) = d.emission.and_then(limits::emission) {
+        return Err(key_err("emission", p));
     }
     let mut texture = None;
     mat.bsdf = match kind.as_str() {
@@ -120,15 +126,15 @@ pub fn apply_override(
         },
         "glass" => {
             let ior = d.ior.or(glass_ior).unwrap_or(1.5);
-            if !(ior.is_finite() && ior > 1.0) {
-                return Err(err(format!("ior = {ior} must be > 1")));
+            if !(ior > 1.0 && ior <= MAX_IOR) {
+                return Err(key_err("ior", format!("{ior} is outside (1, {MAX_IOR}]")));
             }
             Bsdf::Glass { ior, transmittance: v3(d.transmittance).or(glass_t).unwrap_or(Vec3::ONE) }
         }
         _ => {
             let exponent = d.exponent.unwrap_or(ns.max(1.0));
-            if !(exponent.is_finite() && exponent >= 0.0) {
-                return Err(err(format!("exponent = {exponent} must be ≥ 0")));
+            if !(exponent >= 0.0 && exponent <= MAX_EXPONENT) {
+                return Err(key_err("exponent", format!("{exponent} is outside [0, {MAX_EXPONENT:e}]")));
             }
             glossy(v3(d.albedo).unwrap_or(kd), v3(d.specular).unwrap_or(ks), exponent)
         }
@@ -147,14 +153,19 @@ mod tests {
     fn overrides_keep_the_values_they_do_not_set() {
         let mut glass = Material { name: "g".into(), bsdf: Bsdf::Glass { ior: 2.5, transmittance: Vec3::splat(0.1) }, emission: Vec3::ZERO };
         let d = MaterialDesc { transmittance: Some([1.0; 3]), ..Default::default() };
-        apply_override(Path::new("s.toml"), 1, &mut glass, &d).unwrap();
+        apply_override(Path::new("s.toml"), &|_| 1, &mut glass, &d).unwrap();
         assert_eq!(glass.bsdf, Bsdf::Glass { ior: 2.5, transmittance: Vec3::ONE });
         let mut mirror = Material { name: "m".into(), bsdf: Bsdf::Mirror { reflectance: Vec3::splat(0.9) }, emission: Vec3::ZERO };
         let d = MaterialDesc { emission: Some([1.0; 3]), ..Default::default() };
-        apply_override(Path::new("s.toml"), 1, &mut mirror, &d).unwrap();
+        apply_override(Path::new("s.toml"), &|_| 1, &mut mirror, &d).unwrap();
         assert_eq!(mirror.bsdf, Bsdf::Mirror { reflectance: Vec3::splat(0.9) });
         assert_eq!(mirror.emission, Vec3::ONE);
         let d = MaterialDesc { kind: Some("glass".into()), reflectance: Some([1.0; 3]), ..Default::default() };
-        assert!(apply_override(Path::new("s.toml"), 1, &mut mirror, &d).is_err());
+        assert!(apply_override(Path::new("s.toml"), &|_| 1, &mut mirror, &d).is_err());
+        for bad in [[10.0; 3], [-0.1, 0.5, 0.5], [f32::NAN, 0.0, 0.0]] {
+            let d = MaterialDesc { kind: Some("diffuse".into()), albedo: Some(bad), ..Default::default() };
+            let e = apply_override(Path::new("s.toml"), &|k| if k == "albedo" { 7 } else { 1 }, &mut mirror, &d).unwrap_err();
+            assert!(e.to_string().starts_with("s.toml:7: materials.m.albedo:"), "{e}");
+        }
     }
 }
