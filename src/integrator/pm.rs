@@ -4,6 +4,7 @@
 //! global photon map read directly (`photons`).
 
 use std::f32::consts::PI;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 use glam::Vec3;
 use gather::{GatherParams, GatherRay, GatherResult};
@@ -41,6 +42,8 @@ pub struct PmContext<'a> {
     pub gather: GatherParams,
     pub max_depth: u32,
     pub seed: u64,
+    /// Interrupt flag: a final gather that sees it set stops tracing (its result is then discarded).
+    pub cancel: &'a AtomicBool,
 }
 
 /// How the ray being shaded was generated, for MIS of emission.
@@ -200,10 +203,19 @@ impl PmContext<'_> {
     /// non-specular points they reach, one batched FLANN lookup reads those points' irradiance, and
     /// the second round hands each ray its radiance (per-query FLANN calls cost far more than the rays).
     pub fn final_gather(&self, hit: &Hit, frame: &Frame, seed: u64, c: &mut SampleCounters) -> GatherResult {
+        if self.cancel.load(Ordering::Relaxed) {
+            // Interrupted: the render's result is discarded; skip even the strata loops (1M rays each).
+            let n = frame.n;
+            return GatherResult { e: Vec3::ZERO, grad_r: [Vec3::ZERO; 3], grad_t: [Vec3::ZERO; 3], r_harmonic: f32::INFINITY, r_min: f32::INFINITY, dir: n, n_rays: 0 };
+        }
         let mut rng = Rng::new(hash_keys(&[self.seed, 0x6a7e, seed]));
         let mut rays = 0u64;
         let mut ends: Vec<GatherEnd> = Vec::with_capacity(self.gather.rays + 8);
         gather::gather(hit.p, frame.n, &self.gather, seed, &mut |dir: Vec3| -> GatherRay {
+            if self.cancel.load(Ordering::Relaxed) {
+                ends.push(GatherEnd::MISS);
+                return GatherRay::miss(Vec3::ZERO);
+            }
             rays += 1;
             let end = self.gather_ray(hit, dir, &mut rng, &mut rays);
             let distance = end.distance;

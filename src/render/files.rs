@@ -1,5 +1,6 @@
-//! Photon-map and cache files around a render: load/save (atomic, fingerprinted), the PLY dump of the
-//! photons, and the cache-record image.
+//! Photon-map and cache files around a render: load/save (fingerprinted), the PLY dump of the photons,
+//! and the cache-record image. Saved files are staged in an [`OutputSet`] with the images, so they
+//! appear only if the whole render and every write succeeded.
 
 use std::path::{Path, PathBuf};
 
@@ -9,8 +10,8 @@ use photon::{MapsInfo, PhotonMaps, PrecomputedIrradiance};
 
 use crate::camera::Camera;
 use crate::error::{option, Result};
-use crate::io::atomic::write_bytes;
-use crate::io::output::{write_png, Image};
+use crate::io::atomic::OutputSet;
+use crate::io::output::{stage_png, Image};
 
 /// Files a render reads or writes besides its images.
 #[derive(Clone, Debug, Default)]
@@ -23,26 +24,36 @@ pub struct FileOptions {
     pub cache_image: Option<PathBuf>,
 }
 
+/// Traced photon maps kept for `--save-photons` / `--dump-photons`, written with the other outputs.
+pub struct PhotonOutput {
+    pub info: MapsInfo,
+    pub maps: PhotonMaps,
+    pub precomputed: Option<PrecomputedIrradiance>,
+}
+
 pub fn load_photons(path: &Path, fingerprint: u64) -> Result<photon::LoadedMaps> {
     photon::file::load(path, fingerprint).map_err(|e| option("--load-photons", format!("{}: {e}", path.display())))
 }
 
-pub fn save_photons(path: &Path, info: &MapsInfo, maps: &PhotonMaps, pre: Option<&PrecomputedIrradiance>) -> Result<()> {
-    let mut bytes = Vec::new();
-    photon::file::write_maps(&mut bytes, info, maps, pre).map_err(|e| crate::error::runtime(format!("{}: {e}", path.display())))?;
-    write_bytes(path, &bytes)
+pub fn save_photons(set: &mut OutputSet, path: &Path, p: &PhotonOutput) -> Result<()> {
+    set.stage(path, |tmp| {
+        let file = std::fs::File::create(tmp).map_err(|e| e.to_string())?;
+        let mut w = std::io::BufWriter::new(file);
+        photon::file::write_maps(&mut w, &p.info, &p.maps, p.precomputed.as_ref()).map_err(|e| e.to_string())?;
+        std::io::Write::flush(&mut w).map_err(|e| e.to_string())
+    })
 }
 
 pub fn load_cache(path: &Path, fingerprint: u64) -> Result<IrradianceCache> {
     IrradianceCache::load(path, fingerprint).map_err(|e| option("--load-cache", format!("{}: {e}", path.display())))
 }
 
-pub fn save_cache(path: &Path, cache: &IrradianceCache, fingerprint: u64) -> Result<()> {
-    write_bytes(path, &cache.to_bytes(fingerprint))
+pub fn save_cache(set: &mut OutputSet, path: &Path, cache: &IrradianceCache, fingerprint: u64) -> Result<()> {
+    set.stage_bytes(path, &cache.to_bytes(fingerprint))
 }
 
 /// ASCII PLY of both maps: position, normal, power (W) and the map (0 global, 1 caustic).
-pub fn dump_photons(path: &Path, maps: &PhotonMaps) -> Result<()> {
+pub fn dump_photons(set: &mut OutputSet, path: &Path, maps: &PhotonMaps) -> Result<()> {
     let lists: Vec<(u8, &[photon::Photon])> = [(0u8, maps.global.as_ref()), (1, maps.caustic.as_ref())]
         .into_iter()
         .filter_map(|(k, m)| m.map(|m| (k, m.photons())))
@@ -61,12 +72,12 @@ pub fn dump_photons(path: &Path, maps: &PhotonMaps) -> Result<()> {
             );
         }
     }
-    write_bytes(path, s.as_bytes())
+    set.stage_bytes(path, s.as_bytes())
 }
 
 /// The beauty with a dot at every record, coloured by its radius in pixels (blue small → red large,
 /// log scale between the cache's min and max spacing).
-pub fn cache_image(path: &Path, beauty: &Image, cache: &IrradianceCache, camera: &Camera) -> Result<()> {
+pub fn cache_image(set: &mut OutputSet, path: &Path, beauty: &Image, cache: &IrradianceCache, camera: &Camera) -> Result<()> {
     let mut img = beauty.clone();
     let p = cache.params();
     let (lo, hi) = (p.min_spacing_px.max(1e-3).ln(), p.max_spacing_px.max(1e-3).ln());
@@ -83,5 +94,5 @@ pub fn cache_image(path: &Path, beauty: &Image, cache: &IrradianceCache, camera:
             }
         }
     }
-    write_png(path, &img)
+    stage_png(set, path, &img)
 }
