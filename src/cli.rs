@@ -123,7 +123,7 @@ struct RenderArgs {
     #[arg(long)]
     cache_image: Option<PathBuf>,
     /// Memory budget, e.g. 8G or 512M (default: PMRENDER_MAX_MEMORY, else 75 % of the RAM).
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     max_memory: Option<String>,
 }
 
