@@ -369,6 +369,10 @@ fn converge_command(a: ConvergeArgs) -> Result<()> {
 }
 
 pub fn run() -> i32 {
+    if let Err(e) = signal::install() {
+        eprintln!("pmrender: cannot install the signal handler: {e}");
+        return 1;
+    }
     let cli = match Cli::try_parse() {
         Ok(c) => c,
         Err(e) if e.use_stderr() => {
@@ -390,10 +394,6 @@ pub fn run() -> i32 {
             return 0;
         }
     };
-    if let Err(e) = signal::install() {
-        eprintln!("pmrender: cannot install the signal handler: {e}");
-        return 1;
-    }
     let result = match cli.command {
         Command::Render(a) => render_command(a, &signal::CANCEL),
         Command::Converge(a) => converge_command(a),

@@ -73,7 +73,7 @@ fn watchdog() {
         Err(p) => p.into_inner(),
     };
     if *guard {
-        eprintln!("pmrender: interrupted");
+        eprintln!("pmrender: interrupted (stopped by the watchdog {} ms after the signal)", GRACE.as_millis());
         // SAFETY: `_exit` ends the process without running atexit handlers or destructors, which
         // other threads may still be using; no output file exists while the watchdog is armed.
         unsafe { libc::_exit(exit_code()) };
