@@ -241,6 +241,7 @@ fn huge_png_header(w: u32, h: u32) -> Vec<u8> {
 /// stderr); the seconds are −1 when the process had already ended.
 fn interrupt(args: &[&str], signal: &str, delay: Duration) -> (Option<i32>, f64, String) {
     let mut child = Command::new(bin()).args(args).env("PMRENDER_MAX_MEMORY", "16G").stderr(Stdio::piped()).spawn().unwrap();
+    wait_for_handler(child.id());
     std::thread::sleep(delay);
     if child.try_wait().unwrap().is_some() {
         let out = child.wait_with_output().unwrap();
@@ -252,10 +253,26 @@ fn interrupt(args: &[&str], signal: &str, delay: Duration) -> (Option<i32>, f64,
     (out.status.code(), t.elapsed().as_secs_f64(), String::from_utf8_lossy(&out.stderr).into_owned())
 }
 
+/// Waits (at most 20 s: a loaded machine may take long to start a process) until the process catches
+/// SIGINT (bit 1) and SIGTERM (bit 14) in /proc/PID/status, so the signal tests time the renderer, not
+/// its start.
+fn wait_for_handler(pid: u32) {
+    let t = Instant::now();
+    while t.elapsed() < Duration::from_secs(20) {
+        let status = std::fs::read_to_string(format!("/proc/{pid}/status")).unwrap_or_default();
+        let caught = status.lines().find_map(|l| l.strip_prefix("SigCgt:")).and_then(|m| u64::from_str_radix(m.trim(), 16).ok());
+        match caught {
+            Some(mask) if mask & (1 << 1) != 0 && mask & (1 << 14) != 0 => return,
+            None if !status.is_empty() => return, // no SigCgt line: nothing to wait for
+            _ => std::thread::sleep(Duration::from_millis(10)),
+        }
+    }
+}
+
 #[test]
 fn sigint_and_sigterm_stop_every_phase_and_leave_nothing() {
     let photons = ROOM_TOML.replace("spp = 2", "spp = 2\n[render.photons]\nglobal = 20000000");
-    let fill = ROOM_TOML.replace("spp = 2", "spp = 2\n[render.photons]\nglobal = 5000\n[render.icache]\nrays = 1000000");
+    let fill = ROOM_TOML.replace("spp = 2", "spp = 2\n[render.photons]\nglobal = 5000\n[render.icache]\nrays = 200000");
     let phases: [(&str, &str, &[&str]); 4] = [
         ("photon pass", &photons, &["--method", "pm"]),
         ("cache fill", &fill, &["--method", "pm"]),
@@ -270,7 +287,7 @@ fn sigint_and_sigterm_stop_every_phase_and_leave_nothing() {
             let (scene, exr, png, stats, maps, ply, cache) = (p(d.path(), "scene.toml"), o("o.exr"), o("o.png"), o("s.json"), o("m.bin"), o("m.ply"), o("c.bin"));
             let mut args = vec!["render", &scene, "-o", &exr, "--png", &png, "--stats", &stats, "--save-photons", &maps, "--dump-photons", &ply, "--save-cache", &cache, "--quiet"];
             args.extend(extra);
-            let (status, seconds, stderr) = interrupt(&args, signal, Duration::from_millis(1200));
+            let (status, seconds, stderr) = interrupt(&args, signal, Duration::from_millis(700));
             assert_eq!(status, Some(code), "{phase}, SIG{signal}: {stderr}");
             assert!(seconds >= 0.0, "{phase}: ended before the signal");
             assert!(seconds < 3.0, "{phase}, SIG{signal}: stopped after {seconds:.2} s");
@@ -290,8 +307,7 @@ fn a_scene_read_blocked_on_a_fifo_is_interrupted() {
     assert!(Command::new("mkfifo").arg(&fifo).status().unwrap().success());
     for (signal, code) in [("INT", 130), ("TERM", 143)] {
         let args = ["render", fifo.to_str().unwrap(), "-o", &p(&out, "o.exr"), "--quiet"];
-        // Long enough for the process to start and block even on a loaded machine.
-        let (status, seconds, stderr) = interrupt(&args, signal, Duration::from_millis(1000));
+        let (status, seconds, stderr) = interrupt(&args, signal, Duration::from_millis(500));
         if seconds < 0.0 {
             // Refused before waiting (only regular files are inputs): fine, as long as it is a clean refusal.
             assert_eq!(status, Some(2), "{stderr}");

@@ -2,6 +2,7 @@
 //! and the cache-record image. Saved files are staged in an [`OutputSet`] with the images, so they
 //! appear only if the whole render and every write succeeded.
 
+use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use glam::Vec3;
@@ -52,27 +53,34 @@ pub fn save_cache(set: &mut OutputSet, path: &Path, cache: &IrradianceCache, fin
     set.stage_bytes(path, &cache.to_bytes(fingerprint))
 }
 
-/// ASCII PLY of both maps: position, normal, power (W) and the map (0 global, 1 caustic).
+/// ASCII PLY of both maps: position, normal, power (W) and the map (0 global, 1 caustic), streamed to
+/// the file (a text copy of millions of photons would double the memory).
 pub fn dump_photons(set: &mut OutputSet, path: &Path, maps: &PhotonMaps) -> Result<()> {
     let lists: Vec<(u8, &[photon::Photon])> = [(0u8, maps.global.as_ref()), (1, maps.caustic.as_ref())]
         .into_iter()
         .filter_map(|(k, m)| m.map(|m| (k, m.photons())))
         .collect();
     let n: usize = lists.iter().map(|(_, l)| l.len()).sum();
-    let mut s = format!(
+    set.stage(path, |tmp| {
+        let file = std::fs::File::create(tmp).map_err(|e| e.to_string())?;
+        let mut w = std::io::BufWriter::new(file);
+        write_ply(&mut w, n, &lists).map_err(|e| e.to_string())
+    })
+}
+
+fn write_ply(w: &mut impl Write, n: usize, lists: &[(u8, &[photon::Photon])]) -> std::io::Result<()> {
+    write!(
+        w,
         "ply\nformat ascii 1.0\ncomment pmrender photon maps\nelement vertex {n}\nproperty float x\nproperty float y\nproperty float z\n\
          property float nx\nproperty float ny\nproperty float nz\nproperty float power_r\nproperty float power_g\nproperty float power_b\n\
          property uchar map\nend_header\n"
-    );
+    )?;
     for (k, list) in lists {
-        for p in list {
-            s += &format!(
-                "{} {} {} {} {} {} {:e} {:e} {:e} {k}\n",
-                p.pos.x, p.pos.y, p.pos.z, p.normal.x, p.normal.y, p.normal.z, p.power.x, p.power.y, p.power.z
-            );
+        for p in *list {
+            writeln!(w, "{} {} {} {} {} {} {:e} {:e} {:e} {k}", p.pos.x, p.pos.y, p.pos.z, p.normal.x, p.normal.y, p.normal.z, p.power.x, p.power.y, p.power.z)?;
         }
     }
-    set.stage_bytes(path, s.as_bytes())
+    w.flush()
 }
 
 /// The beauty with a dot at every record, coloured by its radius in pixels (blue small → red large,
