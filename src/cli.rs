@@ -3,21 +3,19 @@
 
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::AtomicBool;
 
 use clap::{Args, Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
 use pmrender::error::{option, Error, Result};
-use pmrender::io::atomic::OutputSet;
-use pmrender::io::output::{stage_exr, stage_png, Layers};
 use pmrender::render::budget::{parse_size, MAX_SIDE, MAX_SPP};
-use pmrender::render::files::{cache_image, dump_photons, save_cache, save_photons, FileOptions};
+use pmrender::render::files::FileOptions;
 use pmrender::render::outputs::{check_distinct, check_output, scene_inputs, Output};
-use pmrender::render::{self, tiles::Window, Options, Progress, RenderOutput};
+use pmrender::render::write::{write_outputs, OutputPaths};
+use pmrender::render::{self, tiles::Window, Options, Progress};
 use pmrender::scene::{self, Scene, Method, METHODS};
 use pmrender::signal;
-use pmrender::stats::Report;
 
 #[derive(Parser)]
 #[command(name = "pmrender", version, about = "Two-pass photon-mapping renderer with a cached final gather")]
@@ -265,55 +263,16 @@ fn render_command(a: RenderArgs, cancel: &AtomicBool) -> Result<()> {
     let result = pool.install(|| render::render(&scene, &opts, &bar, cancel));
     signal::arm(false);
     let (out, report) = result?;
-    write_outputs(&a, &scene, out, report, cancel)
-}
-
-/// Stages every output in one [`OutputSet`] and renames them into place only when all are written and
-/// no signal came; any failure or signal leaves none of them (and no temporary file).
-fn write_outputs(a: &RenderArgs, scene: &Scene, out: RenderOutput, mut report: Report, cancel: &AtomicBool) -> Result<()> {
-    let interrupted = || if cancel.load(Ordering::SeqCst) { Err(Error::Interrupted) } else { Ok(()) };
-    let t = std::time::Instant::now();
-    let mut set = OutputSet::new();
-    interrupted()?;
-    let layers = Layers { beauty: &out.beauty, named: out.layers.iter().map(|(n, i)| (*n, i)).collect() };
-    stage_exr(&mut set, &a.output, &layers)?;
-    interrupted()?;
-    if let Some(p) = &a.png {
-        stage_png(&mut set, p, &out.beauty)?;
-        interrupted()?;
-    }
-    match (&out.cache, &a.save_cache, &a.cache_image) {
-        (None, Some(_), _) | (None, _, Some(_)) => eprintln!("pmrender: note: no irradiance cache with this method; --save-cache/--cache-image ignored"),
-        (Some(c), save, img) => {
-            if let Some(p) = save {
-                save_cache(&mut set, p, c, scene.fingerprint)?;
-                interrupted()?;
-            }
-            if let Some(p) = img {
-                let cam = scene.camera.with_resolution(out.beauty.width, out.beauty.height);
-                cache_image(&mut set, p, &out.beauty, c, &cam)?;
-                interrupted()?;
-            }
-        }
-        _ => {}
-    }
-    if let Some(photons) = &out.photons {
-        if let Some(p) = &a.save_photons {
-            save_photons(&mut set, p, photons)?;
-            interrupted()?;
-        }
-        if let Some(p) = &a.dump_photons {
-            dump_photons(&mut set, p, &photons.maps)?;
-            interrupted()?;
-        }
-    }
-    report.seconds("Time", "Write outputs", "time.write_outputs_s", t.elapsed().as_secs_f64());
-    if let Some(p) = &a.stats {
-        let json = serde_json::to_string_pretty(&report.to_json()).map_err(|e| Error::Runtime(e.to_string()))?;
-        set.stage_bytes(p, json.as_bytes())?;
-    }
-    interrupted()?;
-    set.commit()?;
+    let paths = OutputPaths {
+        exr: a.output.clone(),
+        png: a.png.clone(),
+        stats: a.stats.clone(),
+        save_photons: a.save_photons.clone(),
+        dump_photons: a.dump_photons.clone(),
+        save_cache: a.save_cache.clone(),
+        cache_image: a.cache_image.clone(),
+    };
+    let report = write_outputs(&paths, &scene, out, report, cancel)?;
     if a.stats.is_some() {
         eprint!("{}", report.table());
     }

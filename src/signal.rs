@@ -26,12 +26,17 @@ extern "C" fn on_signal(sig: libc::c_int) {
     CANCEL.store(true, Ordering::SeqCst);
 }
 
-/// Installs the handler for SIGINT and SIGTERM and starts the (disarmed) watchdog.
+/// Installs the handler for SIGINT and SIGTERM and starts the (disarmed) watchdog. A signal the parent
+/// set to be ignored stays ignored (a shell's background job ignores SIGINT so that Ctrl-C spares it).
 pub fn install() -> std::io::Result<()> {
     for sig in [libc::SIGINT, libc::SIGTERM] {
-        // SAFETY: `sa` is fully initialised (zeroed, then the handler and an empty mask); the handler
-        // only performs atomic stores, which are async-signal-safe.
+        // SAFETY: `sa` and `old` are fully initialised (zeroed, then the handler and an empty mask); the
+        // handler only performs atomic stores, which are async-signal-safe.
         let rc = unsafe {
+            let mut old: libc::sigaction = std::mem::zeroed();
+            if libc::sigaction(sig, std::ptr::null(), &mut old) == 0 && old.sa_sigaction == libc::SIG_IGN {
+                continue;
+            }
             let mut sa: libc::sigaction = std::mem::zeroed();
             sa.sa_sigaction = on_signal as extern "C" fn(libc::c_int) as libc::sighandler_t;
             sa.sa_flags = libc::SA_RESTART;

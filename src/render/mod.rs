@@ -6,6 +6,7 @@ pub mod files;
 pub mod outputs;
 pub mod pm_phases;
 pub mod tiles;
+pub mod write;
 
 use std::sync::atomic::AtomicBool;
 use std::time::Instant;
