@@ -1,19 +1,21 @@
-//! Argument parsing, the progress bar, and the mapping of errors to exit codes (2 bad input, 1 runtime).
+//! Argument parsing, the progress bar, the render's top-level phases (check outputs, load, render,
+//! write outputs) and the mapping of errors to exit codes (2 bad input, 1 runtime, 130/143 signals).
 
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Arc;
+use std::sync::atomic::AtomicBool;
 
 use clap::{Args, Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
 use pmrender::error::{option, Error, Result};
-use pmrender::io::atomic::{check_writable, write_bytes};
-use pmrender::io::output::{write_exr, write_png, Layers};
-use pmrender::render::files::{cache_image, save_cache, FileOptions};
+use pmrender::render::budget::{parse_size, MAX_SIDE, MAX_SPP};
+use pmrender::render::files::FileOptions;
+use pmrender::render::outputs::{check_distinct, check_output, scene_inputs, Output};
+use pmrender::render::write::{write_outputs, OutputPaths};
 use pmrender::render::{self, tiles::Window, Options, Progress};
-use pmrender::scene::{self, Method, METHODS};
+use pmrender::scene::{self, Scene, Method, METHODS};
+use pmrender::signal;
 
 #[derive(Parser)]
 #[command(name = "pmrender", version, about = "Two-pass photon-mapping renderer with a cached final gather")]
@@ -118,6 +120,9 @@ struct RenderArgs {
     /// PNG of the render with every cache record drawn as a dot coloured by its radius.
     #[arg(long)]
     cache_image: Option<PathBuf>,
+    /// Memory budget, e.g. 8G or 512M (default: PMRENDER_MAX_MEMORY, else 75 % of the RAM).
+    #[arg(long, allow_hyphen_values = true)]
+    max_memory: Option<String>,
 }
 
 /// The bar on stderr, hidden with --quiet or when stderr is not a terminal.
@@ -155,9 +160,9 @@ impl Progress for Bar {
     }
 }
 
-fn positive(name: &str, v: Option<i64>) -> Result<Option<u32>> {
+fn in_range(name: &str, v: Option<i64>, max: u32) -> Result<Option<u32>> {
     match v {
-        Some(x) if !(1..=1 << 20).contains(&x) => Err(option(name, format!("{x} must be a positive integer"))),
+        Some(x) if !(1..=max as i64).contains(&x) => Err(option(name, format!("{x} must be in 1..={max}"))),
         x => Ok(x.map(|x| x as u32)),
     }
 }
@@ -168,11 +173,16 @@ fn options(a: &RenderArgs) -> Result<Options> {
         None => None,
     };
     let crop = a.crop.as_ref().map(|c| Window { x0: c[0], y0: c[1], x1: c[2], y1: c[3] });
+    let max_memory = match &a.max_memory {
+        Some(t) => Some(parse_size(t).ok_or_else(|| option("--max-memory", format!("'{t}' is not a size (e.g. 8G, 512M)")))?),
+        None => None,
+    };
     Ok(Options {
         method,
-        spp: positive("--spp", a.spp)?,
-        width: positive("--width", a.width)?,
-        height: positive("--height", a.height)?,
+        spp: in_range("--spp", a.spp, MAX_SPP)?,
+        width: in_range("--width", a.width, MAX_SIDE)?,
+        height: in_range("--height", a.height, MAX_SIDE)?,
+        max_memory,
         seed: a.seed,
         crop,
         files: FileOptions {
@@ -186,22 +196,42 @@ fn options(a: &RenderArgs) -> Result<Options> {
     })
 }
 
+/// Every file the render writes, with the option naming it.
+fn outputs(a: &RenderArgs) -> Vec<Output<'_>> {
+    let optional = [
+        ("--png", &a.png),
+        ("--stats", &a.stats),
+        ("--save-photons", &a.save_photons),
+        ("--dump-photons", &a.dump_photons),
+        ("--save-cache", &a.save_cache),
+        ("--cache-image", &a.cache_image),
+    ];
+    let mut out: Vec<Output> = vec![("-o", a.output.as_path())];
+    out.extend(optional.into_iter().filter_map(|(opt, p)| p.as_deref().map(|p| (opt, p))));
+    out
+}
+
+/// Input files named on the command line.
+fn cli_inputs(a: &RenderArgs) -> Vec<(String, PathBuf)> {
+    let mut inputs = vec![("scene file".to_string(), a.scene.clone())];
+    for (what, p) in [("photon file", &a.load_photons), ("cache file", &a.load_cache)] {
+        if let Some(p) = p {
+            inputs.push((what.to_string(), p.clone()));
+        }
+    }
+    inputs
+}
+
 fn check_outputs(a: &RenderArgs) -> Result<()> {
     let ext_ok = |p: &Path, ext: &str| p.extension().map(|e| e.eq_ignore_ascii_case(ext)).unwrap_or(false);
-    if !ext_ok(&a.output, "exr") {
-        return Err(option("-o", format!("'{}' must end in .exr", a.output.display())));
-    }
-    check_writable(&a.output, "-o")?;
-    if let Some(p) = &a.png {
-        if !ext_ok(p, "png") {
-            return Err(option("--png", format!("'{}' must end in .png", p.display())));
+    for (opt, p, ext) in [("-o", Some(&a.output), "exr"), ("--png", a.png.as_ref(), "png"), ("--cache-image", a.cache_image.as_ref(), "png")] {
+        match p {
+            Some(p) if !ext_ok(p, ext) => return Err(option(opt, format!("'{}' must end in .{ext}", p.display()))),
+            _ => {}
         }
-        check_writable(p, "--png")?;
     }
-    for (opt, p) in [("--stats", &a.stats), ("--save-photons", &a.save_photons), ("--dump-photons", &a.dump_photons), ("--save-cache", &a.save_cache), ("--cache-image", &a.cache_image)] {
-        if let Some(p) = p {
-            check_writable(p, opt)?;
-        }
+    for (opt, p) in outputs(a) {
+        check_output(opt, p)?;
     }
     for (opt, p) in [("--load-photons", &a.load_photons), ("--load-cache", &a.load_cache)] {
         if let Some(p) = p {
@@ -210,9 +240,11 @@ fn check_outputs(a: &RenderArgs) -> Result<()> {
             }
         }
     }
-    Ok(())
+    check_distinct(&outputs(a), &cli_inputs(a))
 }
 
+/// The `render` command's phases: check the outputs, load the scene, check the outputs against every
+/// file the scene reads, render, write all outputs or none.
 fn render_command(a: RenderArgs, cancel: &AtomicBool) -> Result<()> {
     let opts = options(&a)?;
     let threads = match a.threads {
@@ -220,36 +252,40 @@ fn render_command(a: RenderArgs, cancel: &AtomicBool) -> Result<()> {
         t => t.map(|t| t as usize).unwrap_or(0),
     };
     check_outputs(&a)?;
+    // No file of ours exists until the outputs are written: a signal may end the process at any time.
+    signal::arm(true);
     let scene = scene::load(&a.scene)?;
+    let mut inputs = scene_inputs(&a.scene);
+    inputs.extend(cli_inputs(&a));
+    check_distinct(&outputs(&a), &inputs)?;
     let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().map_err(|e| Error::Runtime(e.to_string()))?;
     let bar = Bar::new(a.quiet);
-    let (out, mut report) = pool.install(|| render::render(&scene, &opts, &bar, cancel))?;
-    let t = std::time::Instant::now();
-    let layers = Layers { beauty: &out.beauty, named: out.layers.iter().map(|(n, i)| (*n, i)).collect() };
-    write_exr(&a.output, &layers)?;
-    if let Some(p) = &a.png {
-        write_png(p, &out.beauty)?;
-    }
-    match (&out.cache, &a.save_cache, &a.cache_image) {
-        (None, Some(_), _) | (None, _, Some(_)) => eprintln!("pmrender: note: no irradiance cache with this method; --save-cache/--cache-image ignored"),
-        (Some(c), save, img) => {
-            if let Some(p) = save {
-                save_cache(p, c, scene.fingerprint)?;
-            }
-            if let Some(p) = img {
-                let cam = scene.camera.with_resolution(out.beauty.width, out.beauty.height);
-                cache_image(p, &out.beauty, c, &cam)?;
-            }
-        }
-        _ => {}
-    }
-    report.seconds("Time", "Write outputs", "time.write_outputs_s", t.elapsed().as_secs_f64());
-    if let Some(p) = &a.stats {
+    let result = pool.install(|| render::render(&scene, &opts, &bar, cancel));
+    signal::arm(false);
+    let (out, report) = result?;
+    let paths = OutputPaths {
+        exr: a.output.clone(),
+        png: a.png.clone(),
+        stats: a.stats.clone(),
+        save_photons: a.save_photons.clone(),
+        dump_photons: a.dump_photons.clone(),
+        save_cache: a.save_cache.clone(),
+        cache_image: a.cache_image.clone(),
+    };
+    let report = write_outputs(&paths, &scene, out, report, cancel)?;
+    if a.stats.is_some() {
         eprint!("{}", report.table());
-        let json = serde_json::to_string_pretty(&report.to_json()).map_err(|e| Error::Runtime(e.to_string()))?;
-        write_bytes(p, json.as_bytes())?;
     }
     Ok(())
+}
+
+/// Loads a scene while the watchdog may end the process on a signal (a read blocked on a FIFO cannot
+/// poll the flag); nothing has been written yet.
+fn load_interruptible(path: &Path) -> Result<Scene> {
+    signal::arm(true);
+    let scene = scene::load(path);
+    signal::arm(false);
+    scene
 }
 
 fn pool(threads: Option<i64>) -> Result<rayon::ThreadPool> {
@@ -279,10 +315,10 @@ fn converge_command(a: ConvergeArgs) -> Result<()> {
     if !a.output.is_dir() {
         std::fs::create_dir_all(&a.output).map_err(|e| option("-o", format!("cannot create '{}': {e}", a.output.display())))?;
     }
-    let mut scene = scene::load(&a.scene)?;
-    let opts = Options { spp: positive("--spp", a.spp)?, seed: a.seed, ..Default::default() };
+    let mut scene = load_interruptible(&a.scene)?;
+    let opts = Options { spp: in_range("--spp", a.spp, MAX_SPP)?, seed: a.seed, ..Default::default() };
     let bar = Bar::new(a.quiet);
-    let rows = pool(a.threads)?.install(|| pmrender::converge::converge(&mut scene, &counts, &a.reference, method, &opts, &a.output, &bar))?;
+    let rows = pool(a.threads)?.install(|| pmrender::converge::converge(&mut scene, &counts, &a.reference, method, &opts, &a.output, &bar, &signal::CANCEL))?;
     println!("{:>10} {:>9} {:>14} {:>14} {:>14}", "photons", "time s", "beauty relMSE", "caustic", "indirect");
     for r in rows {
         println!("{:>10} {:>9.2} {:>14.5} {:>14.5} {:>14.5}", r.photons, r.time_s, r.beauty, r.caustic, r.indirect);
@@ -292,12 +328,23 @@ fn converge_command(a: ConvergeArgs) -> Result<()> {
 }
 
 pub fn run() -> i32 {
+    if let Err(e) = signal::install() {
+        eprintln!("pmrender: cannot install the signal handler: {e}");
+        return 1;
+    }
     let cli = match Cli::try_parse() {
         Ok(c) => c,
         Err(e) if e.use_stderr() => {
-            // One line, like every other input error.
+            // One line, like every other input error; a first line ending in ':' (e.g. "the following
+            // required arguments were not provided:") is joined with what it announces.
             let text = e.to_string();
-            let first = text.lines().next().unwrap_or("invalid arguments").trim_start_matches("error: ");
+            let mut lines = text.lines().map(str::trim).filter(|l| !l.is_empty());
+            let mut first = lines.next().unwrap_or("invalid arguments").trim_start_matches("error: ").to_string();
+            if first.ends_with(':') {
+                if let Some(next) = lines.next() {
+                    first = format!("{first} {next}");
+                }
+            }
             eprintln!("pmrender: {first} (see pmrender --help)");
             return 2;
         }
@@ -306,15 +353,10 @@ pub fn run() -> i32 {
             return 0;
         }
     };
-    let cancel = Arc::new(AtomicBool::new(false));
-    {
-        let c = cancel.clone();
-        let _ = ctrlc::set_handler(move || c.store(true, Ordering::Relaxed));
-    }
     let result = match cli.command {
-        Command::Render(a) => render_command(a, &cancel),
+        Command::Render(a) => render_command(a, &signal::CANCEL),
         Command::Converge(a) => converge_command(a),
-        Command::ExportMitsuba(a) => scene::load(&a.scene).and_then(|s| pmrender::export::export_mitsuba(&s, &a.dir, a.spp.max(1))),
+        Command::ExportMitsuba(a) => load_interruptible(&a.scene).and_then(|s| pmrender::export::export_mitsuba(&s, &a.dir, a.spp.max(1))),
     };
     match result {
         Ok(()) => 0,
@@ -322,7 +364,7 @@ pub fn run() -> i32 {
             eprintln!("pmrender: {e}");
             match e {
                 Error::Input(_) => 2,
-                Error::Interrupted => 130,
+                Error::Interrupted => signal::exit_code(),
                 Error::Runtime(_) => 1,
             }
         }

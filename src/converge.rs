@@ -42,20 +42,21 @@ fn layer<'a>(layers: &'a [(&'static str, Image)], name: &str) -> Option<&'a Imag
 
 /// Renders at each count (global and caustic targets both set to it) and writes `converge.md`,
 /// `converge.json` and `converge.png` into `out_dir`.
-pub fn converge(scene: &mut Scene, counts: &[usize], reference: &Path, method: Method, opts: &Options, out_dir: &Path, progress: &dyn Progress) -> Result<Vec<ConvergeRow>> {
+/// `cancel` interrupts the renders (`Interrupted`, nothing written).
+#[allow(clippy::too_many_arguments)]
+pub fn converge(scene: &mut Scene, counts: &[usize], reference: &Path, method: Method, opts: &Options, out_dir: &Path, progress: &dyn Progress, cancel: &AtomicBool) -> Result<Vec<ConvergeRow>> {
     let reference_img = read_layer(reference, None).map_err(|e| in_file(reference, e))?;
     let ref_terms = ["caustic", "indirect"].map(|n| read_layer(reference, Some(n)).ok());
     let mut opts = opts.clone();
     opts.method = Some(method);
     opts.width = Some(reference_img.width);
     opts.height = Some(reference_img.height);
-    let cancel = AtomicBool::new(false);
     let mut renders = Vec::new();
     for &n in counts {
         scene.settings.photons.global = Some(n as i64);
         scene.settings.photons.caustic = Some(if scene.has_specular() { n as i64 } else { 0 });
         let t = Instant::now();
-        let (out, _) = render(scene, &opts, progress, &cancel)?;
+        let (out, _) = render(scene, &opts, progress, cancel)?;
         renders.push((n, t.elapsed().as_secs_f64(), out));
     }
     let Some((_, _, last)) = renders.last() else { return Err(option("--photons", "give at least one count")) };

@@ -17,6 +17,7 @@ pub mod light;
 pub mod material;
 pub mod render;
 pub mod scene;
+pub mod signal;
 pub mod stats;
 pub mod texture;
 pub mod warp;

@@ -9,6 +9,8 @@
 //! pixel saw at its full radius.
 #![forbid(unsafe_code)]
 
+use std::sync::atomic::{AtomicBool, Ordering};
+
 use crate::cache::IrradianceCache;
 use crate::params::Pass;
 use crate::record::NewRecord;
@@ -39,9 +41,25 @@ pub fn fill_one_pass(
     gather: &GatherFn,
     progress: &ProgressFn,
 ) -> (FillStats, OnePassFill) {
+    fill_one_pass_cancellable(cache, width, height, shading_points, gather, progress, &AtomicBool::new(false))
+}
+
+/// [`fill_one_pass`] that returns early soon after `cancel` is set (read before every row).
+pub fn fill_one_pass_cancellable(
+    cache: &mut IrradianceCache,
+    width: u32,
+    height: u32,
+    shading_points: &ShadingPointsFn,
+    gather: &GatherFn,
+    progress: &ProgressFn,
+    cancel: &AtomicBool,
+) -> (FillStats, OnePassFill) {
     let mut stats = FillStats { n_pixels: width as u64 * height as u64, ..FillStats::default() };
     let mut records_after = Vec::with_capacity(stats.n_pixels as usize);
     for y in 0..height {
+        if cancel.load(Ordering::Relaxed) {
+            break;
+        }
         for x in 0..width {
             for (i, sp) in shading_points(x, y).into_iter().enumerate() {
                 stats.n_points += 1;

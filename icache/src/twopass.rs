@@ -12,6 +12,8 @@
 //! most `MAX_REPAIR_SWEEPS`).
 #![forbid(unsafe_code)]
 
+use std::sync::atomic::{AtomicBool, Ordering};
+
 use glam::Vec3;
 use rayon::prelude::*;
 
@@ -63,15 +65,29 @@ pub fn fill_pass_a(
     gather: &GatherFn,
     progress: &ProgressFn,
 ) -> FillStats {
+    fill_pass_a_cancellable(cache, width, height, shading_points, gather, progress, &AtomicBool::new(false))
+}
+
+/// [`fill_pass_a`] that returns early, with the cache partly filled, soon after `cancel` is set: it is
+/// read before every chunk of pixels. (The caller makes its long gathers return early too.)
+pub fn fill_pass_a_cancellable(
+    cache: &mut IrradianceCache,
+    width: u32,
+    height: u32,
+    shading_points: &ShadingPointsFn,
+    gather: &GatherFn,
+    progress: &ProgressFn,
+    cancel: &AtomicBool,
+) -> FillStats {
     let mut stats = FillStats::default();
     let total = width as u64 * height as u64;
     let mut store = PointStore::new(width, height);
     cache.log_shrinks(true);
     let order = HierarchicalOrder::new(width, height);
-    let first = sweep(cache, order, shading_points, Some(&mut store), gather, &mut stats, &|done| progress(done, total));
+    let first = sweep(cache, order, shading_points, Some(&mut store), gather, &mut stats, &|done| progress(done, total), cancel);
     stats.n_pixels = total;
     if first > 0 {
-        repair(cache, width, height, &store, gather, &mut stats);
+        repair(cache, width, height, &store, gather, &mut stats, cancel);
     }
     cache.log_shrinks(false);
     progress(total, total);
@@ -106,9 +122,12 @@ impl PointStore {
 /// Neighbor clamping can shrink a record after it covered a point. Only points inside the logged
 /// spheres of shrunk records can have lost their cover, so each repair sweep revisits just the pixels
 /// holding such points, until a sweep shrinks nothing (at most `MAX_REPAIR_SWEEPS`).
-fn repair(cache: &mut IrradianceCache, width: u32, height: u32, store: &PointStore, gather: &GatherFn, stats: &mut FillStats) {
+fn repair(cache: &mut IrradianceCache, width: u32, height: u32, store: &PointStore, gather: &GatherFn, stats: &mut FillStats, cancel: &AtomicBool) {
     let cached = |x: u32, y: u32| store.get(x, y).to_vec();
     loop {
+        if cancel.load(Ordering::Relaxed) {
+            return;
+        }
         let log = cache.take_shrink_log();
         if log.is_empty() {
             return;
@@ -138,12 +157,13 @@ fn repair(cache: &mut IrradianceCache, width: u32, height: u32, store: &PointSto
             })
             .collect();
         let order = pixels.into_iter().zip(dirty).filter(|(_, d)| *d).map(|(p, _)| p);
-        sweep(cache, order, &cached, None, gather, stats, &|_| {});
+        sweep(cache, order, &cached, None, gather, stats, &|_| {}, cancel);
     }
 }
 
 /// One pass over `order`'s pixels; returns the number of records inserted. With `store`, every pixel's
 /// shading points are kept there.
+#[allow(clippy::too_many_arguments)]
 fn sweep(
     cache: &mut IrradianceCache,
     mut order: impl Iterator<Item = (u32, u32)>,
@@ -152,11 +172,15 @@ fn sweep(
     gather: &GatherFn,
     stats: &mut FillStats,
     progress: &(dyn Fn(u64) + Sync),
+    cancel: &AtomicBool,
 ) -> u64 {
     let before = stats.insert.n_inserted;
     let mut pending: Vec<Candidate> = Vec::new();
     let mut done = 0u64;
     loop {
+        if cancel.load(Ordering::Relaxed) {
+            return stats.insert.n_inserted - before;
+        }
         let chunk: Vec<(u32, u32)> = order.by_ref().take(CHUNK_PIXELS).collect();
         if chunk.is_empty() {
             break;

@@ -15,6 +15,8 @@ pub enum Error {
     InvalidParameter(String),
     #[error("no photon was stored after {n_paths_emitted} paths: light reaches no diffuse surface")]
     NothingStored { n_paths_emitted: u64 },
+    #[error("cancelled")]
+    Cancelled,
     #[error("{path}: {source}")]
     Io { path: PathBuf, source: std::io::Error },
     #[error("not a regular file")]

@@ -6,6 +6,7 @@
 
 use std::cell::RefCell;
 use std::ops::AddAssign;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
 use glam::Vec3;
@@ -69,6 +70,12 @@ impl PrecomputedIrradiance {
     /// Estimates irradiance (k nearest within `max_radius`, no filter) at one photon out of each block
     /// of `every` consecutive global photons, in parallel; the result does not depend on the thread count.
     pub fn build(global: &PhotonMap, every: usize, k: usize, max_radius: f32, cov: &dyn Coverage) -> Result<(Self, PrecomputeStats)> {
+        Self::build_cancellable(global, every, k, max_radius, cov, &AtomicBool::new(false))
+    }
+
+    /// [`build`](Self::build) that stops with [`Error::Cancelled`] soon after `cancel` is set (read
+    /// before every estimate).
+    pub fn build_cancellable(global: &PhotonMap, every: usize, k: usize, max_radius: f32, cov: &dyn Coverage, cancel: &AtomicBool) -> Result<(Self, PrecomputeStats)> {
         if every == 0 || k == 0 || max_radius.is_nan() || max_radius <= 0.0 {
             return Err(Error::InvalidParameter(format!(
                 "precomputed irradiance needs every ≥ 1, k ≥ 1, max_radius > 0 (got {every}, {k}, {max_radius})"
@@ -80,10 +87,16 @@ impl PrecomputedIrradiance {
             .into_par_iter()
             .map(|block| {
                 let ph = &photons[pick_in_block(block, every, photons.len())];
+                if cancel.load(Ordering::Relaxed) {
+                    return (IrradiancePoint { pos: ph.pos, normal: ph.normal, e: Vec3::ZERO, e_indirect: Vec3::ZERO }, false);
+                }
                 let (est, e_indirect) = global.irradiance_and_indirect(ph.pos, ph.normal, k, max_radius, cov);
                 (IrradiancePoint { pos: ph.pos, normal: ph.normal, e: est.e, e_indirect }, est.hit_max_radius)
             })
             .collect();
+        if cancel.load(Ordering::Relaxed) {
+            return Err(Error::Cancelled);
+        }
         let n_hit_max_radius = estimates.iter().filter(|(_, hit)| *hit).count() as u64;
         let points: Vec<IrradiancePoint> = estimates.into_iter().map(|(p, _)| p).collect();
         let this = Self::from_points(points, max_radius)?;

@@ -10,6 +10,7 @@
 #![forbid(unsafe_code)]
 
 use std::ops::AddAssign;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
 use glam::{Vec2, Vec3};
@@ -136,6 +137,18 @@ pub fn trace_photons<S: PhotonScene + ?Sized>(
     seed: u64,
     progress: &(dyn Fn(u64, u64) + Sync),
 ) -> Result<(PhotonMaps, TraceStats)> {
+    trace_photons_cancellable(scene, targets, seed, progress, &AtomicBool::new(false))
+}
+
+/// [`trace_photons`] that stops with [`Error::Cancelled`] soon after `cancel` is set: it is read before
+/// every chunk of [`CHUNK_PATHS`] paths and before each kd-tree build.
+pub fn trace_photons_cancellable<S: PhotonScene + ?Sized>(
+    scene: &S,
+    targets: &PhotonTargets,
+    seed: u64,
+    progress: &(dyn Fn(u64, u64) + Sync),
+    cancel: &AtomicBool,
+) -> Result<(PhotonMaps, TraceStats)> {
     let start = Instant::now();
     let caustic_target = if scene.has_specular() { targets.caustic } else { 0 };
     let mut global = Filling::new(targets.global);
@@ -143,16 +156,25 @@ pub fn trace_photons<S: PhotonScene + ?Sized>(
     let mut stats = TraceStats::default();
     let mut next_path = 0u64;
     while (global.active || caustic.active) && next_path < targets.max_paths {
+        if cancel.load(Ordering::Relaxed) {
+            return Err(Error::Cancelled);
+        }
         let n_batch = BATCH_PATHS.min(targets.max_paths - next_path);
         let want = Want { global: global.active, caustic: caustic.active };
         let chunks: Vec<ChunkOut> = (0..n_batch.div_ceil(CHUNK_PATHS))
             .into_par_iter()
             .map(|c| {
+                if cancel.load(Ordering::Relaxed) {
+                    return ChunkOut::default();
+                }
                 let first = next_path + c * CHUNK_PATHS;
                 let end = (first + CHUNK_PATHS).min(next_path + n_batch);
                 trace_chunk(scene, first..end, seed, want)
             })
             .collect();
+        if cancel.load(Ordering::Relaxed) {
+            return Err(Error::Cancelled);
+        }
         for chunk in &chunks {
             for j in 0..chunk.ends.len() {
                 let path = next_path;
@@ -201,6 +223,9 @@ pub fn trace_photons<S: PhotonScene + ?Sized>(
     stats.n_caustic_paths = n_caustic_paths;
     stats.n_global_stored = global.as_ref().map_or(0, |p| p.len() as u64);
     stats.n_caustic_stored = caustic.as_ref().map_or(0, |p| p.len() as u64);
+    if cancel.load(Ordering::Relaxed) {
+        return Err(Error::Cancelled);
+    }
     let (global, caustic) = rayon::join(|| build_map(global), || build_map(caustic));
     let (global, global_build_s) = global?;
     let (caustic, caustic_build_s) = caustic?;
@@ -279,6 +304,7 @@ enum PathEnd {
 }
 
 /// Photons of consecutive paths; `ends[j]` = (global, caustic) lengths after path j.
+#[derive(Default)]
 struct ChunkOut {
     global: Vec<Photon>,
     caustic: Vec<Photon>,

@@ -1,6 +1,8 @@
 //! The photon pass as the render uses it: settings with scene-derived defaults, tracing both maps,
 //! precomputed irradiance, and the three kinds of lookup the integrators make.
 
+use std::sync::atomic::AtomicBool;
+
 use glam::Vec3;
 use photon::{Filter, PhotonMap, PhotonMaps, PhotonTargets, PrecomputedIrradiance, TraceStats};
 
@@ -68,9 +70,11 @@ pub struct PhotonData<'a> {
 }
 
 impl PhotonData<'_> {
-    pub fn trace(scene: &Scene, settings: &PhotonSettings, seed: u64, progress: &(dyn Fn(u64, u64) + Sync)) -> Result<(PhotonMaps, TraceStats)> {
-        match photon::trace_photons(&PhotonView(scene), &Self::targets(settings), seed, progress) {
+    /// Both maps; `Interrupted` soon after `cancel` is set.
+    pub fn trace(scene: &Scene, settings: &PhotonSettings, seed: u64, progress: &(dyn Fn(u64, u64) + Sync), cancel: &AtomicBool) -> Result<(PhotonMaps, TraceStats)> {
+        match photon::trace_photons_cancellable(&PhotonView(scene), &Self::targets(settings), seed, progress, cancel) {
             Ok(r) => Ok(r),
+            Err(photon::Error::Cancelled) => Err(crate::error::Error::Interrupted),
             // No light reaches any non-specular surface: there is no caustic or indirect light to
             // estimate, so the render goes on with empty maps (counted in the statistics).
             Err(photon::Error::NothingStored { n_paths_emitted }) => {

@@ -5,7 +5,7 @@ use std::path::Path;
 
 use glam::Vec3;
 
-use super::atomic::write_atomically;
+use super::atomic::{write_atomically, OutputSet};
 use super::oiio::{self, Pixels};
 use crate::error::Result;
 
@@ -29,7 +29,8 @@ pub struct Layers<'a> {
     pub named: Vec<(&'a str, &'a Image)>,
 }
 
-pub fn write_exr(path: &Path, layers: &Layers) -> Result<()> {
+/// Stages the layered EXR in `set` (renamed into place when the set commits).
+pub fn stage_exr(set: &mut OutputSet, path: &Path, layers: &Layers) -> Result<()> {
     let (w, h) = (layers.beauty.width, layers.beauty.height);
     let mut names: Vec<String> = vec!["R".into(), "G".into(), "B".into()];
     for (n, _) in &layers.named {
@@ -45,7 +46,7 @@ pub fn write_exr(path: &Path, layers: &Layers) -> Result<()> {
         }
     }
     let name_refs: Vec<&str> = names.iter().map(String::as_str).collect();
-    write_atomically(path, |tmp| oiio::write(tmp, w, h, &name_refs, Pixels::F32(&data)))
+    set.stage(path, |tmp| oiio::write(tmp, w, h, &name_refs, Pixels::F32(&data)))
 }
 
 fn srgb_encode(x: f32) -> u8 {
@@ -54,6 +55,13 @@ fn srgb_encode(x: f32) -> u8 {
     (s * 255.0 + 0.5) as u8
 }
 
+/// Stages the sRGB PNG of `image` in `set`.
+pub fn stage_png(set: &mut OutputSet, path: &Path, image: &Image) -> Result<()> {
+    let data: Vec<u8> = image.pixels.iter().flat_map(|p| p.to_array().map(srgb_encode)).collect();
+    set.stage(path, |tmp| oiio::write(tmp, image.width, image.height, &["R", "G", "B"], Pixels::U8(&data)))
+}
+
+/// Writes one PNG on its own (charts), atomically.
 pub fn write_png(path: &Path, image: &Image) -> Result<()> {
     let data: Vec<u8> = image.pixels.iter().flat_map(|p| p.to_array().map(srgb_encode)).collect();
     write_atomically(path, |tmp| oiio::write(tmp, image.width, image.height, &["R", "G", "B"], Pixels::U8(&data)))

@@ -1,6 +1,8 @@
-//! Photon-map and cache files around a render: load/save (atomic, fingerprinted), the PLY dump of the
-//! photons, and the cache-record image.
+//! Photon-map and cache files around a render: load/save (fingerprinted), the PLY dump of the photons,
+//! and the cache-record image. Saved files are staged in an [`OutputSet`] with the images, so they
+//! appear only if the whole render and every write succeeded.
 
+use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use glam::Vec3;
@@ -9,8 +11,8 @@ use photon::{MapsInfo, PhotonMaps, PrecomputedIrradiance};
 
 use crate::camera::Camera;
 use crate::error::{option, Result};
-use crate::io::atomic::write_bytes;
-use crate::io::output::{write_png, Image};
+use crate::io::atomic::OutputSet;
+use crate::io::output::{stage_png, Image};
 
 /// Files a render reads or writes besides its images.
 #[derive(Clone, Debug, Default)]
@@ -23,50 +25,67 @@ pub struct FileOptions {
     pub cache_image: Option<PathBuf>,
 }
 
+/// Traced photon maps kept for `--save-photons` / `--dump-photons`, written with the other outputs.
+pub struct PhotonOutput {
+    pub info: MapsInfo,
+    pub maps: PhotonMaps,
+    pub precomputed: Option<PrecomputedIrradiance>,
+}
+
 pub fn load_photons(path: &Path, fingerprint: u64) -> Result<photon::LoadedMaps> {
     photon::file::load(path, fingerprint).map_err(|e| option("--load-photons", format!("{}: {e}", path.display())))
 }
 
-pub fn save_photons(path: &Path, info: &MapsInfo, maps: &PhotonMaps, pre: Option<&PrecomputedIrradiance>) -> Result<()> {
-    let mut bytes = Vec::new();
-    photon::file::write_maps(&mut bytes, info, maps, pre).map_err(|e| crate::error::runtime(format!("{}: {e}", path.display())))?;
-    write_bytes(path, &bytes)
+pub fn save_photons(set: &mut OutputSet, path: &Path, p: &PhotonOutput) -> Result<()> {
+    set.stage(path, |tmp| {
+        let file = std::fs::File::create(tmp).map_err(|e| e.to_string())?;
+        let mut w = std::io::BufWriter::new(file);
+        photon::file::write_maps(&mut w, &p.info, &p.maps, p.precomputed.as_ref()).map_err(|e| e.to_string())?;
+        std::io::Write::flush(&mut w).map_err(|e| e.to_string())
+    })
 }
 
 pub fn load_cache(path: &Path, fingerprint: u64) -> Result<IrradianceCache> {
     IrradianceCache::load(path, fingerprint).map_err(|e| option("--load-cache", format!("{}: {e}", path.display())))
 }
 
-pub fn save_cache(path: &Path, cache: &IrradianceCache, fingerprint: u64) -> Result<()> {
-    write_bytes(path, &cache.to_bytes(fingerprint))
+pub fn save_cache(set: &mut OutputSet, path: &Path, cache: &IrradianceCache, fingerprint: u64) -> Result<()> {
+    set.stage_bytes(path, &cache.to_bytes(fingerprint))
 }
 
-/// ASCII PLY of both maps: position, normal, power (W) and the map (0 global, 1 caustic).
-pub fn dump_photons(path: &Path, maps: &PhotonMaps) -> Result<()> {
+/// ASCII PLY of both maps: position, normal, power (W) and the map (0 global, 1 caustic), streamed to
+/// the file (a text copy of millions of photons would double the memory).
+pub fn dump_photons(set: &mut OutputSet, path: &Path, maps: &PhotonMaps) -> Result<()> {
     let lists: Vec<(u8, &[photon::Photon])> = [(0u8, maps.global.as_ref()), (1, maps.caustic.as_ref())]
         .into_iter()
         .filter_map(|(k, m)| m.map(|m| (k, m.photons())))
         .collect();
     let n: usize = lists.iter().map(|(_, l)| l.len()).sum();
-    let mut s = format!(
+    set.stage(path, |tmp| {
+        let file = std::fs::File::create(tmp).map_err(|e| e.to_string())?;
+        let mut w = std::io::BufWriter::new(file);
+        write_ply(&mut w, n, &lists).map_err(|e| e.to_string())
+    })
+}
+
+fn write_ply(w: &mut impl Write, n: usize, lists: &[(u8, &[photon::Photon])]) -> std::io::Result<()> {
+    write!(
+        w,
         "ply\nformat ascii 1.0\ncomment pmrender photon maps\nelement vertex {n}\nproperty float x\nproperty float y\nproperty float z\n\
          property float nx\nproperty float ny\nproperty float nz\nproperty float power_r\nproperty float power_g\nproperty float power_b\n\
          property uchar map\nend_header\n"
-    );
+    )?;
     for (k, list) in lists {
-        for p in list {
-            s += &format!(
-                "{} {} {} {} {} {} {:e} {:e} {:e} {k}\n",
-                p.pos.x, p.pos.y, p.pos.z, p.normal.x, p.normal.y, p.normal.z, p.power.x, p.power.y, p.power.z
-            );
+        for p in *list {
+            writeln!(w, "{} {} {} {} {} {} {:e} {:e} {:e} {k}", p.pos.x, p.pos.y, p.pos.z, p.normal.x, p.normal.y, p.normal.z, p.power.x, p.power.y, p.power.z)?;
         }
     }
-    write_bytes(path, s.as_bytes())
+    w.flush()
 }
 
 /// The beauty with a dot at every record, coloured by its radius in pixels (blue small → red large,
 /// log scale between the cache's min and max spacing).
-pub fn cache_image(path: &Path, beauty: &Image, cache: &IrradianceCache, camera: &Camera) -> Result<()> {
+pub fn cache_image(set: &mut OutputSet, path: &Path, beauty: &Image, cache: &IrradianceCache, camera: &Camera) -> Result<()> {
     let mut img = beauty.clone();
     let p = cache.params();
     let (lo, hi) = (p.min_spacing_px.max(1e-3).ln(), p.max_spacing_px.max(1e-3).ln());
@@ -83,5 +102,5 @@ pub fn cache_image(path: &Path, beauty: &Image, cache: &IrradianceCache, camera:
             }
         }
     }
-    write_png(path, &img)
+    stage_png(set, path, &img)
 }

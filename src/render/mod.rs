@@ -1,9 +1,12 @@
 //! The render driver: a sequence of named phases chosen by the method, each returning its output and
 //! its statistics, readable top-down from [`render`].
 
+pub mod budget;
 pub mod files;
+pub mod outputs;
 pub mod pm_phases;
 pub mod tiles;
+pub mod write;
 
 use std::sync::atomic::AtomicBool;
 use std::time::Instant;
@@ -42,6 +45,8 @@ pub struct Options {
     pub seed: Option<u64>,
     pub crop: Option<Window>,
     pub files: files::FileOptions,
+    /// Memory budget in bytes (`--max-memory`); see [`budget`].
+    pub max_memory: Option<u64>,
 }
 
 /// What a render produced: beauty and the per-term layers of Jensen's split (empty for `path`).
@@ -50,6 +55,8 @@ pub struct RenderOutput {
     pub layers: Vec<(&'static str, Image)>,
     /// The irradiance cache `pm` filled (for `--save-cache` and `--cache-image`).
     pub cache: Option<icache::IrradianceCache>,
+    /// Traced photon maps, kept when `--save-photons` or `--dump-photons` asks for them.
+    pub photons: Option<files::PhotonOutput>,
 }
 
 /// Resolved settings of one render.
@@ -87,6 +94,7 @@ pub fn plan(scene: &Scene, opts: &Options) -> Result<Plan> {
 pub fn render(scene: &Scene, opts: &Options, progress: &dyn Progress, cancel: &AtomicBool) -> Result<(RenderOutput, Report)> {
     let t0 = Instant::now();
     let plan = plan(scene, opts)?;
+    budget::check(scene, &plan, opts)?;
     let camera = scene.camera.with_resolution(plan.width, plan.height);
     let mut report = Report::default();
     report.text("Render", "Method", "render.method", plan.method.name());
@@ -103,7 +111,7 @@ pub fn render(scene: &Scene, opts: &Options, progress: &dyn Progress, cancel: &A
             progress.finish();
             let shade_s = t.elapsed().as_secs_f64();
             report.seconds("Time", "Shade", "time.shade_s", shade_s);
-            (RenderOutput { beauty: images.remove(0), layers: Vec::new(), cache: None }, counters, shade_s)
+            (RenderOutput { beauty: images.remove(0), layers: Vec::new(), cache: None, photons: None }, counters, shade_s)
         }
         Method::Pm | Method::PmFg | Method::Photons => {
             let run = pm_phases::render_pm(scene, &plan, opts, &camera, progress, cancel)?;

@@ -12,10 +12,10 @@ use photon::sampling::Rng;
 use photon::PrecomputedIrradiance;
 
 use super::tiles::render_tiles;
-use super::files::{dump_photons, load_cache, load_photons, save_photons};
+use super::files::{load_cache, load_photons, PhotonOutput};
 use super::{Options, Plan, Progress, RenderOutput};
 use crate::camera::Camera;
-use crate::error::{at_line, runtime, Result};
+use crate::error::{at_line, runtime, Error, Result};
 use crate::integrator::cache_fill::{gather_record, shading_hits};
 use crate::integrator::coverage::SceneCoverage;
 use crate::integrator::photons::{PhotonData, PhotonSettings};
@@ -92,7 +92,7 @@ pub fn render_pm(scene: &Scene, plan: &Plan, opts: &Options, camera: &Camera, pr
     let settings = PhotonSettings::resolve(scene)?;
     let (cache_params, rays, fill_mode) = cache_settings(scene)?;
 
-    let (maps, precomputed) = photon_maps(scene, plan, &settings, opts, progress, &mut report)?;
+    let (maps, precomputed, info) = photon_maps(scene, plan, &settings, opts, progress, cancel, &mut report)?;
     let photons = PhotonData { maps, precomputed, settings, coverage: SceneCoverage(scene) };
 
     let mut ctx = PmContext {
@@ -102,6 +102,7 @@ pub fn render_pm(scene: &Scene, plan: &Plan, opts: &Options, camera: &Camera, pr
         gather: GatherParams { rays },
         max_depth: scene.settings.max_depth,
         seed: plan.seed,
+        cancel,
     };
     let mut cache = None;
     let mut n_loaded = 0u64;
@@ -128,9 +129,9 @@ pub fn render_pm(scene: &Scene, plan: &Plan, opts: &Options, camera: &Camera, pr
         };
         let report_progress = |done, _| progress.set(done);
         match fill_mode {
-            FillMode::TwoPass => fill = icache::fill_pass_a(&mut c, plan.width, plan.height, &points, &gather, &report_progress),
+            FillMode::TwoPass => fill = icache::fill_pass_a_cancellable(&mut c, plan.width, plan.height, &points, &gather, &report_progress, cancel),
             FillMode::OnePass => {
-                let (f, order) = icache::fill_one_pass(&mut c, plan.width, plan.height, &points, &gather, &report_progress);
+                let (f, order) = icache::fill_one_pass_cancellable(&mut c, plan.width, plan.height, &points, &gather, &report_progress, cancel);
                 fill = f;
                 one_pass = Some(order);
             }
@@ -141,7 +142,7 @@ pub fn render_pm(scene: &Scene, plan: &Plan, opts: &Options, camera: &Camera, pr
         cache = Some(c);
     }
     if cancel.load(Ordering::Relaxed) {
-        return Err(crate::error::Error::Interrupted);
+        return Err(Error::Interrupted);
     }
     ctx.source = match (&cache, plan.method) {
         (Some(c), _) => IndirectSource::Cache(c),
@@ -186,11 +187,15 @@ pub fn render_pm(scene: &Scene, plan: &Plan, opts: &Options, camera: &Camera, pr
         }
     }
     let layers = TERM_NAMES.iter().copied().zip(layers).collect();
-    Ok(PmRun { output: RenderOutput { beauty, layers, cache }, counters, report })
+    let photons = info.map(|info| PhotonOutput { info, maps: photons.maps, precomputed: photons.precomputed });
+    Ok(PmRun { output: RenderOutput { beauty, layers, cache, photons }, counters, report })
 }
 
-/// `trace_photons` and `build_maps`, or a photon file loaded instead; saved and dumped on request.
-fn photon_maps(scene: &Scene, plan: &Plan, settings: &PhotonSettings, opts: &Options, progress: &dyn Progress, report: &mut Report) -> Result<(photon::PhotonMaps, Option<PrecomputedIrradiance>)> {
+type Maps = (photon::PhotonMaps, Option<PrecomputedIrradiance>, Option<photon::MapsInfo>);
+
+/// `trace_photons` and `build_maps`, or a photon file loaded instead. The `MapsInfo` is there when the
+/// maps were traced and `--save-photons` or `--dump-photons` asks for them (written with the outputs).
+fn photon_maps(scene: &Scene, plan: &Plan, settings: &PhotonSettings, opts: &Options, progress: &dyn Progress, cancel: &AtomicBool, report: &mut Report) -> Result<Maps> {
     let want_precomputed = matches!(plan.method, Method::Pm | Method::PmFg);
     if let Some(path) = &opts.files.load_photons {
         let t = Instant::now();
@@ -198,7 +203,7 @@ fn photon_maps(scene: &Scene, plan: &Plan, settings: &PhotonSettings, opts: &Opt
         let mut pre = loaded.precomputed;
         if pre.is_none() && want_precomputed {
             if let Some(g) = &loaded.maps.global {
-                pre = Some(PrecomputedIrradiance::build(g, settings.precompute_every, settings.lookup, settings.max_radius_global, &SceneCoverage(scene)).map_err(runtime)?.0);
+                pre = Some(precompute(g, scene, settings, cancel)?);
             }
         }
         report.seconds("Time", "Load photons", "time.load_photons_s", t.elapsed().as_secs_f64());
@@ -211,30 +216,34 @@ fn photon_maps(scene: &Scene, plan: &Plan, settings: &PhotonSettings, opts: &Opt
             ..Default::default()
         };
         photon_rows(report, &stats, settings, pre.as_ref());
-        return Ok((loaded.maps, pre));
+        return Ok((loaded.maps, pre, None));
     }
     let t = Instant::now();
     progress.start("photons", (settings.global + settings.caustic) as u64);
-    let (maps, trace_stats) = PhotonData::trace(scene, settings, plan.seed, &|done, _| progress.set(done))?;
+    let (maps, trace_stats) = PhotonData::trace(scene, settings, plan.seed, &|done, _| progress.set(done), cancel)?;
     progress.finish();
     report.seconds("Time", "Trace photons", "time.trace_photons_s", t.elapsed().as_secs_f64());
     let t = Instant::now();
     let precomputed = match &maps.global {
         Some(g) if want_precomputed || opts.files.save_photons.is_some() => {
-            Some(PrecomputedIrradiance::build(g, settings.precompute_every, settings.lookup, settings.max_radius_global, &SceneCoverage(scene)).map_err(runtime)?.0)
+            Some(precompute(g, scene, settings, cancel)?)
         }
         _ => None,
     };
     report.seconds("Time", "Build maps", "time.build_maps_s", t.elapsed().as_secs_f64());
     photon_rows(report, &trace_stats, settings, precomputed.as_ref());
-    if let Some(path) = &opts.files.save_photons {
-        let info = photon::MapsInfo::new(scene.fingerprint, plan.seed, PhotonData::targets(settings), &trace_stats);
-        save_photons(path, &info, &maps, precomputed.as_ref())?;
+    let keep = opts.files.save_photons.is_some() || opts.files.dump_photons.is_some();
+    let info = keep.then(|| photon::MapsInfo::new(scene.fingerprint, plan.seed, PhotonData::targets(settings), &trace_stats));
+    Ok((maps, precomputed, info))
+}
+
+fn precompute(global: &photon::PhotonMap, scene: &Scene, s: &PhotonSettings, cancel: &AtomicBool) -> Result<PrecomputedIrradiance> {
+    let cov = SceneCoverage(scene);
+    match PrecomputedIrradiance::build_cancellable(global, s.precompute_every, s.lookup, s.max_radius_global, &cov, cancel) {
+        Ok((pre, _)) => Ok(pre),
+        Err(photon::Error::Cancelled) => Err(Error::Interrupted),
+        Err(e) => Err(runtime(e)),
     }
-    if let Some(path) = &opts.files.dump_photons {
-        dump_photons(path, &maps)?;
-    }
-    Ok((maps, precomputed))
 }
 
 fn photon_rows(r: &mut Report, s: &photon::TraceStats, settings: &PhotonSettings, pre: Option<&PrecomputedIrradiance>) {

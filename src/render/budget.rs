@@ -1,0 +1,151 @@
+//! The memory a render will need, computed before anything large is allocated, against a budget: a
+//! request that cannot fit is refused with both numbers instead of aborting half-way on a failed
+//! allocation.
+//!
+//! The budget is `--max-memory`, else the `PMRENDER_MAX_MEMORY` environment variable, else 75 % of the
+//! physical RAM (`MemTotal` in /proc/meminfo, or the cgroup's memory limit when smaller; 8 GiB when
+//! neither can be read). The estimates are upper bounds of the peaks, per item:
+//! - image: every full-size layer (beauty + terms, 12 B per pixel each), the interleaved EXR buffer and
+//!   the PNG/cache-image copies, over the whole image even with `--crop` (other pixels are black);
+//! - photon maps: [`PHOTON_PEAK_BYTES`] per stored photon while tracing and building, or 3 × the size
+//!   of a `--load-photons` file;
+//! - irradiance cache: pass A keeps the shading points of every pixel of the image
+//!   ([`FILL_BYTES_PER_PIXEL`]), or 3 × the size of a `--load-cache` file.
+
+use std::path::Path;
+
+use super::{Options, Plan};
+use crate::error::{Error, Result};
+use crate::integrator::photons::PhotonSettings;
+use crate::scene::{Method, Scene};
+
+/// Largest image side (the scene file's limit too).
+pub const MAX_SIDE: u32 = 65_536;
+/// Largest samples-per-pixel count.
+pub const MAX_SPP: u32 = 1 << 20;
+/// Peak bytes per stored photon: the photon (56 B) in a growing vector (capacity up to 2×, and the old
+/// buffer during a reallocation), FLANN's copy and tree, and the precomputed irradiance.
+pub const PHOTON_PEAK_BYTES: u64 = 240;
+/// Pass-A bytes per pixel: the pixel's range and shading points (more than one through glass), the
+/// visiting order and the repair sweeps' flags.
+pub const FILL_BYTES_PER_PIXEL: u64 = 96;
+/// Share of the physical RAM the default budget allows.
+pub const DEFAULT_FRACTION: f64 = 0.75;
+
+/// Parses a size such as `8G`, `512M`, `64k` or a plain byte count.
+pub fn parse_size(text: &str) -> Option<u64> {
+    let t = text.trim();
+    let (digits, unit) = match t.char_indices().find(|(_, c)| c.is_ascii_alphabetic()) {
+        Some((i, _)) => (&t[..i], t[i..].to_ascii_lowercase()),
+        None => (t, String::new()),
+    };
+    let scale: u64 = match unit.trim_end_matches("ib").trim_end_matches('b') {
+        "" => 1,
+        "k" => 1 << 10,
+        "m" => 1 << 20,
+        "g" => 1 << 30,
+        "t" => 1 << 40,
+        _ => return None,
+    };
+    let x: f64 = digits.trim().parse().ok()?;
+    (x.is_finite() && x > 0.0 && x * (scale as f64) < 1.8e19).then(|| (x * scale as f64) as u64)
+}
+
+/// The budget and where it came from (for the message).
+pub fn budget(opts: &Options) -> (u64, String) {
+    if let Some(b) = opts.max_memory {
+        return (b, "--max-memory".into());
+    }
+    if let Some(b) = std::env::var("PMRENDER_MAX_MEMORY").ok().and_then(|v| parse_size(&v)) {
+        return (b, "PMRENDER_MAX_MEMORY".into());
+    }
+    match physical_memory() {
+        Some(ram) => ((ram as f64 * DEFAULT_FRACTION) as u64, format!("75 % of {} RAM; raise it with --max-memory", human(ram))),
+        None => (8 << 30, "RAM unknown; raise it with --max-memory".into()),
+    }
+}
+
+fn physical_memory() -> Option<u64> {
+    let meminfo = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let kib: u64 = meminfo.lines().find(|l| l.starts_with("MemTotal:"))?.split_whitespace().nth(1)?.parse().ok()?;
+    let ram = kib.saturating_mul(1024);
+    let cgroup = ["/sys/fs/cgroup/memory.max", "/sys/fs/cgroup/memory/memory.limit_in_bytes"]
+        .iter()
+        .filter_map(|p| std::fs::read_to_string(p).ok()?.trim().parse::<u64>().ok())
+        .min();
+    Some(cgroup.map_or(ram, |c| c.min(ram)))
+}
+
+pub fn human(bytes: u64) -> String {
+    let b = bytes as f64;
+    match bytes {
+        0..=1_048_575 => format!("{:.0} KiB", b / 1024.0),
+        1_048_576..=1_073_741_823 => format!("{:.0} MiB", b / 1_048_576.0),
+        _ => format!("{:.1} GiB", b / 1_073_741_824.0),
+    }
+}
+
+fn file_len(path: Option<&Path>) -> u64 {
+    path.and_then(|p| std::fs::metadata(p).ok()).map_or(0, |m| m.len())
+}
+
+/// What the render will need, item by item (name, bytes).
+pub fn estimate(scene: &Scene, plan: &Plan, opts: &Options) -> Result<Vec<(String, u64)>> {
+    let pixels = plan.width as u64 * plan.height as u64;
+    let photon_method = plan.method != Method::Path;
+    let n_images: u64 = if photon_method { 1 + crate::integrator::terms::TERM_NAMES.len() as u64 } else { 1 };
+    // Layers (12 B) + the EXR's interleaved floats (12 B per image) + PNG (3 B) + cache image (15 B).
+    let image = pixels.saturating_mul(24 * n_images + 18);
+    let mut items = vec![(format!("image {}×{} with {n_images} layer(s)", plan.width, plan.height), image)];
+    if photon_method {
+        let photons = match &opts.files.load_photons {
+            Some(p) => file_len(Some(p)).saturating_mul(3),
+            None => {
+                let s = PhotonSettings::resolve(scene)?;
+                (s.global as u64 + s.caustic as u64 + 2 * photon::trace::MAX_DEPTH as u64).saturating_mul(PHOTON_PEAK_BYTES)
+            }
+        };
+        items.push(("photon maps".into(), photons));
+    }
+    if plan.method == Method::Pm {
+        let cache = match &opts.files.load_cache {
+            Some(p) => file_len(Some(p)).saturating_mul(3),
+            None => pixels.saturating_mul(FILL_BYTES_PER_PIXEL),
+        };
+        items.push(("irradiance cache fill".into(), cache));
+    }
+    Ok(items)
+}
+
+/// Refuses (exit 2) a render whose estimate exceeds the budget.
+pub fn check(scene: &Scene, plan: &Plan, opts: &Options) -> Result<()> {
+    let items = estimate(scene, plan, opts)?;
+    let total = items.iter().fold(0u64, |a, (_, b)| a.saturating_add(*b));
+    let (limit, source) = budget(opts);
+    if total <= limit {
+        return Ok(());
+    }
+    let parts: Vec<String> = items.iter().filter(|(_, b)| *b > 0).map(|(n, b)| format!("{n}: {}", human(*b))).collect();
+    Err(Error::Input(format!(
+        "memory: the render needs about {} ({}), over the memory budget of {} ({source})",
+        human(total),
+        parts.join(", "),
+        human(limit)
+    )))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sizes_parse() {
+        assert_eq!(parse_size("8G"), Some(8 << 30));
+        assert_eq!(parse_size("512MiB"), Some(512 << 20));
+        assert_eq!(parse_size("1.5k"), Some(1536));
+        assert_eq!(parse_size("1000"), Some(1000));
+        for bad in ["", "G", "-1G", "0", "3X", "nan", "1e30T"] {
+            assert_eq!(parse_size(bad), None, "{bad}");
+        }
+    }
+}

@@ -1,0 +1,78 @@
+//! The `write_outputs` phase: every output of a render staged in one [`OutputSet`] and renamed into
+//! place only when all are written and no signal came; any failure or signal leaves none of them (and
+//! no temporary file).
+
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Instant;
+
+use super::files::{cache_image, dump_photons, save_cache, save_photons};
+use super::RenderOutput;
+use crate::error::{Error, Result};
+use crate::io::atomic::OutputSet;
+use crate::io::output::{stage_exr, stage_png, Layers};
+use crate::scene::Scene;
+use crate::stats::Report;
+
+/// Where each output goes (`None`: not wanted).
+#[derive(Clone, Debug, Default)]
+pub struct OutputPaths {
+    pub exr: PathBuf,
+    pub png: Option<PathBuf>,
+    pub stats: Option<PathBuf>,
+    pub save_photons: Option<PathBuf>,
+    pub dump_photons: Option<PathBuf>,
+    pub save_cache: Option<PathBuf>,
+    pub cache_image: Option<PathBuf>,
+}
+
+/// Writes every output, all or nothing; returns the report with the phase's time added (the one saved
+/// as `--stats`). `cancel` is read between files.
+pub fn write_outputs(paths: &OutputPaths, scene: &Scene, out: RenderOutput, mut report: Report, cancel: &AtomicBool) -> Result<Report> {
+    let interrupted = || if cancel.load(Ordering::SeqCst) { Err(Error::Interrupted) } else { Ok(()) };
+    let t = Instant::now();
+    let mut set = OutputSet::new();
+    interrupted()?;
+    let layers = Layers { beauty: &out.beauty, named: out.layers.iter().map(|(n, i)| (*n, i)).collect() };
+    stage_exr(&mut set, &paths.exr, &layers)?;
+    interrupted()?;
+    if let Some(p) = &paths.png {
+        stage_png(&mut set, p, &out.beauty)?;
+        interrupted()?;
+    }
+    match &out.cache {
+        None if paths.save_cache.is_some() || paths.cache_image.is_some() => {
+            eprintln!("pmrender: note: no irradiance cache with this method; --save-cache/--cache-image ignored")
+        }
+        None => {}
+        Some(c) => {
+            if let Some(p) = &paths.save_cache {
+                save_cache(&mut set, p, c, scene.fingerprint)?;
+                interrupted()?;
+            }
+            if let Some(p) = &paths.cache_image {
+                let cam = scene.camera.with_resolution(out.beauty.width, out.beauty.height);
+                cache_image(&mut set, p, &out.beauty, c, &cam)?;
+                interrupted()?;
+            }
+        }
+    }
+    if let Some(photons) = &out.photons {
+        if let Some(p) = &paths.save_photons {
+            save_photons(&mut set, p, photons)?;
+            interrupted()?;
+        }
+        if let Some(p) = &paths.dump_photons {
+            dump_photons(&mut set, p, &photons.maps)?;
+            interrupted()?;
+        }
+    }
+    report.seconds("Time", "Write outputs", "time.write_outputs_s", t.elapsed().as_secs_f64());
+    if let Some(p) = &paths.stats {
+        let json = serde_json::to_string_pretty(&report.to_json()).map_err(|e| Error::Runtime(e.to_string()))?;
+        set.stage_bytes(p, json.as_bytes())?;
+    }
+    interrupted()?;
+    set.commit()?;
+    Ok(report)
+}
