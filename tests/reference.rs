@@ -30,8 +30,10 @@ fn pm_matches_mitsuba_and_beats_uncached_final_gather() {
     let eb = rel_mse(&block_means(&pm, 8), &block_means(&reference, 8));
     eprintln!("pm: relMSE {e_pm}, 8×8 block relMSE {eb}");
     assert!(eb < 0.002, "pm block relMSE {eb}");
-    assert_eq!(pm_stats["icache"]["records_pass_b"], 0);
-    assert_eq!(pm_stats["icache"]["misses_pass_b"], 0);
+    // What pass B risks: samples that no record reaches and gather for themselves (measured below).
+    let (lookups, gathered) = (pm_stats["icache"]["lookups_pass_b"].as_f64().unwrap(), pm_stats["icache"]["gathered_pass_b"].as_f64().unwrap());
+    eprintln!("pm: {gathered} pass-B gathers of {lookups} lookups");
+    assert!(lookups > 0.0 && gathered <= 0.001 * lookups, "pm: {gathered} pass-B gathers of {lookups} lookups");
 
     // pm-fg at 1 spp traces several times more rays than pm at 16 spp and is still less accurate.
     let (fg, fg_stats) = render_cornell("pm-fg", 1, d.path(), &[]);

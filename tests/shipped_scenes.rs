@@ -1,5 +1,6 @@
-//! Every shipped scene renders with `pm` at its defaults (at a reduced size): pass B creates no cache
-//! records, and the rare-event counters stay below stated frequencies — pass-B misses ≤ 1 % of lookups,
+//! Every shipped scene renders with `pm` at its defaults (at a reduced size) and the rare-event counters
+//! stay below stated frequencies — what pass B risks: samples no record interpolates ≤ 1 % of its
+//! lookups, samples no record reaches at all (each a full gather of its own) ≤ 0.1 %,
 //! zero-pdf samples ≤ 1e-3 of rays, photon paths dropped for non-finite values ≤ 1e-5 of paths, NaN or
 //! negative radiance never (all measured 0 with `pm` on every shipped scene at this size). `path` is held
 //! to the same zero-pdf and NaN bounds: its glossy-lobe samples that fall below the horizon have zero pdf
@@ -9,7 +10,7 @@ mod common;
 use common::*;
 
 #[test]
-fn pass_b_creates_no_records_on_any_shipped_scene() {
+fn rare_events_stay_rare_on_every_shipped_scene() {
     let d = tempfile::tempdir().unwrap();
     let mut n_scenes = 0;
     for entry in std::fs::read_dir(repo().join("scenes")).unwrap() {
@@ -27,10 +28,12 @@ fn pass_b_creates_no_records_on_any_shipped_scene() {
         assert!(r.status.success(), "{}: {}", path.display(), String::from_utf8_lossy(&r.stderr));
         let j: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap();
         let name = path.display();
-        assert_eq!(j["icache"]["records_pass_b"], 0, "{name}");
-        let (misses, lookups) = (j["icache"]["misses_pass_b"].as_f64().unwrap(), j["icache"]["lookups"].as_f64().unwrap());
-        // Rare-event bound: at most 1 % of lookups miss (measured 0 on cornell-caustics at this size).
+        let ic = |key: &str| j["icache"][key].as_f64().unwrap_or_else(|| panic!("{name}: icache.{key}"));
+        let (lookups, misses, gathered) = (ic("lookups_pass_b"), ic("misses_pass_b"), ic("gathered_pass_b"));
+        eprintln!("[shipped] {name}: pass-B lookups {lookups}, misses {misses}, gathered {gathered}, one-record {}", ic("single_record_pass_b"));
+        assert!(lookups > 0.0, "{name}: no pass-B lookups");
         assert!(misses <= 0.01 * lookups, "{name}: {misses} misses of {lookups} lookups");
+        assert!(gathered <= 0.001 * lookups, "{name}: {gathered} full gathers in pass B of {lookups} lookups");
         assert_eq!(j["rare"]["nan_or_negative"], 0, "{name}");
         let rays = j["rays"]["total"].as_f64().unwrap();
         let zero_pdf = j["rare"]["zero_pdf"].as_f64().unwrap();

@@ -24,7 +24,15 @@ pub enum Weighting {
 pub enum Pass {
     A,
     B,
+    /// Pass B's fallback where no record interpolates: the same reach, but the normal term waived down to
+    /// [`EXTRAPOLATE_MIN_COS`]. At the silhouette of a curved surface the normal turns by tens of degrees
+    /// within a pixel, past what any record of the pixel lattice allows; such samples were most of the
+    /// pass-B misses, each a full gather.
+    Extrapolate,
 }
+
+/// The least cosine between a record's normal and the query's that [`Pass::Extrapolate`] accepts (60°).
+pub const EXTRAPOLATE_MIN_COS: f32 = 0.5;
 
 /// Irradiance cache settings.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -87,7 +95,7 @@ impl CacheParams {
     pub fn a(&self, pass: Pass) -> f32 {
         match pass {
             Pass::A => self.accuracy,
-            Pass::B => self.pass_b_accuracy.unwrap_or(self.accuracy),
+            Pass::B | Pass::Extrapolate => self.pass_b_accuracy.unwrap_or(self.accuracy),
         }
     }
 

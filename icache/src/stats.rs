@@ -41,6 +41,10 @@ pub struct LookupStats {
     pub n_misses: u64,
     /// Lookups answered by a single record: extrapolated, not interpolated (the blotches of a sparse cache).
     pub n_single_record: u64,
+    /// Misses answered by records whose normal differs more than interpolation allows (`Pass::Extrapolate`).
+    pub n_extrapolated: u64,
+    /// Misses that no record could answer: the caller gathered for the sample alone.
+    pub n_gathered: u64,
     /// Sum over lookups of the usable records used.
     pub n_records_used: u64,
 }
@@ -63,6 +67,8 @@ impl AddAssign for LookupStats {
         self.n_lookups += o.n_lookups;
         self.n_misses += o.n_misses;
         self.n_single_record += o.n_single_record;
+        self.n_extrapolated += o.n_extrapolated;
+        self.n_gathered += o.n_gathered;
         self.n_records_used += o.n_records_used;
     }
 }
@@ -175,6 +181,9 @@ pub struct CacheStats {
     pub misses_pass_b: u64,
     /// Pass-B lookups answered by a single record.
     pub single_record_pass_b: u64,
+    /// Pass-B misses answered by extrapolation across normals, and those that needed a full gather.
+    pub extrapolated_pass_b: u64,
+    pub gathered_pass_b: u64,
     /// Lookups that found a usable record, and the sum of usable records over them.
     pub n_hits: u64,
     pub n_records_used: u64,
@@ -202,6 +211,8 @@ impl CacheStats {
             lookups_pass_b: pass_b.n_lookups,
             misses_pass_b: pass_b.n_misses,
             single_record_pass_b: pass_b.n_single_record,
+            extrapolated_pass_b: pass_b.n_extrapolated,
+            gathered_pass_b: pass_b.n_gathered,
             n_hits: (fill.lookups.n_lookups - fill.lookups.n_misses) + (pass_b.n_lookups - pass_b.n_misses),
             n_records_used: fill.lookups.n_records_used + pass_b.n_records_used,
             radius_px,
@@ -228,6 +239,8 @@ impl AddAssign for CacheStats {
         self.lookups_pass_b += o.lookups_pass_b;
         self.misses_pass_b += o.misses_pass_b;
         self.single_record_pass_b += o.single_record_pass_b;
+        self.extrapolated_pass_b += o.extrapolated_pass_b;
+        self.gathered_pass_b += o.gathered_pass_b;
         self.n_hits += o.n_hits;
         self.n_records_used += o.n_records_used;
         self.radius_px += o.radius_px;

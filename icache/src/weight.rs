@@ -47,6 +47,15 @@ pub fn usable_weight(params: &CacheParams, pass: Pass, rec: &Record, p: Vec3, n:
         return None;
     }
     let dist = (p - rec.pos).length();
+    // Extrapolation keeps the distance term only (full normal agreement in the weight).
+    let n_dot = if pass == Pass::Extrapolate {
+        if n_dot < crate::params::EXTRAPOLATE_MIN_COS {
+            return None;
+        }
+        1.0
+    } else {
+        n_dot
+    };
     let w = match params.weight {
         Weighting::TabellionLamorlette => {
             let w = tl_weight(dist, rec.r_clamped, n_dot, params.kappa(pass));
@@ -122,6 +131,21 @@ mod tests {
         let r = rec_at(Vec3::new(0.1, 0.0, -0.05), Vec3::Z, 4.0);
         assert!(!is_in_front(&r, Vec3::ZERO, Vec3::Z));
         assert!(usable_weight(&p, Pass::A, &r, Vec3::ZERO, Vec3::Z).is_some());
+    }
+
+    #[test]
+    fn extrapolation_waives_the_normal_term_down_to_60_degrees() {
+        let p = CacheParams::default();
+        let r = rec_at(Vec3::ZERO, Vec3::Z, 4.0);
+        let tilted = |deg: f32| Vec3::new(deg.to_radians().sin(), 0.0, deg.to_radians().cos());
+        // 30°: beyond pass B's ~20° normal reach, within extrapolation's 60°.
+        assert!(usable_weight(&p, Pass::B, &r, Vec3::new(0.1, 0.0, 0.0), tilted(30.0)).is_none());
+        let w = usable_weight(&p, Pass::Extrapolate, &r, Vec3::new(0.1, 0.0, 0.0), tilted(30.0)).unwrap();
+        // The weight is pass B's for the distance alone.
+        assert_eq!(Some(w), usable_weight(&p, Pass::B, &r, Vec3::new(0.1, 0.0, 0.0), Vec3::Z));
+        assert!(usable_weight(&p, Pass::Extrapolate, &r, Vec3::new(0.1, 0.0, 0.0), tilted(65.0)).is_none());
+        // The reach is pass B's: 4 · a_B = 4 (TL weight zero at the border).
+        assert!(usable_weight(&p, Pass::Extrapolate, &r, Vec3::new(4.1, 0.0, 0.0), tilted(30.0)).is_none());
     }
 
     #[test]

@@ -181,20 +181,30 @@ impl PmContext<'_> {
         }
         match self.source {
             IndirectSource::PhotonMap => self.photons.global_indirect_irradiance(hit.p, frame.n),
-            IndirectSource::Cache(cache) => self.cached(cache.lookup(hit.p, frame.n, Pass::B), hit, frame, rng, c),
-            IndirectSource::CacheUpTo(cache, n) => {
-                self.cached(cache.lookup_first(hit.p, frame.n, Pass::B, n), hit, frame, rng, c)
-            }
+            IndirectSource::Cache(cache) => self.cached(|pass| cache.lookup(hit.p, frame.n, pass), hit, frame, rng, c),
+            IndirectSource::CacheUpTo(cache, n) => self.cached(|pass| cache.lookup_first(hit.p, frame.n, pass, n), hit, frame, rng, c),
             IndirectSource::Gather => self.final_gather(hit, frame, rng.next_u32() as u64, c).e,
         }
     }
 
-    /// A cache lookup's irradiance; a miss creates no record: gather for this sample only (counted).
-    fn cached(&self, found: Option<icache::Lookup>, hit: &Hit, frame: &Frame, rng: &mut Rng, c: &mut SampleCounters) -> Vec3 {
+    /// A pass-B cache lookup's irradiance; where no record interpolates, records of the same reach whose
+    /// normal differs more (a curved silhouette) extrapolate; only where there is none either, this sample
+    /// gathers for itself, creating no record (a miss, counted).
+    fn cached(&self, lookup: impl Fn(Pass) -> Option<icache::Lookup>, hit: &Hit, frame: &Frame, rng: &mut Rng, c: &mut SampleCounters) -> Vec3 {
+        let found = lookup(Pass::B);
         c.lookups.record(found.as_ref());
-        match found {
-            Some(l) => l.e,
-            None => self.final_gather(hit, frame, rng.next_u32() as u64, c).e,
+        if let Some(l) = found {
+            return l.e;
+        }
+        match lookup(Pass::Extrapolate) {
+            Some(l) => {
+                c.lookups.n_extrapolated += 1;
+                l.e
+            }
+            None => {
+                c.lookups.n_gathered += 1;
+                self.final_gather(hit, frame, rng.next_u32() as u64, c).e
+            }
         }
     }
 

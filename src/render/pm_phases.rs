@@ -270,7 +270,9 @@ fn cache_rows(r: &mut Report, s: &CacheStats, fill: &FillStats, gather_rays: u64
     r.count("Irradiance cache", "Records created in pass B", "icache.records_pass_b", s.records_pass_b);
     r.count("Irradiance cache", "Lookups", "icache.lookups", s.lookups);
     r.count("Irradiance cache", "Pass-B lookups", "icache.lookups_pass_b", s.lookups_pass_b);
-    r.count("Irradiance cache", "Pass-B misses (full gather)", "icache.misses_pass_b", s.misses_pass_b);
+    r.count("Irradiance cache", "Pass-B misses (no record interpolates)", "icache.misses_pass_b", s.misses_pass_b);
+    r.count("Irradiance cache", "Pass-B misses extrapolated across normals", "icache.extrapolated_pass_b", s.extrapolated_pass_b);
+    r.count("Irradiance cache", "Pass-B misses gathered (no record at all)", "icache.gathered_pass_b", s.gathered_pass_b);
     r.count("Irradiance cache", "Pass-B lookups from one record", "icache.single_record_pass_b", s.single_record_pass_b);
     r.number("Irradiance cache", "Mean usable records per lookup", "icache.mean_records_per_lookup", s.mean_records_per_lookup());
     r.count("Irradiance cache", "Gather rays", "icache.gather_rays", gather_rays);
