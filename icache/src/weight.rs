@@ -40,10 +40,23 @@ pub fn is_in_front(rec: &Record, p: Vec3, n: Vec3) -> bool {
     d < -BEHIND_EPS_FRACTION * rec.r_clamped
 }
 
+/// Above-test fraction of R: a point higher over the record's plane than `ABOVE_FRACTION` R (the
+/// harmonic mean distance of what its gather saw, before any pixel clamp) is another layer — the next
+/// slat of a blind, 3 cm over a record whose gather looked into that slat. The pixel clamp makes such
+/// records reach across several slats; without this test the slats came out 4 % too bright. Pass B's
+/// last resort (`Pass::Extrapolate`) waives it: a sample on a sub-pixel slat with no record of its own
+/// takes its neighbours' rather than a gather of its own.
+pub const ABOVE_FRACTION: f32 = 0.5;
+
+/// True when p lies above the record's tangent plane by more than [`ABOVE_FRACTION`] of its R.
+pub fn is_above(rec: &Record, p: Vec3) -> bool {
+    (p - rec.pos).dot(rec.normal) > ABOVE_FRACTION * rec.r_harmonic
+}
+
 /// The record's weight at (p, n) if it is usable there for `pass`, else `None`.
 pub fn usable_weight(params: &CacheParams, pass: Pass, rec: &Record, p: Vec3, n: Vec3) -> Option<f32> {
     let n_dot = n.dot(rec.normal);
-    if n_dot <= 0.0 || is_in_front(rec, p, n) {
+    if n_dot <= 0.0 || is_in_front(rec, p, n) || (pass != Pass::Extrapolate && is_above(rec, p)) {
         return None;
     }
     let dist = (p - rec.pos).length();
@@ -146,6 +159,19 @@ mod tests {
         assert!(usable_weight(&p, Pass::Extrapolate, &r, Vec3::new(0.1, 0.0, 0.0), tilted(65.0)).is_none());
         // The reach is pass B's: 4 · a_B = 4 (TL weight zero at the border).
         assert!(usable_weight(&p, Pass::Extrapolate, &r, Vec3::new(4.1, 0.0, 0.0), tilted(30.0)).is_none());
+    }
+
+    #[test]
+    fn a_point_far_above_the_record_is_another_layer() {
+        let p = CacheParams::default();
+        // R = 0.06 (a gather that saw a slat 3 cm over it), reach clamped up to 0.4.
+        let mut r = rec_at(Vec3::ZERO, Vec3::Z, 0.06);
+        r.r_clamped = 0.4;
+        assert!(usable_weight(&p, Pass::B, &r, Vec3::new(0.05, 0.0, 0.02), Vec3::Z).is_some());
+        assert!(usable_weight(&p, Pass::B, &r, Vec3::new(0.05, 0.0, 0.04), Vec3::Z).is_none());
+        assert!(usable_weight(&p, Pass::A, &r, Vec3::new(0.05, 0.0, 0.04), Vec3::Z).is_none());
+        // The last resort before a gather of its own still takes it.
+        assert!(usable_weight(&p, Pass::Extrapolate, &r, Vec3::new(0.05, 0.0, 0.04), Vec3::Z).is_some());
     }
 
     #[test]

@@ -1,6 +1,14 @@
 //! Default photon counts, lookup sizes and radii, scaled with the scene so that a scene file needs no
 //! tuning.
 //!
+//! The global count grows with the scene's geometric detail: [`DEFAULT_GLOBAL_PHOTONS`] up to
+//! [`DETAIL_TRIANGLES`] triangles, then as the square root of the triangle count, at most
+//! [`MAX_DEFAULT_GLOBAL_PHOTONS`]. A density estimate blurs light over its disc; what the blur costs is
+//! set by how much surface detail (edges, mouldings, columns) lies within it, and the triangle count is
+//! the scene's own measure of that. Measured on Sibenik (75 k triangles) at 128² against Mitsuba: image
+//! mean −1.4 % with 200 k photons, −0.6 % with 600 k, −0.3 % with 1.5 M; the box scenes (≤ 18 k
+//! triangles) are within 0.8 % at 200 k.
+//!
 //! The radius rule: photons spread over the scene's surfaces, whose area is taken as `2 d²` for a
 //! scene of bounding-box diagonal `d` (the surface of a cube of diagonal `d` is `6 (d/√3)² = 2 d²`).
 //! With `n` photons the density is `n / (2 d²)`, so `k` photons are found within
@@ -12,6 +20,9 @@
 use crate::trace::PhotonTargets;
 
 pub const DEFAULT_GLOBAL_PHOTONS: usize = 200_000;
+/// Scenes up to this many triangles get [`DEFAULT_GLOBAL_PHOTONS`].
+pub const DETAIL_TRIANGLES: usize = 5_000;
+pub const MAX_DEFAULT_GLOBAL_PHOTONS: usize = 2_000_000;
 pub const DEFAULT_CAUSTIC_PHOTONS: usize = 100_000;
 /// Photons per global-map estimate (the precomputed irradiance uses it).
 pub const DEFAULT_K_GLOBAL: usize = 64;
@@ -42,6 +53,26 @@ pub fn max_radius_for_k(scene_diagonal: f32, n_photons: usize, k: usize) -> f32 
     (MAX_RADIUS_FACTOR * r_k).min(cap)
 }
 
+/// Default global photon count for a scene of `n_triangles` (see the module header), in steps of 10 k.
+pub fn default_global_photons(n_triangles: usize) -> usize {
+    let scale = (n_triangles.max(1) as f64 / DETAIL_TRIANGLES as f64).sqrt().max(1.0);
+    let n = (DEFAULT_GLOBAL_PHOTONS as f64 * scale / 10_000.0).round() as usize * 10_000;
+    n.clamp(DEFAULT_GLOBAL_PHOTONS, MAX_DEFAULT_GLOBAL_PHOTONS)
+}
+
+/// Maximum lookup radius for estimates of `k` photons out of `n_photons` spread over `area` (the scene's
+/// real surface area), [`MAX_RADIUS_FACTOR`] times the radius holding `k` at that mean density, at most
+/// [`MAX_RADIUS_FRACTION`] of the diagonal.
+pub fn max_radius_for_area(area: f32, scene_diagonal: f32, n_photons: usize, k: usize) -> f32 {
+    let d = if scene_diagonal.is_finite() && scene_diagonal > 0.0 { scene_diagonal } else { 1.0 };
+    let cap = MAX_RADIUS_FRACTION * d;
+    if n_photons == 0 || !(area.is_finite() && area > 0.0) {
+        return cap;
+    }
+    let r_k = (k as f32 * area / (std::f32::consts::PI * n_photons as f32)).sqrt();
+    (MAX_RADIUS_FACTOR * r_k).min(cap)
+}
+
 /// Default targets: the default counts, and a path budget of [`PATHS_PER_TARGET_PHOTON`] per photon.
 pub fn default_targets(global: usize, caustic: usize) -> PhotonTargets {
     let wanted = (global as u64).saturating_add(caustic as u64);
@@ -68,6 +99,18 @@ mod tests {
         assert_eq!(default_max_radius(10.0, 10), 1.0);
         assert_eq!(default_max_radius(10.0, 0), 1.0);
         assert_eq!(default_max_radius(f32::NAN, 0), 0.1);
+    }
+
+    #[test]
+    fn global_count_grows_with_detail() {
+        assert_eq!(default_global_photons(12), 200_000);
+        assert_eq!(default_global_photons(5_000), 200_000);
+        // Sibenik, Sponza.
+        assert_eq!(default_global_photons(75_300), 780_000);
+        assert_eq!(default_global_photons(262_000), 1_450_000);
+        assert_eq!(default_global_photons(10_000_000), 2_000_000);
+        // The area rule agrees with the 2 d² rule where the area is 2 d².
+        assert!((max_radius_for_area(200.0, 10.0, 100_000, 64) - default_max_radius(10.0, 100_000)).abs() < 1e-4);
     }
 
     #[test]

@@ -5,7 +5,7 @@
 //! seed, target global, target caustic, max paths, paths emitted, global paths, caustic paths, number of
 //! global photons, caustic photons, irradiance points — then the precomputed max radius f32 and 4 zero
 //! bytes (112-byte header); then the photons (13 f32 each: pos, wi, power, normal, indirect flag 0/1) and the irradiance
-//! points (12 f32: pos, normal, e, e_indirect); then an FNV-1a 64 checksum of everything between the magic and it.
+//! points (13 f32: pos, normal, e, e_indirect, half_thickness); then an FNV-1a 64 checksum of everything between the magic and it.
 //! Loading checks magic, version, that the counts match the file length (before allocating), the
 //! checksum, then the scene fingerprint, then every value: positions finite, directions and normals unit
 //! length, power and irradiance finite and non-negative, the max radius positive (a file edited with its
@@ -28,7 +28,7 @@ pub const MAGIC: [u8; 8] = *b"PMPHOTON";
 pub const VERSION: u32 = 3;
 const HEADER_BYTES: usize = 112;
 const PHOTON_BYTES: u64 = 52;
-const POINT_BYTES: u64 = 48;
+const POINT_BYTES: u64 = 52;
 const CHECKSUM_BYTES: u64 = 8;
 const HAS_GLOBAL: u32 = 1;
 const HAS_CAUSTIC: u32 = 2;
@@ -134,6 +134,7 @@ pub fn write_maps<W: Write>(
     }
     for pt in points {
         write_vecs(&mut h, &[pt.pos, pt.normal, pt.e, pt.e_indirect])?;
+        h.write_all(&pt.half_thickness.to_le_bytes())?;
     }
     let hash = h.hash;
     let mut w = h.inner;
@@ -267,6 +268,8 @@ fn point_problem(p: &IrradiancePoint) -> Option<&'static str> {
         Some("irradiance is not finite and non-negative")
     } else if !(p.e_indirect.is_finite() && p.e_indirect.min_element() >= 0.0) {
         Some("indirect irradiance is not finite and non-negative")
+    } else if !(p.half_thickness.is_finite() && p.half_thickness > 0.0) {
+        Some("slab half-thickness is not a positive number")
     } else {
         None
     }
@@ -322,9 +325,13 @@ pub fn read_maps(bytes: &[u8], expected_fingerprint: u64) -> Result<LoadedMaps> 
     };
     let global = read_photons("global", n_global)?;
     let caustic = read_photons("caustic", n_caustic)?;
-    let mut vec3 = || Vec3::new(next(), next(), next());
-    let points: Vec<IrradiancePoint> =
-        (0..n_points).map(|_| IrradiancePoint { pos: vec3(), normal: vec3(), e: vec3(), e_indirect: vec3() }).collect();
+    let points: Vec<IrradiancePoint> = (0..n_points)
+        .map(|_| {
+            let mut v = || Vec3::new(next(), next(), next());
+            let (pos, normal, e, e_indirect) = (v(), v(), v(), v());
+            IrradiancePoint { pos, normal, e, e_indirect, half_thickness: next() }
+        })
+        .collect();
             if let Some((index, why)) = points.iter().enumerate().find_map(|(i, p)| point_problem(p).map(|w| (i, w))) {
         return Err(Error::Corrupt(format!("irradiance point {index}: {why}")));
     }

@@ -59,6 +59,8 @@ pub struct Estimate {
     pub n_found: u32,
     /// Fewer than `k` photons were within `max_radius`: the search radius was `max_radius`.
     pub hit_max_radius: bool,
+    /// Half-thickness of the slab the photons were counted in (0 when none was searched).
+    pub half_thickness: f32,
 }
 
 /// Photons and the kd-tree over their positions (tree index i = `photons[i]`).
@@ -71,21 +73,32 @@ thread_local! {
     static NEIGHBORS: RefCell<Vec<Neighbor>> = const { RefCell::new(Vec::new()) };
 }
 
+/// The slab an estimate counts photons in, and how much surface it holds.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Disc {
+    /// Photons farther than this from the disc's plane are not counted.
+    pub half_thickness: f32,
+    /// Area of surface in the slab over the disc, as a fraction of `π r²`.
+    pub fraction: f32,
+}
+
 /// How much of a query's disc is surface that the estimate would count photons on; the root crate
 /// answers from the scene's geometry.
 pub trait Coverage: Sync {
-    /// Area of surface facing within [`MIN_NORMAL_COS`] of `n` that lies over the disc of radius `r`
-    /// about `p` (unit normal `n`) within `half_thickness` of its plane, as a fraction of the disc's area:
-    /// 1 for a flat surface filling the disc, less where the surface ends, more where it curves.
-    fn fraction(&self, p: Vec3, n: Vec3, r: f32, half_thickness: f32) -> f32;
+    /// The slab about the disc of radius `r` around `p` (unit normal `n`) — at most `half_thickness`
+    /// thick each side, thinner where another surface lies closer above or below `p` (the next slat of
+    /// a blind, whose photons are not this surface's) — and the area of surface facing within
+    /// [`MIN_NORMAL_COS`] of `n` in it, as a fraction of the disc: 1 for a flat surface filling the disc,
+    /// less where the surface ends, more where it curves.
+    fn measure(&self, p: Vec3, n: Vec3, r: f32, half_thickness: f32) -> Disc;
 }
 
 /// Every disc is wholly surface: the classic estimate `Σ Φ / π r²`.
 pub struct FullDisc;
 
 impl Coverage for FullDisc {
-    fn fraction(&self, _p: Vec3, _n: Vec3, _r: f32, _half_thickness: f32) -> f32 {
-        1.0
+    fn measure(&self, _p: Vec3, _n: Vec3, _r: f32, half_thickness: f32) -> Disc {
+        Disc { half_thickness, fraction: 1.0 }
     }
 }
 
@@ -198,7 +211,13 @@ impl PhotonMap {
                     (k, 1.0 - 2.0 / (3.0 * k))
                 }
             };
-            let max_height = DISC_HALF_THICKNESS * r;
+            // Coverage costs probe rays: only estimates that found something ask for it.
+            let disc = if found.is_empty() {
+                Disc { half_thickness: DISC_HALF_THICKNESS * r, fraction: 1.0 }
+            } else {
+                cov.measure(p, n, r, DISC_HALF_THICKNESS * r)
+            };
+            let max_height = disc.half_thickness.min(DISC_HALF_THICKNESS * r);
             let counted = |nb: &&Neighbor| {
                 let ph = &self.photons[nb.index as usize];
                 ph.wi.dot(n) > 0.0 && ph.normal.dot(n) > MIN_NORMAL_COS && (ph.pos - p).dot(n).abs() <= max_height
@@ -217,10 +236,8 @@ impl PhotonMap {
                 }
                 n_found += 1;
             }
-            // Coverage costs probe rays: only estimates that found something ask for it.
-            let fraction = if n_found > 0 { cov.fraction(p, n, r, max_height).clamp(1e-3, 4.0) } else { 1.0 };
-            let area = std::f32::consts::PI * r * r * fraction;
-            (Estimate { e: Vec3::ZERO, n_found, hit_max_radius }, sums.map(|sum| sum / (norm * area)))
+            let area = std::f32::consts::PI * r * r * disc.fraction.clamp(1e-3, 4.0);
+            (Estimate { e: Vec3::ZERO, n_found, hit_max_radius, half_thickness: max_height }, sums.map(|sum| sum / (norm * area)))
         })
     }
 
@@ -266,11 +283,11 @@ mod tests {
     /// The plane ends at x = 0: a query on the edge sees surface over half its disc.
     struct HalfPlane;
     impl Coverage for HalfPlane {
-        fn fraction(&self, p: Vec3, _n: Vec3, r: f32, _h: f32) -> f32 {
+        fn measure(&self, p: Vec3, _n: Vec3, r: f32, h: f32) -> Disc {
             // Area of the disc's part with x ≥ 0, for a centre at p.x: the circular-segment formula.
             let d = (-p.x / r).clamp(-1.0, 1.0);
             let segment = d.acos() - d * (1.0 - d * d).sqrt();
-            segment / std::f32::consts::PI
+            Disc { half_thickness: h, fraction: segment / std::f32::consts::PI }
         }
     }
 
@@ -290,6 +307,29 @@ mod tests {
                 assert!((classic - 0.5).abs() < 0.05, "{classic}");
             }
         }
+    }
+
+    /// A second layer 0.01 above: the slab is thinned to half the gap.
+    struct Layered;
+    impl Coverage for Layered {
+        fn measure(&self, _p: Vec3, _n: Vec3, _r: f32, h: f32) -> Disc {
+            Disc { half_thickness: h.min(0.005), fraction: 1.0 }
+        }
+    }
+
+    #[test]
+    fn a_thinner_slab_keeps_the_photons_of_another_layer_out() {
+        let mut photons = plane_map(100_000, Vec3::Z, 7).photons().to_vec();
+        // The upper layer gets 3 W/m² where the lower gets 1 W/m².
+        let upper: Vec<Photon> = photons.iter().map(|ph| Photon { pos: ph.pos + Vec3::Z * 0.01, power: ph.power * 3.0, ..*ph }).collect();
+        photons.extend(upper);
+        let map = PhotonMap::new(photons).unwrap();
+        let mixed = map.irradiance(Vec3::ZERO, Vec3::Z, 2000, 1.0, Filter::None, &FullDisc).e.x;
+        let own = map.irradiance(Vec3::ZERO, Vec3::Z, 2000, 1.0, Filter::None, &Layered).e.x;
+        // Full disc: both layers in the slab, 4 W/m² over one layer's area. Thinned: the lower layer's 1,
+        // from ~1000 photons (±3 %).
+        assert!(mixed > 3.0, "{mixed}");
+        assert!((own - 1.0).abs() < 0.12, "{own}");
     }
 
     #[test]
@@ -324,7 +364,8 @@ mod tests {
         assert!(est.hit_max_radius);
         let empty = PhotonMap::new(Vec::new()).unwrap();
         let est = empty.irradiance(Vec3::ZERO, Vec3::Z, 50, 0.1, Filter::Cone { k: 1.0 }, &FullDisc);
-        assert_eq!(est, Estimate { e: Vec3::ZERO, n_found: 0, hit_max_radius: true });
+        assert_eq!((est.e, est.n_found, est.hit_max_radius), (Vec3::ZERO, 0, true));
+        assert!((est.half_thickness - DISC_HALF_THICKNESS * 0.1).abs() < 1e-7);
     }
 
     #[test]

@@ -34,6 +34,9 @@ pub struct IrradiancePoint {
     /// Irradiance from the photons flagged `indirect` only: the soft indirect term of a point that has
     /// its own direct and caustic terms (one reached through a glossy lobe).
     pub e_indirect: Vec3,
+    /// Half-thickness of the slab its estimate counted photons in: thinner than usual where another
+    /// surface lies close above or below (stacked slats); a query farther off its plane is another layer.
+    pub half_thickness: f32,
 }
 
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -88,10 +91,11 @@ impl PrecomputedIrradiance {
             .map(|block| {
                 let ph = &photons[pick_in_block(block, every, photons.len())];
                 if cancel.load(Ordering::Relaxed) {
-                    return (IrradiancePoint { pos: ph.pos, normal: ph.normal, e: Vec3::ZERO, e_indirect: Vec3::ZERO }, false);
+                    return (IrradiancePoint { pos: ph.pos, normal: ph.normal, e: Vec3::ZERO, e_indirect: Vec3::ZERO, half_thickness: 0.0 }, false);
                 }
                 let (est, e_indirect) = global.irradiance_and_indirect(ph.pos, ph.normal, k, max_radius, cov);
-                (IrradiancePoint { pos: ph.pos, normal: ph.normal, e: est.e, e_indirect }, est.hit_max_radius)
+                let half_thickness = if est.half_thickness > 0.0 { est.half_thickness } else { crate::map::DISC_HALF_THICKNESS * max_radius };
+                (IrradiancePoint { pos: ph.pos, normal: ph.normal, e: est.e, e_indirect, half_thickness }, est.hit_max_radius)
             })
             .collect();
         if cancel.load(Ordering::Relaxed) {
@@ -146,7 +150,8 @@ impl PrecomputedIrradiance {
     /// plane (as in the photon estimate's disc): a surface parallel to the query's, a little above or
     /// below it — the inside of a box resting on or floating over a floor — has seen other light.
     fn compatible(&self, pt: &IrradiancePoint, p: Vec3, n: Vec3) -> bool {
-        pt.normal.dot(n) > MIN_NORMAL_COS && (pt.pos - p).dot(n).abs() <= crate::map::DISC_HALF_THICKNESS * self.max_radius
+        let slab = pt.half_thickness.min(crate::map::DISC_HALF_THICKNESS * self.max_radius);
+        pt.normal.dot(n) > MIN_NORMAL_COS && (pt.pos - p).dot(n).abs() <= slab
     }
 
     /// [`lookup`](Self::lookup) for many queries.

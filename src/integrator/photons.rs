@@ -25,8 +25,10 @@ pub struct PhotonSettings {
 }
 
 impl PhotonSettings {
-    /// Defaults: 200 k global photons, 100 k caustic photons when the scene has mirror or glass (none
-    /// otherwise), k = 100, radii from the scene's size and the photon count (see `photon::defaults`).
+    /// Defaults: global photons from the scene's triangle count (200 k up to 5 k triangles, growing as its
+    /// square root, at most 2 M), 100 k caustic photons when the scene has mirror or glass (none
+    /// otherwise), k = 100, radii from the scene's real surface area and the photon count (see
+    /// `photon::defaults`).
     pub fn resolve(scene: &Scene) -> Result<PhotonSettings> {
         let d = &scene.settings.photons;
         let text = std::fs::read_to_string(&scene.path).unwrap_or_default();
@@ -39,7 +41,7 @@ impl PhotonSettings {
             }
         };
         let has_specular = scene.has_specular();
-        let global = count("global", d.global, 200_000, 1)?;
+        let global = count("global", d.global, photon::defaults::default_global_photons(scene.geometry.triangles.len()), 1)?;
         let caustic = count("caustic", d.caustic, if has_specular { 100_000 } else { 0 }, 0)?;
         let lookup = count("lookup", d.lookup, 100, 1)?;
         let precompute_every = count("precompute_every", d.precompute_every, 4, 1)?;
@@ -47,10 +49,13 @@ impl PhotonSettings {
         let (max_radius_global, max_radius_caustic) = match d.max_radius {
             Some(r) if !(r.is_finite() && r > 0.0) => return Err(err("max_radius", "must be a positive number")),
             Some(r) => (r, r),
-            None => (
-                photon::defaults::max_radius_for_k(diag, global, lookup),
-                photon::defaults::max_radius_for_k(diag, caustic.max(1), lookup) * 0.5,
-            ),
+            None => {
+                let area: f32 = scene.geometry.triangles.iter().map(|t| t.area).sum();
+                (
+                    photon::defaults::max_radius_for_area(area, diag, global, lookup),
+                    photon::defaults::max_radius_for_area(area, diag, caustic.max(1), lookup) * 0.5,
+                )
+            }
         };
         let caustic_filter = match d.caustic_filter.as_deref() {
             None | Some("cone") => Filter::Cone { k: 1.1 },
