@@ -5,8 +5,9 @@ settings, measures wall time and error against the independent (Mitsuba) referen
 Usage (from anywhere; `pip install -r tools/chart_requirements.txt`, `cargo build --release` first):
     python3 tools/chart.py [--quick] [--scenes a,b] [--out charts] [--bin target/release/pmrender]
 
-Scenes: scenes/NAME.toml with a reference tests/reference/NAME-path.exr (+ .json); every render is made at
-the reference's size. Per scene it runs pmrender with
+Scenes: scenes/NAME.toml or tests/scenes/NAME.toml (the large public scenes) with a reference
+tests/reference/NAME-path.exr (+ .json); by default every shipped scene with a reference and Sibenik
+(`--scenes sponza` adds Sponza); every render is made at the reference's size. Per scene it runs pmrender with
   pm      several spp at the defaults, then at the default spp: [render.icache] rays, photon counts,
           accuracy (a temporary copy of the scene with its [render] tables edited);
   pm-fg   a few spp;  path  several spp;  photons  two spp;
@@ -172,8 +173,16 @@ def measure(exr, ref, masks, hq_path):
     return row
 
 
+def scene_file(name):
+    for folder in (("scenes",), ("tests", "scenes")):
+        path = os.path.join(ROOT, *folder, f"{name}.toml")
+        if os.path.isfile(path):
+            return path
+    return None
+
+
 def run_scene(binary, name, quick, tmp, log):
-    scene = os.path.join(ROOT, "scenes", f"{name}.toml")
+    scene = scene_file(name)
     ref_path = os.path.join(ROOT, "tests", "reference", f"{name}-path.exr")
     ref = read_rgb(ref_path).astype(np.float64)
     size = (ref.shape[1], ref.shape[0])
@@ -366,13 +375,21 @@ def write_markdown(path, results, quick, elapsed):
         f.write("\n".join(lines))
 
 
+# Large public scenes charted by default (each takes several minutes).
+LARGE_DEFAULT = ("sibenik",)
+
+
+def has_reference(name):
+    return os.path.isfile(os.path.join(ROOT, "tests", "reference", f"{name}-path.exr"))
+
+
 def shipped_scenes():
-    names = []
-    for f in sorted(os.listdir(os.path.join(ROOT, "scenes"))):
-        name = f[:-5]
-        if f.endswith(".toml") and os.path.isfile(os.path.join(ROOT, "tests", "reference", f"{name}-path.exr")):
-            names.append(name)
-    return names
+    names = sorted(f[:-5] for f in os.listdir(os.path.join(ROOT, "scenes")) if f.endswith(".toml"))
+    return [n for n in names if has_reference(n)]
+
+
+def chartable(name):
+    return scene_file(name) is not None and has_reference(name)
 
 
 def main():
@@ -384,8 +401,8 @@ def main():
     args = ap.parse_args()
     if not os.path.isfile(args.bin):
         raise SystemExit(f"{args.bin} not found: run `cargo build --release` first")
-    names = args.scenes.split(",") if args.scenes else shipped_scenes()
-    missing = [n for n in names if n not in shipped_scenes()]
+    names = args.scenes.split(",") if args.scenes else shipped_scenes() + [n for n in LARGE_DEFAULT if chartable(n)]
+    missing = [n for n in names if not chartable(n)]
     if missing:
         raise SystemExit(f"no scene with a reference: {', '.join(missing)}")
     os.makedirs(args.out, exist_ok=True)
