@@ -9,6 +9,7 @@ pub mod flann;
 pub mod map;
 pub mod pointtree;
 pub mod precomputed;
+pub mod reach;
 pub mod sampling;
 pub mod trace;
 

@@ -4,6 +4,7 @@
 use std::sync::atomic::AtomicBool;
 
 use glam::Vec3;
+use photon::reach::ReachGrid;
 use photon::{Filter, PhotonMap, PhotonMaps, PhotonTargets, PrecomputedIrradiance, TraceStats};
 
 use super::coverage::SceneCoverage;
@@ -72,9 +73,11 @@ pub struct PhotonData<'a> {
     pub settings: PhotonSettings,
     /// What part of each estimate's disc is surface (the scene's geometry answers).
     pub coverage: SceneCoverage<'a>,
+    /// Where the caustic map has a photon within its lookup radius (most shading samples have none).
+    pub caustic_reach: Option<ReachGrid>,
 }
 
-impl PhotonData<'_> {
+impl<'a> PhotonData<'a> {
     /// Both maps; `Interrupted` soon after `cancel` is set.
     pub fn trace(scene: &Scene, settings: &PhotonSettings, seed: u64, progress: &(dyn Fn(u64, u64) + Sync), cancel: &AtomicBool) -> Result<(PhotonMaps, TraceStats)> {
         match photon::trace_photons_cancellable(&PhotonView(scene), &Self::targets(settings), seed, progress, cancel) {
@@ -94,7 +97,17 @@ impl PhotonData<'_> {
         photon::defaults::default_targets(settings.global, settings.caustic)
     }
 
+    /// Wraps the maps for the render: the caustic map's reach grid is built here.
+    pub fn new(maps: PhotonMaps, precomputed: Option<PrecomputedIrradiance>, settings: PhotonSettings, scene: &'a Scene) -> Self {
+        let caustic_reach =
+            maps.caustic.as_ref().map(|m| ReachGrid::build(m.photons().iter().map(|ph| ph.pos), settings.max_radius_caustic));
+        PhotonData { maps, precomputed, settings, coverage: SceneCoverage(scene), caustic_reach }
+    }
+
     pub fn caustic_irradiance(&self, p: Vec3, n: Vec3) -> Vec3 {
+        if self.caustic_reach.as_ref().is_some_and(|g| !g.may_reach(p)) {
+            return Vec3::ZERO;
+        }
         match &self.maps.caustic {
             Some(m) => m.irradiance(p, n, self.settings.lookup, self.settings.max_radius_caustic, self.settings.caustic_filter, &self.coverage).e,
             None => Vec3::ZERO,

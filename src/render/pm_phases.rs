@@ -93,7 +93,7 @@ pub fn render_pm(scene: &Scene, plan: &Plan, opts: &Options, camera: &Camera, pr
     let (cache_params, rays, fill_mode) = cache_settings(scene)?;
 
     let (maps, precomputed, info) = photon_maps(scene, plan, &settings, opts, progress, cancel, &mut report)?;
-    let photons = PhotonData { maps, precomputed, settings, coverage: SceneCoverage(scene) };
+    let photons = PhotonData::new(maps, precomputed, settings, scene);
 
     let mut ctx = PmContext {
         scene,
