@@ -154,12 +154,6 @@ impl PrecomputedIrradiance {
         pt.normal.dot(n) > MIN_NORMAL_COS && (pt.pos - p).dot(n).abs() <= slab
     }
 
-    /// [`lookup`](Self::lookup) for many queries.
-    pub fn lookup_batch(&self, ps: &[Vec3], ns: &[Vec3], out: &mut Vec<Option<Vec3>>) {
-        out.clear();
-        out.extend(ps.iter().zip(ns).map(|(&p, &n)| self.lookup(p, n).map(|pt| pt.e)));
-    }
-
     pub fn memory_bytes(&self) -> usize {
         self.points.capacity() * std::mem::size_of::<IrradiancePoint>() + self.tree.memory_bytes()
     }

@@ -132,20 +132,6 @@ impl<'a> PhotonData<'a> {
         }
     }
 
-    /// [`precomputed_irradiance`](Self::precomputed_irradiance) for a whole final gather's hits at once.
-    pub fn precomputed_irradiance_batch(&self, ps: &[Vec3], ns: &[Vec3]) -> Vec<Vec3> {
-        let mut found = Vec::new();
-        match &self.precomputed {
-            Some(pre) => pre.lookup_batch(ps, ns, &mut found),
-            None => found.resize(ps.len(), None),
-        }
-        found
-            .into_iter()
-            .zip(ps.iter().zip(ns))
-            .map(|(e, (&p, &n))| e.unwrap_or_else(|| self.global(|m| m.irradiance(p, n, self.settings.lookup, self.settings.max_radius_global, Filter::None, &self.coverage).e)))
-            .collect()
-    }
-
     /// Radiance leaving a glossy surface toward `wo` through its specular lobe, estimated from the global
     /// map with the lobe as BRDF (Jensen's estimate at final-gather hits); zero for other materials.
     pub fn glossy_radiance(&self, bsdf: &crate::material::Bsdf, hit: &crate::geometry::Hit, frame: &super::Frame, wo: Vec3) -> Vec3 {

@@ -208,43 +208,26 @@ impl PmContext<'_> {
         }
     }
 
-    /// One final gather from `hit`: rays read the global map's precomputed irradiance at their hits.
-    ///
-    /// Two rounds over the same deterministic directions: the first traces every ray and collects the
-    /// non-specular points they reach, one batched FLANN lookup reads those points' irradiance, and
-    /// the second round hands each ray its radiance (per-query FLANN calls cost far more than the rays).
+    /// One final gather from `hit`: each ray reads the global map's precomputed irradiance where it ends.
+    /// A gather that sees the stop flag traces no more rays and returns at once (its result is never used).
     pub fn final_gather(&self, hit: &Hit, frame: &Frame, seed: u64, c: &mut SampleCounters) -> GatherResult {
         if self.cancel.load(Ordering::Relaxed) {
             return interrupted_gather(frame);
         }
         let mut rng = Rng::new(hash_keys(&[self.seed, 0x6a7e, seed]));
         let mut rays = 0u64;
-        let mut ends: Vec<GatherEnd> = Vec::with_capacity(self.gather.rays + 8);
-        gather::gather(hit.p, frame.n, &self.gather, seed, &mut |dir: Vec3| -> GatherRay {
+        let result = gather::gather(hit.p, frame.n, &self.gather, seed, &mut |dir: Vec3| -> GatherRay {
             if self.cancel.load(Ordering::Relaxed) {
-                ends.push(GatherEnd::MISS);
                 return GatherRay::miss(Vec3::ZERO);
             }
             rays += 1;
             let end = self.gather_ray(hit, dir, &mut rng, &mut rays);
-            let distance = end.distance;
-            ends.push(end);
-            GatherRay { radiance: Vec3::ZERO, distance }
+            let lit = if end.weight != Vec3::ZERO { end.weight * self.photons.precomputed_irradiance(end.p, end.n) } else { Vec3::ZERO };
+            GatherRay { radiance: lit + end.glossy, distance: end.distance }
         });
         if self.cancel.load(Ordering::Relaxed) {
             return interrupted_gather(frame);
         }
-        let (ps, ns): (Vec<Vec3>, Vec<Vec3>) = ends.iter().filter(|e| e.weight != Vec3::ZERO).map(|e| (e.p, e.n)).unzip();
-        let irradiance = self.photons.precomputed_irradiance_batch(&ps, &ns);
-        let mut lit = irradiance.into_iter();
-        let mut replay = ends.into_iter();
-        let result = gather::gather(hit.p, frame.n, &self.gather, seed, &mut |_dir: Vec3| -> GatherRay {
-            match replay.next() {
-                Some(end) if end.weight != Vec3::ZERO => GatherRay { radiance: end.weight * lit.next().unwrap_or(Vec3::ZERO) + end.glossy, distance: end.distance },
-                Some(end) => GatherRay { radiance: end.glossy, distance: end.distance },
-                None => GatherRay::miss(Vec3::ZERO),
-            }
-        });
         c.rays += rays;
         c.gathers += 1;
         c.gather_rays += rays;
