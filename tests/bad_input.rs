@@ -188,3 +188,14 @@ fn unknown_cache_fill_or_weighting() {
     let d = with_toml(&format!("{ROOM_TOML}\n[render.icache]\nweight = \"gauss\"\n"));
     fails(&d, &p(d.path(), "scene.toml"), &["--method", "pm"], &["scene.toml:16:", "render.icache.weight", "gauss"]);
 }
+
+#[test]
+fn photon_settings_are_checked_whatever_the_method() {
+    // A photon count out of range is an error under `--method path` too, at its line.
+    let toml = format!("{ROOM_TOML}\n[render.photons]\nglobal = 0\n");
+    let d = with_toml(&toml);
+    let line = toml.lines().position(|l| l.starts_with("global")).unwrap() + 1;
+    for method in ["path", "pm"] {
+        fails(&d, &p(d.path(), "scene.toml"), &["--method", method], &[&format!("scene.toml:{line}:"), "render.photons.global"]);
+    }
+}
