@@ -4,7 +4,8 @@
 //! glossy box and a glossy sphere, lit by a point light and the ceiling light. Before the fix, a
 //! glossy-lobe ray that reached a diffuse wall added the global map's full irradiance (direct and
 //! caustic photons included) to the wall's own direct and caustic terms: the floor came out +61 %
-//! (issue 10). `pm` and `photons` are compared with `path` at 1024 spp.
+//! (issue 10). `pm` and `photons` are compared with `path` at 1024 spp: measured means 0.9904 / 0.9910,
+//! floors 1.0061 / 0.9971, 4×4-block relMSE 0.00070 / 0.00066; bounds 2 %, 3 %, 0.004.
 
 mod common;
 mod stability_scenes;
@@ -12,18 +13,10 @@ mod stability_scenes;
 use common::{block_means, mean, read, rel_mse};
 use glam::Vec3;
 use pmrender::io::output::Image;
-use stability_scenes::{ceiling_light, toml, v, write, Obj};
+use stability_scenes::{ceiling_light, toml, v, write, Obj, MTL};
 
-const MTL: &str = "newmtl wall
-Kd 0.6 0.6 0.6
-newmtl red
-Kd 0.6 0.1 0.1
-newmtl green
-Kd 0.1 0.6 0.1
-newmtl light
-Kd 0 0 0
-Ke 10 10 10
-newmtl floor
+/// The stability suite's room materials plus the glossy ones (`write` keeps only those the OBJ uses).
+const GLOSSY_MTL: &str = "newmtl floor
 Kd 0.05 0.05 0.05
 Ks 0.8 0.8 0.8
 Ns 200
@@ -49,7 +42,7 @@ fn scene() -> tempfile::TempDir {
     o.sphere("lacquer", v(0.45, 0.35, 0.1), 0.35, 32, 16);
     ceiling_light(&mut o, 0.2);
     let light = "[[light]]\ntype = \"point\"\nposition = [0.3, 1.7, 0.4]\nintensity = [3.0, 3.0, 3.0]\n";
-    write(&o, MTL, &toml(v(0.0, 1.0, 3.0), v(0.0, 0.8, 0.0), 45.0, (SIZE, SIZE), light))
+    write(&o, &format!("{MTL}{GLOSSY_MTL}"), &toml(v(0.0, 1.0, 3.0), v(0.0, 0.8, 0.0), 45.0, (SIZE, SIZE), light))
 }
 
 fn render(dir: &std::path::Path, method: &str, spp: u32) -> Image {
