@@ -384,6 +384,16 @@ fn patched(bytes: &[u8], edits: &[(usize, f32)], hash_from: usize) -> Vec<u8> {
 fn photon_and_cache_files_with_bad_values_are_refused() {
     let (d, photons, cache, fp) = saved_files();
     assert!(photon::file::read_maps(&photons, fp).is_ok() && icache::IrradianceCache::from_bytes(&cache, fp).is_ok());
+    // Files written now hold no precomputed irradiance points (the render bakes an atlas instead), but
+    // files of earlier versions do: the same maps with points added, as those wrote them.
+    let photons = {
+        let loaded = photon::file::read_maps(&photons, fp).unwrap();
+        let global = loaded.maps.global.as_ref().unwrap();
+        let (pre, _) = photon::PrecomputedIrradiance::build(global, 4, 50, 0.5, &photon::map::FullDisc).unwrap();
+        let mut bytes = Vec::new();
+        photon::file::write_maps(&mut bytes, &loaded.info, &loaded.maps, Some(&pre)).unwrap();
+        bytes
+    };
     // Photon layout: 112-byte header (max radius at 104), then pos, wi, power, normal, flag (13 f32).
     let n_global = u64::from_le_bytes(photons[80..88].try_into().unwrap()) as usize;
     let n_caustic = u64::from_le_bytes(photons[88..96].try_into().unwrap()) as usize;

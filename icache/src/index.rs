@@ -16,7 +16,25 @@ const MAX_DEPTH: u32 = 20;
 struct Node {
     /// Index of the first of 8 consecutive children in `nodes`, 0 when a leaf (the root is node 0).
     first_child: u32,
-    ids: Vec<u32>,
+    spheres: Vec<Sphere>,
+}
+
+/// A record's sphere as the node holds it: a lookup rejects most candidates here, reading 20 bytes kept
+/// together in the node instead of the 132-byte record (a Sibenik profile spent 12 % of the render in
+/// the weight test of records whose sphere did not contain the point).
+#[derive(Clone, Copy, Debug)]
+struct Sphere {
+    center: Vec3,
+    radius: f32,
+    id: u32,
+}
+
+impl Sphere {
+    #[inline]
+    fn contains(&self, p: Vec3) -> bool {
+        // Never reject on rounding: the caller's exact test decides at the border.
+        (p - self.center).length_squared() <= self.radius * self.radius * (1.0 + 1e-5)
+    }
 }
 
 /// Octree of record spheres over a root cube.
@@ -96,7 +114,7 @@ impl Octree {
             return;
         }
         if depth == target {
-            self.nodes[node].ids.push(id);
+            self.nodes[node].spheres.push(Sphere { center: c, radius: r, id });
             return;
         }
         if self.nodes[node].first_child == 0 {
@@ -111,7 +129,8 @@ impl Octree {
         }
     }
 
-    /// Call `f` with every record whose sphere may contain `p` (a superset; each id at most once).
+    /// Call `f` with every record whose sphere contains `p` (as inserted: a superset of those whose radius
+    /// shrank since; each id at most once).
     pub fn for_each_candidate(&self, p: Vec3, mut f: impl FnMut(u32)) {
         if !self.in_root(p) {
             self.outside.iter().for_each(|&id| f(id));
@@ -119,7 +138,7 @@ impl Octree {
         }
         let (mut node, mut lo, mut size) = (0usize, self.origin, self.size);
         loop {
-            self.nodes[node].ids.iter().for_each(|&id| f(id));
+            self.nodes[node].spheres.iter().filter(|s| s.contains(p)).for_each(|s| f(s.id));
             let first = self.nodes[node].first_child as usize;
             if first == 0 {
                 return;
@@ -147,7 +166,7 @@ impl Octree {
         if dist2_to_box(c, lo, size) > r * r {
             return;
         }
-        out.extend_from_slice(&self.nodes[node].ids);
+        out.extend(self.nodes[node].spheres.iter().filter(|s| (c - s.center).length() <= (s.radius + r) * (1.0 + 1e-5)).map(|s| s.id));
         let first = self.nodes[node].first_child as usize;
         if first != 0 {
             let half = 0.5 * size;
@@ -159,8 +178,8 @@ impl Octree {
 
     /// Heap bytes held by the index.
     pub fn memory_bytes(&self) -> usize {
-        let ids: usize = self.nodes.iter().map(|n| n.ids.capacity()).sum();
-        self.nodes.capacity() * std::mem::size_of::<Node>() + (ids + self.outside.capacity()) * 4
+        let spheres: usize = self.nodes.iter().map(|n| n.spheres.capacity()).sum();
+        self.nodes.capacity() * std::mem::size_of::<Node>() + spheres * std::mem::size_of::<Sphere>() + self.outside.capacity() * 4
     }
 
     pub fn n_nodes(&self) -> usize {

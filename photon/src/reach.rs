@@ -5,12 +5,47 @@
 #![forbid(unsafe_code)]
 
 use std::collections::HashSet;
+use std::hash::{BuildHasherDefault, Hasher};
 
 use glam::Vec3;
 
 pub struct ReachGrid {
     cell: f32,
-    occupied: HashSet<[i64; 3]>,
+    occupied: HashSet<[i64; 3], BuildHasherDefault<CellHasher>>,
+}
+
+/// A multiplicative hash of the three cell coordinates: the default SipHash cost 3 % of a Sibenik
+/// render in the 27 probes of every shading sample.
+#[derive(Default)]
+pub struct CellHasher(u64);
+
+impl Hasher for CellHasher {
+    fn write(&mut self, bytes: &[u8]) {
+        for b in bytes {
+            self.write_u64(*b as u64);
+        }
+    }
+
+    fn write_i64(&mut self, x: i64) {
+        self.write_u64(x as u64);
+    }
+
+    fn write_u64(&mut self, x: u64) {
+        self.0 = (self.0.rotate_left(21) ^ x).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+    }
+
+    fn finish(&self) -> u64 {
+        self.0 ^ (self.0 >> 29)
+    }
+}
+
+impl CellHasher {
+    /// The hash of one `u64` key.
+    pub fn hash_u64(x: u64) -> u64 {
+        let mut h = CellHasher::default();
+        h.write_u64(x);
+        h.finish()
+    }
 }
 
 impl ReachGrid {
@@ -18,7 +53,7 @@ impl ReachGrid {
     /// gives a grid that answers "maybe" everywhere.
     pub fn build(points: impl Iterator<Item = Vec3>, radius: f32) -> Self {
         let cell = if radius.is_finite() && radius > 0.0 { radius } else { 0.0 };
-        let mut occupied = HashSet::new();
+        let mut occupied = HashSet::default();
         if cell > 0.0 {
             occupied.extend(points.filter(|p| p.is_finite()).map(|p| Self::key(p, cell)));
         }

@@ -1,4 +1,5 @@
 //! Integrators: the path-tracing reference and the photon-map methods built on Jensen's split.
+pub mod atlas;
 pub mod cache_fill;
 pub mod coverage;
 pub mod path;

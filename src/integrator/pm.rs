@@ -177,7 +177,7 @@ impl PmContext<'_> {
         // Points reached through glossy lobes are blurred by the lobe: the photon map suffices there. The
         // point has its own direct and caustic terms, so only the photons that are neither count.
         if via_glossy {
-            return self.photons.indirect_irradiance(hit.p, frame.n);
+            return self.photons.indirect_irradiance(hit.tri, frame.front, hit.p);
         }
         match self.source {
             IndirectSource::PhotonMap => self.photons.global_indirect_irradiance(hit.p, frame.n),
@@ -208,7 +208,8 @@ impl PmContext<'_> {
         }
     }
 
-    /// One final gather from `hit`: each ray reads the global map's precomputed irradiance where it ends.
+    /// One final gather from `hit`: each ray reads the global map's irradiance where it ends (its atlas
+    /// texel).
     /// A gather that sees the stop flag traces no more rays and returns at once (its result is never used).
     pub fn final_gather(&self, hit: &Hit, frame: &Frame, seed: u64, c: &mut SampleCounters) -> GatherResult {
         if self.cancel.load(Ordering::Relaxed) {
@@ -222,7 +223,7 @@ impl PmContext<'_> {
             }
             rays += 1;
             let end = self.gather_ray(hit, dir, &mut rng, &mut rays);
-            let lit = if end.weight != Vec3::ZERO { end.weight * self.photons.precomputed_irradiance(end.p, end.n) } else { Vec3::ZERO };
+            let lit = if end.weight != Vec3::ZERO { end.weight * self.photons.gather_irradiance(end.tri, end.front, end.p) } else { Vec3::ZERO };
             GatherRay { radiance: lit + end.glossy, distance: end.distance }
         });
         if self.cancel.load(Ordering::Relaxed) {
@@ -249,7 +250,7 @@ impl PmContext<'_> {
             let kd = self.scene.albedo(&hit);
             if !bsdf.is_specular() {
                 let glossy = self.photons.glossy_radiance(bsdf, &hit, &frame, -d) * beta;
-                return GatherEnd { p: hit.p, n: frame.n, weight: beta * bsdf.diffuse_albedo(kd) / PI, glossy, distance };
+                return GatherEnd { p: hit.p, tri: hit.tri, front: frame.front, weight: beta * bsdf.diffuse_albedo(kd) / PI, glossy, distance };
             }
             if bounce == MAX_SPECULAR {
                 break;
@@ -273,7 +274,9 @@ impl PmContext<'_> {
 /// The end of one gather ray (see `gather_ray`).
 struct GatherEnd {
     p: Vec3,
-    n: Vec3,
+    tri: u32,
+    /// Whether the ray reached the triangle's winding side.
+    front: bool,
     weight: Vec3,
     /// Radiance of a glossy surface's specular lobe toward the ray (a photon-map estimate).
     glossy: Vec3,
@@ -281,7 +284,7 @@ struct GatherEnd {
 }
 
 impl GatherEnd {
-    const MISS: GatherEnd = GatherEnd { p: Vec3::ZERO, n: Vec3::ZERO, weight: Vec3::ZERO, glossy: Vec3::ZERO, distance: f32::INFINITY };
+    const MISS: GatherEnd = GatherEnd { p: Vec3::ZERO, tri: 0, front: true, weight: Vec3::ZERO, glossy: Vec3::ZERO, distance: f32::INFINITY };
 }
 
 /// Solid-angle pdf of the normalised Phong lobe about the mirror direction `r`.

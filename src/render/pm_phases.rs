@@ -1,4 +1,4 @@
-//! The phases of the photon-map methods: `trace_photons`, `build_maps` (precomputed irradiance),
+//! The phases of the photon-map methods: `trace_photons` (maps and their kd-trees),
 //! `fill_cache` (pass A, `pm` only) and `shade` (pass B), each timed and reported.
 
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -17,7 +17,6 @@ use super::{Options, Plan, Progress, RenderOutput};
 use crate::camera::Camera;
 use crate::error::{at_line, runtime, Error, Result};
 use crate::integrator::cache_fill::{gather_record, shading_hits};
-use crate::integrator::coverage::SceneCoverage;
 use crate::integrator::photons::{PhotonData, PhotonSettings};
 use crate::integrator::pm::{IndirectSource, PmContext};
 use crate::integrator::terms::{Terms, TERM_NAMES};
@@ -84,6 +83,7 @@ pub fn cache_settings(scene: &Scene) -> Result<(CacheParams, usize, FillMode)> {
 pub struct PmRun {
     pub output: RenderOutput,
     pub counters: SampleCounters,
+    pub samples: super::tiles::SampleCount,
     pub report: Report,
 }
 
@@ -151,8 +151,8 @@ pub fn render_pm(scene: &Scene, plan: &Plan, opts: &Options, camera: &Camera, pr
     };
 
     let t = Instant::now();
-    let sample = |x: u32, y: u32, rng: &mut Rng, c: &mut SampleCounters| -> Vec<Vec3> {
-        let d = camera.ray(x as f32 + rng.uniform(), y as f32 + rng.uniform());
+    let sample = |x: u32, y: u32, off: [f32; 2], rng: &mut Rng, c: &mut SampleCounters| -> Vec<Vec3> {
+        let d = camera.ray(x as f32 + off[0], y as f32 + off[1]);
         let terms: Terms = match (&one_pass, &ctx.source) {
             (Some(order), IndirectSource::Cache(cache)) => {
                 let seen = IndirectSource::CacheUpTo(cache, order.visible_records(x, y));
@@ -163,11 +163,17 @@ pub fn render_pm(scene: &Scene, plan: &Plan, opts: &Options, camera: &Camera, pr
         terms.to_layers()
     };
     progress.start("shade", plan.window.n_pixels());
-    let (layers, counters) = render_tiles(plan.width, plan.height, plan.window, plan.spp, plan.seed, TERM_NAMES.len(), &sample, &|n| progress.set(n), cancel)?;
+    let (layers, counters, samples) = render_tiles(plan.width, plan.height, plan.window, plan.sampling(), plan.seed, TERM_NAMES.len(), &sample, &|n| progress.set(n), cancel)?;
     progress.finish();
     report.seconds("Time", "Shade", "time.shade_s", t.elapsed().as_secs_f64());
 
     let fc = fill_counters.into_inner().unwrap_or_default();
+    if let Some(atlas) = &photons.atlas {
+        let s = atlas.stats();
+        report.count("Photons", "Irradiance atlas texels", "photons.atlas_texels", s.texels);
+        report.count("Photons", "Irradiance atlas estimates", "photons.atlas_estimates", s.estimates);
+        report.bytes("Photons", "Memory, irradiance atlas", "photons.atlas_memory_bytes", s.memory_bytes);
+    }
     if let Some(c) = &cache {
         let mut cs = CacheStats::collect(c, &fill, &counters.lookups);
         cs.records_pass_b -= n_loaded.min(cs.records_pass_b);
@@ -188,7 +194,7 @@ pub fn render_pm(scene: &Scene, plan: &Plan, opts: &Options, camera: &Camera, pr
     }
     let layers = TERM_NAMES.iter().copied().zip(layers).collect();
     let photons = info.map(|info| PhotonOutput { info, maps: photons.maps, precomputed: photons.precomputed });
-    Ok(PmRun { output: RenderOutput { beauty, layers, cache, photons }, counters, report })
+    Ok(PmRun { output: RenderOutput { beauty, layers, cache, photons }, counters, samples, report })
 }
 
 type Maps = (photon::PhotonMaps, Option<PrecomputedIrradiance>, Option<photon::MapsInfo>);
@@ -196,16 +202,12 @@ type Maps = (photon::PhotonMaps, Option<PrecomputedIrradiance>, Option<photon::M
 /// `trace_photons` and `build_maps`, or a photon file loaded instead. The `MapsInfo` is there when the
 /// maps were traced and `--save-photons` or `--dump-photons` asks for them (written with the outputs).
 fn photon_maps(scene: &Scene, plan: &Plan, settings: &PhotonSettings, opts: &Options, progress: &dyn Progress, cancel: &AtomicBool, report: &mut Report) -> Result<Maps> {
-    let want_precomputed = matches!(plan.method, Method::Pm | Method::PmFg);
     if let Some(path) = &opts.files.load_photons {
         let t = Instant::now();
         let loaded = load_photons(path, scene.fingerprint)?;
-        let mut pre = loaded.precomputed;
-        if pre.is_none() && want_precomputed {
-            if let Some(g) = &loaded.maps.global {
-                pre = Some(precompute(g, scene, settings, cancel)?);
-            }
-        }
+        // Precomputed points in files of earlier versions are kept for --save-photons; the render reads
+        // the atlas.
+        let pre = loaded.precomputed;
         report.seconds("Time", "Load photons", "time.load_photons_s", t.elapsed().as_secs_f64());
         let stats = photon::TraceStats {
             n_paths_emitted: loaded.info.n_paths_emitted,
@@ -223,27 +225,12 @@ fn photon_maps(scene: &Scene, plan: &Plan, settings: &PhotonSettings, opts: &Opt
     let (maps, trace_stats) = PhotonData::trace(scene, settings, plan.seed, &|done, _| progress.set(done), cancel)?;
     progress.finish();
     report.seconds("Time", "Trace photons", "time.trace_photons_s", t.elapsed().as_secs_f64());
-    let t = Instant::now();
-    let precomputed = match &maps.global {
-        Some(g) if want_precomputed || opts.files.save_photons.is_some() => {
-            Some(precompute(g, scene, settings, cancel)?)
-        }
-        _ => None,
-    };
-    report.seconds("Time", "Build maps", "time.build_maps_s", t.elapsed().as_secs_f64());
-    photon_rows(report, &trace_stats, settings, precomputed.as_ref());
+    // The maps' kd-trees are built by the photon pass; the irradiance atlas fills during the cache fill.
+    let precomputed = None;
+    photon_rows(report, &trace_stats, settings, None);
     let keep = opts.files.save_photons.is_some() || opts.files.dump_photons.is_some();
     let info = keep.then(|| photon::MapsInfo::new(scene.fingerprint, plan.seed, PhotonData::targets(settings), &trace_stats));
     Ok((maps, precomputed, info))
-}
-
-fn precompute(global: &photon::PhotonMap, scene: &Scene, s: &PhotonSettings, cancel: &AtomicBool) -> Result<PrecomputedIrradiance> {
-    let cov = SceneCoverage(scene);
-    match PrecomputedIrradiance::build_cancellable(global, s.precompute_every, s.lookup, s.max_radius_global, &cov, cancel) {
-        Ok((pre, _)) => Ok(pre),
-        Err(photon::Error::Cancelled) => Err(Error::Interrupted),
-        Err(e) => Err(runtime(e)),
-    }
 }
 
 fn photon_rows(r: &mut Report, s: &photon::TraceStats, settings: &PhotonSettings, pre: Option<&PrecomputedIrradiance>) {

@@ -1,6 +1,13 @@
 //! Renders an image in parallel tiles. Each pixel sample draws its random numbers from a stream seeded by
 //! (seed, pixel, sample index), and each pixel's samples are summed in order, so the image does not
 //! depend on the number of threads.
+//!
+//! Samples come in groups of four, one in each quarter of the pixel (2×2 jittered strata). With a
+//! `noise` target, a pixel stops once its own samples say its mean is good enough (adaptive sampling):
+//! at 4, 8, 16, … samples, the estimated relative variance of the mean, per channel
+//! Var[x̄] / (x̄² + 0.01) — what the pixel adds to the relMSE every accuracy figure here is measured in —
+//! is compared with `noise²`. A pixel's decision depends on its own samples only, so the image still does
+//! not depend on the thread count.
 
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
@@ -33,81 +40,246 @@ impl Window {
     }
 }
 
-/// What a method computes for one pixel sample: beauty is the sum of `layers` (or `layers[0]` when the
-/// method has a single layer).
-pub type SampleFn<'a> = dyn Fn(u32, u32, &mut Rng, &mut SampleCounters) -> Vec<Vec3> + Sync + 'a;
+/// What a method computes for one pixel sample at image position (x + offset[0], y + offset[1]): beauty is
+/// the sum of `layers` (or `layers[0]` when the method has a single layer).
+pub type SampleFn<'a> = dyn Fn(u32, u32, [f32; 2], &mut Rng, &mut SampleCounters) -> Vec<Vec3> + Sync + 'a;
 
-/// Renders `n_layers` images of the window at `spp` samples per pixel (box filter: the mean).
-/// `progress` is called with the number of pixels finished; `cancel` (read before every sample) stops
-/// early with `Interrupted`.
+/// How many samples each pixel takes.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sampling {
+    /// Samples per pixel; with a `noise` target, the most a pixel takes.
+    pub spp: u32,
+    /// Relative standard error of a pixel's mean at which it stops (0: every pixel takes `spp`).
+    pub noise: f32,
+}
+
+/// The fewest samples a pixel takes under a noise target (one group of strata).
+pub const MIN_ADAPTIVE_SPP: u32 = 4;
+/// Samples per group of strata.
+const GROUP: u32 = 4;
+/// Floor of the squared mean in the relative variance, as in the relMSE of the accuracy figures.
+const REL_FLOOR: f64 = 0.01;
+
+/// Sub-pixel offset of sample `s`: its quarter of the pixel when it belongs to a whole group of four
+/// within `spp`, anywhere otherwise; jittered by (u, v).
+fn offset(s: u32, spp: u32, u: f32, v: f32) -> [f32; 2] {
+    if (s / GROUP + 1) * GROUP > spp {
+        return [u, v];
+    }
+    let cell = s % GROUP;
+    [((cell % 2) as f32 + u) * 0.5, ((cell / 2) as f32 + v) * 0.5]
+}
+
+/// True when `n` samples with per-channel sums `sum` and sums of squares `sum2` estimate their mean
+/// well enough: Σ_c Var[x̄_c] / (x̄_c² + 0.01) ≤ 3 noise² (each channel's relative variance, averaged).
+fn converged(n: u32, sum: [f64; 3], sum2: [f64; 3], noise: f32) -> bool {
+    let nf = n as f64;
+    let mut rel = 0.0;
+    for c in 0..3 {
+        let mean = sum[c] / nf;
+        let var = ((sum2[c] - nf * mean * mean) / (nf - 1.0)).max(0.0);
+        rel += var / nf / (mean * mean + REL_FLOOR);
+    }
+    rel <= 3.0 * (noise as f64).powi(2)
+}
+
+/// Samples taken over the window, for the statistics.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SampleCount {
+    pub samples: u64,
+    pub pixels: u64,
+    /// Pixels that took the most samples allowed without meeting the noise target.
+    pub at_limit: u64,
+}
+
+/// One pixel's running sums.
+#[derive(Clone)]
+struct PixelSums {
+    /// Samples taken.
+    n: u32,
+    /// Per-channel sum and sum of squares of the beauty (adaptive sampling only).
+    beauty: [f64; 3],
+    beauty2: [f64; 3],
+}
+
+/// A tile's pixels: their sums and, per layer, the sum of their samples.
+struct TileState {
+    window: Window,
+    pixels: Vec<PixelSums>,
+    layers: Vec<Vec<Vec3>>,
+}
+
+/// Sample counts of the rounds: 4, 8, 16, … up to `spp` (one round of `spp` without a noise target).
+fn rounds(spp: u32, adaptive: bool) -> Vec<u32> {
+    if !adaptive {
+        return vec![spp];
+    }
+    let mut r = vec![MIN_ADAPTIVE_SPP.min(spp)];
+    while *r.last().unwrap_or(&spp) < spp {
+        let next = (r[r.len() - 1] * 2).min(spp);
+        r.push(next);
+    }
+    r
+}
+
+/// Renders `n_layers` images of the window (box filter: the mean of each pixel's samples).
+///
+/// With a noise target the samples are taken in rounds (4, 8, 16, … per pixel); after each round a pixel
+/// goes on if it, or any of its 8 neighbours, has not [`converged`]. Looking at the neighbours catches
+/// what one pixel's few samples can miss — a sub-pixel slat, the edge of a shadow — when the next pixel
+/// has seen it; each round's decisions read only the previous rounds' sums, so the image does not depend
+/// on the thread count. `progress` is called with a number of pixels (rounds count as fractions of the
+/// window); `cancel` (read before every sample) stops early with `Interrupted`.
+#[allow(clippy::too_many_arguments)]
 pub fn render_tiles(
     width: u32,
     height: u32,
     window: Window,
-    spp: u32,
+    sampling: Sampling,
     seed: u64,
     n_layers: usize,
     sample: &SampleFn,
     progress: &(dyn Fn(u64) + Sync),
     cancel: &AtomicBool,
-) -> Result<(Vec<Image>, SampleCounters)> {
+) -> Result<(Vec<Image>, SampleCounters, SampleCount)> {
+    let spp = sampling.spp.max(1);
+    let adaptive = sampling.noise > 0.0 && spp > MIN_ADAPTIVE_SPP;
     let mut tiles = Vec::new();
     for ty in (window.y0..window.y1).step_by(TILE as usize) {
         for tx in (window.x0..window.x1).step_by(TILE as usize) {
-            tiles.push(Window { x0: tx, y0: ty, x1: (tx + TILE).min(window.x1), y1: (ty + TILE).min(window.y1) });
+            let w = Window { x0: tx, y0: ty, x1: (tx + TILE).min(window.x1), y1: (ty + TILE).min(window.y1) };
+            let n = w.n_pixels() as usize;
+            tiles.push(TileState { window: w, pixels: vec![PixelSums { n: 0, beauty: [0.0; 3], beauty2: [0.0; 3] }; n], layers: vec![vec![Vec3::ZERO; n]; n_layers] });
         }
     }
+    let (ww, wh) = ((window.x1 - window.x0) as usize, (window.y1 - window.y0) as usize);
+    // Pixels (window row-major) that take the next round's samples.
+    let mut active = vec![true; ww * wh];
+    let rounds = rounds(spp, adaptive);
     let done = AtomicU64::new(0);
-    let results: Vec<(Window, Vec<Vec<Vec3>>, SampleCounters)> = tiles
-        .par_iter()
-        .map(|t| {
-            let mut counters = SampleCounters::default();
-            let mut px = vec![vec![Vec3::ZERO; t.n_pixels() as usize]; n_layers];
-            if cancel.load(Ordering::Relaxed) {
-                return (*t, px, counters);
-            }
-            for y in t.y0..t.y1 {
-                for x in t.x0..t.x1 {
-                    let k = ((y - t.y0) * (t.x1 - t.x0) + (x - t.x0)) as usize;
-                    let pixel = y as u64 * width as u64 + x as u64;
-                    let mut sum = vec![Vec3::ZERO; n_layers];
-                    for s in 0..spp {
-                        // Read every sample: one relaxed load next to a whole camera path costs nothing,
-                        // and a single pixel at 100 000 spp must stop at once.
+    let mut total = SampleCounters::default();
+    for (round, &target) in rounds.iter().enumerate() {
+        let active_ref = &active;
+        let counters: Vec<SampleCounters> = tiles
+            .par_iter_mut()
+            .map(|t| {
+                let mut counters = SampleCounters::default();
+                let w = t.window;
+                for y in w.y0..w.y1 {
+                    for x in w.x0..w.x1 {
                         if cancel.load(Ordering::Relaxed) {
-                            break;
+                            return counters;
                         }
-                        let mut rng = Rng::new(hash_keys(&[seed, pixel, s as u64]));
-                        let v = sample(x, y, &mut rng, &mut counters);
-                        for (acc, l) in sum.iter_mut().zip(v) {
-                            *acc += sanitize(l, &mut counters);
+                        if !active_ref[(y - window.y0) as usize * ww + (x - window.x0) as usize] {
+                            continue;
                         }
-                    }
-                    for (layer, acc) in px.iter_mut().zip(sum) {
-                        layer[k] = acc / spp as f32;
+                        let k = ((y - w.y0) * (w.x1 - w.x0) + (x - w.x0)) as usize;
+                        let pixel = y as u64 * width as u64 + x as u64;
+                        let px = &mut t.pixels[k];
+                        while px.n < target {
+                            // Read every sample: one relaxed load next to a whole camera path costs
+                            // nothing, and a single pixel at 100 000 spp must stop at once.
+                            if cancel.load(Ordering::Relaxed) {
+                                return counters;
+                            }
+                            let mut rng = Rng::new(hash_keys(&[seed, pixel, px.n as u64]));
+                            let (u, v) = (rng.uniform(), rng.uniform());
+                            let values = sample(x, y, offset(px.n, spp, u, v), &mut rng, &mut counters);
+                            let mut b = Vec3::ZERO;
+                            for (layer, l) in t.layers.iter_mut().zip(values) {
+                                let l = sanitize(l, &mut counters);
+                                layer[k] += l;
+                                b += l;
+                            }
+                            if adaptive {
+                                for c in 0..3 {
+                                    px.beauty[c] += b[c] as f64;
+                                    px.beauty2[c] += (b[c] as f64).powi(2);
+                                }
+                            }
+                            px.n += 1;
+                        }
                     }
                 }
+                let n = done.fetch_add(w.n_pixels(), Ordering::Relaxed) + w.n_pixels();
+                progress(n / rounds.len() as u64);
+                counters
+            })
+            .collect();
+        for c in counters {
+            total += c;
+        }
+        if cancel.load(Ordering::Relaxed) {
+            return Err(Error::Interrupted);
+        }
+        if round + 1 == rounds.len() {
+            break;
+        }
+        // Next round: pixels not converged, and their neighbours.
+        let mut open = vec![false; ww * wh];
+        for t in &tiles {
+            let w = t.window;
+            for y in w.y0..w.y1 {
+                for x in w.x0..w.x1 {
+                    let px = &t.pixels[((y - w.y0) * (w.x1 - w.x0) + (x - w.x0)) as usize];
+                    open[(y - window.y0) as usize * ww + (x - window.x0) as usize] = !converged(px.n, px.beauty, px.beauty2, sampling.noise);
+                }
             }
-            let n = done.fetch_add(t.n_pixels(), Ordering::Relaxed) + t.n_pixels();
-            progress(n);
-            (*t, px, counters)
-        })
-        .collect();
-    if cancel.load(Ordering::Relaxed) {
-        return Err(Error::Interrupted);
+        }
+        for y in 0..wh {
+            for x in 0..ww {
+                active[y * ww + x] = (y.saturating_sub(1)..(y + 2).min(wh)).any(|yy| (x.saturating_sub(1)..(x + 2).min(ww)).any(|xx| open[yy * ww + xx]));
+            }
+        }
     }
     let mut images = vec![Image::new(width, height); n_layers];
-    let mut total = SampleCounters::default();
-    for (t, px, c) in results {
-        total += c;
-        for (img, layer) in images.iter_mut().zip(px) {
-            for y in t.y0..t.y1 {
-                for x in t.x0..t.x1 {
-                    let k = ((y - t.y0) * (t.x1 - t.x0) + (x - t.x0)) as usize;
-                    img.pixels[(y * width + x) as usize] = layer[k];
+    let mut count = SampleCount::default();
+    for t in &tiles {
+        let w = t.window;
+        for y in w.y0..w.y1 {
+            for x in w.x0..w.x1 {
+                let k = ((y - w.y0) * (w.x1 - w.x0) + (x - w.x0)) as usize;
+                let n = t.pixels[k].n;
+                count.samples += n as u64;
+                count.pixels += 1;
+                count.at_limit += (adaptive && n == spp) as u64;
+                for (img, layer) in images.iter_mut().zip(&t.layers) {
+                    img.pixels[(y * width + x) as usize] = layer[k] / n.max(1) as f32;
                 }
             }
         }
     }
-    Ok((images, total))
+    Ok((images, total, count))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn whole_groups_are_stratified_and_the_rest_is_not() {
+        // spp 8: two whole groups, each sample in its own quarter.
+        for s in 0..8 {
+            let [x, y] = offset(s, 8, 0.999, 0.0);
+            let cell = s % 4;
+            assert!((x - (cell % 2) as f32 * 0.5 - 0.4995).abs() < 1e-6 && (y - (cell / 2) as f32 * 0.5).abs() < 1e-6);
+        }
+        // spp 1 and the tail of spp 6: anywhere in the pixel.
+        assert_eq!(offset(0, 1, 0.7, 0.8), [0.7, 0.8]);
+        assert_eq!(offset(5, 6, 0.7, 0.8), [0.7, 0.8]);
+        assert_eq!(offset(3, 6, 0.0, 0.0), [0.5, 0.5]);
+    }
+
+    #[test]
+    fn a_constant_pixel_converges_and_a_noisy_one_does_not() {
+        let (sum, sum2) = ([2.0; 3], [1.0; 3]);
+        assert!(converged(4, sum, sum2, 0.01));
+        // Samples 0, 1, 0, 1: mean 0.5, variance 1/3, Var[mean] 1/12; relative 1/12 / 0.26 ≈ 0.32.
+        let (sum, sum2) = ([2.0; 3], [2.0; 3]);
+        assert!(!converged(4, sum, sum2, 0.5));
+        assert!(converged(4, sum, sum2, 0.6));
+        assert_eq!(rounds(32, true), [4, 8, 16, 32]);
+        assert_eq!(rounds(20, true), [4, 8, 16, 20]);
+        assert_eq!(rounds(32, false), [32]);
+    }
 }

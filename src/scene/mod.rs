@@ -61,6 +61,8 @@ pub const METHODS: &str = "path | pm | pm-fg | photons";
 pub struct RenderSettings {
     pub method: Option<Method>,
     pub spp: Option<u32>,
+    /// Adaptive sampling's noise target; `None`: the method's default.
+    pub noise: Option<f32>,
     pub seed: u64,
     pub max_depth: u32,
     pub photons: PhotonsDesc,

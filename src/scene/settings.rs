@@ -64,6 +64,10 @@ pub(super) fn settings(cx: &Ctx, desc: &SceneFile) -> Result<RenderSettings> {
         Some(s) if !(1..=MAX_SPP).contains(&s) => return Err(cx.err("render", 0, "spp", format!("{s} must be in 1..={MAX_SPP}"))),
         s => s.map(|s| s as u32),
     };
+    let noise = match r.noise {
+        Some(t) if !(0.0..=1.0).contains(&t) => return Err(cx.err("render", 0, "noise", format!("{t} must be in 0..=1"))),
+        t => t.map(|t| t as f32),
+    };
     let max_depth = match r.max_depth {
         Some(d) if !(1..=MAX_DEPTH).contains(&d) => return Err(cx.err("render", 0, "max_depth", format!("{d} must be in 1..={MAX_DEPTH}"))),
         d => d.unwrap_or(64) as u32,
@@ -75,7 +79,7 @@ pub(super) fn settings(cx: &Ctx, desc: &SceneFile) -> Result<RenderSettings> {
             return Err(cx.err("render.photons", 0, "max_radius", format!("{r} is outside (0, {:e}]", 2.0 * MAX_COORD)));
         }
     }
-    Ok(RenderSettings { method, spp, seed: r.seed.unwrap_or(0), max_depth, photons: r.photons.clone().unwrap_or_default(), icache })
+    Ok(RenderSettings { method, spp, noise, seed: r.seed.unwrap_or(0), max_depth, photons: r.photons.clone().unwrap_or_default(), icache })
 }
 
 /// `[render.icache]` numbers, each blamed on its own key: accuracies and spacings positive and finite,
