@@ -47,9 +47,31 @@ pub struct LookupStats {
     pub n_gathered: u64,
     /// Sum over lookups of the usable records used.
     pub n_records_used: u64,
+    /// Of the lookups, those the caller answered from an earlier sample of the same pixel on the same
+    /// surface (counted as that sample's lookup was: hit, miss, extrapolated, …).
+    pub n_reused: u64,
 }
 
 impl LookupStats {
+    /// What happened since `before` (field by field).
+    pub fn since(&self, before: &LookupStats) -> LookupStats {
+        LookupStats {
+            n_lookups: self.n_lookups - before.n_lookups,
+            n_misses: self.n_misses - before.n_misses,
+            n_single_record: self.n_single_record - before.n_single_record,
+            n_extrapolated: self.n_extrapolated - before.n_extrapolated,
+            n_gathered: self.n_gathered - before.n_gathered,
+            n_records_used: self.n_records_used - before.n_records_used,
+            n_reused: self.n_reused - before.n_reused,
+        }
+    }
+
+    /// Counts `earlier` again, as lookups answered by reuse.
+    pub fn replay(&mut self, earlier: &LookupStats) {
+        *self += *earlier;
+        self.n_reused += earlier.n_lookups;
+    }
+
     pub fn record(&mut self, hit: Option<&Lookup>) {
         self.n_lookups += 1;
         match hit {
@@ -65,6 +87,7 @@ impl LookupStats {
 impl AddAssign for LookupStats {
     fn add_assign(&mut self, o: Self) {
         self.n_lookups += o.n_lookups;
+        self.n_reused += o.n_reused;
         self.n_misses += o.n_misses;
         self.n_single_record += o.n_single_record;
         self.n_extrapolated += o.n_extrapolated;
@@ -184,6 +207,8 @@ pub struct CacheStats {
     /// Pass-B misses answered by extrapolation across normals, and those that needed a full gather.
     pub extrapolated_pass_b: u64,
     pub gathered_pass_b: u64,
+    /// Pass-B lookups answered by an earlier sample of the pixel on the same surface.
+    pub reused_pass_b: u64,
     /// Lookups that found a usable record, and the sum of usable records over them.
     pub n_hits: u64,
     pub n_records_used: u64,
@@ -213,6 +238,7 @@ impl CacheStats {
             single_record_pass_b: pass_b.n_single_record,
             extrapolated_pass_b: pass_b.n_extrapolated,
             gathered_pass_b: pass_b.n_gathered,
+            reused_pass_b: pass_b.n_reused,
             n_hits: (fill.lookups.n_lookups - fill.lookups.n_misses) + (pass_b.n_lookups - pass_b.n_misses),
             n_records_used: fill.lookups.n_records_used + pass_b.n_records_used,
             radius_px,
@@ -238,6 +264,7 @@ impl AddAssign for CacheStats {
         self.lookups += o.lookups;
         self.lookups_pass_b += o.lookups_pass_b;
         self.misses_pass_b += o.misses_pass_b;
+        self.reused_pass_b += o.reused_pass_b;
         self.single_record_pass_b += o.single_record_pass_b;
         self.extrapolated_pass_b += o.extrapolated_pass_b;
         self.gathered_pass_b += o.gathered_pass_b;

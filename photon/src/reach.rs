@@ -39,14 +39,6 @@ impl Hasher for CellHasher {
     }
 }
 
-impl CellHasher {
-    /// The hash of one `u64` key.
-    pub fn hash_u64(x: u64) -> u64 {
-        let mut h = CellHasher::default();
-        h.write_u64(x);
-        h.finish()
-    }
-}
 
 impl ReachGrid {
     /// Cells of size `radius` holding at least one of `points`. A non-positive or non-finite radius
@@ -55,7 +47,18 @@ impl ReachGrid {
         let cell = if radius.is_finite() && radius > 0.0 { radius } else { 0.0 };
         let mut occupied = HashSet::default();
         if cell > 0.0 {
-            occupied.extend(points.filter(|p| p.is_finite()).map(|p| Self::key(p, cell)));
+            // Each point's cell and its 26 neighbours, so that a query probes one cell (27 probes per
+            // shading sample were 10 % of Sibenik's shading).
+            let own: HashSet<[i64; 3], BuildHasherDefault<CellHasher>> = points.filter(|p| p.is_finite()).map(|p| Self::key(p, cell)).collect();
+            for [x, y, z] in own {
+                for dx in -1..=1 {
+                    for dy in -1..=1 {
+                        for dz in -1..=1 {
+                            occupied.insert([x + dx, y + dy, z + dz]);
+                        }
+                    }
+                }
+            }
         }
         ReachGrid { cell, occupied }
     }
@@ -64,13 +67,12 @@ impl ReachGrid {
         (p / cell).floor().to_array().map(|x| x as i64)
     }
 
-    /// False only when no point lies within the radius of `p` (the 27 cells around `p`'s are empty).
+    /// False only when no point lies within the radius of `p` (no point in the 27 cells around `p`'s).
     pub fn may_reach(&self, p: Vec3) -> bool {
         if self.cell == 0.0 || !p.is_finite() {
             return true;
         }
-        let [x, y, z] = Self::key(p, self.cell);
-        (-1..=1).any(|dx| (-1..=1).any(|dy| (-1..=1).any(|dz| self.occupied.contains(&[x + dx, y + dy, z + dz]))))
+        self.occupied.contains(&Self::key(p, self.cell))
     }
 
     pub fn memory_bytes(&self) -> usize {

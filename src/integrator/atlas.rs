@@ -1,26 +1,24 @@
 //! Irradiance baked lazily onto the triangles: what a final-gather ray reads where it ends.
 //!
-//! Each side of each triangle is cut into a grid of texels over its barycentric coordinates, about as
-//! fine as one texel per `every` global photons over the scene's surface. The first ray that reaches a
-//! texel estimates the global map's irradiance at the texel's centre (the same k-NN estimate, with the
-//! same coverage of its disc, as everywhere else) and stores it; every later ray reads it with a hash
-//! probe. A texel's value is a function of its key alone, so which thread computes it first does not
-//! change a bit of the image.
+//! Each side of each triangle is cut into square texels along its longest edge and across it, each
+//! holding about `every` global photons at the scene's mean density (a sliver along a floor seam gets a
+//! row of texels, not a grid of slivers). The first ray that reaches a texel estimates the global map's
+//! irradiance at the middle of the texel's part of the triangle (the same k-NN estimate, with the same
+//! coverage of its disc, as everywhere else) and stores it in the texel's slot; every later ray reads the
+//! slot. A texel's value is a function of its position alone, so which thread computes it first does
+//! not change a bit of the image.
 //!
 //! This replaced Christensen's precomputed irradiance at every fourth photon, read through a
 //! nearest-neighbour search with a compatibility test: on Sibenik the search was a quarter of the cache
 //! fill, and the 4.6 % of gather rays whose nearest points faced another way (corners, mouldings, the
 //! undersides of things) fell back to a full k-NN estimate each — another 40 %. Here a ray reads the
-//! surface it hit, whatever its neighbours face, and pays nothing for a miss; texels nobody reaches are
-//! never estimated (the precomputation estimated 195 k points on Sibenik before the first ray).
+//! surface it hit, whatever its neighbours face; texels nobody reaches are never estimated (the
+//! precomputation estimated 195 k points on Sibenik before the first ray; the atlas makes 141 k at 1000²).
 
-use std::collections::HashMap;
-use std::hash::BuildHasherDefault;
 use std::sync::atomic::{AtomicU64, Ordering};
-use std::sync::RwLock;
+use std::sync::OnceLock;
 
 use glam::Vec3;
-use photon::reach::CellHasher;
 use photon::PhotonMap;
 
 use super::coverage::SceneCoverage;
@@ -28,10 +26,9 @@ use crate::geometry::Geometry;
 
 /// Texels per triangle side at most, per barycentric axis.
 pub const MAX_TEXELS_PER_AXIS: u32 = 255;
-/// Texels stored at most (each 32 bytes with its key); past that, a texel's estimate is made for the ray
-/// and not kept (slower, never more memory).
-pub const MAX_STORED_TEXELS: u64 = 16 << 20;
-const SHARDS: usize = 64;
+/// Texel slots at most (28 bytes each, allocated up front); a scene that would need more gets coarser
+/// texels.
+pub const MAX_TEXEL_SLOTS: u64 = 4 << 20;
 
 /// Irradiance at a texel: from every photon, and from the indirect ones only.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -40,140 +37,144 @@ pub struct TexelIrradiance {
     pub e_indirect: Vec3,
 }
 
-type Shard = RwLock<HashMap<u64, TexelIrradiance, BuildHasherDefault<CellHasher>>>;
-
-/// Entries of each thread's direct-mapped copy of the texels it read last: the rays of one gather and of
-/// its neighbours reach the same texels again and again, and the shared map's lock and probe cost 11 %
-/// of Sibenik's cache fill.
-const RECENT: usize = 4096;
-
-/// Tells atlases apart in the threads' copies (tests render several scenes in one process).
-static NEXT_ID: AtomicU64 = AtomicU64::new(1);
-
-thread_local! {
-    static RECENT_TEXELS: std::cell::RefCell<Vec<(u64, u64, TexelIrradiance)>> = const { std::cell::RefCell::new(Vec::new()) };
-}
-
 pub struct IrradianceAtlas {
-    id: u64,
-    /// Texel edge length (world units).
-    spacing: f32,
+    /// Each triangle's texel grid, and the first of its slots (front side, then back side).
+    grids: Vec<(Grid, u32)>,
+    slots: Vec<OnceLock<TexelIrradiance>>,
     k: usize,
     max_radius: f32,
-    shards: Vec<Shard>,
-    stored: AtomicU64,
     estimated: AtomicU64,
+}
+
+/// A triangle's texels: square cells of side `cell` along its longest edge PQ (u) and across it toward
+/// the third vertex R (v); R sits at (u_r, height).
+#[derive(Clone, Copy, Debug)]
+struct Grid {
+    origin: Vec3,
+    u_dir: Vec3,
+    v_dir: Vec3,
+    cell: f32,
+    long: f32,
+    u_r: f32,
+    height: f32,
+    nu: u8,
+    nv: u8,
+}
+
+impl Grid {
+    fn of(a: Vec3, b: Vec3, c: Vec3, spacing: f32) -> Grid {
+        let edges = [(a, b, c), (b, c, a), (c, a, b)];
+        let (p, q, r) = edges.into_iter().fold(edges[0], |best, e| if (e.1 - e.0).length_squared() > (best.1 - best.0).length_squared() { e } else { best });
+        let long = (q - p).length();
+        let u_dir = (q - p) / long;
+        let u_r = (r - p).dot(u_dir);
+        let across = (r - p) - u_r * u_dir;
+        let height = across.length();
+        let v_dir = if height > 0.0 { across / height } else { Vec3::ZERO };
+        let cell = spacing.max(long / MAX_TEXELS_PER_AXIS as f32).max(height / MAX_TEXELS_PER_AXIS as f32);
+        if !(long.is_finite() && long > 0.0 && cell.is_finite() && cell > 0.0 && u_dir.is_finite()) {
+            return Grid { origin: a, u_dir: Vec3::ZERO, v_dir: Vec3::ZERO, cell: 1.0, long: 0.0, u_r: 0.0, height: 0.0, nu: 1, nv: 1 };
+        }
+        let count = |len: f32| (len / cell).ceil().clamp(1.0, MAX_TEXELS_PER_AXIS as f32) as u8;
+        Grid { origin: p, u_dir, v_dir, cell, long, u_r: u_r.clamp(0.0, long), height, nu: count(long), nv: count(height) }
+    }
+
+    fn cell(&self, p: Vec3) -> (u32, u32) {
+        let d = p - self.origin;
+        let at = |x: f32, n: u8| if x.is_finite() { (x.max(0.0) as u32).min(n as u32 - 1) } else { 0 };
+        (at(d.dot(self.u_dir) / self.cell, self.nu), at(d.dot(self.v_dir) / self.cell, self.nv))
+    }
+
+    /// Height of the triangle above PQ at `u`.
+    fn v_max(&self, u: f32) -> f32 {
+        let h = if u <= self.u_r { self.height * u / self.u_r } else { self.height * (self.long - u) / (self.long - self.u_r) };
+        if h.is_finite() { h.clamp(0.0, self.height) } else { 0.0 }
+    }
+
+    /// The middle of the part of cell (i, j) inside the triangle (of its row's part, when the cell misses
+    /// the triangle): a texel's estimate is made there. At a slat's edge instead (a cell's middle clamped
+    /// into a sliver), the slats of the blinds room came out 7 % dark.
+    fn middle(&self, i: u32, j: u32) -> Vec3 {
+        let (lo, hi) = (i as f32 * self.cell, ((i + 1) as f32 * self.cell).min(self.long));
+        let u = 0.5 * (lo + hi);
+        let top = self.v_max(u);
+        let (lo, hi) = (j as f32 * self.cell, ((j + 1) as f32 * self.cell).min(top));
+        let v = if hi > lo { 0.5 * (lo + hi) } else { 0.5 * top };
+        self.origin + u * self.u_dir + v * self.v_dir
+    }
 }
 
 /// Counts for the statistics.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct AtlasStats {
-    pub texels: u64,
+    /// Texels of the scene (estimated or not).
+    pub slots: u64,
     pub estimates: u64,
     pub memory_bytes: u64,
 }
 
 impl IrradianceAtlas {
-    /// An empty atlas whose texels hold `every` global photons of `n_photons` spread over `area`.
-    pub fn new(area: f32, n_photons: usize, every: usize, k: usize, max_radius: f32) -> Self {
-        let per_texel = (area.max(0.0) as f64 * every.max(1) as f64 / n_photons.max(1) as f64).sqrt() as f32;
-        let spacing = if per_texel.is_finite() && per_texel > 0.0 { per_texel } else { f32::INFINITY };
-        IrradianceAtlas {
-            id: NEXT_ID.fetch_add(1, Ordering::Relaxed),
-            spacing,
-            k,
-            max_radius,
-            shards: (0..SHARDS).map(|_| RwLock::new(HashMap::default())).collect(),
-            stored: AtomicU64::new(0),
-            estimated: AtomicU64::new(0),
+    /// An empty atlas over `geometry` whose texels hold `every` global photons of `n_photons` spread over
+    /// the scene's surface.
+    pub fn new(geometry: &Geometry, n_photons: usize, every: usize, k: usize, max_radius: f32) -> Self {
+        let area: f64 = geometry.triangles.iter().map(|t| t.area as f64).sum();
+        let per_texel = (area * every.max(1) as f64 / n_photons.max(1) as f64).sqrt() as f32;
+        let mut spacing = if per_texel.is_finite() && per_texel > 0.0 { per_texel } else { f32::INFINITY };
+        loop {
+            let grids: Vec<Grid> = geometry
+                .triangles
+                .iter()
+                .map(|t| {
+                    let [a, b, c] = t.v.map(|i| geometry.positions[i as usize]);
+                    Grid::of(a, b, c, spacing)
+                })
+                .collect();
+            let n_slots: u64 = grids.iter().map(|g| 2 * g.nu as u64 * g.nv as u64).sum();
+            if n_slots > MAX_TEXEL_SLOTS && spacing.is_finite() {
+                spacing *= 1.5;
+                continue;
+            }
+            let mut first = 0u32;
+            let grids = grids
+                .into_iter()
+                .map(|g| {
+                    let at = first;
+                    first += 2 * g.nu as u32 * g.nv as u32;
+                    (g, at)
+                })
+                .collect();
+            return IrradianceAtlas {
+                grids,
+                slots: (0..n_slots).map(|_| OnceLock::new()).collect(),
+                k,
+                max_radius,
+                estimated: AtomicU64::new(0),
+            };
         }
     }
 
     /// Irradiance of the global map on the `front` (winding) or back side of triangle `tri`, at the texel
     /// holding `p`.
     pub fn lookup(&self, geometry: &Geometry, cov: &SceneCoverage, global: &PhotonMap, tri: u32, front: bool, p: Vec3) -> TexelIrradiance {
-        let (key, centre, n) = self.texel(geometry, tri, front, p);
-        let hash = CellHasher::hash_u64(key);
-        let slot = (hash >> 20) as usize % RECENT;
-        let recent = RECENT_TEXELS.with(|r| {
-            let r = r.borrow();
-            r.get(slot).filter(|e| e.0 == self.id && e.1 == key).map(|e| e.2)
-        });
-        if let Some(v) = recent {
-            return v;
-        }
-        let v = self.shared(key, hash, centre, n, cov, global);
-        RECENT_TEXELS.with(|r| {
-            let mut r = r.borrow_mut();
-            if r.len() < RECENT {
-                r.resize(RECENT, (0, 0, TexelIrradiance { e: Vec3::ZERO, e_indirect: Vec3::ZERO }));
-            }
-            r[slot] = (self.id, key, v);
-        });
-        v
-    }
-
-    /// The texel from the shared map, estimated and stored there if it is new.
-    fn shared(&self, key: u64, hash: u64, centre: Vec3, n: Vec3, cov: &SceneCoverage, global: &PhotonMap) -> TexelIrradiance {
-        // The map buckets by the low bits of the same hash: the shard takes high ones.
-        let shard = &self.shards[(hash >> 40) as usize % SHARDS];
-        if let Some(v) = shard.read().ok().and_then(|m| m.get(&key).copied()) {
-            return v;
-        }
-        let (est, e_indirect) = global.irradiance_and_indirect(centre, n, self.k, self.max_radius, cov);
-        let v = TexelIrradiance { e: est.e, e_indirect };
-        self.estimated.fetch_add(1, Ordering::Relaxed);
-        if self.stored.load(Ordering::Relaxed) < MAX_STORED_TEXELS {
-            if let Ok(mut m) = shard.write() {
-                if m.insert(key, v).is_none() {
-                    self.stored.fetch_add(1, Ordering::Relaxed);
-                }
-            }
-        }
-        v
-    }
-
-    /// The key, centre and normal of the texel of triangle `tri`'s `front` (or back) side holding `p`.
-    fn texel(&self, geometry: &Geometry, tri: u32, front: bool, p: Vec3) -> (u64, Vec3, Vec3) {
-        let t = &geometry.triangles[tri as usize];
-        let [a, b, c] = t.v.map(|i| geometry.positions[i as usize]);
-        let (e1, e2) = (b - a, c - a);
-        let longest = e1.length().max(e2.length()).max((c - b).length());
-        // Along the longest edge: a sliver 10 m long (Sponza's floor seams) needs more than one value.
-        let n_axis = ((longest / self.spacing).ceil() as u32).clamp(1, MAX_TEXELS_PER_AXIS);
-        let (b1, b2) = barycentric(e1, e2, p - a);
-        let nf = n_axis as f32;
-        let i = ((b1 * nf) as u32).min(n_axis - 1);
-        let j = ((b2 * nf) as u32).min(n_axis - 1 - i);
-        // A texel cut by the hypotenuse is a triangle: its centroid, else the square's centre.
-        let off = if i + j == n_axis - 1 { 1.0 / 3.0 } else { 0.5 };
-        let centre = geometry.point_on(tri, (i as f32 + off) / nf, (j as f32 + off) / nf);
-        let n = if front { t.ng } else { -t.ng };
-        let key = (tri as u64) << 17 | (front as u64) << 16 | (i as u64) << 8 | j as u64;
-        (key, centre, n)
+        let (grid, first) = &self.grids[tri as usize];
+        let (i, j) = grid.cell(p);
+        let side = if front { 0 } else { grid.nu as u32 * grid.nv as u32 };
+        let slot = &self.slots[(first + side + j * grid.nu as u32 + i) as usize];
+        *slot.get_or_init(|| {
+            let t = &geometry.triangles[tri as usize];
+            let n = if front { t.ng } else { -t.ng };
+            let (est, e_indirect) = global.irradiance_and_indirect(grid.middle(i, j), n, self.k, self.max_radius, cov);
+            self.estimated.fetch_add(1, Ordering::Relaxed);
+            TexelIrradiance { e: est.e, e_indirect }
+        })
     }
 
     pub fn stats(&self) -> AtlasStats {
-        let texels = self.stored.load(Ordering::Relaxed);
-        AtlasStats { texels, estimates: self.estimated.load(Ordering::Relaxed), memory_bytes: texels * 40 }
-    }
-}
-
-/// Barycentric coordinates (b1, b2) of the point `a + d` in the triangle spanned by `e1`, `e2` from `a`,
-/// clamped into the triangle.
-fn barycentric(e1: Vec3, e2: Vec3, d: Vec3) -> (f32, f32) {
-    let (d00, d01, d11) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
-    let (d20, d21) = (d.dot(e1), d.dot(e2));
-    let denom = d00 * d11 - d01 * d01;
-    if !(denom > 0.0) || !denom.is_finite() {
-        return (0.0, 0.0);
-    }
-    let b1 = ((d11 * d20 - d01 * d21) / denom).clamp(0.0, 1.0);
-    let b2 = ((d00 * d21 - d01 * d20) / denom).clamp(0.0, 1.0 - b1);
-    if b1.is_finite() && b2.is_finite() {
-        (b1, b2)
-    } else {
-        (0.0, 0.0)
+        AtlasStats {
+            slots: self.slots.len() as u64,
+            estimates: self.estimated.load(Ordering::Relaxed),
+            memory_bytes: (self.slots.len() * std::mem::size_of::<OnceLock<TexelIrradiance>>() + self.grids.len() * std::mem::size_of::<(Grid, u32)>()) as u64,
+        }
     }
 }
 
@@ -182,15 +183,23 @@ mod tests {
     use super::*;
 
     #[test]
-    fn barycentrics_of_known_points() {
-        let (e1, e2) = (Vec3::X * 2.0, Vec3::Y * 4.0);
-        assert_eq!(barycentric(e1, e2, Vec3::ZERO), (0.0, 0.0));
-        let (b1, b2) = barycentric(e1, e2, Vec3::new(1.0, 1.0, 0.3));
-        assert!((b1 - 0.5).abs() < 1e-6 && (b2 - 0.25).abs() < 1e-6);
-        // Outside: clamped into the triangle.
-        let (b1, b2) = barycentric(e1, e2, Vec3::new(3.0, 3.0, 0.0));
-        assert!(b1 <= 1.0 && b1 + b2 <= 1.0 + 1e-6);
-        // Degenerate triangle: no NaN.
-        assert_eq!(barycentric(Vec3::X, Vec3::X, Vec3::Y), (0.0, 0.0));
+    fn a_sliver_gets_a_row_of_texels_and_centres_stay_on_it() {
+        // 10 m long, 2 cm wide, texels of 0.5 m: 20 × 1.
+        let (a, b, c) = (Vec3::ZERO, Vec3::new(10.0, 0.0, 0.0), Vec3::new(5.0, 0.02, 0.0));
+        let g = Grid::of(a, b, c, 0.5);
+        assert_eq!((g.nu, g.nv), (20, 1));
+        assert_eq!(g.cell(Vec3::new(7.3, 0.01, 0.0)), (14, 0));
+        // Outside the triangle: clamped to the grid.
+        assert_eq!(g.cell(Vec3::new(-1.0, 5.0, 0.0)), (0, 0));
+        assert_eq!(g.cell(Vec3::new(11.0, -5.0, 0.0)), (19, 0));
+        // The middle of the first texel: 0.25 m along, halfway up the sliver's height there.
+        let m = g.middle(0, 0);
+        assert!((m - Vec3::new(0.25, 0.0005, 0.0)).length() < 1e-5, "{m}");
+        // The last texel is cut at the far vertex: its middle too.
+        let m = g.middle(19, 0);
+        assert!((m - Vec3::new(9.75, 0.0005, 0.0)).length() < 1e-5, "{m}");
+        // A right triangle 2 × 1 m: 4 × 2 texels (its longest edge is the hypotenuse).
+        let g = Grid::of(Vec3::ZERO, Vec3::new(2.0, 0.0, 0.0), Vec3::new(0.0, 1.0, 0.0), 0.5);
+        assert_eq!((g.nu, g.nv), (5, 2));
     }
 }

@@ -15,9 +15,10 @@ use crate::scene::file::line_of_key;
 use crate::scene::Scene;
 
 /// Default size of an irradiance-atlas texel, in global photons at the scene's mean density
-/// (`[render.photons] precompute_every`). A k = 100 estimate blurs over ~6 texels; finer texels changed
-/// no region mean of Sibenik, Sponza or the blinds room by more than 0.2 % and cost 3× the estimates.
-pub const DEFAULT_PHOTONS_PER_TEXEL: usize = 16;
+/// (`[render.photons] precompute_every`). A k = 100 estimate blurs over ~12 texels; at 16 the stability
+/// suite's scanline case (20 k photons) lost its two-pass advantage (indirect relMSE 3.2e-4 → 5.5e-4)
+/// and the blinds room's walls moved +0.5 %.
+pub const DEFAULT_PHOTONS_PER_TEXEL: usize = 8;
 
 /// `[render.photons]` resolved.
 #[derive(Clone, Debug, PartialEq)]
@@ -113,19 +114,19 @@ impl<'a> PhotonData<'a> {
     pub fn new(maps: PhotonMaps, precomputed: Option<PrecomputedIrradiance>, settings: PhotonSettings, scene: &'a Scene) -> Self {
         let caustic_reach =
             maps.caustic.as_ref().map(|m| ReachGrid::build(m.photons().iter().map(|ph| ph.pos), settings.max_radius_caustic));
-        let atlas = maps.global.as_ref().map(|g| {
-            let area: f32 = scene.geometry.triangles.iter().map(|t| t.area).sum();
-            IrradianceAtlas::new(area, g.len(), settings.precompute_every, settings.lookup, settings.max_radius_global)
-        });
+        let atlas = maps.global.as_ref().map(|g| IrradianceAtlas::new(&scene.geometry, g.len(), settings.precompute_every, settings.lookup, settings.max_radius_global));
         PhotonData { maps, precomputed, settings, coverage: SceneCoverage(scene), caustic_reach, atlas, scene }
     }
 
-    pub fn caustic_irradiance(&self, p: Vec3, n: Vec3) -> Vec3 {
+    pub fn caustic_irradiance(&self, p: Vec3, n: Vec3, c: &mut super::SampleCounters) -> Vec3 {
         if self.caustic_reach.as_ref().is_some_and(|g| !g.may_reach(p)) {
             return Vec3::ZERO;
         }
         match &self.maps.caustic {
-            Some(m) => m.irradiance(p, n, self.settings.lookup, self.settings.max_radius_caustic, self.settings.caustic_filter, &self.coverage).e,
+            Some(m) => {
+                c.photon_estimates += 1;
+                m.irradiance(p, n, self.settings.lookup, self.settings.max_radius_caustic, self.settings.caustic_filter, &self.coverage).e
+            }
             None => Vec3::ZERO,
         }
     }

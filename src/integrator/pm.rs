@@ -46,6 +46,10 @@ pub struct PmContext<'a> {
     pub cancel: &'a AtomicBool,
 }
 
+/// A caustic irradiance at most this fraction of the soft indirect one is reused within a pixel (see
+/// `PixelMemo`).
+const FAINT_CAUSTIC: f32 = 0.05;
+
 /// How the ray being shaded was generated, for MIS of emission.
 #[derive(Clone, Copy)]
 enum Via {
@@ -57,12 +61,16 @@ enum Via {
 
 impl PmContext<'_> {
     /// Radiance along a camera ray, split into terms.
-    pub fn shade(&self, origin: Vec3, dir: Vec3, rng: &mut Rng, c: &mut SampleCounters) -> Terms {
-        self.shade_ray(origin, dir, 0, Via::Delta, rng, c)
+    /// Radiance along a camera ray, split into terms. With a `memo`, the caustic and soft indirect
+    /// irradiance of the surface the ray hits first come from the pixel's earlier samples on that
+    /// surface when there are some (not for `pm-fg`, whose per-sample gathers are what it averages).
+    pub fn shade(&self, origin: Vec3, dir: Vec3, memo: Option<&mut super::PixelMemo>, rng: &mut Rng, c: &mut SampleCounters) -> Terms {
+        let memo = if matches!(self.source, IndirectSource::Gather) { None } else { memo };
+        self.shade_ray(origin, dir, 0, Via::Delta, memo, rng, c)
     }
 
     #[allow(clippy::too_many_arguments)]
-    fn shade_ray(&self, o: Vec3, d: Vec3, depth: u32, via: Via, rng: &mut Rng, c: &mut SampleCounters) -> Terms {
+    fn shade_ray(&self, o: Vec3, d: Vec3, depth: u32, via: Via, memo: Option<&mut super::PixelMemo>, rng: &mut Rng, c: &mut SampleCounters) -> Terms {
         let mut t = Terms::default();
         c.rays += 1;
         let Some(hit) = self.scene.intersect(o, d) else { return t };
@@ -81,7 +89,7 @@ impl PmContext<'_> {
                 let u = [rng.uniform(), rng.uniform(), rng.uniform()];
                 match bsdf.sample(kd, frame.n, wo, frame.front, u, Transport::Radiance) {
                     Some(s) => {
-                        let sub = self.shade_ray(spawn(&hit, s.wi), s.wi, depth + 1, Via::Delta, rng, c);
+                        let sub = self.shade_ray(spawn(&hit, s.wi), s.wi, depth + 1, Via::Delta, None, rng, c);
                         t.specular = s.weight * sub.sum();
                     }
                     None => c.zero_pdf += 1,
@@ -92,9 +100,23 @@ impl PmContext<'_> {
         t.direct = self.direct(&hit, &frame, wo, kd, bsdf, rng, c);
         let rho_d = bsdf.diffuse_albedo(kd) / PI;
         if rho_d != Vec3::ZERO {
-            t.caustic = rho_d * self.photons.caustic_irradiance(hit.p, frame.n);
-            let via_glossy = matches!(via, Via::Glossy { .. });
-            t.indirect = rho_d * self.indirect(&hit, &frame, via_glossy, rng, c);
+            let remembered = memo.as_ref().and_then(|m| m.get(hit.tri, frame.front, c));
+            let (caustic, indirect) = match remembered {
+                Some((Some(caustic), indirect)) => (caustic, indirect),
+                Some((None, indirect)) => (self.photons.caustic_irradiance(hit.p, frame.n, c), indirect),
+                None => {
+                    let caustic = self.photons.caustic_irradiance(hit.p, frame.n, c);
+                    let before = c.lookups;
+                    let indirect = self.indirect(&hit, &frame, matches!(via, Via::Glossy { .. }), rng, c);
+                    if let Some(m) = memo {
+                        let faint = caustic.max_element() <= FAINT_CAUSTIC * indirect.max_element();
+                        m.put(hit.tri, frame.front, faint.then_some(caustic), indirect, c.lookups.since(&before));
+                    }
+                    (caustic, indirect)
+                }
+            };
+            t.caustic = rho_d * caustic;
+            t.indirect = rho_d * indirect;
         }
         if let Bsdf::Glossy { specular, exponent, .. } = *bsdf {
             if depth + 1 < self.max_depth && specular.max_element() > 0.0 {
@@ -168,7 +190,7 @@ impl PmContext<'_> {
         // f_spec cos / pdf = ks (n+2)/(n+1) cos θi.
         let weight = ks * ((exponent + 2.0) / (exponent + 1.0) * cos_i);
         let pdf = phong_pdf(r, wi, exponent);
-        let sub = self.shade_ray(spawn(hit, wi), wi, depth + 1, Via::Glossy { from: hit.p, pdf }, rng, c);
+        let sub = self.shade_ray(spawn(hit, wi), wi, depth + 1, Via::Glossy { from: hit.p, pdf }, None, rng, c);
         weight * sub.sum()
     }
 
@@ -180,7 +202,10 @@ impl PmContext<'_> {
             return self.photons.indirect_irradiance(hit.tri, frame.front, hit.p);
         }
         match self.source {
-            IndirectSource::PhotonMap => self.photons.global_indirect_irradiance(hit.p, frame.n),
+            IndirectSource::PhotonMap => {
+                c.photon_estimates += 1;
+                self.photons.global_indirect_irradiance(hit.p, frame.n)
+            }
             IndirectSource::Cache(cache) => self.cached(|pass| cache.lookup(hit.p, frame.n, pass), hit, frame, rng, c),
             IndirectSource::CacheUpTo(cache, n) => self.cached(|pass| cache.lookup_first(hit.p, frame.n, pass, n), hit, frame, rng, c),
             IndirectSource::Gather => self.final_gather(hit, frame, rng.next_u32() as u64, c).e,

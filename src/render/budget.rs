@@ -106,6 +106,9 @@ pub fn estimate(scene: &Scene, plan: &Plan, opts: &Options) -> Result<Vec<(Strin
             }
         };
         items.push(("photon maps".into(), photons));
+        // The irradiance atlas: at most MAX_TEXEL_SLOTS slots, and a grid per triangle.
+        let atlas = crate::integrator::atlas::MAX_TEXEL_SLOTS * 28 + scene.geometry.triangles.len() as u64 * 64;
+        items.push(("irradiance atlas".into(), atlas));
     }
     if plan.method == Method::Pm {
         let cache = match &opts.files.load_cache {

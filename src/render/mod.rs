@@ -124,7 +124,7 @@ pub fn render(scene: &Scene, opts: &Options, progress: &dyn Progress, cancel: &A
         Method::Path => {
             let t = Instant::now();
             let max_depth = scene.settings.max_depth;
-            let sample = |x: u32, y: u32, off: [f32; 2], rng: &mut photon::sampling::Rng, c: &mut SampleCounters| -> Vec<Vec3> {
+            let sample = |x: u32, y: u32, off: [f32; 2], _: &mut crate::integrator::PixelMemo, rng: &mut photon::sampling::Rng, c: &mut SampleCounters| -> Vec<Vec3> {
                 let d = camera.ray(x as f32 + off[0], y as f32 + off[1]);
                 vec![path::radiance(scene, camera.eye, d, max_depth, rng, c)]
             };
@@ -155,6 +155,7 @@ pub fn render(scene: &Scene, opts: &Options, progress: &dyn Progress, cancel: &A
     report.number("Image", "Noise target (0: fixed spp)", "image.noise", plan.noise as f64);
     report.number("Image", "Samples per pixel (mean)", "image.spp_mean", samples.samples as f64 / samples.pixels.max(1) as f64);
     report.count("Image", "Pixels at the sample limit", "image.pixels_at_limit", samples.at_limit);
+    report.count("Image", "Samples", "image.samples", samples.samples);
     report.count("Rare events", "NaN or negative radiance", "rare.nan_or_negative", counters.nan_or_negative);
     report.count("Rare events", "Zero-pdf samples", "rare.zero_pdf", counters.zero_pdf);
     report.count("Scene", "Triangles", "scene.triangles", scene.geometry.triangles.len() as u64);

@@ -16,7 +16,7 @@ use photon::sampling::{hash_keys, Rng};
 use rayon::prelude::*;
 
 use crate::error::{Error, Result};
-use crate::integrator::{sanitize, SampleCounters};
+use crate::integrator::{sanitize, PixelMemo, SampleCounters};
 use crate::io::output::Image;
 
 const TILE: u32 = 16;
@@ -42,7 +42,8 @@ impl Window {
 
 /// What a method computes for one pixel sample at image position (x + offset[0], y + offset[1]): beauty is
 /// the sum of `layers` (or `layers[0]` when the method has a single layer).
-pub type SampleFn<'a> = dyn Fn(u32, u32, [f32; 2], &mut Rng, &mut SampleCounters) -> Vec<Vec3> + Sync + 'a;
+/// `memo` is the pixel's, cleared before each round of its samples.
+pub type SampleFn<'a> = dyn Fn(u32, u32, [f32; 2], &mut PixelMemo, &mut Rng, &mut SampleCounters) -> Vec<Vec3> + Sync + 'a;
 
 /// How many samples each pixel takes.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -164,6 +165,7 @@ pub fn render_tiles(
             .par_iter_mut()
             .map(|t| {
                 let mut counters = SampleCounters::default();
+                let mut memo = PixelMemo::default();
                 let w = t.window;
                 for y in w.y0..w.y1 {
                     for x in w.x0..w.x1 {
@@ -176,6 +178,7 @@ pub fn render_tiles(
                         let k = ((y - w.y0) * (w.x1 - w.x0) + (x - w.x0)) as usize;
                         let pixel = y as u64 * width as u64 + x as u64;
                         let px = &mut t.pixels[k];
+                        memo.clear();
                         while px.n < target {
                             // Read every sample: one relaxed load next to a whole camera path costs
                             // nothing, and a single pixel at 100 000 spp must stop at once.
@@ -184,7 +187,7 @@ pub fn render_tiles(
                             }
                             let mut rng = Rng::new(hash_keys(&[seed, pixel, px.n as u64]));
                             let (u, v) = (rng.uniform(), rng.uniform());
-                            let values = sample(x, y, offset(px.n, spp, u, v), &mut rng, &mut counters);
+                            let values = sample(x, y, offset(px.n, spp, u, v), &mut memo, &mut rng, &mut counters);
                             let mut b = Vec3::ZERO;
                             for (layer, l) in t.layers.iter_mut().zip(values) {
                                 let l = sanitize(l, &mut counters);
