@@ -121,6 +121,15 @@ fn fov_must_be_in_open_interval() {
 }
 
 #[test]
+fn noise_target_must_be_in_range() {
+    let d = room();
+    fails(&d, &p(d.path(), "scene.toml"), &["--noise", "2"], &["--noise", "0..=1"]);
+    fails(&d, &p(d.path(), "scene.toml"), &["--noise", "-0.1"], &["--noise"]);
+    let d = with_toml(&ROOM_TOML.replace("spp = 2", "spp = 2\nnoise = -1.0"));
+    fails(&d, &p(d.path(), "scene.toml"), &[], &["scene.toml:14:", "noise"]);
+}
+
+#[test]
 fn unknown_method() {
     let d = room();
     fails(&d, &p(d.path(), "scene.toml"), &["--method", "magic"], &["--method", "magic"]);

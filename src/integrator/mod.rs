@@ -69,7 +69,8 @@ pub struct SampleCounters {
     pub lookups: icache::LookupStats,
     pub gathers: u64,
     pub gather_rays: u64,
-    /// k-NN photon-map estimates made (caustic, glossy and `photons`' indirect; the atlas counts its own).
+    /// k-NN photon-map estimates made for caustics and for `photons`' indirect term (glossy-lobe estimates
+    /// at gather ends are not counted; the atlas counts its own).
     pub photon_estimates: u64,
 }
 

@@ -87,7 +87,6 @@ pub struct PhotonData<'a> {
     pub caustic_reach: Option<ReachGrid>,
     /// The global map's irradiance baked lazily onto the triangles, for final-gather rays.
     pub atlas: Option<IrradianceAtlas>,
-    scene: &'a Scene,
 }
 
 impl<'a> PhotonData<'a> {
@@ -115,7 +114,7 @@ impl<'a> PhotonData<'a> {
         let caustic_reach =
             maps.caustic.as_ref().map(|m| ReachGrid::build(m.photons().iter().map(|ph| ph.pos), settings.max_radius_caustic));
         let atlas = maps.global.as_ref().map(|g| IrradianceAtlas::new(&scene.geometry, g.len(), settings.precompute_every, settings.lookup, settings.max_radius_global));
-        PhotonData { maps, precomputed, settings, coverage: SceneCoverage(scene), caustic_reach, atlas, scene }
+        PhotonData { maps, precomputed, settings, coverage: SceneCoverage(scene), caustic_reach, atlas }
     }
 
     pub fn caustic_irradiance(&self, p: Vec3, n: Vec3, c: &mut super::SampleCounters) -> Vec3 {
@@ -145,7 +144,7 @@ impl<'a> PhotonData<'a> {
 
     fn texel(&self, tri: u32, front: bool, p: Vec3) -> Option<super::atlas::TexelIrradiance> {
         let (atlas, global) = (self.atlas.as_ref()?, self.maps.global.as_ref()?);
-        Some(atlas.lookup(&self.scene.geometry, &self.coverage, global, tri, front, p))
+        Some(atlas.lookup(&self.coverage.0.geometry, &self.coverage, global, tri, front, p))
     }
 
     /// Radiance leaving a glossy surface toward `wo` through its specular lobe, estimated from the global
