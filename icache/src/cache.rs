@@ -11,6 +11,11 @@ use crate::record::{NewRecord, Record};
 use crate::stats::InsertStats;
 use crate::weight::usable_weight;
 
+/// Rec. 709 luminance.
+fn luminance(c: Vec3) -> f32 {
+    c.dot(Vec3::new(0.2126, 0.7152, 0.0722))
+}
+
 /// An interpolated irradiance and what it was made of.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Lookup {
@@ -133,6 +138,48 @@ impl IrradianceCache {
         })
     }
 
+    /// Pass A's lookup under adaptive caching (Křivánek et al. 2006): the interpolation at (p, n), unless
+    /// the usable records disagree there — one's extrapolated luminance differs from their weighted mean
+    /// by more than the Weber fraction τ — and the most deviant of them can still shrink. Then no
+    /// interpolation (the point is uncovered) and that record's id, to be shrunk by the caller.
+    /// Without adaptive caching, [`lookup`](Self::lookup) with `Pass::A`.
+    pub fn lookup_adaptive(&self, p: Vec3, n: Vec3) -> (Option<Lookup>, Option<u32>) {
+        let Some(tau) = self.params.adaptive else { return (self.lookup(p, n, Pass::A), None) };
+        if !(p.is_finite() && n.is_finite()) {
+            return (None, None);
+        }
+        CANDIDATES.with(|cell| {
+            let mut ids = cell.borrow_mut();
+            ids.clear();
+            self.index.for_each_candidate(p, |id| ids.push(id));
+            ids.sort_unstable();
+            ids.dedup();
+            let mut acc = Accum::default();
+            // (id, luminance of its extrapolation, weight) of the usable records, in record order.
+            let mut used: Vec<(u32, f32, f32)> = Vec::with_capacity(ids.len());
+            for &id in ids.iter() {
+                if let Some((w, e)) = self.weighted(&self.records[id as usize], p, n, Pass::A) {
+                    acc.sum += w * e;
+                    acc.weight_sum += w;
+                    acc.n_used += 1;
+                    used.push((id, luminance(e.max(Vec3::ZERO)), w));
+                }
+            }
+            let lookup = self.finish(acc);
+            let Some(l) = lookup else { return (None, None) };
+            let mean = luminance(l.e);
+            let deviant = used
+                .iter()
+                .filter(|(_, li, _)| (li - mean).abs() > tau * mean)
+                .filter(|(id, _, _)| self.can_shrink_adaptive(&self.records[*id as usize]))
+                .max_by(|a, b| (a.1 - mean).abs().total_cmp(&(b.1 - mean).abs()).then(b.0.cmp(&a.0)));
+            match deviant {
+                Some(&(id, _, _)) if used.len() > 1 => (None, Some(id)),
+                _ => (lookup, None),
+            }
+        })
+    }
+
     /// The same as [`lookup`](Self::lookup) by scanning every record: the oracle for the index.
     pub fn lookup_brute(&self, p: Vec3, n: Vec3, pass: Pass) -> Option<Lookup> {
         if !(p.is_finite() && n.is_finite()) {
@@ -150,9 +197,10 @@ impl IrradianceCache {
             .collect()
     }
 
+    /// A usable record's weight at (p, n) and its irradiance extrapolated there by its gradients.
     #[inline]
-    fn accumulate(&self, rec: &Record, p: Vec3, n: Vec3, pass: Pass, acc: &mut Accum) {
-        let Some(w) = usable_weight(&self.params, pass, rec, p, n) else { return };
+    fn weighted(&self, rec: &Record, p: Vec3, n: Vec3, pass: Pass) -> Option<(f32, Vec3)> {
+        let w = usable_weight(&self.params, pass, rec, p, n)?;
         let mut e = rec.e;
         if self.params.gradients {
             let axis = rec.normal.cross(n);
@@ -161,6 +209,12 @@ impl IrradianceCache {
                 e[c] += axis.dot(rec.grad_r[c]) + dp.dot(rec.grad_t[c]);
             }
         }
+        Some((w, e))
+    }
+
+    #[inline]
+    fn accumulate(&self, rec: &Record, p: Vec3, n: Vec3, pass: Pass, acc: &mut Accum) {
+        let Some((w, e)) = self.weighted(rec, p, n, pass) else { return };
         acc.sum += w * e;
         acc.weight_sum += w;
         acc.n_used += 1;

@@ -105,7 +105,7 @@ fn rotational_gradient_applied() {
 #[test]
 fn neighbor_clamping_keeps_triangle_inequality() {
     let mut rng = Rng::new(13);
-    let params = CacheParams::default();
+    let params = CacheParams { adaptive: None, ..Default::default() };
     let mut c = cache(params);
     for step in 0..600 {
         let p = rand01(&mut rng) * 10.0;
@@ -182,7 +182,7 @@ fn octree_lookup_matches_brute_force() {
 
 #[test]
 fn gradient_limit_and_min_clamp() {
-    let mut c = cache(CacheParams::default());
+    let mut c = cache(CacheParams { adaptive: None, ..Default::default() });
     let mut r = new_rec(Vec3::splat(5.0), Vec3::Z, Vec3::new(1.0, 2.0, 2.0), 5.0, 0.1);
     r.grad_t = [Vec3::X * 10.0, Vec3::X, Vec3::ZERO];
     let s = c.insert(r);

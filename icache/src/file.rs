@@ -16,9 +16,9 @@ use crate::params::{CacheParams, Weighting};
 use crate::record::{Record, RECORD_FLOATS};
 
 const MAGIC: &[u8; 8] = b"PMICACHE";
-pub const FILE_VERSION: u32 = 1;
-/// magic 8 + version 4 + fingerprint 8 + params 20 + bounds 24 + count 8.
-const HEADER_BYTES: usize = 72;
+pub const FILE_VERSION: u32 = 2;
+/// magic 8 + version 4 + fingerprint 8 + params 24 + bounds 24 + count 8.
+pub const HEADER_BYTES: usize = 76;
 const RECORD_BYTES: usize = RECORD_FLOATS * 4;
 const CHECKSUM_BYTES: usize = 8;
 /// Largest cache file read: 32 million records (a cache holds thousands to a few million).
@@ -71,6 +71,8 @@ fn write_params(out: &mut Vec<u8>, p: &CacheParams) {
     out.extend_from_slice(&p.min_spacing_px.to_le_bytes());
     out.extend_from_slice(&p.max_spacing_px.to_le_bytes());
     out.extend_from_slice(&p.pass_b_accuracy.unwrap_or(0.0).to_le_bytes());
+    // Adaptive caching's Weber threshold, 0 when off.
+    out.extend_from_slice(&p.adaptive.unwrap_or(0.0).to_le_bytes());
 }
 
 fn read_params(c: &mut Cursor) -> Result<CacheParams> {
@@ -88,7 +90,7 @@ fn read_params(c: &mut Cursor) -> Result<CacheParams> {
     let neighbor_clamping = flag(c.u8(), "neighbor_clamping")?;
     let gradients = flag(c.u8(), "gradients")?;
     let has_b = flag(c.u8(), "pass_b_accuracy")?;
-    let (min_spacing_px, max_spacing_px, b) = (c.f32(), c.f32(), c.f32());
+    let (min_spacing_px, max_spacing_px, b, adaptive) = (c.f32(), c.f32(), c.f32(), c.f32());
     let p = CacheParams {
         accuracy,
         weight,
@@ -97,6 +99,7 @@ fn read_params(c: &mut Cursor) -> Result<CacheParams> {
         min_spacing_px,
         max_spacing_px,
         pass_b_accuracy: has_b.then_some(b),
+        adaptive: (adaptive != 0.0).then_some(adaptive),
     };
     p.validate()?;
     Ok(p)

@@ -81,13 +81,13 @@ fn damaged_files_give_clear_errors() {
 
     // A huge record count is caught by the length check before any allocation.
     let mut bad = good.clone();
-    bad[64..72].copy_from_slice(&u64::MAX.to_le_bytes());
+    bad[68..76].copy_from_slice(&u64::MAX.to_le_bytes());
     reseal(&mut bad);
     assert!(matches!(IrradianceCache::from_bytes(&bad, FP), Err(Error::Truncated { .. })));
 
     // A NaN inside a record, with a valid checksum.
     let mut bad = good.clone();
-    bad[72 + 132 + 24..72 + 132 + 28].copy_from_slice(&f32::NAN.to_le_bytes()); // record 1, e.x
+    bad[76 + 132 + 24..76 + 132 + 28].copy_from_slice(&f32::NAN.to_le_bytes()); // record 1, e.x
     reseal(&mut bad);
     assert!(matches!(IrradianceCache::from_bytes(&bad, FP), Err(Error::CorruptRecord { index: 1, .. })));
 

@@ -27,13 +27,22 @@ fn grad_scale(r: f32, r_clamped: f32) -> f32 {
     if r < r_clamped { r / r_clamped } else { 1.0 }
 }
 
-/// Set a record's unclamped R, recompute R' and keep ∇t scaled by min(1, R/R') for the new values.
+/// A record's R' for its unclamped R: s·R clamped to s times the pixel spacing bounds, where s is the
+/// reach multiple of a new record (2 under adaptive caching, else 1).
+fn clamped_reach(params: &CacheParams, r: f32, pixel_world: f32) -> (f32, f32) {
+    let s = params.start_scale();
+    let (lo, hi) = spacing_bounds(params, pixel_world);
+    (s * r, (s * r).clamp(s * lo, s * hi))
+}
+
+/// Set a record's unclamped R, recompute R' (never growing it: adaptive caching may have shrunk it
+/// further) and keep ∇t scaled by min(1, sR/R') for the new values.
 fn set_radius(params: &CacheParams, rec: &mut Record, r: f32) {
-    let old_scale = grad_scale(rec.r_harmonic, rec.r_clamped);
-    let (lo, hi) = spacing_bounds(params, rec.pixel_world);
+    let s = params.start_scale();
+    let old_scale = grad_scale(s * rec.r_harmonic, rec.r_clamped);
     rec.r_harmonic = r;
-    rec.r_clamped = r.clamp(lo, hi);
-    let new_scale = grad_scale(rec.r_harmonic, rec.r_clamped);
+    rec.r_clamped = rec.r_clamped.min(clamped_reach(params, r, rec.pixel_world).1);
+    let new_scale = grad_scale(s * rec.r_harmonic, rec.r_clamped);
     if old_scale > 0.0 && new_scale != old_scale {
         let f = new_scale / old_scale;
         rec.grad_t.iter_mut().for_each(|g| *g *= f);
@@ -81,15 +90,38 @@ fn prepare(params: &CacheParams, new: &NewRecord, stats: &mut InsertStats) -> Op
     let (lo, hi) = spacing_bounds(params, new.pixel_world);
     stats.n_clamped_min += (r < lo) as u64;
     stats.n_clamped_max += (r > hi) as u64;
-    let r_clamped = r.clamp(lo, hi);
+    let (reach, r_clamped) = clamped_reach(params, r, new.pixel_world);
     // 3. A record spread wider than its R must not extrapolate to negative values.
-    let s = grad_scale(r, r_clamped);
+    let s = grad_scale(reach, r_clamped);
     grad_t.iter_mut().for_each(|g| *g *= s);
     let (dir, _) = finite_or_zero(new.dir);
     Some(Record { pos: new.pos, normal, e, grad_r, grad_t, r_harmonic: r, r_clamped, dir, pixel_world: new.pixel_world })
 }
 
 impl IrradianceCache {
+    /// Adaptive caching: halve record `id`'s R' (never below its plain pixel spacing bound), logging
+    /// its old reach for the repair sweeps. False when it is already there.
+    pub(crate) fn shrink_adaptive(&mut self, id: u32) -> bool {
+        let params = self.params;
+        let rec = &mut self.records[id as usize];
+        let floor = spacing_bounds(&params, rec.pixel_world).0;
+        let r = (0.5 * rec.r_clamped).max(floor);
+        if !(r < rec.r_clamped) {
+            return false;
+        }
+        if let Some(log) = &mut self.shrink_log {
+            log.push((rec.pos, rec.r_clamped * params.index_factor()));
+        }
+        rec.r_clamped = r;
+        self.totals.n_shrunk_adaptive += 1;
+        true
+    }
+
+    /// Whether record `id` can still be shrunk by adaptive caching.
+    pub(crate) fn can_shrink_adaptive(&self, rec: &Record) -> bool {
+        rec.r_clamped > 1.001 * spacing_bounds(&self.params, rec.pixel_world).0
+    }
+
     /// Add a gather result as a new record (see the module header for the steps).
     pub fn insert(&mut self, new: NewRecord) -> InsertStats {
         let mut stats = InsertStats::default();

@@ -50,7 +50,17 @@ pub struct CacheParams {
     pub max_spacing_px: f32,
     /// Ward's `a` for pass B; `None` means the pass-A value. Default `Some(1.0)` (κ = 0.5).
     pub pass_b_accuracy: Option<f32>,
+    /// Adaptive caching (Křivánek et al. 2006): `Some(τ)` starts every record with [`ADAPTIVE_START`]
+    /// times its reach and halves a record's reach (down to the plain one) where the records usable at a
+    /// pass-A point disagree by more than the Weber fraction τ of their mean luminance; `None` is off.
+    pub adaptive: Option<f32>,
 }
+
+/// Reach of a new record under adaptive caching, as a multiple of its plain reach (R' and both pixel
+/// spacing bounds).
+pub const ADAPTIVE_START: f32 = 2.0;
+/// Default Weber threshold of adaptive caching (`[render.icache] adaptive_threshold`).
+pub const DEFAULT_WEBER: f32 = 0.1;
 
 impl Default for CacheParams {
     fn default() -> Self {
@@ -62,6 +72,7 @@ impl Default for CacheParams {
             min_spacing_px: 3.0,
             max_spacing_px: 20.0,
             pass_b_accuracy: Some(1.0),
+            adaptive: Some(DEFAULT_WEBER),
         }
     }
 }
@@ -82,6 +93,11 @@ impl CacheParams {
                 "max_spacing_px must be finite and ≥ min_spacing_px ({}), got {}",
                 self.min_spacing_px, self.max_spacing_px
             ));
+        }
+        if let Some(t) = self.adaptive {
+            if !(t.is_finite() && t > 0.0) {
+                return bad(format!("adaptive threshold must be finite and > 0, got {t}"));
+            }
         }
         if let Some(b) = self.pass_b_accuracy {
             if !(b.is_finite() && b >= self.accuracy) {
@@ -112,6 +128,11 @@ impl CacheParams {
 
     /// Radius factor the spatial index uses: the support, and at least R' itself because neighbor
     /// clamping looks for records whose R' spheres overlap.
+    /// Reach multiple of a new record: [`ADAPTIVE_START`] under adaptive caching, else 1.
+    pub fn start_scale(&self) -> f32 {
+        if self.adaptive.is_some() { ADAPTIVE_START } else { 1.0 }
+    }
+
     pub fn index_factor(&self) -> f32 {
         self.support_factor().max(1.0)
     }

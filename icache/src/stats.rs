@@ -20,6 +20,8 @@ pub struct InsertStats {
     /// New records whose R was below R_min (R' = R_min) or above R_max (R' = R_max).
     pub n_clamped_min: u64,
     pub n_clamped_max: u64,
+    /// Halvings of a record's R' by adaptive caching (records disagreeing at a pass-A point).
+    pub n_shrunk_adaptive: u64,
 }
 
 impl AddAssign for InsertStats {
@@ -31,6 +33,7 @@ impl AddAssign for InsertStats {
         self.n_shrunk_by_neighbors += o.n_shrunk_by_neighbors;
         self.n_clamped_min += o.n_clamped_min;
         self.n_clamped_max += o.n_clamped_max;
+        self.n_shrunk_adaptive += o.n_shrunk_adaptive;
     }
 }
 
@@ -215,6 +218,8 @@ pub struct CacheStats {
     pub radius_px: RadiusHistogram,
     pub shrunk_by_clamping: u64,
     pub shrunk_by_gradient: u64,
+    /// Halvings of R' by adaptive caching.
+    pub shrunk_adaptive: u64,
     pub clamped_min: u64,
     pub clamped_max: u64,
     pub memory_bytes: u64,
@@ -224,7 +229,7 @@ impl CacheStats {
     /// Summarise `cache` after a fill that produced `fill` and a shading pass that made `pass_b` lookups.
     pub fn collect(cache: &IrradianceCache, fill: &FillStats, pass_b: &LookupStats) -> Self {
         let p = cache.params();
-        let mut radius_px = RadiusHistogram::new(p.min_spacing_px, p.max_spacing_px);
+        let mut radius_px = RadiusHistogram::new(p.min_spacing_px, p.max_spacing_px * p.start_scale());
         cache.records().iter().for_each(|r| radius_px.add(r.radius_px()));
         let totals = cache.insert_totals();
         let n_records = cache.len() as u64;
@@ -244,6 +249,7 @@ impl CacheStats {
             radius_px,
             shrunk_by_clamping: totals.n_shrunk_by_neighbors,
             shrunk_by_gradient: totals.n_shrunk_by_gradient,
+            shrunk_adaptive: totals.n_shrunk_adaptive,
             clamped_min: totals.n_clamped_min,
             clamped_max: totals.n_clamped_max,
             memory_bytes: cache.memory_bytes() as u64,
@@ -273,6 +279,7 @@ impl AddAssign for CacheStats {
         self.radius_px += o.radius_px;
         self.shrunk_by_clamping += o.shrunk_by_clamping;
         self.shrunk_by_gradient += o.shrunk_by_gradient;
+        self.shrunk_adaptive += o.shrunk_adaptive;
         self.clamped_min += o.clamped_min;
         self.clamped_max += o.clamped_max;
         self.memory_bytes += o.memory_bytes;

@@ -188,29 +188,41 @@ fn sweep(
         done += chunk.len() as u64;
         let cache_ref: &IrradianceCache = cache;
         let keep = store.is_some();
-        let found: Vec<(LookupStats, Vec<Candidate>, Vec<ShadingPoint>)> = chunk
+        let found: Vec<(LookupStats, Vec<Candidate>, Vec<ShadingPoint>, Vec<u32>)> = chunk
             .par_iter()
             .map(|&(x, y)| {
                 let mut lookups = LookupStats::default();
                 let mut misses = Vec::new();
+                let mut shrink = Vec::new();
                 let points = shading_points(x, y);
                 for (i, &sp) in points.iter().enumerate() {
-                    let hit = cache_ref.lookup(sp.pos, sp.normal, Pass::A);
+                    let (hit, deviant) = cache_ref.lookup_adaptive(sp.pos, sp.normal);
                     lookups.record(hit.as_ref());
+                    shrink.extend(deviant);
                     if hit.is_none() {
                         misses.push(Candidate { x, y, i, sp });
                     }
                 }
-                (lookups, misses, if keep { points } else { Vec::new() })
+                (lookups, misses, if keep { points } else { Vec::new() }, shrink)
             })
             .collect();
-        for (&(x, y), (lookups, misses, points)) in chunk.iter().zip(found) {
+        // Adaptive caching: the records that disagreed somewhere in the chunk shrink once each, in id
+        // order, before the chunk's uncovered points are gathered (each re-checked then).
+        let mut shrink: Vec<u32> = found.iter().flat_map(|f| f.3.iter().copied()).collect();
+        shrink.sort_unstable();
+        shrink.dedup();
+        let n_shrunk = shrink.into_iter().filter(|&id| cache.shrink_adaptive(id)).count() as u64;
+        stats.insert.n_shrunk_adaptive += n_shrunk;
+        let shrunk = n_shrunk > 0;
+        for (&(x, y), (lookups, misses, points, _)) in chunk.iter().zip(found) {
             if let Some(store) = store.as_deref_mut() {
                 store.push(x, y, &points);
             }
             stats.n_points += lookups.n_lookups;
             stats.lookups += lookups;
-            pending.extend(misses);
+            // A point that only the deviant records made uncovered may be covered by the rest now.
+            let cache_ref: &IrradianceCache = cache;
+            pending.extend(misses.into_iter().filter(|c| !shrunk || cache_ref.lookup_adaptive(c.sp.pos, c.sp.normal).0.is_none()));
         }
         if pending.len() >= WAVE_GATHERS {
             run_wave(cache, &mut pending, gather, stats);

@@ -266,7 +266,7 @@ impl PmContext<'_> {
     /// for what they reflect; a miss is zero.
     fn gather_ray(&self, from: &Hit, dir: Vec3, rng: &mut Rng, rays: &mut u64) -> GatherEnd {
         const MAX_SPECULAR: u32 = 4;
-        let Some(first) = self.scene.intersect(spawn(from, dir), dir) else { return GatherEnd::MISS };
+        let Some(first) = self.scene.intersect_gather(spawn(from, dir), dir) else { return GatherEnd::MISS };
         let distance = first.t;
         let (mut hit, mut d, mut beta) = (first, dir, Vec3::ONE);
         for bounce in 0..=MAX_SPECULAR {

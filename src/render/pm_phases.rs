@@ -76,6 +76,12 @@ pub fn cache_settings(scene: &Scene, width: u32, height: u32) -> Result<(CachePa
     if let Some(v) = d.pass_b_accuracy {
         p.pass_b_accuracy = Some(v);
     }
+    if let Some(t) = d.adaptive_threshold {
+        p.adaptive = Some(t);
+    }
+    if d.adaptive == Some(false) {
+        p.adaptive = None;
+    }
     let fill = match d.fill.as_deref() {
         None | Some("two-pass") => FillMode::TwoPass,
         Some("one-pass") => FillMode::OnePass,
@@ -287,6 +293,7 @@ fn cache_rows(r: &mut Report, s: &CacheStats, fill: &FillStats, gather_rays: u64
     );
     r.count("Irradiance cache", "Shrunk by neighbor clamping", "icache.shrunk_by_clamping", s.shrunk_by_clamping);
     r.count("Irradiance cache", "Shrunk by the gradient limit", "icache.shrunk_by_gradient", s.shrunk_by_gradient);
+    r.count("Irradiance cache", "Shrunk by adaptive caching (halvings)", "icache.shrunk_adaptive", s.shrunk_adaptive);
     r.count("Irradiance cache", "Clamped to min spacing", "icache.clamped_min", s.clamped_min);
     r.count("Irradiance cache", "Clamped to max spacing", "icache.clamped_max", s.clamped_max);
     r.count("Irradiance cache", "Pass-A waves", "icache.waves", fill.n_waves);

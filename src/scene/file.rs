@@ -115,6 +115,8 @@ pub struct IcacheDesc {
     pub gradients: Option<bool>,
     pub pass_b_accuracy: Option<f32>,
     pub fill: Option<String>,
+    pub adaptive: Option<bool>,
+    pub adaptive_threshold: Option<f32>,
 }
 
 /// Parses the scene file text; errors name the file and line.

@@ -88,6 +88,17 @@ impl Scene {
         self.bvh.intersect(origin, dir, f32::INFINITY).map(|raw| self.geometry.hit(origin, dir, raw))
     }
 
+    /// The first hit of a final-gather ray: on a plain diffuse surface the light hit of
+    /// [`Geometry::hit_flat`] (all a gather reads there), elsewhere the full one.
+    pub fn intersect_gather(&self, origin: Vec3, dir: Vec3) -> Option<Hit> {
+        let raw = self.bvh.intersect(origin, dir, f32::INFINITY)?;
+        let tri = &self.geometry.triangles[raw.prim as usize];
+        Some(match &self.materials[tri.material as usize].bsdf {
+            crate::material::Bsdf::Diffuse { texture, .. } => self.geometry.hit_flat(origin, dir, raw, texture.is_some()),
+            _ => self.geometry.hit(origin, dir, raw),
+        })
+    }
+
     /// Whether the segment from `hit` toward a light point is blocked.
     pub fn occluded(&self, hit: &Hit, wi: Vec3, dist: f32) -> bool {
         let o = spawn(hit, wi);

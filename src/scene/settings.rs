@@ -87,7 +87,13 @@ pub(super) fn settings(cx: &Ctx, desc: &SceneFile) -> Result<RenderSettings> {
 fn check_icache(cx: &Ctx, d: &super::IcacheDesc) -> Result<()> {
     let err = |key: &str, msg: String| cx.err("render.icache", 0, key, msg);
     let defaults = icache::CacheParams::default();
-    for (key, v) in [("accuracy", d.accuracy), ("pass_b_accuracy", d.pass_b_accuracy), ("min_spacing_px", d.min_spacing_px), ("max_spacing_px", d.max_spacing_px)] {
+    for (key, v) in [
+        ("accuracy", d.accuracy),
+        ("pass_b_accuracy", d.pass_b_accuracy),
+        ("min_spacing_px", d.min_spacing_px),
+        ("max_spacing_px", d.max_spacing_px),
+        ("adaptive_threshold", d.adaptive_threshold),
+    ] {
         match v {
             Some(x) if !(x.is_finite() && x > 0.0) => return Err(err(key, format!("{x} must be a positive number"))),
             _ => {}
