@@ -208,3 +208,12 @@ fn photon_settings_are_checked_whatever_the_method() {
         fails(&d, &p(d.path(), "scene.toml"), &["--method", method], &[&format!("scene.toml:{line}:"), "render.photons.global"]);
     }
 }
+
+#[test]
+fn adaptive_caching_keys_checked() {
+    // The Weber threshold must be a positive number, whatever the method; `adaptive` a boolean.
+    let d = with_toml(&format!("{ROOM_TOML}\n[render.icache]\nadaptive_threshold = -0.1\n"));
+    fails(&d, &p(d.path(), "scene.toml"), &["--method", "path"], &["scene.toml:16:", "render.icache.adaptive_threshold", "-0.1"]);
+    let d = with_toml(&format!("{ROOM_TOML}\n[render.icache]\nadaptive = \"yes\"\n"));
+    fails(&d, &p(d.path(), "scene.toml"), &["--method", "pm"], &["scene.toml:16:", "expected a boolean"]);
+}

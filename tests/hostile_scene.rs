@@ -420,13 +420,14 @@ fn photon_and_cache_files_with_bad_values_are_refused() {
         refused(d.path(), &p(d.path(), "scene.toml"), &["--method", "pm", "--load-photons", &p(d.path(), "bad.phot")], &["--load-photons", expect]);
         std::fs::remove_file(d.path().join("bad.phot")).unwrap();
     }
-    // Cache layout: 40-byte prefix, bounds min and max (6 f32) at 40, count, records of 33 f32 from 72.
+    // Cache layout (version 2): 44-byte prefix, bounds min and max (6 f32) at 44, count, records of 33 f32
+    // from 76.
     let cache_cases: [(&[(usize, f32)], &str); 5] = [
-        (&[(40, -3e38), (52, 3e38)], "bounds"),
-        (&[(44, f32::NAN)], "bounds"),
-        (&[(72 + 24, f32::NAN)], "record 0"),
-        (&[(72 + 24, -1.0)], "record 0"),
-        (&[(72 + 12, 5.0)], "record 0"),
+        (&[(44, -3e38), (56, 3e38)], "bounds"),
+        (&[(48, f32::NAN)], "bounds"),
+        (&[(76 + 24, f32::NAN)], "record 0"),
+        (&[(76 + 24, -1.0)], "record 0"),
+        (&[(76 + 12, 5.0)], "record 0"),
     ];
     for (edits, expect) in cache_cases {
         let bad = patched(&cache, edits, 0);

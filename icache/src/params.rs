@@ -72,7 +72,7 @@ impl Default for CacheParams {
             min_spacing_px: 3.0,
             max_spacing_px: 20.0,
             pass_b_accuracy: Some(1.0),
-            adaptive: Some(DEFAULT_WEBER),
+            adaptive: None,
         }
     }
 }

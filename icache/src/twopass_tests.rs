@@ -71,7 +71,8 @@ fn gather(x: u32, y: u32, i: usize, sp: &ShadingPoint) -> NewRecord {
     NewRecord { pos: sp.pos, normal: n, e, grad_r: [Vec3::ZERO; 3], grad_t, r_harmonic: r, r_min: r, dir: n, pixel_world: 0.0 }
 }
 
-/// The plain cache (no adaptive caching): the tests of Ward's criterion, clamping and gradients.
+/// The plain cache (the default: no adaptive caching): the tests of Ward's criterion, clamping and
+/// gradients.
 fn plain() -> CacheParams {
     CacheParams { adaptive: None, ..Default::default() }
 }
@@ -128,8 +129,9 @@ fn pass_b_covers_every_point_and_is_accurate() {
 #[test]
 fn adaptive_caching_places_fewer_records_and_stays_accurate() {
     let (plain_cache, _) = fill(2);
-    let (c1, s1) = fill_with(CacheParams::default(), 1);
-    let (cache, stats) = fill_with(CacheParams::default(), 2);
+    let adaptive = CacheParams { adaptive: Some(crate::params::DEFAULT_WEBER), ..Default::default() };
+    let (c1, s1) = fill_with(adaptive, 1);
+    let (cache, stats) = fill_with(adaptive, 2);
     // Deterministic whatever the thread count, as the plain fill.
     assert_eq!(s1, stats);
     assert!(c1.records().iter().zip(cache.records()).all(|(a, b)| a.to_bits() == b.to_bits()));

@@ -76,17 +76,18 @@ pub fn cache_settings(scene: &Scene, width: u32, height: u32) -> Result<(CachePa
     if let Some(v) = d.pass_b_accuracy {
         p.pass_b_accuracy = Some(v);
     }
-    if let Some(t) = d.adaptive_threshold {
-        p.adaptive = Some(t);
-    }
-    if d.adaptive == Some(false) {
-        p.adaptive = None;
+    // Adaptive caching: on with `adaptive = true` or a threshold; it lives in the two-pass fill.
+    if d.adaptive.unwrap_or(d.adaptive_threshold.is_some()) {
+        p.adaptive = Some(d.adaptive_threshold.unwrap_or(icache::params::DEFAULT_WEBER));
     }
     let fill = match d.fill.as_deref() {
         None | Some("two-pass") => FillMode::TwoPass,
         Some("one-pass") => FillMode::OnePass,
         Some(other) => return Err(err("fill", format!("unknown fill '{other}' (two-pass | one-pass)"))),
     };
+    if fill == FillMode::OnePass {
+        p.adaptive = None;
+    }
     p.validate().map_err(|e| err("accuracy", e.to_string()))?;
     let rays = match d.rays {
         Some(r) if !(4..=1_000_000).contains(&r) => return Err(err("rays", format!("{r} must be in 4..=1000000"))),
