@@ -26,9 +26,10 @@ pub const MAX_SPP: u32 = 1 << 20;
 /// Peak bytes per stored photon: the photon (56 B) in a growing vector (capacity up to 2×, and the old
 /// buffer during a reallocation), FLANN's copy and tree, and the precomputed irradiance.
 pub const PHOTON_PEAK_BYTES: u64 = 240;
-/// Pass-A bytes per pixel: the pixel's range and shading points (more than one through glass), the
-/// visiting order and the repair sweeps' flags.
-pub const FILL_BYTES_PER_PIXEL: u64 = 96;
+/// Pass-A bytes per pixel: the pixel's range (8 B), the visiting order (8 B), the repair sweeps' flag
+/// (1 B) and its shading points, each kept with the hit its gather starts from (28 + 56 B; allowing 2.8
+/// points per pixel, more than one through glass).
+pub const FILL_BYTES_PER_PIXEL: u64 = 8 + 8 + 1 + 28 * 84 / 10;
 /// Share of the physical RAM the default budget allows.
 pub const DEFAULT_FRACTION: f64 = 0.75;
 

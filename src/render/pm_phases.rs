@@ -2,7 +2,6 @@
 //! `fill_cache` (pass A, `pm` only) and `shade` (pass B), each timed and reported.
 
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Mutex;
 use std::time::Instant;
 
 use glam::Vec3;
@@ -15,6 +14,7 @@ use super::tiles::render_tiles;
 use super::files::{load_cache, load_photons, PhotonOutput};
 use super::{Options, Plan, Progress, RenderOutput};
 use crate::camera::Camera;
+use crate::geometry::Hit;
 use crate::error::{at_line, runtime, Error, Result};
 use crate::integrator::cache_fill::{gather_record, shading_hits};
 use crate::integrator::photons::{PhotonData, PhotonSettings};
@@ -118,7 +118,7 @@ pub fn render_pm(scene: &Scene, plan: &Plan, opts: &Options, camera: &Camera, pr
     let mut n_loaded = 0u64;
     let mut fill = FillStats::default();
     let mut one_pass: Option<icache::OnePassFill> = None;
-    let fill_counters = Mutex::new(SampleCounters::default());
+    let mut fc = SampleCounters::default();
     if let (Method::Pm, Some(path)) = (plan.method, &opts.files.load_cache) {
         let c = load_cache(path, scene.fingerprint)?;
         n_loaded = c.len() as u64;
@@ -128,21 +128,14 @@ pub fn render_pm(scene: &Scene, plan: &Plan, opts: &Options, camera: &Camera, pr
         let (lo, hi) = scene.bounds;
         let mut c = IrradianceCache::new(lo, hi, cache_params).map_err(runtime)?;
         progress.start("cache", plan.width as u64 * plan.height as u64);
-        let points = |x, y| shading_hits(&ctx, camera, x, y).into_iter().map(|(sp, _)| sp).collect();
-        let gather = |x, y, i, sp: &icache::ShadingPoint| {
-            let mut local = SampleCounters::default();
-            let r = gather_record(&ctx, camera, x, y, i, sp, &mut local);
-            if let Ok(mut g) = fill_counters.lock() {
-                *g += local;
-            }
-            r
-        };
+        let points = |x, y| shading_hits(&ctx, camera, x, y);
+        let gather = |x, y, i, sp: &icache::ShadingPoint, hit: &Hit| gather_record(&ctx, x, y, i, sp, hit);
         let report_progress = |done, _| progress.set(done);
         match fill_mode {
-            FillMode::TwoPass => fill = icache::fill_pass_a_cancellable(&mut c, plan.width, plan.height, &points, &gather, &report_progress, cancel),
+            FillMode::TwoPass => (fill, fc) = icache::fill_pass_a_cancellable(&mut c, plan.width, plan.height, &points, &gather, &report_progress, cancel),
             FillMode::OnePass => {
-                let (f, order) = icache::fill_one_pass_cancellable(&mut c, plan.width, plan.height, &points, &gather, &report_progress, cancel);
-                fill = f;
+                let (f, counters, order) = icache::fill_one_pass_cancellable(&mut c, plan.width, plan.height, &points, &gather, &report_progress, cancel);
+                (fill, fc) = (f, counters);
                 one_pass = Some(order);
             }
         }
@@ -177,7 +170,6 @@ pub fn render_pm(scene: &Scene, plan: &Plan, opts: &Options, camera: &Camera, pr
     progress.finish();
     report.seconds("Time", "Shade", "time.shade_s", t.elapsed().as_secs_f64());
 
-    let fc = fill_counters.into_inner().unwrap_or_default();
     if let Some(atlas) = &photons.atlas {
         let s = atlas.stats();
         report.count("Photons", "Irradiance atlas texels", "photons.atlas_texels", s.slots);
