@@ -63,7 +63,7 @@ fn flann_rates() -> f64 {
 
 fn photon_rates(root: &Path) {
     let scene = scene::load(&root.join("scenes/cornell-caustics.toml")).expect("scene");
-    let mut settings = PhotonSettings::resolve(&scene).expect("settings");
+    let mut settings = PhotonSettings::resolve(&scene);
     settings.global = 1_000_000;
     settings.caustic = 200_000;
     let t = Instant::now();

@@ -91,7 +91,7 @@ fn file_len(path: Option<&Path>) -> u64 {
 }
 
 /// What the render will need, item by item (name, bytes).
-pub fn estimate(scene: &Scene, plan: &Plan, opts: &Options) -> Result<Vec<(String, u64)>> {
+pub fn estimate(scene: &Scene, plan: &Plan, opts: &Options) -> Vec<(String, u64)> {
     let pixels = plan.width as u64 * plan.height as u64;
     let photon_method = plan.method != Method::Path;
     let n_images: u64 = if photon_method { 1 + crate::integrator::terms::TERM_NAMES.len() as u64 } else { 1 };
@@ -102,7 +102,7 @@ pub fn estimate(scene: &Scene, plan: &Plan, opts: &Options) -> Result<Vec<(Strin
         let photons = match &opts.files.load_photons {
             Some(p) => file_len(Some(p)).saturating_mul(3),
             None => {
-                let s = PhotonSettings::resolve(scene)?;
+                let s = PhotonSettings::resolve(scene);
                 (s.global as u64 + s.caustic as u64 + 2 * photon::trace::MAX_DEPTH as u64).saturating_mul(PHOTON_PEAK_BYTES)
             }
         };
@@ -118,12 +118,12 @@ pub fn estimate(scene: &Scene, plan: &Plan, opts: &Options) -> Result<Vec<(Strin
         };
         items.push(("irradiance cache fill".into(), cache));
     }
-    Ok(items)
+    items
 }
 
 /// Refuses (exit 2) a render whose estimate exceeds the budget.
 pub fn check(scene: &Scene, plan: &Plan, opts: &Options) -> Result<()> {
-    let items = estimate(scene, plan, opts)?;
+    let items = estimate(scene, plan, opts);
     let total = items.iter().fold(0u64, |a, (_, b)| a.saturating_add(*b));
     let (limit, source) = budget(opts);
     if total <= limit {

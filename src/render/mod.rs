@@ -83,8 +83,6 @@ impl Plan {
 }
 
 pub fn plan(scene: &Scene, opts: &Options) -> Result<Plan> {
-    // `[render.photons]` is checked whatever the method: a bad value is an error under `--method path` too.
-    crate::integrator::photons::PhotonSettings::resolve(scene)?;
     let method = opts.method.or(scene.settings.method).unwrap_or(Method::Pm);
     let spp = opts.spp.or(scene.settings.spp).unwrap_or(match method {
         // Chosen from measurements against the Mitsuba reference of the caustic scene (README).

@@ -6,7 +6,7 @@ use std::time::Instant;
 
 use glam::Vec3;
 use gather::GatherParams;
-use icache::{CacheParams, CacheStats, FillStats, IrradianceCache, Weighting};
+use icache::{CacheStats, FillStats, IrradianceCache};
 use photon::sampling::Rng;
 use photon::PrecomputedIrradiance;
 
@@ -15,80 +15,14 @@ use super::files::{load_cache, load_photons, PhotonOutput};
 use super::{Options, Plan, Progress, RenderOutput};
 use crate::camera::Camera;
 use crate::geometry::Hit;
-use crate::error::{at_line, runtime, Error, Result};
+use crate::error::{runtime, Error, Result};
 use crate::integrator::cache_fill::{gather_record, shading_hits};
 use crate::integrator::photons::{PhotonData, PhotonSettings};
 use crate::integrator::pm::{IndirectSource, PmContext};
 use crate::integrator::terms::{Terms, TERM_NAMES};
 use crate::integrator::SampleCounters;
-use crate::scene::file::line_of_key;
-use crate::scene::{Method, Scene};
+use crate::scene::{FillMode, Method, Scene};
 use crate::stats::Report;
-
-/// How `pm` fills its irradiance cache (`[render.icache] fill`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum FillMode {
-    /// Pass A fills in hierarchical order, pass B only reads (the default).
-    TwoPass,
-    /// Ward's original lazy fill in scanline order: each pixel sees only the records made before it.
-    /// Slower (sequential gathers) and with order artifacts; kept to measure what the two-pass fill removes.
-    OnePass,
-}
-
-/// Image side up to which the default record spacings are the pixel counts of `CacheParams`; above it
-/// they grow with the image, so that a 1000² render does not place records 3 px apart (Sibenik at 1024²:
-/// 55 k records at 3–20 px, 33 k at 6–40 px, image and region means within 0.5 %, 8×-downsampled block
-/// relMSE 0.00006 vs 0.00007).
-pub const SPACING_REFERENCE_SIDE: u32 = 512;
-
-/// `[render.icache]` resolved for a `width` × `height` image: the cache parameters, the gather ray count
-/// and the fill mode.
-pub fn cache_settings(scene: &Scene, width: u32, height: u32) -> Result<(CacheParams, usize, FillMode)> {
-    let d = &scene.settings.icache;
-    let text = std::fs::read_to_string(&scene.path).unwrap_or_default();
-    let err = |key: &str, msg: String| at_line(&scene.path, line_of_key(&text, "render.icache", 0, key), format!("render.icache.{key}: {msg}"));
-    let mut p = CacheParams::default();
-    let scale = (width.max(height) as f32 / SPACING_REFERENCE_SIDE as f32).max(1.0);
-    p.min_spacing_px *= scale;
-    p.max_spacing_px *= scale;
-    if let Some(a) = d.accuracy {
-        p.accuracy = a;
-    }
-    if let Some(w) = &d.weight {
-        p.weight = match w.as_str() {
-            "tl" => Weighting::TabellionLamorlette,
-            "ward" => Weighting::Ward,
-            other => return Err(err("weight", format!("unknown weighting '{other}' (tl | ward)"))),
-        };
-    }
-    if let Some(v) = d.neighbor_clamping {
-        p.neighbor_clamping = v;
-    }
-    if let Some(v) = d.gradients {
-        p.gradients = v;
-    }
-    if let Some(v) = d.min_spacing_px {
-        p.min_spacing_px = v;
-    }
-    if let Some(v) = d.max_spacing_px {
-        p.max_spacing_px = v;
-    }
-    if let Some(v) = d.pass_b_accuracy {
-        p.pass_b_accuracy = Some(v);
-    }
-    let fill = match d.fill.as_deref() {
-        None | Some("two-pass") => FillMode::TwoPass,
-        Some("one-pass") => FillMode::OnePass,
-        Some(other) => return Err(err("fill", format!("unknown fill '{other}' (two-pass | one-pass)"))),
-    };
-    p.validate().map_err(|e| err("accuracy", e.to_string()))?;
-    let rays = match d.rays {
-        Some(r) if !(4..=1_000_000).contains(&r) => return Err(err("rays", format!("{r} must be in 4..=1000000"))),
-        Some(r) => r as usize,
-        None => gather::DEFAULT_RAYS,
-    };
-    Ok((p, rays, fill))
-}
 
 pub struct PmRun {
     pub output: RenderOutput,
@@ -99,8 +33,9 @@ pub struct PmRun {
 
 pub fn render_pm(scene: &Scene, plan: &Plan, opts: &Options, camera: &Camera, progress: &dyn Progress, cancel: &AtomicBool) -> Result<PmRun> {
     let mut report = Report::default();
-    let settings = PhotonSettings::resolve(scene)?;
-    let (cache_params, rays, fill_mode) = cache_settings(scene, plan.width, plan.height)?;
+    let settings = PhotonSettings::resolve(scene);
+    let icache = &scene.settings.icache;
+    let (cache_params, rays, fill_mode) = (icache.for_image(plan.width, plan.height), icache.rays, icache.fill);
 
     let (maps, precomputed, info) = photon_maps(scene, plan, &settings, opts, progress, cancel, &mut report)?;
     let photons = PhotonData::new(maps, precomputed, settings, scene);

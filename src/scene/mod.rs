@@ -16,6 +16,7 @@ use glam::Vec3;
 
 pub use build::load;
 pub use file::{IcacheDesc, PhotonsDesc};
+pub use settings::{FillMode, IcacheSettings, PhotonConfig, MAX_PHOTONS, SPACING_REFERENCE_SIDE};
 
 use crate::accel::embree::Bvh;
 use crate::camera::Camera;
@@ -65,8 +66,8 @@ pub struct RenderSettings {
     pub noise: Option<f32>,
     pub seed: u64,
     pub max_depth: u32,
-    pub photons: PhotonsDesc,
-    pub icache: IcacheDesc,
+    pub photons: PhotonConfig,
+    pub icache: IcacheSettings,
 }
 
 pub struct Scene {
