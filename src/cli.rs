@@ -270,7 +270,7 @@ fn render_command(a: RenderArgs, cancel: &AtomicBool) -> Result<()> {
     let bar = Bar::new(a.quiet);
     let result = pool.install(|| render::render(&scene, &opts, &bar, cancel));
     signal::arm(false);
-    let (out, report) = result?;
+    let (out, stats) = result?;
     let paths = OutputPaths {
         exr: a.output.clone(),
         png: a.png.clone(),
@@ -280,7 +280,7 @@ fn render_command(a: RenderArgs, cancel: &AtomicBool) -> Result<()> {
         save_cache: a.save_cache.clone(),
         cache_image: a.cache_image.clone(),
     };
-    let report = write_outputs(&paths, &scene, out, report, cancel)?;
+    let report = write_outputs(&paths, &scene, out, stats, cancel)?;
     if a.stats.is_some() {
         eprint!("{}", report.table());
     }

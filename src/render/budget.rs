@@ -16,7 +16,6 @@ use std::path::Path;
 
 use super::{Options, Plan};
 use crate::error::{Error, Result};
-use crate::integrator::photons::PhotonSettings;
 use crate::scene::{Method, Scene};
 
 /// Largest image side (the scene file's limit too).
@@ -102,7 +101,7 @@ pub fn estimate(scene: &Scene, plan: &Plan, opts: &Options) -> Vec<(String, u64)
         let photons = match &opts.files.load_photons {
             Some(p) => file_len(Some(p)).saturating_mul(3),
             None => {
-                let s = PhotonSettings::resolve(scene);
+                let s = &plan.photons;
                 (s.global as u64 + s.caustic as u64 + 2 * photon::trace::MAX_DEPTH as u64).saturating_mul(PHOTON_PEAK_BYTES)
             }
         };

@@ -45,6 +45,11 @@ impl Method {
         }
     }
 
+    /// Whether the method traces photon maps (every method but `path`).
+    pub fn uses_photon_maps(self) -> bool {
+        self != Method::Path
+    }
+
     pub fn name(self) -> &'static str {
         match self {
             Method::Path => "path",
