@@ -63,7 +63,7 @@ fn flann_rates() -> f64 {
 
 fn photon_rates(root: &Path) {
     let scene = scene::load(&root.join("scenes/cornell-caustics.toml")).expect("scene");
-    let mut settings = PhotonSettings::resolve(&scene).expect("settings");
+    let mut settings = PhotonSettings::resolve(&scene);
     settings.global = 1_000_000;
     settings.caustic = 200_000;
     let t = Instant::now();
@@ -92,9 +92,9 @@ fn pm_scene(name: &str, path: &Path, size: u32, raw_knn: f64) {
     };
     let opts = Options { method: Some(Method::Pm), width: Some(size), height: Some(size), ..Default::default() };
     let t = Instant::now();
-    let (_, report) = render(&scene, &opts, &NoProgress, &AtomicBool::new(false)).expect("render");
+    let (_, stats) = render(&scene, &opts, &NoProgress, &AtomicBool::new(false)).expect("render");
     let wall = t.elapsed().as_secs_f64();
-    let j = report.to_json();
+    let j = stats.report().to_json();
     let f = |a: &str, b: &str| j[a][b].as_f64().unwrap_or(f64::NAN);
     // Raw Embree rate: incoherent rays from camera hits, as in the `render` bench.
     let cam = scene.camera.with_resolution(256, 256);

@@ -54,9 +54,9 @@ fn incoherent_rays_per_s(scene: &Scene, n: usize) -> f64 {
 fn path_samples_per_s(scene: &Scene, size: u32, spp: u32) -> (f64, f64) {
     let opts = Options { method: Some(Method::Path), spp: Some(spp), width: Some(size), height: Some(size), ..Default::default() };
     let t = Instant::now();
-    let (_, report) = render(scene, &opts, &NoProgress, &AtomicBool::new(false)).expect("render");
+    let (_, stats) = render(scene, &opts, &NoProgress, &AtomicBool::new(false)).expect("render");
     let s = t.elapsed().as_secs_f64();
-    let rays = report.to_json()["rays"]["per_s"].as_f64().unwrap_or(0.0);
+    let rays = stats.report().to_json()["rays"]["per_s"].as_f64().unwrap_or(0.0);
     ((size * size * spp) as f64 / s, rays)
 }
 

@@ -14,7 +14,7 @@ use pmrender::render::files::FileOptions;
 use pmrender::render::outputs::{check_distinct, check_output, scene_inputs, Output};
 use pmrender::render::write::{write_outputs, OutputPaths};
 use pmrender::render::{self, tiles::Window, Options, Progress};
-use pmrender::scene::{self, Scene, Method, METHODS};
+use pmrender::scene::{self, Scene, Method, MAX_PHOTONS, METHODS};
 use pmrender::signal;
 
 #[derive(Parser)]
@@ -270,7 +270,7 @@ fn render_command(a: RenderArgs, cancel: &AtomicBool) -> Result<()> {
     let bar = Bar::new(a.quiet);
     let result = pool.install(|| render::render(&scene, &opts, &bar, cancel));
     signal::arm(false);
-    let (out, report) = result?;
+    let (out, stats) = result?;
     let paths = OutputPaths {
         exr: a.output.clone(),
         png: a.png.clone(),
@@ -280,7 +280,7 @@ fn render_command(a: RenderArgs, cancel: &AtomicBool) -> Result<()> {
         save_cache: a.save_cache.clone(),
         cache_image: a.cache_image.clone(),
     };
-    let report = write_outputs(&paths, &scene, out, report, cancel)?;
+    let report = write_outputs(&paths, &scene, out, stats, cancel)?;
     if a.stats.is_some() {
         eprint!("{}", report.table());
     }
@@ -309,8 +309,8 @@ fn converge_command(a: ConvergeArgs) -> Result<()> {
         .photons
         .iter()
         .map(|s| match s.trim().parse::<f64>() {
-            Ok(x) if (1.0..=1e9).contains(&x) => Ok(x.round() as usize),
-            _ => Err(option("--photons", format!("'{s}' is not a photon count in 1..1e9"))),
+            Ok(x) if (1.0..=MAX_PHOTONS as f64).contains(&x) => Ok(x.round() as usize),
+            _ => Err(option("--photons", format!("'{s}' is not a photon count in 1..={MAX_PHOTONS}"))),
         })
         .collect::<Result<Vec<_>>>()?;
     let method = match Method::parse(&a.method) {

@@ -53,8 +53,8 @@ pub fn converge(scene: &mut Scene, counts: &[usize], reference: &Path, method: M
     opts.height = Some(reference_img.height);
     let mut renders = Vec::new();
     for &n in counts {
-        scene.settings.photons.global = Some(n as i64);
-        scene.settings.photons.caustic = Some(if scene.has_specular() { n as i64 } else { 0 });
+        scene.settings.photons.global = Some(n);
+        scene.settings.photons.caustic = Some(if scene.has_specular() { n } else { 0 });
         let t = Instant::now();
         let (out, _) = render(scene, &opts, progress, cancel)?;
         renders.push((n, t.elapsed().as_secs_f64(), out));

@@ -199,6 +199,21 @@ fn unknown_cache_fill_or_weighting() {
 }
 
 #[test]
+fn cache_settings_are_checked_whatever_the_method() {
+    // `[render.icache]` is checked when the scene is loaded: a bad value is an error under `--method path`
+    // too (it was accepted, and ignored, until issue 11).
+    for extra in ["fill = \"three-pass\"", "weight = \"gauss\"", "rays = 2"] {
+        let toml = format!("{ROOM_TOML}\n[render.icache]\n{extra}\n");
+        let d = with_toml(&toml);
+        let key = extra.split(' ').next().unwrap();
+        let line = toml.lines().position(|l| l.starts_with(key)).unwrap() + 1;
+        for method in ["path", "pm", "photons"] {
+            fails(&d, &p(d.path(), "scene.toml"), &["--method", method], &[&format!("scene.toml:{line}:"), &format!("render.icache.{key}")]);
+        }
+    }
+}
+
+#[test]
 fn photon_settings_are_checked_whatever_the_method() {
     // A photon count out of range is an error under `--method path` too, at its line.
     let toml = format!("{ROOM_TOML}\n[render.photons]\nglobal = 0\n");

@@ -9,13 +9,14 @@
 //! pixel saw at its full radius.
 #![forbid(unsafe_code)]
 
+use std::ops::AddAssign;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use crate::cache::IrradianceCache;
 use crate::params::Pass;
 use crate::record::NewRecord;
 use crate::stats::FillStats;
-use crate::twopass::{GatherFn, ProgressFn, ShadingPointsFn};
+use crate::twopass::{GatherFn, GatherWithFn, NoStats, PointsWithFn, ProgressFn, ShadingPoint, ShadingPointsFn};
 
 /// The outcome of a one-pass fill: for each pixel, the record count after it was visited.
 pub struct OnePassFill {
@@ -41,38 +42,46 @@ pub fn fill_one_pass(
     gather: &GatherFn,
     progress: &ProgressFn,
 ) -> (FillStats, OnePassFill) {
-    fill_one_pass_cancellable(cache, width, height, shading_points, gather, progress, &AtomicBool::new(false))
+    let points = |x, y| shading_points(x, y).into_iter().map(|sp| (sp, ())).collect();
+    let gather = |x, y, i, sp: &ShadingPoint, _: &()| (gather(x, y, i, sp), NoStats);
+    let (stats, _, order) = fill_one_pass_cancellable(cache, width, height, &points, &gather, progress, &AtomicBool::new(false));
+    (stats, order)
 }
 
-/// [`fill_one_pass`] that returns early soon after `cancel` is set (read before every row).
-pub fn fill_one_pass_cancellable(
+/// [`fill_one_pass`] with a payload per shading point and statistics per gather (as
+/// [`crate::fill_pass_a_cancellable`]), returning early soon after `cancel` is set (read before every
+/// row). Returns the fill's statistics, the sum of the gathers' and the pixels' record counts.
+pub fn fill_one_pass_cancellable<P, S: Default + AddAssign>(
     cache: &mut IrradianceCache,
     width: u32,
     height: u32,
-    shading_points: &ShadingPointsFn,
-    gather: &GatherFn,
+    shading_points: &PointsWithFn<P>,
+    gather: &GatherWithFn<P, S>,
     progress: &ProgressFn,
     cancel: &AtomicBool,
-) -> (FillStats, OnePassFill) {
+) -> (FillStats, S, OnePassFill) {
     let mut stats = FillStats { n_pixels: width as u64 * height as u64, ..FillStats::default() };
+    let mut gathers = S::default();
     let mut records_after = Vec::with_capacity(stats.n_pixels as usize);
     for y in 0..height {
         if cancel.load(Ordering::Relaxed) {
             break;
         }
         for x in 0..width {
-            for (i, sp) in shading_points(x, y).into_iter().enumerate() {
+            for (i, (sp, payload)) in shading_points(x, y).into_iter().enumerate() {
                 stats.n_points += 1;
                 let hit = cache.lookup(sp.pos, sp.normal, Pass::A);
                 stats.lookups.record(hit.as_ref());
                 if hit.is_none() {
                     stats.n_gathers += 1;
-                    stats.insert += cache.insert(NewRecord { pixel_world: sp.pixel_world, ..gather(x, y, i, &sp) });
+                    let (rec, s) = gather(x, y, i, &sp, &payload);
+                    gathers += s;
+                    stats.insert += cache.insert(NewRecord { pixel_world: sp.pixel_world, ..rec });
                 }
             }
             records_after.push(cache.len().min(u32::MAX as usize) as u32);
         }
         progress((y as u64 + 1) * width as u64, stats.n_pixels);
     }
-    (stats, OnePassFill { width, records_after })
+    (stats, gathers, OnePassFill { width, records_after })
 }

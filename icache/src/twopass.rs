@@ -10,8 +10,13 @@
 //! only the pixels with a point inside the old reach of a record shrunk since the last sweep (the cache
 //! logs them; points are kept from the first sweep, not traced again), until a sweep shrinks nothing (at
 //! most `MAX_REPAIR_SWEEPS`).
+//!
+//! Each shading point comes with the caller's payload `P` (the hit it traced to find the point), handed
+//! back to the gather there, and each gather returns the caller's statistics `S`, summed by the fill:
+//! the caller traces nothing twice and shares no counter between threads.
 #![forbid(unsafe_code)]
 
+use std::ops::AddAssign;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use glam::Vec3;
@@ -46,13 +51,37 @@ const MAX_REPAIR_SWEEPS: u64 = 4;
 pub type ShadingPointsFn<'a> = dyn Fn(u32, u32) -> Vec<ShadingPoint> + Sync + 'a;
 pub type GatherFn<'a> = dyn Fn(u32, u32, usize, &ShadingPoint) -> NewRecord + Sync + 'a;
 pub type ProgressFn<'a> = dyn Fn(u64, u64) + Sync + 'a;
+/// The shading points of pixel (x, y), each with the caller's payload for its gather.
+pub type PointsWithFn<'a, P> = dyn Fn(u32, u32) -> Vec<(ShadingPoint, P)> + Sync + 'a;
+/// The gather at point `i` of pixel (x, y), given its payload: the record and the caller's statistics.
+pub type GatherWithFn<'a, P, S> = dyn Fn(u32, u32, usize, &ShadingPoint, &P) -> (NewRecord, S) + Sync + 'a;
+
+/// Caller statistics for the closures without any ([`fill_pass_a`], [`crate::fill_one_pass`]).
+#[derive(Default)]
+pub(crate) struct NoStats;
+
+impl AddAssign for NoStats {
+    fn add_assign(&mut self, _: NoStats) {}
+}
 
 /// An uncovered shading point waiting for its gather.
-struct Candidate {
+struct Candidate<P> {
     x: u32,
     y: u32,
     i: usize,
     sp: ShadingPoint,
+    payload: P,
+}
+
+/// One pixel of a chunk: its coverage lookups, its uncovered points, and its points when they are kept.
+/// A pixel's lookups, uncovered points, points (kept for the repair sweeps) and the records adaptive
+/// caching found deviant there.
+type PixelFound<P> = (LookupStats, Vec<Candidate<P>>, Vec<(ShadingPoint, P)>, Vec<u32>);
+
+/// What a fill counts: its own statistics and the sum of the caller's.
+struct Tally<S> {
+    fill: FillStats,
+    gathers: S,
 }
 
 /// Fill the cache for a `width` × `height` image. `progress(done_pixels, total_pixels)` is called from
@@ -65,55 +94,60 @@ pub fn fill_pass_a(
     gather: &GatherFn,
     progress: &ProgressFn,
 ) -> FillStats {
-    fill_pass_a_cancellable(cache, width, height, shading_points, gather, progress, &AtomicBool::new(false))
+    let points = |x, y| shading_points(x, y).into_iter().map(|sp| (sp, ())).collect();
+    let gather = |x, y, i, sp: &ShadingPoint, _: &()| (gather(x, y, i, sp), NoStats);
+    fill_pass_a_cancellable(cache, width, height, &points, &gather, progress, &AtomicBool::new(false)).0
 }
 
-/// [`fill_pass_a`] that returns early, with the cache partly filled, soon after `cancel` is set: it is
-/// read before every chunk of pixels. (The caller makes its long gathers return early too.)
-pub fn fill_pass_a_cancellable(
+/// [`fill_pass_a`] with a payload per shading point and statistics per gather (see the module header),
+/// returning early, with the cache partly filled, soon after `cancel` is set: it is read before every
+/// chunk of pixels. (The caller makes its long gathers return early too.) Returns the fill's statistics
+/// and the sum of the gathers'.
+pub fn fill_pass_a_cancellable<P: Clone + Send + Sync, S: Default + AddAssign + Send>(
     cache: &mut IrradianceCache,
     width: u32,
     height: u32,
-    shading_points: &ShadingPointsFn,
-    gather: &GatherFn,
+    shading_points: &PointsWithFn<P>,
+    gather: &GatherWithFn<P, S>,
     progress: &ProgressFn,
     cancel: &AtomicBool,
-) -> FillStats {
-    let mut stats = FillStats::default();
+) -> (FillStats, S) {
+    let mut tally = Tally { fill: FillStats::default(), gathers: S::default() };
     let total = width as u64 * height as u64;
     let mut store = PointStore::new(width, height);
     cache.log_shrinks(true);
     let order = HierarchicalOrder::new(width, height);
-    let first = sweep(cache, order, shading_points, Some(&mut store), gather, &mut stats, &|done| progress(done, total), cancel);
-    stats.n_pixels = total;
+    let first = sweep(cache, order, shading_points, Some(&mut store), gather, &mut tally, &|done| progress(done, total), cancel);
+    tally.fill.n_pixels = total;
     if first > 0 {
-        repair(cache, width, height, &store, gather, &mut stats, cancel);
+        repair(cache, width, height, &store, gather, &mut tally, cancel);
     }
     cache.log_shrinks(false);
     progress(total, total);
-    stats
+    (tally.fill, tally.gathers)
 }
 
-/// Every shading point of the first sweep, by pixel, so repair sweeps need not trace them again.
-struct PointStore {
+/// Every shading point of the first sweep with its payload, by pixel, so repair sweeps need not trace
+/// them again.
+struct PointStore<P> {
     width: u32,
     /// Pixel y·width + x → its range in `points`.
     ranges: Vec<(u32, u32)>,
-    points: Vec<ShadingPoint>,
+    points: Vec<(ShadingPoint, P)>,
 }
 
-impl PointStore {
+impl<P: Clone> PointStore<P> {
     fn new(width: u32, height: u32) -> Self {
         PointStore { width, ranges: vec![(0, 0); width as usize * height as usize], points: Vec::new() }
     }
 
-    fn push(&mut self, x: u32, y: u32, points: &[ShadingPoint]) {
+    fn push(&mut self, x: u32, y: u32, points: Vec<(ShadingPoint, P)>) {
         let start = self.points.len() as u32;
-        self.points.extend_from_slice(points);
+        self.points.extend(points);
         self.ranges[(y * self.width + x) as usize] = (start, self.points.len() as u32);
     }
 
-    fn get(&self, x: u32, y: u32) -> &[ShadingPoint] {
+    fn get(&self, x: u32, y: u32) -> &[(ShadingPoint, P)] {
         let (a, b) = self.ranges[(y * self.width + x) as usize];
         &self.points[a as usize..b as usize]
     }
@@ -122,7 +156,15 @@ impl PointStore {
 /// Neighbor clamping can shrink a record after it covered a point. Only points inside the logged
 /// spheres of shrunk records can have lost their cover, so each repair sweep revisits just the pixels
 /// holding such points, until a sweep shrinks nothing (at most `MAX_REPAIR_SWEEPS`).
-fn repair(cache: &mut IrradianceCache, width: u32, height: u32, store: &PointStore, gather: &GatherFn, stats: &mut FillStats, cancel: &AtomicBool) {
+fn repair<P: Clone + Send + Sync, S: Default + AddAssign + Send>(
+    cache: &mut IrradianceCache,
+    width: u32,
+    height: u32,
+    store: &PointStore<P>,
+    gather: &GatherWithFn<P, S>,
+    tally: &mut Tally<S>,
+    cancel: &AtomicBool,
+) {
     let cached = |x: u32, y: u32| store.get(x, y).to_vec();
     loop {
         if cancel.load(Ordering::Relaxed) {
@@ -132,11 +174,11 @@ fn repair(cache: &mut IrradianceCache, width: u32, height: u32, store: &PointSto
         if log.is_empty() {
             return;
         }
-        if stats.n_repair_sweeps == MAX_REPAIR_SWEEPS {
-            stats.n_uncovered_after = count_uncovered(cache, width, height, &cached);
+        if tally.fill.n_repair_sweeps == MAX_REPAIR_SWEEPS {
+            tally.fill.n_uncovered_after = count_uncovered(cache, width, height, &cached);
             return;
         }
-        stats.n_repair_sweeps += 1;
+        tally.fill.n_repair_sweeps += 1;
         let (lo, hi) = cache.bounds();
         let mut spheres = Octree::new(lo, hi);
         for (id, &(pos, reach)) in log.iter().enumerate() {
@@ -146,7 +188,7 @@ fn repair(cache: &mut IrradianceCache, width: u32, height: u32, store: &PointSto
         let dirty: Vec<bool> = pixels
             .par_iter()
             .map(|&(x, y)| {
-                store.get(x, y).iter().any(|sp| {
+                store.get(x, y).iter().any(|(sp, _)| {
                     let mut inside = false;
                     spheres.for_each_candidate(sp.pos, |id| {
                         let (pos, reach) = log[id as usize];
@@ -157,29 +199,29 @@ fn repair(cache: &mut IrradianceCache, width: u32, height: u32, store: &PointSto
             })
             .collect();
         let order = pixels.into_iter().zip(dirty).filter(|(_, d)| *d).map(|(p, _)| p);
-        sweep(cache, order, &cached, None, gather, stats, &|_| {}, cancel);
+        sweep(cache, order, &cached, None, gather, tally, &|_| {}, cancel);
     }
 }
 
 /// One pass over `order`'s pixels; returns the number of records inserted. With `store`, every pixel's
 /// shading points are kept there.
 #[allow(clippy::too_many_arguments)]
-fn sweep(
+fn sweep<P: Clone + Send + Sync, S: Default + AddAssign + Send>(
     cache: &mut IrradianceCache,
     mut order: impl Iterator<Item = (u32, u32)>,
-    shading_points: &ShadingPointsFn,
-    mut store: Option<&mut PointStore>,
-    gather: &GatherFn,
-    stats: &mut FillStats,
+    shading_points: &PointsWithFn<P>,
+    mut store: Option<&mut PointStore<P>>,
+    gather: &GatherWithFn<P, S>,
+    tally: &mut Tally<S>,
     progress: &(dyn Fn(u64) + Sync),
     cancel: &AtomicBool,
 ) -> u64 {
-    let before = stats.insert.n_inserted;
-    let mut pending: Vec<Candidate> = Vec::new();
+    let before = tally.fill.insert.n_inserted;
+    let mut pending: Vec<Candidate<P>> = Vec::new();
     let mut done = 0u64;
     loop {
         if cancel.load(Ordering::Relaxed) {
-            return stats.insert.n_inserted - before;
+            return tally.fill.insert.n_inserted - before;
         }
         let chunk: Vec<(u32, u32)> = order.by_ref().take(CHUNK_PIXELS).collect();
         if chunk.is_empty() {
@@ -188,19 +230,19 @@ fn sweep(
         done += chunk.len() as u64;
         let cache_ref: &IrradianceCache = cache;
         let keep = store.is_some();
-        let found: Vec<(LookupStats, Vec<Candidate>, Vec<ShadingPoint>, Vec<u32>)> = chunk
+        let found: Vec<PixelFound<P>> = chunk
             .par_iter()
             .map(|&(x, y)| {
                 let mut lookups = LookupStats::default();
                 let mut misses = Vec::new();
                 let mut shrink = Vec::new();
                 let points = shading_points(x, y);
-                for (i, &sp) in points.iter().enumerate() {
+                for (i, (sp, payload)) in points.iter().enumerate() {
                     let (hit, deviant) = cache_ref.lookup_adaptive(sp.pos, sp.normal);
                     lookups.record(hit.as_ref());
                     shrink.extend(deviant);
                     if hit.is_none() {
-                        misses.push(Candidate { x, y, i, sp });
+                        misses.push(Candidate { x, y, i, sp: *sp, payload: payload.clone() });
                     }
                 }
                 (lookups, misses, if keep { points } else { Vec::new() }, shrink)
@@ -212,57 +254,55 @@ fn sweep(
         shrink.sort_unstable();
         shrink.dedup();
         let n_shrunk = shrink.into_iter().filter(|&id| cache.shrink_adaptive(id)).count() as u64;
-        stats.insert.n_shrunk_adaptive += n_shrunk;
+        tally.fill.insert.n_shrunk_adaptive += n_shrunk;
         let shrunk = n_shrunk > 0;
         for (&(x, y), (lookups, misses, points, _)) in chunk.iter().zip(found) {
             if let Some(store) = store.as_deref_mut() {
-                store.push(x, y, &points);
+                store.push(x, y, points);
             }
-            stats.n_points += lookups.n_lookups;
-            stats.lookups += lookups;
+            tally.fill.n_points += lookups.n_lookups;
+            tally.fill.lookups += lookups;
             // A point that only the deviant records made uncovered may be covered by the rest now.
             let cache_ref: &IrradianceCache = cache;
             pending.extend(misses.into_iter().filter(|c| !shrunk || cache_ref.lookup_adaptive(c.sp.pos, c.sp.normal).0.is_none()));
         }
         if pending.len() >= WAVE_GATHERS {
-            run_wave(cache, &mut pending, gather, stats);
+            run_wave(cache, &mut pending, gather, tally);
         }
         progress(done);
     }
     if !pending.is_empty() {
-        run_wave(cache, &mut pending, gather, stats);
+        run_wave(cache, &mut pending, gather, tally);
     }
-    stats.insert.n_inserted - before
+    tally.fill.insert.n_inserted - before
 }
 
 /// Gather every pending point in parallel, then insert in visiting order, skipping points covered by
-/// records inserted earlier in this wave.
-fn run_wave(cache: &mut IrradianceCache, pending: &mut Vec<Candidate>, gather: &GatherFn, stats: &mut FillStats) {
-    stats.n_waves += 1;
-    stats.n_gathers += pending.len() as u64;
-    let records: Vec<NewRecord> = pending
-        .par_iter()
-        .map(|c| NewRecord { pixel_world: c.sp.pixel_world, ..gather(c.x, c.y, c.i, &c.sp) })
-        .collect();
-    for (c, rec) in pending.drain(..).zip(records) {
+/// records inserted earlier in this wave (their gathers still count in the caller's statistics).
+fn run_wave<P: Send + Sync, S: AddAssign + Send>(cache: &mut IrradianceCache, pending: &mut Vec<Candidate<P>>, gather: &GatherWithFn<P, S>, tally: &mut Tally<S>) {
+    tally.fill.n_waves += 1;
+    tally.fill.n_gathers += pending.len() as u64;
+    let gathered: Vec<(NewRecord, S)> = pending.par_iter().map(|c| gather(c.x, c.y, c.i, &c.sp, &c.payload)).collect();
+    for (c, (rec, s)) in pending.drain(..).zip(gathered) {
+        tally.gathers += s;
         let hit = cache.lookup(c.sp.pos, c.sp.normal, Pass::A);
-        stats.lookups.record(hit.as_ref());
+        tally.fill.lookups.record(hit.as_ref());
         if hit.is_some() {
-            stats.n_skipped_covered += 1;
+            tally.fill.n_skipped_covered += 1;
             continue;
         }
-        stats.insert += cache.insert(rec);
+        tally.fill.insert += cache.insert(NewRecord { pixel_world: c.sp.pixel_world, ..rec });
     }
 }
 
 /// Shading points with no usable pass-A record.
-fn count_uncovered(cache: &IrradianceCache, width: u32, height: u32, shading_points: &ShadingPointsFn) -> u64 {
+fn count_uncovered<P>(cache: &IrradianceCache, width: u32, height: u32, shading_points: &PointsWithFn<P>) -> u64 {
     let pixels: Vec<(u32, u32)> = HierarchicalOrder::new(width, height).collect();
     pixels
         .par_iter()
         .map(|&(x, y)| {
             let points = shading_points(x, y);
-            points.iter().filter(|sp| cache.lookup(sp.pos, sp.normal, Pass::A).is_none()).count() as u64
+            points.iter().filter(|(sp, _)| cache.lookup(sp.pos, sp.normal, Pass::A).is_none()).count() as u64
         })
         .sum()
 }

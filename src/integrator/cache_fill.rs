@@ -1,5 +1,6 @@
 //! Pass A of the cached final gather: the shading points of each pixel (the first non-specular surface,
-//! also through mirror and glass chains) and the final gather that creates a record there.
+//! also through mirror and glass chains), each with the hit found there, and the final gather from that
+//! hit that creates a record.
 
 use glam::Vec3;
 use icache::{NewRecord, ShadingPoint};
@@ -72,16 +73,14 @@ fn follow(ctx: &PmContext, camera: &Camera, d0: Vec3, o: Vec3, d: Vec3, dist: f3
     }
 }
 
-/// The final gather for shading point `i` of pixel (x, y), as a record for the cache.
-pub fn gather_record(ctx: &PmContext, camera: &Camera, x: u32, y: u32, i: usize, sp: &ShadingPoint, counters: &mut SampleCounters) -> NewRecord {
-    let hits = shading_hits(ctx, camera, x, y);
-    let (hit, frame) = match hits.get(i) {
-        Some((_, h)) => (*h, Frame::new(h, sp.normal)),
-        None => unreachable_point(sp),
-    };
+/// The final gather at shading point `i` of pixel (x, y), from the hit [`shading_hits`] traced there, as
+/// a record for the cache, with the gather's rays counted.
+pub fn gather_record(ctx: &PmContext, x: u32, y: u32, i: usize, sp: &ShadingPoint, hit: &Hit) -> (NewRecord, SampleCounters) {
+    let mut counters = SampleCounters::default();
+    let frame = Frame::new(hit, sp.normal);
     let seed = photon::sampling::hash_keys(&[x as u64, y as u64, i as u64]);
-    let g = ctx.final_gather(&hit, &frame, seed, counters);
-    NewRecord {
+    let g = ctx.final_gather(hit, &frame, seed, &mut counters);
+    let record = NewRecord {
         pos: sp.pos,
         normal: sp.normal,
         e: g.e,
@@ -91,12 +90,6 @@ pub fn gather_record(ctx: &PmContext, camera: &Camera, x: u32, y: u32, i: usize,
         r_min: g.r_min,
         dir: g.dir,
         pixel_world: sp.pixel_world,
-    }
-}
-
-/// Shading points are recomputed deterministically, so index `i` always exists; this keeps the code
-/// total if that ever changes (a hit at the point itself, facing its normal).
-fn unreachable_point(sp: &ShadingPoint) -> (Hit, Frame) {
-    let hit = Hit { p: sp.pos, t: 0.0, ng: sp.normal, ns: sp.normal, uv: glam::Vec2::ZERO, tri: 0, material: 0 };
-    (hit, Frame { n: sp.normal, ng: sp.normal, front: true })
+    };
+    (record, counters)
 }

@@ -10,8 +10,7 @@ use photon::{Filter, PhotonMap, PhotonMaps, PhotonTargets, PrecomputedIrradiance
 use super::atlas::IrradianceAtlas;
 use super::coverage::SceneCoverage;
 use super::photon_scene::PhotonView;
-use crate::error::{at_line, Result};
-use crate::scene::file::line_of_key;
+use crate::error::Result;
 use crate::scene::Scene;
 
 /// Default size of an irradiance-atlas texel, in global photons at the scene's mean density
@@ -33,32 +32,22 @@ pub struct PhotonSettings {
 }
 
 impl PhotonSettings {
-    /// Defaults: global photons from the scene's triangle count (200 k up to 5 k triangles, growing as its
-    /// square root, at most 2 M), 100 k caustic photons when the scene has mirror or glass (none
-    /// otherwise), k = 100, radii from the scene's real surface area and the photon count (see
-    /// `photon::defaults`); the caustic radius half the global one (or less, with more caustic photons).
-    pub fn resolve(scene: &Scene) -> Result<PhotonSettings> {
+    /// `[render.photons]` (checked when the scene was loaded) with the scene's defaults where it gives no
+    /// value: global photons from the triangle count (200 k up to 5 k triangles, growing as its square
+    /// root, at most 2 M), 100 k caustic photons when the scene has mirror or glass (none otherwise),
+    /// k = 100, radii from the scene's real surface area and the photon count (see `photon::defaults`);
+    /// the caustic radius half the global one (or less, with more caustic photons).
+    pub fn resolve(scene: &Scene) -> PhotonSettings {
         let d = &scene.settings.photons;
-        let text = std::fs::read_to_string(&scene.path).unwrap_or_default();
-        let err = |key: &str, msg: &str| at_line(&scene.path, line_of_key(&text, "render.photons", 0, key), format!("render.photons.{key}: {msg}"));
-        let count = |key: &str, v: Option<i64>, default: usize, min: i64| -> Result<usize> {
-            match v {
-                Some(x) if x < min || x > 100_000_000 => Err(err(key, &format!("{x} must be in {min}..=100000000"))),
-                Some(x) => Ok(x as usize),
-                None => Ok(default),
-            }
-        };
-        let has_specular = scene.has_specular();
-        let global = count("global", d.global, photon::defaults::default_global_photons(scene.geometry.triangles.len()), 1)?;
-        let caustic = count("caustic", d.caustic, if has_specular { 100_000 } else { 0 }, 0)?;
-        let lookup = count("lookup", d.lookup, 100, 1)?;
-        let precompute_every = count("precompute_every", d.precompute_every, DEFAULT_PHOTONS_PER_TEXEL, 1)?;
-        let diag = scene.diagonal();
+        let global = d.global.unwrap_or_else(|| photon::defaults::default_global_photons(scene.geometry.triangles.len()));
+        let caustic = d.caustic.unwrap_or(if scene.has_specular() { 100_000 } else { 0 });
+        let lookup = d.lookup.unwrap_or(100);
+        let precompute_every = d.precompute_every.unwrap_or(DEFAULT_PHOTONS_PER_TEXEL);
         let (max_radius_global, max_radius_caustic) = match d.max_radius {
-            Some(r) if !(r.is_finite() && r > 0.0) => return Err(err("max_radius", "must be a positive number")),
             Some(r) => (r, r),
             None => {
                 let area: f32 = scene.geometry.triangles.iter().map(|t| t.area).sum();
+                let diag = scene.diagonal();
                 (
                     photon::defaults::max_radius_for_area(area, diag, global, lookup),
                     // Caustics are concentrated light: their estimates reach no farther than half the
@@ -68,12 +57,7 @@ impl PhotonSettings {
                 )
             }
         };
-        let caustic_filter = match d.caustic_filter.as_deref() {
-            None | Some("cone") => Filter::Cone { k: 1.1 },
-            Some("none") | Some("box") => Filter::None,
-            Some(other) => return Err(err("caustic_filter", &format!("unknown filter '{other}' (cone | none)"))),
-        };
-        Ok(PhotonSettings { global, caustic, lookup, max_radius_global, max_radius_caustic, precompute_every, caustic_filter })
+        PhotonSettings { global, caustic, lookup, max_radius_global, max_radius_caustic, precompute_every, caustic_filter: d.caustic_filter }
     }
 }
 

@@ -161,7 +161,7 @@ pub fn render_tiles(
     let mut total = SampleCounters::default();
     for (round, &target) in rounds.iter().enumerate() {
         let active_ref = &active;
-        let counters: Vec<SampleCounters> = tiles
+        let counters = tiles
             .par_iter_mut()
             .map(|t| {
                 let mut counters = SampleCounters::default();
@@ -208,10 +208,11 @@ pub fn render_tiles(
                 progress(n / rounds.len() as u64);
                 counters
             })
-            .collect();
-        for c in counters {
-            total += c;
-        }
+            .reduce(SampleCounters::default, |mut a, b| {
+                a += b;
+                a
+            });
+        total += counters;
         if cancel.load(Ordering::Relaxed) {
             return Err(Error::Interrupted);
         }

@@ -7,7 +7,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
 use super::files::{cache_image, dump_photons, save_cache, save_photons};
-use super::RenderOutput;
+use super::{RenderOutput, RenderStats};
 use crate::error::{Error, Result};
 use crate::io::atomic::OutputSet;
 use crate::io::output::{stage_exr, stage_png, Layers};
@@ -26,9 +26,9 @@ pub struct OutputPaths {
     pub cache_image: Option<PathBuf>,
 }
 
-/// Writes every output, all or nothing; returns the report with the phase's time added (the one saved
-/// as `--stats`). `cancel` is read between files.
-pub fn write_outputs(paths: &OutputPaths, scene: &Scene, out: RenderOutput, mut report: Report, cancel: &AtomicBool) -> Result<Report> {
+/// Writes every output, all or nothing; returns the report of `stats` with this phase's time added (the
+/// one saved as `--stats`). `cancel` is read between files.
+pub fn write_outputs(paths: &OutputPaths, scene: &Scene, out: RenderOutput, mut stats: RenderStats, cancel: &AtomicBool) -> Result<Report> {
     let interrupted = || if cancel.load(Ordering::SeqCst) { Err(Error::Interrupted) } else { Ok(()) };
     let t = Instant::now();
     let mut set = OutputSet::new();
@@ -67,7 +67,8 @@ pub fn write_outputs(paths: &OutputPaths, scene: &Scene, out: RenderOutput, mut 
             interrupted()?;
         }
     }
-    report.seconds("Time", "Write outputs", "time.write_outputs_s", t.elapsed().as_secs_f64());
+    stats.write_outputs_s = Some(t.elapsed().as_secs_f64());
+    let report = stats.report();
     if let Some(p) = &paths.stats {
         let json = serde_json::to_string_pretty(&report.to_json()).map_err(|e| Error::Runtime(e.to_string()))?;
         set.stage_bytes(p, json.as_bytes())?;

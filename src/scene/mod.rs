@@ -16,6 +16,7 @@ use glam::Vec3;
 
 pub use build::load;
 pub use file::{IcacheDesc, PhotonsDesc};
+pub use settings::{FillMode, IcacheSettings, PhotonConfig, MAX_PHOTONS, SPACING_REFERENCE_SIDE};
 
 use crate::accel::embree::Bvh;
 use crate::camera::Camera;
@@ -44,6 +45,11 @@ impl Method {
         }
     }
 
+    /// Whether the method traces photon maps (every method but `path`).
+    pub fn uses_photon_maps(self) -> bool {
+        self != Method::Path
+    }
+
     pub fn name(self) -> &'static str {
         match self {
             Method::Path => "path",
@@ -65,8 +71,8 @@ pub struct RenderSettings {
     pub noise: Option<f32>,
     pub seed: u64,
     pub max_depth: u32,
-    pub photons: PhotonsDesc,
-    pub icache: IcacheDesc,
+    pub photons: PhotonConfig,
+    pub icache: IcacheSettings,
 }
 
 pub struct Scene {

@@ -1,0 +1,61 @@
+//! The `fill_cache` phase of `pm` (pass A): the irradiance cache filled so that every shading point of
+//! the image is covered — in hierarchical order by default, or in Ward's scanline order
+//! (`[render.icache] fill = "one-pass"`) — or a cache file loaded instead.
+
+use std::path::Path;
+use std::sync::atomic::AtomicBool;
+use std::time::Instant;
+
+use icache::{IrradianceCache, OnePassFill, ShadingPoint};
+
+use super::files;
+use super::stats::CacheFillStats;
+use super::{Plan, Progress};
+use crate::error::{runtime, Result};
+use crate::geometry::Hit;
+use crate::integrator::cache_fill::{gather_record, shading_hits};
+use crate::integrator::photons::PhotonData;
+use crate::integrator::pm::IndirectSource;
+use crate::scene::{FillMode, Scene};
+
+/// A filled (or loaded) cache.
+pub struct CacheFill {
+    pub cache: IrradianceCache,
+    /// With the one-pass fill: the records each pixel may see.
+    pub one_pass: Option<OnePassFill>,
+}
+
+/// Each pixel's shading points are traced once, with their hits, and a gather starts from the hit it is
+/// given. `cancel` is read before every chunk of pixels (two-pass) or row (one-pass), and by every
+/// gather ray.
+pub fn fill_cache(scene: &Scene, plan: &Plan, photons: &PhotonData, progress: &dyn Progress, cancel: &AtomicBool) -> Result<(CacheFill, CacheFillStats)> {
+    let t = Instant::now();
+    let ctx = plan.pm_context(scene, photons, IndirectSource::PhotonMap, cancel);
+    let (lo, hi) = scene.bounds;
+    let mut cache = IrradianceCache::new(lo, hi, plan.cache).map_err(runtime)?;
+    let points = |x, y| shading_hits(&ctx, &plan.camera, x, y);
+    let gather = |x, y, i, sp: &ShadingPoint, hit: &Hit| gather_record(&ctx, x, y, i, sp, hit);
+    let report_progress = |done, _| progress.set(done);
+    let (w, h) = (plan.width, plan.height);
+    progress.start("cache", w as u64 * h as u64);
+    let (fill, counters, one_pass) = match scene.settings.icache.fill {
+        FillMode::TwoPass => {
+            let (fill, counters) = icache::fill_pass_a_cancellable(&mut cache, w, h, &points, &gather, &report_progress, cancel);
+            (fill, counters, None)
+        }
+        FillMode::OnePass => {
+            let (fill, counters, order) = icache::fill_one_pass_cancellable(&mut cache, w, h, &points, &gather, &report_progress, cancel);
+            (fill, counters, Some(order))
+        }
+    };
+    progress.finish();
+    let stats = CacheFillStats { time_s: Some(t.elapsed().as_secs_f64()), one_pass: one_pass.is_some(), fill, counters, n_loaded: 0 };
+    Ok((CacheFill { cache, one_pass }, stats))
+}
+
+/// A `--save-cache` file of the same scene, instead of `fill_cache` (pass B only).
+pub fn load_cache(scene: &Scene, path: &Path) -> Result<(CacheFill, CacheFillStats)> {
+    let cache = files::load_cache(path, scene.fingerprint)?;
+    let stats = CacheFillStats { n_loaded: cache.len() as u64, ..Default::default() };
+    Ok((CacheFill { cache, one_pass: None }, stats))
+}

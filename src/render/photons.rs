@@ -1,0 +1,68 @@
+//! The photon phases of every method but `path`: `trace_photons` (both maps, their kd-trees built by
+//! the photon pass) or `load_photons` from a file, then `build_maps` (what shading reads besides the
+//! maps: the caustic map's reach grid, the irradiance atlas that fills lazily during the render).
+
+use std::path::Path;
+use std::sync::atomic::AtomicBool;
+use std::time::Instant;
+
+use photon::{MapsInfo, PhotonMaps, PrecomputedIrradiance};
+
+use super::files::{self, FileOptions};
+use super::stats::PhotonStats;
+use super::{Plan, Progress};
+use crate::error::Result;
+use crate::integrator::photons::PhotonData;
+use crate::scene::Scene;
+
+/// Photon maps traced or loaded.
+pub struct Maps {
+    pub maps: PhotonMaps,
+    /// Precomputed irradiance points from a file of an earlier version, kept for `--save-photons` (the
+    /// render reads the atlas).
+    pub precomputed: Option<PrecomputedIrradiance>,
+    /// There when the maps were traced and `--save-photons` or `--dump-photons` asks for them.
+    pub info: Option<MapsInfo>,
+}
+
+pub fn trace_photons(scene: &Scene, plan: &Plan, files: &FileOptions, progress: &dyn Progress, cancel: &AtomicBool) -> Result<(Maps, PhotonStats)> {
+    let t = Instant::now();
+    let settings = &plan.photons;
+    progress.start("photons", (settings.global + settings.caustic) as u64);
+    let (maps, trace) = PhotonData::trace(scene, settings, plan.seed, &|done, _| progress.set(done), cancel)?;
+    progress.finish();
+    let time_s = t.elapsed().as_secs_f64();
+    let keep = files.save_photons.is_some() || files.dump_photons.is_some();
+    let info = keep.then(|| MapsInfo::new(scene.fingerprint, plan.seed, PhotonData::targets(settings), &trace));
+    let stats = photon_stats(plan, time_s, false, trace, None);
+    Ok((Maps { maps, precomputed: None, info }, stats))
+}
+
+/// The maps of a `--save-photons` file of the same scene, instead of `trace_photons`.
+pub fn load_photons(scene: &Scene, plan: &Plan, path: &Path) -> Result<(Maps, PhotonStats)> {
+    let t = Instant::now();
+    let loaded = files::load_photons(path, scene.fingerprint)?;
+    let time_s = t.elapsed().as_secs_f64();
+    let (global, caustic) = (loaded.maps.global.as_ref(), loaded.maps.caustic.as_ref());
+    let trace = photon::TraceStats {
+        n_paths_emitted: loaded.info.n_paths_emitted,
+        n_global_stored: global.map_or(0, |m| m.len() as u64),
+        n_caustic_stored: caustic.map_or(0, |m| m.len() as u64),
+        global_memory_bytes: global.map_or(0, |m| m.memory_bytes() as u64),
+        caustic_memory_bytes: caustic.map_or(0, |m| m.memory_bytes() as u64),
+        ..Default::default()
+    };
+    let precomputed = loaded.precomputed.as_ref().map(|p| (p.points().len() as u64, p.memory_bytes() as u64));
+    let stats = photon_stats(plan, time_s, true, trace, precomputed);
+    Ok((Maps { maps: loaded.maps, precomputed: loaded.precomputed, info: None }, stats))
+}
+
+fn photon_stats(plan: &Plan, time_s: f64, loaded: bool, trace: photon::TraceStats, precomputed: Option<(u64, u64)>) -> PhotonStats {
+    let s = &plan.photons;
+    PhotonStats { time_s, loaded, trace, precomputed, lookup: s.lookup, max_radius_global: s.max_radius_global, max_radius_caustic: s.max_radius_caustic }
+}
+
+/// The maps wrapped for the render (see [`PhotonData::new`]); nothing here is counted.
+pub fn build_maps<'a>(scene: &'a Scene, plan: &Plan, maps: PhotonMaps, precomputed: Option<PrecomputedIrradiance>) -> PhotonData<'a> {
+    PhotonData::new(maps, precomputed, plan.photons.clone(), scene)
+}

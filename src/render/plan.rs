@@ -1,0 +1,92 @@
+//! The `plan` phase: one render's settings resolved from the scene and the command line. The scene's
+//! tables were checked when it was loaded; what depends on the image size (record spacings) or on the
+//! geometry (photon counts and radii) is derived here, and cannot fail.
+
+use std::sync::atomic::AtomicBool;
+
+use gather::GatherParams;
+use icache::CacheParams;
+
+use super::tiles::{Sampling, Window};
+use super::Options;
+use crate::camera::Camera;
+use crate::error::{option, Result};
+use crate::integrator::photons::{PhotonData, PhotonSettings};
+use crate::integrator::pm::{IndirectSource, PmContext};
+use crate::scene::{Method, Scene};
+
+/// Resolved settings of one render.
+pub struct Plan {
+    pub method: Method,
+    pub spp: u32,
+    /// Adaptive sampling's noise target (0: `spp` everywhere).
+    pub noise: f32,
+    pub seed: u64,
+    pub width: u32,
+    pub height: u32,
+    pub window: Window,
+    /// The scene's camera at the image size.
+    pub camera: Camera,
+    /// `[render.photons]` with the scene's defaults (read by the photon-map methods).
+    pub photons: PhotonSettings,
+    /// `[render.icache]` for the image size (read by `pm`).
+    pub cache: CacheParams,
+    /// Rays per final gather (`pm`'s records and `pm-fg`'s samples).
+    pub gather: GatherParams,
+}
+
+/// Default noise target of the photon-map methods (chosen from the speed×accuracy chart; README).
+pub const DEFAULT_NOISE: f32 = 0.04;
+
+impl Plan {
+    pub fn sampling(&self) -> Sampling {
+        Sampling { spp: self.spp, noise: self.noise }
+    }
+
+    /// The photon-map methods' integrator, reading soft indirect light from `source`.
+    pub fn pm_context<'a>(&self, scene: &'a Scene, photons: &'a PhotonData<'a>, source: IndirectSource<'a>, cancel: &'a AtomicBool) -> PmContext<'a> {
+        PmContext { scene, photons, source, gather: self.gather, max_depth: scene.settings.max_depth, seed: self.seed, cancel }
+    }
+}
+
+pub fn plan(scene: &Scene, opts: &Options) -> Result<Plan> {
+    let method = opts.method.or(scene.settings.method).unwrap_or(Method::Pm);
+    let spp = opts.spp.or(scene.settings.spp).unwrap_or(match method {
+        // Chosen from measurements against the Mitsuba reference of the caustic scene (README).
+        Method::Path => 64,
+        Method::Pm | Method::Photons => 32,
+        Method::PmFg => 4,
+    });
+    // Adaptive sampling by default for the photon-map methods, whose pixels mostly converge in a few
+    // samples (point lights, diffuse walls, smooth cached irradiance); `path` keeps fixed sample counts
+    // (it is the reference, and its charts are drawn per spp).
+    let noise = opts.noise.or(scene.settings.noise).unwrap_or(match method {
+        Method::Path => 0.0,
+        Method::Pm | Method::Photons | Method::PmFg => DEFAULT_NOISE,
+    });
+    let width = opts.width.unwrap_or(scene.camera.width);
+    let height = opts.height.unwrap_or(scene.camera.height);
+    let window = match opts.crop {
+        None => Window::full(width, height),
+        Some(w) => {
+            if w.x0 >= w.x1 || w.y0 >= w.y1 || w.x1 > width || w.y1 > height {
+                return Err(option("--crop", format!("window {} {} {} {} is empty or outside the {width}×{height} image", w.x0, w.y0, w.x1, w.y1)));
+            }
+            w
+        }
+    };
+    let icache = &scene.settings.icache;
+    Ok(Plan {
+        method,
+        spp,
+        noise,
+        seed: opts.seed.unwrap_or(scene.settings.seed),
+        width,
+        height,
+        window,
+        camera: scene.camera.with_resolution(width, height),
+        photons: PhotonSettings::resolve(scene),
+        cache: icache.for_image(width, height),
+        gather: GatherParams { rays: icache.rays },
+    })
+}

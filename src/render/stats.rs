@@ -1,0 +1,254 @@
+//! The render's statistics: one typed struct with a part per phase, each part the second half of its
+//! phase's `(output, stats)` (threads' counts merged with rayon inside the phase, no shared counter),
+//! turned into report rows in one place, [`RenderStats::report`].
+
+use std::time::Instant;
+
+use icache::{CacheStats, IrradianceCache};
+
+use super::tiles::SampleCount;
+use super::Plan;
+use crate::integrator::atlas::AtlasStats;
+use crate::integrator::photons::PhotonData;
+use crate::integrator::SampleCounters;
+use crate::scene::{Method, Scene};
+use crate::stats::{peak_rss_bytes, Report};
+
+/// What a render did, phase by phase.
+pub struct RenderStats {
+    pub setup: Setup,
+    /// `trace_photons` (or `load_photons`); `None` for `path`.
+    pub photons: Option<PhotonStats>,
+    /// `fill_cache` (or a loaded cache); `pm` only.
+    pub fill: Option<CacheFillStats>,
+    pub shade: ShadeStats,
+    /// The irradiance atlas after shading (it fills lazily, in the cache fill and the shading).
+    pub atlas: Option<AtlasStats>,
+    /// The cache after shading; records loaded from a file are not counted as made in pass B.
+    pub cache: Option<CacheStats>,
+    /// Seconds from the plan to the end of shading.
+    pub total_s: f64,
+    /// Set by `write_outputs`.
+    pub write_outputs_s: Option<f64>,
+    pub peak_rss_bytes: u64,
+}
+
+/// The plan and the scene, as reported.
+pub struct Setup {
+    pub method: Method,
+    pub width: u32,
+    pub height: u32,
+    pub spp: u32,
+    pub noise: f32,
+    pub n_triangles: u64,
+    pub n_degenerate: u64,
+    pub n_lights: u64,
+}
+
+/// The photon maps, traced or loaded, and the settings they are read with.
+pub struct PhotonStats {
+    /// Seconds to trace the maps, or to load them (`loaded`).
+    pub time_s: f64,
+    pub loaded: bool,
+    pub trace: photon::TraceStats,
+    /// Precomputed irradiance points kept from a photon file of an earlier version: (points, bytes).
+    pub precomputed: Option<(u64, u64)>,
+    pub lookup: usize,
+    pub max_radius_global: f32,
+    pub max_radius_caustic: f32,
+}
+
+/// Pass A, or the cache loaded instead.
+#[derive(Default)]
+pub struct CacheFillStats {
+    /// Seconds to fill; `None` when the cache was loaded.
+    pub time_s: Option<f64>,
+    pub one_pass: bool,
+    pub fill: icache::FillStats,
+    /// The fill's final gathers (their rays).
+    pub counters: SampleCounters,
+    pub n_loaded: u64,
+}
+
+/// Every pixel's samples.
+#[derive(Default)]
+pub struct ShadeStats {
+    pub time_s: f64,
+    pub counters: SampleCounters,
+    pub samples: SampleCount,
+}
+
+impl RenderStats {
+    pub fn new(scene: &Scene, plan: &Plan) -> RenderStats {
+        let setup = Setup {
+            method: plan.method,
+            width: plan.width,
+            height: plan.height,
+            spp: plan.spp,
+            noise: plan.noise,
+            n_triangles: scene.geometry.triangles.len() as u64,
+            n_degenerate: scene.geometry.n_degenerate as u64,
+            n_lights: scene.lights.len() as u64,
+        };
+        RenderStats { setup, photons: None, fill: None, shade: ShadeStats::default(), atlas: None, cache: None, total_s: 0.0, write_outputs_s: None, peak_rss_bytes: 0 }
+    }
+
+    /// What is read once the phases are done: the atlas and the cache as shading left them, the time
+    /// since `start`, the peak memory.
+    pub fn finish(&mut self, start: Instant, photons: Option<&PhotonData>, cache: Option<&IrradianceCache>) {
+        self.atlas = photons.and_then(|p| p.atlas.as_ref()).map(|a| a.stats());
+        let fill = self.fill.as_ref();
+        self.cache = cache.map(|c| {
+            let mut s = CacheStats::collect(c, &fill.map(|f| f.fill).unwrap_or_default(), &self.shade.counters.lookups);
+            let n_loaded = fill.map_or(0, |f| f.n_loaded);
+            s.records_pass_b -= n_loaded.min(s.records_pass_b);
+            s
+        });
+        self.total_s = start.elapsed().as_secs_f64();
+        self.peak_rss_bytes = peak_rss_bytes();
+    }
+
+    /// Counters of every phase that traces rays from the camera's view: the cache fill and the shading.
+    fn counters(&self) -> SampleCounters {
+        let mut c = self.shade.counters;
+        c += self.fill_counters();
+        c
+    }
+
+    fn fill_counters(&self) -> SampleCounters {
+        self.fill.as_ref().map(|f| f.counters).unwrap_or_default()
+    }
+
+    /// The report: pbrt-style rows, in the order of the printed table.
+    pub fn report(&self) -> Report {
+        let mut r = Report::default();
+        r.text("Render", "Method", "render.method", self.setup.method.name());
+        if let Some(p) = &self.photons {
+            photon_rows(&mut r, p);
+        }
+        if let Some(f) = &self.fill {
+            if let Some(t) = f.time_s {
+                let label = if f.one_pass { "Fill cache (one pass)" } else { "Fill cache (pass A)" };
+                r.seconds("Time", label, "time.fill_cache_s", t);
+            }
+        }
+        r.seconds("Time", "Shade", "time.shade_s", self.shade.time_s);
+        if self.photons.is_some() {
+            self.photon_method_rows(&mut r);
+        }
+        r.seconds("Time", "Total", "time.total_s", self.total_s);
+        self.ray_rows(&mut r);
+        self.image_rows(&mut r);
+        let c = self.counters();
+        r.count("Rare events", "NaN or negative radiance", "rare.nan_or_negative", c.nan_or_negative);
+        r.count("Rare events", "Zero-pdf samples", "rare.zero_pdf", c.zero_pdf);
+        r.count("Scene", "Triangles", "scene.triangles", self.setup.n_triangles);
+        r.count("Scene", "Degenerate triangles dropped", "scene.degenerate_triangles", self.setup.n_degenerate);
+        r.count("Scene", "Lights", "scene.lights", self.setup.n_lights);
+        r.bytes("Memory", "Peak resident set", "memory.peak_rss_bytes", self.peak_rss_bytes);
+        if let Some(t) = self.write_outputs_s {
+            r.seconds("Time", "Write outputs", "time.write_outputs_s", t);
+        }
+        r
+    }
+
+    /// Atlas, cache, final-gather and k-NN rows of the photon-map methods.
+    fn photon_method_rows(&self, r: &mut Report) {
+        let (shade, fill) = (&self.shade.counters, self.fill_counters());
+        if let Some(s) = &self.atlas {
+            r.count("Photons", "Irradiance atlas texels", "photons.atlas_texels", s.slots);
+            r.count("Photons", "Irradiance atlas texels estimated", "photons.atlas_estimates", s.estimates);
+            r.bytes("Photons", "Memory, irradiance atlas", "photons.atlas_memory_bytes", s.memory_bytes);
+        }
+        if let (Some(cs), Some(f)) = (&self.cache, &self.fill) {
+            if f.n_loaded > 0 {
+                r.count("Irradiance cache", "Records loaded from file", "icache.records_loaded", f.n_loaded);
+            }
+            cache_rows(r, cs, &f.fill, fill.gather_rays + shade.gather_rays);
+        }
+        r.count("Final gather", "Gathers", "gather.gathers", fill.gathers + shade.gathers);
+        r.count("Final gather", "Gather rays", "gather.rays", fill.gather_rays + shade.gather_rays);
+        r.count("Final gather", "Gather rays in the cache fill", "gather.rays_fill", fill.gather_rays);
+        r.count("Rays", "Rays while shading (camera, bounce, shadow, pass-B gathers)", "rays.shade", shade.rays + shade.shadow_rays);
+        r.count("Photons", "k-NN estimates while rendering (caustic, indirect)", "photons.estimates", fill.photon_estimates + shade.photon_estimates);
+    }
+
+    /// Rays of the cache fill and the shading; their rate over the time of those two phases (the photon
+    /// pass traces its own paths and is reported in its own rows).
+    fn ray_rows(&self, r: &mut Report) {
+        let c = self.counters();
+        let rays = c.rays + c.shadow_rays;
+        let seconds = self.shade.time_s + self.fill.as_ref().and_then(|f| f.time_s).unwrap_or(0.0);
+        r.count("Rays", "Total", "rays.total", rays);
+        r.count("Rays", "Camera and bounce rays", "rays.closest_hit", c.rays);
+        r.count("Rays", "Shadow rays", "rays.shadow", c.shadow_rays);
+        r.number("Rays", "Rays per second", "rays.per_s", rays as f64 / seconds.max(1e-9));
+    }
+
+    fn image_rows(&self, r: &mut Report) {
+        let (s, n) = (&self.setup, &self.shade.samples);
+        r.count("Image", "Width", "image.width", s.width as u64);
+        r.count("Image", "Height", "image.height", s.height as u64);
+        r.count("Image", "Samples per pixel (most)", "image.spp", s.spp as u64);
+        r.number("Image", "Noise target (0: fixed spp)", "image.noise", s.noise as f64);
+        r.number("Image", "Samples per pixel (mean)", "image.spp_mean", n.samples as f64 / n.pixels.max(1) as f64);
+        r.count("Image", "Pixels at the sample limit", "image.pixels_at_limit", n.at_limit);
+        r.count("Image", "Samples", "image.samples", n.samples);
+    }
+}
+
+fn photon_rows(r: &mut Report, p: &PhotonStats) {
+    if p.loaded {
+        r.seconds("Time", "Load photons", "time.load_photons_s", p.time_s);
+    } else {
+        r.seconds("Time", "Trace photons", "time.trace_photons_s", p.time_s);
+    }
+    let s = &p.trace;
+    r.count("Photons", "Paths emitted", "photons.paths_emitted", s.n_paths_emitted);
+    r.count("Photons", "Global photons stored", "photons.global_stored", s.n_global_stored);
+    r.count("Photons", "Caustic photons stored", "photons.caustic_stored", s.n_caustic_stored);
+    r.seconds("Photons", "Trace time", "photons.trace_s", s.trace_s);
+    r.seconds("Photons", "Build time (kd-trees)", "photons.build_s", s.global_build_s + s.caustic_build_s);
+    r.bytes("Photons", "Memory, global map", "photons.global_memory_bytes", s.global_memory_bytes);
+    r.bytes("Photons", "Memory, caustic map", "photons.caustic_memory_bytes", s.caustic_memory_bytes);
+    let precomputed_bytes = p.precomputed.map_or(0, |(_, bytes)| bytes);
+    r.bytes("Photons", "Memory", "photons.memory_bytes", s.global_memory_bytes + s.caustic_memory_bytes + precomputed_bytes);
+    r.count("Photons", "Paths dropped (non-finite)", "rare.photon_paths_dropped", s.n_paths_dropped);
+    r.count("Photons", "Caustic map stopped by its path budget", "photons.caustic_cut", s.n_caustic_cut);
+    r.count("Photons", "Lookup k", "photons.lookup", p.lookup as u64);
+    r.number("Photons", "Max radius (global)", "photons.max_radius_global", p.max_radius_global as f64);
+    r.number("Photons", "Max radius (caustic)", "photons.max_radius_caustic", p.max_radius_caustic as f64);
+    if let Some((points, _)) = p.precomputed {
+        r.count("Photons", "Precomputed irradiance points", "photons.precomputed", points);
+    }
+}
+
+fn cache_rows(r: &mut Report, s: &CacheStats, fill: &icache::FillStats, gather_rays: u64) {
+    r.count("Irradiance cache", "Records created in pass A", "icache.records_pass_a", s.records_pass_a);
+    r.count("Irradiance cache", "Records created in pass B", "icache.records_pass_b", s.records_pass_b);
+    r.count("Irradiance cache", "Lookups", "icache.lookups", s.lookups);
+    r.count("Irradiance cache", "Pass-B lookups", "icache.lookups_pass_b", s.lookups_pass_b);
+    r.count("Irradiance cache", "Pass-B misses (no record interpolates)", "icache.misses_pass_b", s.misses_pass_b);
+    r.count("Irradiance cache", "Pass-B misses extrapolated across normals", "icache.extrapolated_pass_b", s.extrapolated_pass_b);
+    r.count("Irradiance cache", "Pass-B misses gathered (no record at all)", "icache.gathered_pass_b", s.gathered_pass_b);
+    r.count("Irradiance cache", "Pass-B lookups from one record", "icache.single_record_pass_b", s.single_record_pass_b);
+    r.count("Irradiance cache", "Pass-B lookups reused within a pixel", "icache.reused_pass_b", s.reused_pass_b);
+    r.number("Irradiance cache", "Mean usable records per lookup", "icache.mean_records_per_lookup", s.mean_records_per_lookup());
+    r.count("Irradiance cache", "Gather rays", "icache.gather_rays", gather_rays);
+    let h = &s.radius_px;
+    r.value(
+        "Irradiance cache",
+        "Record radius (px) avg [min–max]",
+        "icache.radius_px",
+        serde_json::json!({"min": h.min_px, "avg": h.mean_px(), "max": h.max_px, "counts": h.counts.to_vec(), "edges": (0..=icache::stats::RADIUS_BINS).map(|i| h.edge(i)).collect::<Vec<_>>()}),
+        format!("{:.1} [{:.1}–{:.1}]", h.mean_px(), h.min_px, h.max_px),
+    );
+    r.count("Irradiance cache", "Shrunk by neighbor clamping", "icache.shrunk_by_clamping", s.shrunk_by_clamping);
+    r.count("Irradiance cache", "Shrunk by the gradient limit", "icache.shrunk_by_gradient", s.shrunk_by_gradient);
+    r.count("Irradiance cache", "Shrunk by adaptive caching (halvings)", "icache.shrunk_adaptive", s.shrunk_adaptive);
+    r.count("Irradiance cache", "Clamped to min spacing", "icache.clamped_min", s.clamped_min);
+    r.count("Irradiance cache", "Clamped to max spacing", "icache.clamped_max", s.clamped_max);
+    r.count("Irradiance cache", "Pass-A waves", "icache.waves", fill.n_waves);
+    r.count("Irradiance cache", "Points left uncovered after pass A", "icache.uncovered_after_fill", fill.n_uncovered_after);
+    r.bytes("Irradiance cache", "Memory", "icache.memory_bytes", s.memory_bytes);
+}
