@@ -34,6 +34,14 @@ struct Accum {
     n_used: u32,
 }
 
+impl Accum {
+    fn add(&mut self, w: f32, e: Vec3) {
+        self.sum += w * e;
+        self.weight_sum += w;
+        self.n_used += 1;
+    }
+}
+
 thread_local! {
     static CANDIDATES: std::cell::RefCell<Vec<u32>> = const { std::cell::RefCell::new(Vec::new()) };
 }
@@ -118,20 +126,9 @@ impl IrradianceCache {
         if !(p.is_finite() && n.is_finite()) {
             return None;
         }
-        // Sum in record order, not in index order: the index of a cache loaded from a file can hold the
-        // same records in other nodes, and the image must not change in the last bit.
-        CANDIDATES.with(|cell| {
-            let mut ids = cell.borrow_mut();
-            ids.clear();
-            self.index.for_each_candidate(p, |id| {
-                if (id as usize) < n_records {
-                    ids.push(id)
-                }
-            });
-            ids.sort_unstable();
-            ids.dedup();
+        self.with_candidates(p, n_records, |ids| {
             let mut acc = Accum::default();
-            for &id in ids.iter() {
+            for &id in ids {
                 self.accumulate(&self.records[id as usize], p, n, pass, &mut acc);
             }
             self.finish(acc)
@@ -148,21 +145,14 @@ impl IrradianceCache {
         if !(p.is_finite() && n.is_finite()) {
             return (None, None);
         }
-        CANDIDATES.with(|cell| {
-            let mut ids = cell.borrow_mut();
-            ids.clear();
-            self.index.for_each_candidate(p, |id| ids.push(id));
-            ids.sort_unstable();
-            ids.dedup();
+        self.with_candidates(p, usize::MAX, |ids| {
             let mut acc = Accum::default();
-            // (id, luminance of its extrapolation, weight) of the usable records, in record order.
-            let mut used: Vec<(u32, f32, f32)> = Vec::with_capacity(ids.len());
-            for &id in ids.iter() {
+            // (id, luminance of its extrapolation) of the usable records, in record order.
+            let mut used: Vec<(u32, f32)> = Vec::with_capacity(ids.len());
+            for &id in ids {
                 if let Some((w, e)) = self.weighted(&self.records[id as usize], p, n, Pass::A) {
-                    acc.sum += w * e;
-                    acc.weight_sum += w;
-                    acc.n_used += 1;
-                    used.push((id, luminance(e.max(Vec3::ZERO)), w));
+                    acc.add(w, e);
+                    used.push((id, luminance(e.max(Vec3::ZERO))));
                 }
             }
             let lookup = self.finish(acc);
@@ -170,13 +160,31 @@ impl IrradianceCache {
             let mean = luminance(l.e);
             let deviant = used
                 .iter()
-                .filter(|(_, li, _)| (li - mean).abs() > tau * mean)
-                .filter(|(id, _, _)| self.can_shrink_adaptive(&self.records[*id as usize]))
+                .filter(|(_, li)| (li - mean).abs() > tau * mean)
+                .filter(|(id, _)| self.can_shrink_adaptive(&self.records[*id as usize]))
                 .max_by(|a, b| (a.1 - mean).abs().total_cmp(&(b.1 - mean).abs()).then(b.0.cmp(&a.0)));
             match deviant {
-                Some(&(id, _, _)) if used.len() > 1 => (None, Some(id)),
+                Some(&(id, _)) if used.len() > 1 => (None, Some(id)),
                 _ => (lookup, None),
             }
+        })
+    }
+
+    /// `f` over the ids of the index's candidate records at `p` below `n_records`, sorted and unique.
+    /// Sums run in record order, not in index order: the index of a cache loaded from a file can hold
+    /// the same records in other nodes, and the image must not change in the last bit.
+    fn with_candidates<T>(&self, p: Vec3, n_records: usize, f: impl FnOnce(&[u32]) -> T) -> T {
+        CANDIDATES.with(|cell| {
+            let mut ids = cell.borrow_mut();
+            ids.clear();
+            self.index.for_each_candidate(p, |id| {
+                if (id as usize) < n_records {
+                    ids.push(id)
+                }
+            });
+            ids.sort_unstable();
+            ids.dedup();
+            f(&ids)
         })
     }
 
@@ -214,10 +222,9 @@ impl IrradianceCache {
 
     #[inline]
     fn accumulate(&self, rec: &Record, p: Vec3, n: Vec3, pass: Pass, acc: &mut Accum) {
-        let Some((w, e)) = self.weighted(rec, p, n, pass) else { return };
-        acc.sum += w * e;
-        acc.weight_sum += w;
-        acc.n_used += 1;
+        if let Some((w, e)) = self.weighted(rec, p, n, pass) {
+            acc.add(w, e);
+        }
     }
 
     fn finish(&self, acc: Accum) -> Option<Lookup> {
