@@ -121,6 +121,11 @@ impl Lights {
         self.sample_light(i, p_sel, geo, p, u)
     }
 
+    /// Whether any light is an emissive triangle.
+    pub fn has_area(&self) -> bool {
+        self.select_area.is_some()
+    }
+
     /// Samples one area light (chosen by power among area lights only); None without area lights.
     pub fn sample_area(&self, geo: &Geometry, p: Vec3, u: [f32; 3]) -> Option<LightSample> {
         let (i, p_sel) = self.select_area.as_ref()?.sample(u[0]);

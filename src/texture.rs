@@ -84,16 +84,63 @@ impl Texture {
 
     /// Bilinear lookup; OBJ's v runs upward, image rows downward.
     pub fn lookup(&self, uv: Vec2) -> Vec3 {
-        let (w, h) = (self.width as i64, self.height as i64);
+        let (w, h) = (self.width as usize, self.height as usize);
+        // x ∈ [−0.5, w − 0.5] (w − 0.5 at most, or w if rem_euclid rounds up to 1): the four texels are
+        // wrapped by a comparison each, not by an integer division each.
         let x = uv.x.rem_euclid(1.0) * w as f32 - 0.5;
         let y = (1.0 - uv.y.rem_euclid(1.0)) * h as f32 - 0.5;
-        if !x.is_finite() || !y.is_finite() {
+        if !(x >= -0.5 && x <= w as f32 && y >= -0.5 && y <= h as f32) {
             return self.texels[0];
         }
+        // x + 1 > 0, so truncation is floor.
+        let (xi, yi) = ((x + 1.0) as usize, (y + 1.0) as usize);
+        let (fx, fy) = (x + 1.0 - xi as f32, y + 1.0 - yi as f32);
+        let (i0, i1, j0, j1) = (wrap(xi, w), wrap(xi + 1, w), wrap(yi, h) * w, wrap(yi + 1, h) * w);
+        let t = &self.texels;
+        (t[j0 + i0] * (1.0 - fx) + t[j0 + i1] * fx) * (1.0 - fy) + (t[j1 + i0] * (1.0 - fx) + t[j1 + i1] * fx) * fy
+    }
+}
+
+/// Texel index `i − 1` wrapped into `0..n`, for `i` in `0..=n + 2`.
+#[inline]
+fn wrap(i: usize, n: usize) -> usize {
+    match i {
+        0 => n - 1,
+        i if i <= n => i - 1,
+        i => (i - 1 - n) % n,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use photon::sampling::Rng;
+
+    /// The bilinear lookup with wrapping by `rem_euclid`, as it was written first.
+    fn by_division(t: &Texture, uv: Vec2) -> Vec3 {
+        let (w, h) = (t.width as i64, t.height as i64);
+        let x = uv.x.rem_euclid(1.0) * w as f32 - 0.5;
+        let y = (1.0 - uv.y.rem_euclid(1.0)) * h as f32 - 0.5;
         let (x0, y0) = (x.floor(), y.floor());
         let (fx, fy) = (x - x0, y - y0);
-        let at = |i: i64, j: i64| self.texels[(j.rem_euclid(h) * w + i.rem_euclid(w)) as usize];
+        let at = |i: i64, j: i64| t.texels[(j.rem_euclid(h) * w + i.rem_euclid(w)) as usize];
         let (i, j) = (x0 as i64, y0 as i64);
         (at(i, j) * (1.0 - fx) + at(i + 1, j) * fx) * (1.0 - fy) + (at(i, j + 1) * (1.0 - fx) + at(i + 1, j + 1) * fx) * fy
+    }
+
+    #[test]
+    fn lookup_wraps_like_the_division_form() {
+        let mut rng = Rng::new(3);
+        for (w, h) in [(1, 1), (1, 3), (2, 2), (3, 7), (16, 5)] {
+            let texels = (0..w * h).map(|i| Vec3::new(i as f32, (i * i) as f32, 1.0)).collect();
+            let t = Texture { path: PathBuf::new(), width: w, height: h, texels };
+            let edges = [0.0, 1.0, -1e-9, 1.0 - 1e-9, 0.5 / w as f32, -3.0, 7.25];
+            let uvs = edges.iter().flat_map(|&u| edges.iter().map(move |&v| Vec2::new(u, v)));
+            for uv in uvs.chain((0..2000).map(|_| Vec2::new(rng.uniform() * 8.0 - 4.0, rng.uniform() * 8.0 - 4.0))) {
+                let (a, b) = (t.lookup(uv), by_division(&t, uv));
+                assert!((a - b).abs().max_element() <= 1e-3 * (1.0 + b.abs().max_element()), "{w}×{h} at {uv}: {a} vs {b}");
+            }
+            assert!(t.lookup(Vec2::new(f32::NAN, 0.5)).is_finite());
+        }
     }
 }

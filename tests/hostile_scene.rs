@@ -394,7 +394,7 @@ fn photon_and_cache_files_with_bad_values_are_refused() {
         photon::file::write_maps(&mut bytes, &loaded.info, &loaded.maps, Some(&pre)).unwrap();
         bytes
     };
-    // Photon layout: 112-byte header (max radius at 104), then pos, wi, power, normal, flag (13 f32).
+    // Photon layout: 112-byte header (max radius at 104), then pos, wi, power, normal, kind (13 f32).
     let n_global = u64::from_le_bytes(photons[80..88].try_into().unwrap()) as usize;
     let n_caustic = u64::from_le_bytes(photons[88..96].try_into().unwrap()) as usize;
     let first_point = 112 + 52 * (n_global + n_caustic);
@@ -406,7 +406,7 @@ fn photon_and_cache_files_with_bad_values_are_refused() {
         (112 + 40, 5.0, "normal"),
         (112 + 12, f32::NAN, "direction"),
         (112, f32::NAN, "position"),
-        (112 + 48, 0.5, "flag"),
+        (112 + 48, 0.5, "kind"),
         (first_point + 24, f32::NAN, "irradiance"),
         (first_point + 28, -3.0, "irradiance"),
         (first_point + 40, f32::NAN, "indirect irradiance"),

@@ -4,7 +4,7 @@
 //! Layout (little-endian): magic `PMPHOTON`, version u32, flags u32, then u64s — scene fingerprint,
 //! seed, target global, target caustic, max paths, paths emitted, global paths, caustic paths, number of
 //! global photons, caustic photons, irradiance points — then the precomputed max radius f32 and 4 zero
-//! bytes (112-byte header); then the photons (13 f32 each: pos, wi, power, normal, indirect flag 0/1) and the irradiance
+//! bytes (112-byte header); then the photons (13 f32 each: pos, wi, power, normal, kind: 0 caustic, 1 indirect, 2 direct) and the irradiance
 //! points (13 f32: pos, normal, e, e_indirect, half_thickness); then an FNV-1a 64 checksum of everything between the magic and it.
 //! Loading checks magic, version, that the counts match the file length (before allocating), the
 //! checksum, then the scene fingerprint, then every value: positions finite, directions and normals unit
@@ -25,7 +25,7 @@ use crate::precomputed::{IrradiancePoint, PrecomputedIrradiance};
 use crate::trace::{PhotonMaps, PhotonTargets, TraceStats};
 
 pub const MAGIC: [u8; 8] = *b"PMPHOTON";
-pub const VERSION: u32 = 3;
+pub const VERSION: u32 = 4;
 const HEADER_BYTES: usize = 112;
 const PHOTON_BYTES: u64 = 52;
 const POINT_BYTES: u64 = 52;
@@ -130,7 +130,7 @@ pub fn write_maps<W: Write>(
     h.write_all(&[0u8; 4])?;
     for ph in global.iter().chain(caustic) {
         write_vecs(&mut h, &[ph.pos, ph.wi, ph.power, ph.normal])?;
-        h.write_all(&(ph.indirect as u8 as f32).to_le_bytes())?;
+        h.write_all(&(if ph.direct { 2.0f32 } else { ph.indirect as u8 as f32 }).to_le_bytes())?;
     }
     for pt in points {
         write_vecs(&mut h, &[pt.pos, pt.normal, pt.e, pt.e_indirect])?;
@@ -251,8 +251,8 @@ fn photon_problem(pos: Vec3, wi: Vec3, power: Vec3, normal: Vec3, flag: f32) -> 
         Some("power is not finite and non-negative")
     } else if !is_unit(normal) {
         Some("normal is not a unit vector")
-    } else if flag != 0.0 && flag != 1.0 {
-        Some("indirect flag is neither 0 nor 1")
+    } else if flag != 0.0 && flag != 1.0 && flag != 2.0 {
+        Some("kind is not 0 (caustic), 1 (indirect) or 2 (direct)")
     } else {
         None
     }
@@ -318,7 +318,7 @@ pub fn read_maps(bytes: &[u8], expected_fingerprint: u64) -> Result<LoadedMaps> 
                 let flag = next();
                 match photon_problem(pos, wi, power, normal, flag) {
                     Some(why) => Err(Error::Corrupt(format!("{map} photon {index}: {why}"))),
-                    None => Ok(Photon { pos, wi, power, normal, indirect: flag == 1.0 }),
+                    None => Ok(Photon { pos, wi, power, normal, indirect: flag == 1.0, direct: flag == 2.0 }),
                 }
             })
             .collect()

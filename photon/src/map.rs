@@ -39,6 +39,8 @@ pub struct Photon {
     /// The path bounced off a non-specular surface before this hit: soft indirect light, neither
     /// direct (first hit) nor caustic (only specular bounces before).
     pub indirect: bool,
+    /// The photon's first hit: light straight from the light (never with `indirect`).
+    pub direct: bool,
 }
 
 /// Kernel applied to photons by distance.
@@ -145,6 +147,16 @@ impl PhotonMap {
             [ph.power, if ph.indirect { ph.power } else { Vec3::ZERO }]
         });
         (Estimate { e: full, ..est }, indirect)
+    }
+
+    /// Irradiance from the photons that are not direct (caustic and indirect ones) and from the
+    /// indirect ones only, over the neighbourhood of [`irradiance`](Self::irradiance): the parts of the
+    /// irradiance that a caller computing direct light itself still needs from the map.
+    pub fn irradiance_not_direct(&self, p: Vec3, n: Vec3, k: usize, max_radius: f32, cov: &dyn Coverage) -> (Estimate, Vec3) {
+        let (est, [not_direct, indirect]) = self.estimate_sums(p, n, k, max_radius, Filter::None, cov, |ph| {
+            [if ph.direct { Vec3::ZERO } else { ph.power }, if ph.indirect { ph.power } else { Vec3::ZERO }]
+        });
+        (Estimate { e: not_direct, ..est }, indirect)
     }
 
     /// Reflected radiance at `p`: `Σ f(wi) Φ / (π r²)` over the same neighbourhood as
@@ -259,7 +271,7 @@ mod tests {
         let photons = (0..n)
             .map(|_| {
                 let pos = Vec3::new(rng.uniform() * 2.0 - 1.0, rng.uniform() * 2.0 - 1.0, 0.0);
-                Photon { pos, wi, power, normal: Vec3::Z, indirect: false }
+                Photon { pos, wi, power, normal: Vec3::Z, indirect: false, direct: false }
             })
             .collect();
         PhotonMap::new(photons).unwrap()

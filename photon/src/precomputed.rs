@@ -181,7 +181,7 @@ mod tests {
             .map(|i| {
                 let pos = Vec3::new(rng.uniform() * 2.0 - 1.0, rng.uniform() * 2.0 - 1.0, 0.0);
                 let (side, power) = if i % 2 == 0 { (Vec3::Z, 8.0) } else { (-Vec3::Z, 2.0) };
-                Photon { pos, wi: side, power: Vec3::splat(power / n as f32), normal: side, indirect: false }
+                Photon { pos, wi: side, power: Vec3::splat(power / n as f32), normal: side, indirect: false, direct: false }
             })
             .collect();
         PhotonMap::new(photons).unwrap()

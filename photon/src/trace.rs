@@ -376,7 +376,7 @@ fn trace_path<S: PhotonScene + ?Sized>(
         }
         let wo = -dir;
         if !hit.specular {
-            let photon = Photon { pos: hit.pos, wi: wo, power, normal: hit.normal, indirect: any_diffuse };
+            let photon = Photon { pos: hit.pos, wi: wo, power, normal: hit.normal, indirect: any_diffuse, direct: !any_diffuse && !any_specular };
             if want.global {
                 global.push(photon);
             }

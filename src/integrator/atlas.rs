@@ -18,11 +18,14 @@
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::OnceLock;
 
-use glam::Vec3;
+use glam::{Vec2, Vec3};
+use photon::sampling::{hash_keys, Rng};
 use photon::PhotonMap;
 
 use super::coverage::SceneCoverage;
-use crate::geometry::Geometry;
+use crate::geometry::{Geometry, Hit};
+use crate::light::LightSample;
+use crate::scene::Scene;
 
 /// Texels per triangle side at most, per barycentric axis.
 pub const MAX_TEXELS_PER_AXIS: u32 = 255;
@@ -104,6 +107,37 @@ impl Grid {
     }
 }
 
+/// Shadow rays per area light sample set at a texel (stratified over the light's surface).
+const TEXEL_AREA_SAMPLES: u32 = 16;
+
+/// Irradiance straight from the lights at point `p` of triangle `tri` on the side facing `n`, by shadow
+/// rays: every point, spot and directional light once, area lights by [`TEXEL_AREA_SAMPLES`] samples
+/// from a generator seeded with `seed` (the texel's value stays a function of the texel).
+fn direct_irradiance(scene: &Scene, tri: u32, p: Vec3, n: Vec3, seed: u64) -> Vec3 {
+    let hit = Hit { p, t: 0.0, ng: n, ns: n, uv: Vec2::ZERO, tri, material: scene.geometry.triangles[tri as usize].material };
+    let arrive = |ls: &LightSample| -> Vec3 {
+        let cos = ls.wi.dot(n);
+        if !(ls.pdf > 0.0 && cos > 0.0) || scene.occluded(&hit, ls.wi, ls.dist) {
+            return Vec3::ZERO;
+        }
+        ls.li * cos / ls.pdf
+    };
+    let lights = &scene.lights;
+    let mut e: Vec3 = lights.delta_samples(&scene.geometry, p).map(|ls| arrive(&ls)).sum();
+    if lights.has_area() {
+        let mut rng = Rng::new(hash_keys(&[seed, 0x7e7e1]));
+        let side = (TEXEL_AREA_SAMPLES as f32).sqrt() as u32;
+        for s in 0..TEXEL_AREA_SAMPLES {
+            let (a, b) = ((s % side) as f32, (s / side) as f32);
+            let u = [rng.uniform(), (a + rng.uniform()) / side as f32, (b + rng.uniform()) / side as f32];
+            if let Some(ls) = lights.sample_area(&scene.geometry, p, u) {
+                e += arrive(&ls) / TEXEL_AREA_SAMPLES as f32;
+            }
+        }
+    }
+    e
+}
+
 /// Counts for the statistics.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct AtlasStats {
@@ -155,17 +189,20 @@ impl IrradianceAtlas {
 
     /// Irradiance of the global map on the `front` (winding) or back side of triangle `tri`, at the texel
     /// holding `p`.
-    pub fn lookup(&self, geometry: &Geometry, cov: &SceneCoverage, global: &PhotonMap, tri: u32, front: bool, p: Vec3) -> TexelIrradiance {
+    pub fn lookup(&self, cov: &SceneCoverage, global: &PhotonMap, tri: u32, front: bool, p: Vec3) -> TexelIrradiance {
         let (grid, first) = &self.grids[tri as usize];
         let (i, j) = grid.cell(p);
         let side = if front { 0 } else { grid.nu as u32 * grid.nv as u32 };
-        let slot = &self.slots[(first + side + j * grid.nu as u32 + i) as usize];
-        *slot.get_or_init(|| {
-            let t = &geometry.triangles[tri as usize];
+        let index = first + side + j * grid.nu as u32 + i;
+        *self.slots[index as usize].get_or_init(|| {
+            let scene = cov.0;
+            let t = &scene.geometry.triangles[tri as usize];
             let n = if front { t.ng } else { -t.ng };
-            let (est, e_indirect) = global.irradiance_and_indirect(grid.middle(i, j), n, self.k, self.max_radius, cov);
+            let middle = grid.middle(i, j);
+            let (est, e_indirect) = global.irradiance_not_direct(middle, n, self.k, self.max_radius, cov);
             self.estimated.fetch_add(1, Ordering::Relaxed);
-            TexelIrradiance { e: est.e, e_indirect }
+            let direct = direct_irradiance(scene, tri, middle, n, index as u64);
+            TexelIrradiance { e: direct + est.e, e_indirect }
         })
     }
 

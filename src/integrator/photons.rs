@@ -128,7 +128,7 @@ impl<'a> PhotonData<'a> {
 
     fn texel(&self, tri: u32, front: bool, p: Vec3) -> Option<super::atlas::TexelIrradiance> {
         let (atlas, global) = (self.atlas.as_ref()?, self.maps.global.as_ref()?);
-        Some(atlas.lookup(&self.coverage.0.geometry, &self.coverage, global, tri, front, p))
+        Some(atlas.lookup(&self.coverage, global, tri, front, p))
     }
 
     /// Radiance leaving a glossy surface toward `wo` through its specular lobe, estimated from the global
