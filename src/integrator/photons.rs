@@ -61,6 +61,15 @@ impl PhotonSettings {
     }
 }
 
+/// Photons per atlas texel estimate: half the lookup's `k` (at least 8). A texel is read only by
+/// final-gather rays, and a gather averages hundreds of texels, so a texel's noise averages out while the
+/// blur of a wider disc does not; its direct part comes from shadow rays, so only the smooth caustic and
+/// indirect part is estimated (Sibenik 1024²: image mean 0.9943 → 0.9957 of the reference, block relMSE
+/// 0.000046 → 0.000040, the fill's k-NN searches about half as long).
+pub fn atlas_k(lookup: usize) -> usize {
+    (lookup / 2).max(8).min(lookup)
+}
+
 pub struct PhotonData<'a> {
     pub maps: PhotonMaps,
     pub precomputed: Option<PrecomputedIrradiance>,
@@ -97,7 +106,7 @@ impl<'a> PhotonData<'a> {
     pub fn new(maps: PhotonMaps, precomputed: Option<PrecomputedIrradiance>, settings: PhotonSettings, scene: &'a Scene) -> Self {
         let caustic_reach =
             maps.caustic.as_ref().map(|m| ReachGrid::build(m.photons().iter().map(|ph| ph.pos), settings.max_radius_caustic));
-        let atlas = maps.global.as_ref().map(|g| IrradianceAtlas::new(&scene.geometry, g.len(), settings.precompute_every, settings.lookup, settings.max_radius_global));
+        let atlas = maps.global.as_ref().map(|g| IrradianceAtlas::new(&scene.geometry, g.len(), settings.precompute_every, atlas_k(settings.lookup), settings.max_radius_global));
         PhotonData { maps, precomputed, settings, coverage: SceneCoverage(scene), caustic_reach, atlas }
     }
 
