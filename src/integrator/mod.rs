@@ -12,8 +12,8 @@ use glam::Vec3;
 
 use crate::geometry::Hit;
 
-/// Soft indirect (and faint caustic) irradiance already computed in one pixel (in one round of its
-/// samples), per surface the camera sees there (triangle and side), for the pixel's later samples on that
+/// Soft indirect (and faint caustic) irradiance already computed in one pixel (kept across the rounds of
+/// adaptive sampling while the pixel takes samples), per surface the camera sees there (triangle and side), for the pixel's later samples on that
 /// surface: the cache interpolates over records several pixels apart, and each lookup, like each
 /// caustic k-NN estimate with its coverage probes, costs more than the rest of a sample (on Sibenik,
 /// faint caustic estimates under the red pane were half of the shading). A bright caustic is estimated
@@ -32,28 +32,73 @@ struct MemoEntry {
     caustic: Option<Vec3>,
     indirect: Vec3,
     /// The cache lookups the first sample made, counted again for each reuse.
-    lookups: icache::LookupStats,
+    lookups: Replay,
 }
 
-/// Surfaces remembered per pixel.
-const MEMO_SURFACES: usize = 8;
+/// A [`icache::LookupStats`] of one sample's lookups, in 8 bytes (a memo lives as long as its pixel
+/// takes samples: up to every pixel of the image at once). Counts above the field's range saturate.
+#[derive(Clone, Copy, Debug)]
+struct Replay {
+    lookups: u8,
+    misses: u8,
+    single_record: u8,
+    extrapolated: u8,
+    gathered: u8,
+    records_used: u16,
+}
+
+impl Replay {
+    fn of(s: &icache::LookupStats) -> Replay {
+        let n = |v: u64| v.min(u8::MAX as u64) as u8;
+        Replay {
+            lookups: n(s.n_lookups),
+            misses: n(s.n_misses),
+            single_record: n(s.n_single_record),
+            extrapolated: n(s.n_extrapolated),
+            gathered: n(s.n_gathered),
+            records_used: s.n_records_used.min(u16::MAX as u64) as u16,
+        }
+    }
+
+    fn stats(&self) -> icache::LookupStats {
+        icache::LookupStats {
+            n_lookups: self.lookups as u64,
+            n_misses: self.misses as u64,
+            n_single_record: self.single_record as u64,
+            n_extrapolated: self.extrapolated as u64,
+            n_gathered: self.gathered as u64,
+            n_records_used: self.records_used as u64,
+            n_reused: 0,
+        }
+    }
+}
+
+/// Surfaces remembered per pixel (later ones are estimated at every sample).
+const MEMO_SURFACES: usize = 4;
+
+/// The most a pixel's memo holds while its pixel takes samples: the vector, its entries (grown one at a
+/// time) and the allocator's overhead. Below pass A's per-pixel bytes, which are freed before shading.
+pub const MEMO_BYTES_PER_PIXEL: u64 = (std::mem::size_of::<PixelMemo>() + 16 + MEMO_SURFACES * std::mem::size_of::<MemoEntry>()) as u64;
 
 impl PixelMemo {
+    /// Forget every surface and free the memory.
     pub fn clear(&mut self) {
-        self.entries.clear();
+        self.entries = Vec::new();
     }
 
     /// (caustic if reusable, indirect) irradiance on side `front` of triangle `tri`, if computed; its
     /// cache lookups are counted again in `c`.
     pub fn get(&self, tri: u32, front: bool, c: &mut SampleCounters) -> Option<(Option<Vec3>, Vec3)> {
         let e = self.entries.iter().find(|e| e.tri == tri && e.front == front)?;
-        c.lookups.replay(&e.lookups);
+        c.lookups.replay(&e.lookups.stats());
         Some((e.caustic, e.indirect))
     }
 
     pub fn put(&mut self, tri: u32, front: bool, caustic: Option<Vec3>, indirect: Vec3, lookups: icache::LookupStats) {
         if self.entries.len() < MEMO_SURFACES {
-            self.entries.push(MemoEntry { tri, front, caustic, indirect, lookups });
+            // One surface is the common case: no room for four.
+            self.entries.reserve_exact(1);
+            self.entries.push(MemoEntry { tri, front, caustic, indirect, lookups: Replay::of(&lookups) });
         }
     }
 }

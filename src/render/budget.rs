@@ -10,12 +10,15 @@
 //! - photon maps: [`PHOTON_PEAK_BYTES`] per stored photon while tracing and building, or 3 × the size
 //!   of a `--load-photons` file;
 //! - irradiance cache: pass A keeps the shading points of every pixel of the image
-//!   ([`FILL_BYTES_PER_PIXEL`]), or 3 × the size of a `--load-cache` file.
+//!   ([`FILL_BYTES_PER_PIXEL`]), or 3 × the size of a `--load-cache` file;
+//! - shading memos: each pixel remembers the soft indirect light of the surfaces it sees while it takes
+//!   samples ([`MEMO_BYTES_PER_PIXEL`], after pass A has freed its points: the larger of the two counts).
 
 use std::path::Path;
 
 use super::{Options, Plan};
 use crate::error::{Error, Result};
+use crate::integrator::MEMO_BYTES_PER_PIXEL;
 use crate::scene::{Method, Scene};
 
 /// Largest image side (the scene file's limit too).
@@ -110,12 +113,15 @@ pub fn estimate(scene: &Scene, plan: &Plan, opts: &Options) -> Vec<(String, u64)
         let atlas = crate::integrator::atlas::MAX_TEXEL_SLOTS * 28 + scene.geometry.triangles.len() as u64 * 64;
         items.push(("irradiance atlas".into(), atlas));
     }
+    let memos = pixels.saturating_mul(MEMO_BYTES_PER_PIXEL);
     if plan.method == Method::Pm {
         let cache = match &opts.files.load_cache {
             Some(p) => file_len(Some(p)).saturating_mul(3),
             None => pixels.saturating_mul(FILL_BYTES_PER_PIXEL),
         };
-        items.push(("irradiance cache fill".into(), cache));
+        items.push(("irradiance cache fill, then shading memos".into(), cache.max(memos)));
+    } else if plan.method == Method::Photons {
+        items.push(("shading memos".into(), memos));
     }
     items
 }

@@ -108,6 +108,10 @@ struct TileState {
     window: Window,
     pixels: Vec<PixelSums>,
     layers: Vec<Vec<Vec3>>,
+    /// Each pixel's memo, kept from round to round while the pixel takes samples (its later rounds
+    /// reuse the soft indirect light its first round computed: on Sibenik 500² the rounds made
+    /// adaptive sampling cost 1.5× per sample what fixed sampling does).
+    memos: Vec<PixelMemo>,
 }
 
 /// Sample counts of the rounds: 4, 8, 16, … up to `spp` (one round of `spp` without a noise target).
@@ -150,7 +154,7 @@ pub fn render_tiles(
         for tx in (window.x0..window.x1).step_by(TILE as usize) {
             let w = Window { x0: tx, y0: ty, x1: (tx + TILE).min(window.x1), y1: (ty + TILE).min(window.y1) };
             let n = w.n_pixels() as usize;
-            tiles.push(TileState { window: w, pixels: vec![PixelSums { n: 0, beauty: [0.0; 3], beauty2: [0.0; 3] }; n], layers: vec![vec![Vec3::ZERO; n]; n_layers] });
+            tiles.push(TileState { window: w, pixels: vec![PixelSums { n: 0, beauty: [0.0; 3], beauty2: [0.0; 3] }; n], layers: vec![vec![Vec3::ZERO; n]; n_layers], memos: vec![PixelMemo::default(); n] });
         }
     }
     let (ww, wh) = ((window.x1 - window.x0) as usize, (window.y1 - window.y0) as usize);
@@ -165,7 +169,6 @@ pub fn render_tiles(
             .par_iter_mut()
             .map(|t| {
                 let mut counters = SampleCounters::default();
-                let mut memo = PixelMemo::default();
                 let w = t.window;
                 for y in w.y0..w.y1 {
                     for x in w.x0..w.x1 {
@@ -178,7 +181,7 @@ pub fn render_tiles(
                         let k = ((y - w.y0) * (w.x1 - w.x0) + (x - w.x0)) as usize;
                         let pixel = y as u64 * width as u64 + x as u64;
                         let px = &mut t.pixels[k];
-                        memo.clear();
+                        let memo = &mut t.memos[k];
                         while px.n < target {
                             // Read every sample: one relaxed load next to a whole camera path costs
                             // nothing, and a single pixel at 100 000 spp must stop at once.
@@ -187,7 +190,7 @@ pub fn render_tiles(
                             }
                             let mut rng = Rng::new(hash_keys(&[seed, pixel, px.n as u64]));
                             let (u, v) = (rng.uniform(), rng.uniform());
-                            let values = sample(x, y, offset(px.n, spp, u, v), &mut memo, &mut rng, &mut counters);
+                            let values = sample(x, y, offset(px.n, spp, u, v), memo, &mut rng, &mut counters);
                             let mut b = Vec3::ZERO;
                             for (layer, l) in t.layers.iter_mut().zip(values) {
                                 let l = sanitize(l, &mut counters);
@@ -233,6 +236,16 @@ pub fn render_tiles(
         for y in 0..wh {
             for x in 0..ww {
                 active[y * ww + x] = (y.saturating_sub(1)..(y + 2).min(wh)).any(|yy| (x.saturating_sub(1)..(x + 2).min(ww)).any(|xx| open[yy * ww + xx]));
+            }
+        }
+        // A pixel that stops sampling needs its memo no more.
+        for t in &mut tiles {
+            let w = t.window;
+            for (k, memo) in t.memos.iter_mut().enumerate() {
+                let (x, y) = (w.x0 + k as u32 % (w.x1 - w.x0), w.y0 + k as u32 / (w.x1 - w.x0));
+                if !active[(y - window.y0) as usize * ww + (x - window.x0) as usize] {
+                    memo.clear();
+                }
             }
         }
     }
