@@ -24,6 +24,11 @@ fn saved_maps_and_cache_reproduce_the_render() {
     assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
     let full = std::fs::read(d.path().join("full.exr")).unwrap();
     assert_eq!(full, std::fs::read(d.path().join("again.exr")).unwrap());
+    // Photons alone: the cache is filled again, every atlas texel estimated from the loaded photons, so
+    // each photon's kind (direct, caustic, indirect) must survive the file.
+    let r = render(d.path(), "photons_only.exr", &["--load-photons", &ph]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    assert_eq!(full, std::fs::read(d.path().join("photons_only.exr")).unwrap());
 
     let r = render(d.path(), "crop.exr", &["--load-photons", &ph, "--load-cache", &cache, "--crop", "10", "20", "40", "50"]);
     assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
