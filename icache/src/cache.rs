@@ -56,9 +56,24 @@ pub struct IrradianceCache {
     pub(crate) totals: InsertStats,
     /// Reused buffer for neighbor queries during insertion.
     pub(crate) scratch: Vec<u32>,
-    /// While `Some`: (position, reach before the shrink) of every existing record that neighbor clamping
-    /// shrank, for the fill's repair sweeps (only points inside those spheres can have lost their cover).
-    pub(crate) shrink_log: Option<Vec<(Vec3, f32)>>,
+    /// While `Some`: every shrink of an existing record (by neighbor clamping or adaptive caching), with
+    /// the record's radii before it, for the fill's repair sweeps (only points that a record could
+    /// interpolate before a shrink and cannot after it can have lost their cover).
+    pub(crate) shrink_log: Option<Vec<Shrink>>,
+}
+
+/// A record's radii before one of its shrinks.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Shrink {
+    pub id: u32,
+    pub r_harmonic: f32,
+    pub r_clamped: f32,
+}
+
+impl Shrink {
+    pub fn of(id: u32, rec: &Record) -> Shrink {
+        Shrink { id, r_harmonic: rec.r_harmonic, r_clamped: rec.r_clamped }
+    }
 }
 
 impl IrradianceCache {
@@ -260,9 +275,23 @@ impl IrradianceCache {
         self.shrink_log = on.then(Vec::new);
     }
 
-    /// The spheres (position, largest pass-A or pass-B reach before the shrink) logged since the last call.
-    pub(crate) fn take_shrink_log(&mut self) -> Vec<(Vec3, f32)> {
+    /// The shrinks logged since the last call.
+    pub(crate) fn take_shrink_log(&mut self) -> Vec<Shrink> {
         self.shrink_log.as_mut().map(std::mem::take).unwrap_or_default()
+    }
+
+    /// Where the record of `shrink` reaches in pass A before the shrink: its position and radius.
+    pub(crate) fn reach_before(&self, shrink: &Shrink) -> (Vec3, f32) {
+        (self.records[shrink.id as usize].pos, shrink.r_clamped * self.params.a(Pass::A))
+    }
+
+    /// True when the record of `shrink` could interpolate at (p, n) in pass A before the shrink and
+    /// cannot now. Every test of usability only narrows as R and R' shrink, so a point this is false for
+    /// at every logged shrink has lost no record.
+    pub(crate) fn lost_cover(&self, shrink: &Shrink, p: Vec3, n: Vec3) -> bool {
+        let now = &self.records[shrink.id as usize];
+        let before = Record { r_harmonic: shrink.r_harmonic, r_clamped: shrink.r_clamped, ..*now };
+        usable_weight(&self.params, Pass::A, &before, p, n).is_some() && usable_weight(&self.params, Pass::A, now, p, n).is_none()
     }
 
     /// Put a finished record back (file loading): no gradient limit, clamping or neighbor clamping.

@@ -12,7 +12,7 @@ use std::collections::BinaryHeap;
 
 use glam::Vec3;
 
-use crate::cache::IrradianceCache;
+use crate::cache::{IrradianceCache, Shrink};
 use crate::params::CacheParams;
 use crate::record::{NewRecord, Record};
 use crate::stats::InsertStats;
@@ -110,7 +110,7 @@ impl IrradianceCache {
             return false;
         }
         if let Some(log) = &mut self.shrink_log {
-            log.push((rec.pos, rec.r_clamped * params.index_factor()));
+            log.push(Shrink::of(id, rec));
         }
         rec.r_clamped = r;
         self.totals.n_shrunk_adaptive += 1;
@@ -193,7 +193,7 @@ impl IrradianceCache {
                 let bound = rec_k.r_harmonic + d;
                 if d < rec_k.r_clamped + rec_m.r_clamped && rec_m.r_harmonic > bound {
                     if let Some(log) = &mut self.shrink_log {
-                        log.push((rec_m.pos, rec_m.r_clamped * self.params.index_factor()));
+                        log.push(Shrink::of(m, rec_m));
                     }
                     set_radius(&self.params, rec_m, bound);
                     shrunk.push(m);

@@ -161,13 +161,14 @@ pub fn trace_photons_cancellable<S: PhotonScene + ?Sized>(
         }
         let n_batch = BATCH_PATHS.min(targets.max_paths - next_path);
         let want = Want { global: global.active, caustic: caustic.active };
-        let chunks: Vec<ChunkOut> = (0..n_batch.div_ceil(CHUNK_PATHS))
+        let chunks: Vec<ChunkOut> = (0..n_batch.div_ceil(CHUNK_PATHS) as usize)
             .into_par_iter()
+            .with_max_len(1)
             .map(|c| {
                 if cancel.load(Ordering::Relaxed) {
                     return ChunkOut::default();
                 }
-                let first = next_path + c * CHUNK_PATHS;
+                let first = next_path + c as u64 * CHUNK_PATHS;
                 let end = (first + CHUNK_PATHS).min(next_path + n_batch);
                 trace_chunk(scene, first..end, seed, want)
             })

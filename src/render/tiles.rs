@@ -167,6 +167,10 @@ pub fn render_tiles(
         let active_ref = &active;
         let counters = tiles
             .par_iter_mut()
+            // One tile per task: rayon's default splitting leaves ranges of hundreds of tiles that no
+            // thread can steal from, and the rounds of adaptive sampling, whose active pixels cluster
+            // in a few tiles, ended with one thread idle for up to a second (Sibenik 1000²).
+            .with_max_len(1)
             .map(|t| {
                 let mut counters = SampleCounters::default();
                 let w = t.window;
