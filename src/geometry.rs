@@ -64,18 +64,13 @@ impl Geometry {
         Hit { p, t: raw.t, ng: tri.ng, ns, uv, tri: raw.prim, material: tri.material }
     }
 
-    /// [`hit`](Self::hit) without the shading normal (`ns` = `ng`) and, when `with_uv` is false, without
-    /// texture coordinates, at `origin + t·dir`: what a final-gather ray that ends on a diffuse surface
-    /// needs (its side, triangle, texel and albedo). Fetches no vertex normal and, without uv, no
-    /// vertex at all — the random memory reads that were most of a gather ray's cost besides the ray.
-    pub fn hit_flat(&self, origin: Vec3, dir: Vec3, raw: RawHit, with_uv: bool) -> Hit {
+    /// [`hit`](Self::hit) without the shading normal (`ns` = `ng`) and without texture coordinates (`uv`
+    /// holds the barycentrics), at `origin + t·dir`: what a final-gather ray that ends on a diffuse
+    /// surface needs (its side, triangle and texel; the texel holds the albedo). Fetches no vertex at
+    /// all — the random memory reads that were most of a gather ray's cost besides the ray.
+    pub fn hit_flat(&self, origin: Vec3, dir: Vec3, raw: RawHit) -> Hit {
         let tri = &self.triangles[raw.prim as usize];
-        let uv = if with_uv && tri.has_uv {
-            let [a, b, c] = tri.v.map(|i| i as usize);
-            self.uvs[a] * (1.0 - raw.u - raw.v) + self.uvs[b] * raw.u + self.uvs[c] * raw.v
-        } else {
-            Vec2::new(raw.u, raw.v)
-        };
+        let uv = Vec2::new(raw.u, raw.v);
         Hit { p: origin + dir * raw.t, t: raw.t, ng: tri.ng, ns: tri.ng, uv, tri: raw.prim, material: tri.material }
     }
 

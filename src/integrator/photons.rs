@@ -123,10 +123,10 @@ impl<'a> PhotonData<'a> {
         }
     }
 
-    /// Full irradiance from the global map where a final-gather ray ends (point `p` on the `front` or
-    /// back side of triangle `tri`): the atlas texel's.
-    pub fn gather_irradiance(&self, tri: u32, front: bool, p: Vec3) -> Vec3 {
-        self.texel(tri, front, p).map_or(Vec3::ZERO, |t| t.e)
+    /// Diffuse radiance where a final-gather ray ends (point `p` on the `front` or back side of triangle
+    /// `tri`): the atlas texel's mean albedo / π × all of its irradiance.
+    pub fn gather_radiance(&self, tri: u32, front: bool, p: Vec3) -> Vec3 {
+        self.texel(tri, front, p).map_or(Vec3::ZERO, |t| t.radiance)
     }
 
     /// Soft indirect irradiance (direct and caustic photons left out) at a point that has its own

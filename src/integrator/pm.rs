@@ -248,7 +248,7 @@ impl PmContext<'_> {
             }
             rays += 1;
             let end = self.gather_ray(hit, dir, &mut rng, &mut rays);
-            let lit = if end.weight != Vec3::ZERO { end.weight * self.photons.gather_irradiance(end.tri, end.front, end.p) } else { Vec3::ZERO };
+            let lit = if end.weight != Vec3::ZERO { end.weight * self.photons.gather_radiance(end.tri, end.front, end.p) } else { Vec3::ZERO };
             GatherRay { radiance: lit + end.glossy, distance: end.distance }
         });
         if self.cancel.load(Ordering::Relaxed) {
@@ -261,8 +261,8 @@ impl PmContext<'_> {
     }
 
     /// Where one gather ray ends: the first non-specular surface it reaches (following mirror and glass
-    /// for a few bounces), whose radiance toward the ray is `weight` × its irradiance (Kd/π × the
-    /// throughput of the specular chain). Emitters count zero (direct light is its own term) except
+    /// for a few bounces), whose radiance toward the ray is `weight` (the throughput of the specular
+    /// chain) × its texel's diffuse radiance, plus a glossy surface's lobe. Emitters count zero (direct light is its own term) except
     /// for what they reflect; a miss is zero.
     fn gather_ray(&self, from: &Hit, dir: Vec3, rng: &mut Rng, rays: &mut u64) -> GatherEnd {
         const MAX_SPECULAR: u32 = 4;
@@ -272,11 +272,11 @@ impl PmContext<'_> {
         for bounce in 0..=MAX_SPECULAR {
             let frame = Frame::new(&hit, -d);
             let bsdf = &self.scene.material(&hit).bsdf;
-            let kd = self.scene.albedo(&hit);
             if !bsdf.is_specular() {
                 let glossy = self.photons.glossy_radiance(bsdf, &hit, &frame, -d) * beta;
-                return GatherEnd { p: hit.p, tri: hit.tri, front: frame.front, weight: beta * bsdf.diffuse_albedo(kd) / PI, glossy, distance };
+                return GatherEnd { p: hit.p, tri: hit.tri, front: frame.front, weight: beta, glossy, distance };
             }
+            let kd = self.scene.albedo(&hit);
             if bounce == MAX_SPECULAR {
                 break;
             }
@@ -302,6 +302,7 @@ struct GatherEnd {
     tri: u32,
     /// Whether the ray reached the triangle's winding side.
     front: bool,
+    /// Throughput of the specular chain to the end (times the texel's diffuse radiance there).
     weight: Vec3,
     /// Radiance of a glossy surface's specular lobe toward the ray (a photon-map estimate).
     glossy: Vec3,

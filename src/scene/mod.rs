@@ -100,7 +100,7 @@ impl Scene {
         let raw = self.bvh.intersect(origin, dir, f32::INFINITY)?;
         let tri = &self.geometry.triangles[raw.prim as usize];
         Some(match &self.materials[tri.material as usize].bsdf {
-            crate::material::Bsdf::Diffuse { texture, .. } => self.geometry.hit_flat(origin, dir, raw, texture.is_some()),
+            crate::material::Bsdf::Diffuse { .. } => self.geometry.hit_flat(origin, dir, raw),
             _ => self.geometry.hit(origin, dir, raw),
         })
     }
