@@ -56,6 +56,8 @@ pub struct IrradianceCache {
     pub(crate) totals: InsertStats,
     /// Reused buffer for neighbor queries during insertion.
     pub(crate) scratch: Vec<u32>,
+    /// The radius each record's sphere was put into the index with (its cells), by record id.
+    pub(crate) indexed: Vec<f32>,
     /// While `Some`: every shrink of an existing record (by neighbor clamping or adaptive caching), with
     /// the record's radii before it, for the fill's repair sweeps (only points that a record could
     /// interpolate before a shrink and cannot after it can have lost their cover).
@@ -92,6 +94,7 @@ impl IrradianceCache {
             index: Octree::new(bounds_min, bounds_max),
             totals: InsertStats::default(),
             scratch: Vec::new(),
+            indexed: Vec::new(),
             shrink_log: None,
         })
     }
@@ -128,6 +131,7 @@ impl IrradianceCache {
             + self.records.capacity() * std::mem::size_of::<Record>()
             + self.index.memory_bytes()
             + self.scratch.capacity() * 4
+            + self.indexed.capacity() * 4
     }
 
     /// Interpolated irradiance at `p` with unit normal `n`, or `None` when no record is usable there.
@@ -275,6 +279,19 @@ impl IrradianceCache {
         self.shrink_log = on.then(Vec::new);
     }
 
+    /// Put record `id` (the newest) into the index with its reach.
+    pub(crate) fn index_new(&mut self, id: u32, pos: Vec3, r_clamped: f32) {
+        let radius = r_clamped * self.params.index_factor();
+        self.index.insert(id, pos, radius);
+        self.indexed.push(radius);
+    }
+
+    /// Tell the index that record `id`'s R' has shrunk.
+    pub(crate) fn reindex(&mut self, id: u32) {
+        let rec = &self.records[id as usize];
+        self.index.shrink(id, rec.pos, self.indexed[id as usize], rec.r_clamped * self.params.index_factor());
+    }
+
     /// The shrinks logged since the last call.
     pub(crate) fn take_shrink_log(&mut self) -> Vec<Shrink> {
         self.shrink_log.as_mut().map(std::mem::take).unwrap_or_default()
@@ -297,7 +314,7 @@ impl IrradianceCache {
     /// Put a finished record back (file loading): no gradient limit, clamping or neighbor clamping.
     pub(crate) fn push_raw(&mut self, rec: Record) {
         let id = self.records.len() as u32;
-        self.index.insert(id, rec.pos, rec.r_clamped * self.params.index_factor());
+        self.index_new(id, rec.pos, rec.r_clamped);
         self.records.push(rec);
     }
 }

@@ -114,6 +114,7 @@ impl IrradianceCache {
         }
         rec.r_clamped = r;
         self.totals.n_shrunk_adaptive += 1;
+        self.reindex(id);
         true
     }
 
@@ -138,7 +139,7 @@ impl IrradianceCache {
         }
         // 5. Insert into the index (before propagation, which must see the new record).
         let rec = self.records[j];
-        self.index.insert(j as u32, rec.pos, rec.r_clamped * self.params.index_factor());
+        self.index_new(j as u32, rec.pos, rec.r_clamped);
         if self.params.neighbor_clamping {
             self.propagate_clamping(j, &mut shrunk);
         }
@@ -196,6 +197,7 @@ impl IrradianceCache {
                         log.push(Shrink::of(m, rec_m));
                     }
                     set_radius(&self.params, rec_m, bound);
+                    self.reindex(m);
                     shrunk.push(m);
                     heap.push(Reverse((bound.to_bits(), m)));
                 }
