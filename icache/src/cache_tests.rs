@@ -230,3 +230,30 @@ fn get_or_insert_gathers_only_on_miss() {
     assert_eq!(c.records()[0].pixel_world, 0.01);
     assert!(c.memory_bytes() > std::mem::size_of::<IrradianceCache>());
 }
+
+/// A record that neighbor clamping shrinks is logged with its radii before the shrink, and loses
+/// exactly the points between its old and new pass-A reach: the repair sweeps look up only those.
+#[test]
+fn shrink_log_names_the_points_a_record_lost() {
+    let mut c = cache(CacheParams::default());
+    c.log_shrinks(true);
+    let (n, e) = (Vec3::Z, Vec3::ONE);
+    let a = Vec3::new(5.0, 5.0, 5.0);
+    // R' clamped to the 20 px maximum (0.2); a = 0.5 in pass A, so it reaches 0.1.
+    c.insert(new_rec(a, n, e, 1.0, 0.01));
+    assert!(c.take_shrink_log().is_empty());
+    // A small record 0.15 away clamps A's R to 0.03 + 0.15 = 0.18: pass-A reach 0.09.
+    c.insert(new_rec(a + Vec3::new(0.15, 0.0, 0.0), n, e, 0.03, 0.01));
+    let log = c.take_shrink_log();
+    assert_eq!(log.len(), 1, "{log:?}");
+    assert_eq!(log[0].id, 0);
+    assert!((c.records()[0].r_clamped - 0.18).abs() < 1e-5, "{}", c.records()[0].r_clamped);
+    let (pos, reach) = c.reach_before(&log[0]);
+    assert_eq!(pos, a);
+    assert!((reach - 0.1).abs() < 1e-5, "{reach}");
+    let at = |d: f32| a - Vec3::new(d, 0.0, 0.0);
+    assert!(c.lost_cover(&log[0], at(0.095), n), "between the new and the old reach");
+    assert!(!c.lost_cover(&log[0], at(0.05), n), "still inside the new reach");
+    assert!(!c.lost_cover(&log[0], at(0.12), n), "never inside");
+    assert!(!c.lost_cover(&log[0], at(0.095), -n), "facing away: never usable");
+}
