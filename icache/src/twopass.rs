@@ -73,7 +73,6 @@ struct Candidate<P> {
     payload: P,
 }
 
-/// One pixel of a chunk: its coverage lookups, its uncovered points, and its points when they are kept.
 /// A pixel's lookups, uncovered points, points (kept for the repair sweeps) and the records adaptive
 /// caching found deviant there.
 type PixelFound<P> = (LookupStats, Vec<Candidate<P>>, Vec<(ShadingPoint, P)>, Vec<u32>);
@@ -117,7 +116,7 @@ pub fn fill_pass_a_cancellable<P: Clone + Send + Sync, S: Default + AddAssign + 
     let mut store = PointStore::new(width, height);
     cache.log_shrinks(true);
     let order = HierarchicalOrder::new(width, height);
-    let first = sweep(cache, order, shading_points, Some(&mut store), gather, &mut tally, &|done| progress(done, total), cancel);
+    let first = sweep(cache, order, shading_points, &mut store, gather, &mut tally, &|done| progress(done, total), cancel);
     tally.fill.n_pixels = total;
     if first > 0 {
         repair(cache, width, height, &store, gather, &mut tally, cancel);
@@ -178,7 +177,7 @@ fn repair<P: Clone + Send + Sync, S: Default + AddAssign + Send>(
             return;
         }
         if tally.fill.n_repair_sweeps == MAX_REPAIR_SWEEPS {
-            tally.fill.n_uncovered_after = count_uncovered(cache, width, height, &|x, y| store.get(x, y).to_vec());
+            tally.fill.n_uncovered_after = count_uncovered(cache, &pixels, store);
             return;
         }
         tally.fill.n_repair_sweeps += 1;
@@ -239,14 +238,14 @@ fn repair<P: Clone + Send + Sync, S: Default + AddAssign + Send>(
     }
 }
 
-/// One pass over `order`'s pixels; returns the number of records inserted. With `store`, every pixel's
-/// shading points are kept there.
+/// One pass over `order`'s pixels, keeping every pixel's shading points in `store`; returns the number
+/// of records inserted.
 #[allow(clippy::too_many_arguments)]
 fn sweep<P: Clone + Send + Sync, S: Default + AddAssign + Send>(
     cache: &mut IrradianceCache,
     mut order: impl Iterator<Item = (u32, u32)>,
     shading_points: &PointsWithFn<P>,
-    mut store: Option<&mut PointStore<P>>,
+    store: &mut PointStore<P>,
     gather: &GatherWithFn<P, S>,
     tally: &mut Tally<S>,
     progress: &(dyn Fn(u64) + Sync),
@@ -265,7 +264,6 @@ fn sweep<P: Clone + Send + Sync, S: Default + AddAssign + Send>(
         }
         done += chunk.len() as u64;
         let cache_ref: &IrradianceCache = cache;
-        let keep = store.is_some();
         let found: Vec<PixelFound<P>> = chunk
             .par_iter()
             .with_max_len(4)
@@ -282,7 +280,7 @@ fn sweep<P: Clone + Send + Sync, S: Default + AddAssign + Send>(
                         misses.push(Candidate { x, y, i, sp: *sp, payload: payload.clone() });
                     }
                 }
-                (lookups, misses, if keep { points } else { Vec::new() }, shrink)
+                (lookups, misses, points, shrink)
             })
             .collect();
         // Adaptive caching: the records that disagreed somewhere in the chunk shrink once each, in id
@@ -294,9 +292,7 @@ fn sweep<P: Clone + Send + Sync, S: Default + AddAssign + Send>(
         tally.fill.insert.n_shrunk_adaptive += n_shrunk;
         let shrunk = n_shrunk > 0;
         for (&(x, y), (lookups, misses, points, _)) in chunk.iter().zip(found) {
-            if let Some(store) = store.as_deref_mut() {
-                store.push(x, y, points);
-            }
+            store.push(x, y, points);
             tally.fill.n_points += lookups.n_lookups;
             tally.fill.lookups += lookups;
             // A point that only the deviant records made uncovered may be covered by the rest now.
@@ -333,13 +329,9 @@ fn run_wave<P: Send + Sync, S: AddAssign + Send>(cache: &mut IrradianceCache, pe
 }
 
 /// Shading points with no usable pass-A record.
-fn count_uncovered<P>(cache: &IrradianceCache, width: u32, height: u32, shading_points: &PointsWithFn<P>) -> u64 {
-    let pixels: Vec<(u32, u32)> = HierarchicalOrder::new(width, height).collect();
+fn count_uncovered<P: Clone + Sync>(cache: &IrradianceCache, pixels: &[(u32, u32)], store: &PointStore<P>) -> u64 {
     pixels
         .par_iter()
-        .map(|&(x, y)| {
-            let points = shading_points(x, y);
-            points.iter().filter(|(sp, _)| cache.lookup(sp.pos, sp.normal, Pass::A).is_none()).count() as u64
-        })
+        .map(|&(x, y)| store.get(x, y).iter().filter(|(sp, _)| cache.lookup(sp.pos, sp.normal, Pass::A).is_none()).count() as u64)
         .sum()
 }
