@@ -49,6 +49,7 @@ fn bsdf_xml(scene: &Scene, m: usize) -> String {
             rgb("diffuse_reflectance", *albedo),
             rgb("specular_reflectance", *specular)
         ),
+        Bsdf::Null => r#"<bsdf type="null"/>"#.into(),
     }
 }
 

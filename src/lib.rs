@@ -15,6 +15,7 @@ pub mod integrator;
 pub mod io;
 pub mod light;
 pub mod material;
+pub mod medium;
 pub mod render;
 pub mod scene;
 pub mod signal;

@@ -15,6 +15,8 @@ pub enum Bsdf {
     Mirror { reflectance: Vec3 },
     Glass { ior: f32, transmittance: Vec3 },
     Glossy { albedo: Vec3, specular: Vec3, exponent: f32 },
+    /// The invisible boundary of a medium (index-matched): light crosses it unchanged.
+    Null,
 }
 
 #[derive(Clone, Debug)]
@@ -47,6 +49,11 @@ impl Bsdf {
     /// Mirror and glass: a ray can only leave along a Dirac lobe.
     pub fn is_specular(&self) -> bool {
         matches!(self, Bsdf::Mirror { .. } | Bsdf::Glass { .. })
+    }
+
+    /// A medium's invisible boundary: rays cross it as if it were not there.
+    pub fn is_null(&self) -> bool {
+        matches!(self, Bsdf::Null)
     }
 
     /// Diffuse reflectance (the part the irradiance estimates multiply); `kd` is the texture-resolved albedo.
@@ -129,6 +136,7 @@ impl Bsdf {
                 Some(BsdfSample { wi: reflect(wo, n), weight: reflectance, pdf: 1.0, delta: true })
             }
             Bsdf::Glass { ior, transmittance } => sample_glass(ior, transmittance, n, wo, front, u[2], mode),
+            Bsdf::Null => Some(BsdfSample { wi: -wo, weight: Vec3::ONE, pdf: 1.0, delta: true }),
         }
     }
 }

@@ -64,6 +64,9 @@ pub fn plan(scene: &Scene, opts: &Options) -> Result<Plan> {
         Method::Path => 0.0,
         Method::Pm | Method::Photons | Method::PmFg => DEFAULT_NOISE,
     });
+    if scene.media.is_some() && method != Method::Path {
+        return Err(option("--method", format!("'{}': this scene has participating media, which only method 'path' renders so far", method.name())));
+    }
     let width = opts.width.unwrap_or(scene.camera.width);
     let height = opts.height.unwrap_or(scene.camera.height);
     let window = match opts.crop {

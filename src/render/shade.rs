@@ -47,7 +47,7 @@ fn path_sample<'a>(scene: &'a Scene, camera: &'a Camera) -> Box<SampleFn<'a>> {
     let max_depth = scene.settings.max_depth;
     Box::new(move |x: u32, y: u32, off: [f32; 2], _: &mut PixelMemo, rng: &mut Rng, c: &mut SampleCounters| -> Vec<Vec3> {
         let d = camera.ray(x as f32 + off[0], y as f32 + off[1]);
-        vec![path::radiance(scene, camera.eye, d, max_depth, rng, c)]
+        vec![path::radiance(scene, camera.eye, d, scene.camera_medium(), max_depth, rng, c)]
     })
 }
 

@@ -8,6 +8,7 @@ use glam::{Mat3, Mat4, Vec3};
 use super::file::{self, line_of, line_of_key, SceneFile};
 use super::input::{self, read_text, MAX_SCENE_BYTES, MAX_TEXTURE_BYTES};
 use super::lights::{lights, Origin};
+use super::media::media;
 use super::settings::{camera, settings};
 use super::{limits, mtl, obj, Scene};
 use crate::accel::embree::Bvh;
@@ -46,14 +47,15 @@ pub fn load(path: &Path) -> Result<Scene> {
     }
     let camera = camera(&cx, &desc)?;
     let settings = settings(&cx, &desc)?;
-    let (geometry, mut materials, tex_paths, emission_at) = meshes(&cx, &desc)?;
+    let (geometry, mut materials, tex_paths, emission_at, mesh_tris) = meshes(&cx, &desc)?;
     let textures = textures(&cx, &mut materials, tex_paths)?;
     let bounds = geometry.bounds();
     let lights = lights(&cx, &desc, &geometry, &materials, &emission_at)?;
+    let media = media(&cx, &desc, &geometry, &materials, &mesh_tris, &lights.lights)?;
     let bvh = Bvh::build(&geometry.positions, &geometry.triangles.iter().map(|t| t.v).collect::<Vec<_>>())
         .map_err(runtime)?;
-    let fingerprint = fingerprint(&geometry, &materials, &lights);
-    Ok(Scene { path: path.to_path_buf(), camera, geometry, materials, textures, lights, bvh, settings, bounds, fingerprint })
+    let fingerprint = fingerprint(&geometry, &materials, &lights, media.as_ref());
+    Ok(Scene { path: path.to_path_buf(), camera, geometry, materials, textures, lights, bvh, settings, bounds, fingerprint, media })
 }
 
 fn transform(cx: &Ctx, index: usize, m: &file::MeshDesc) -> Result<Mat4> {
@@ -79,10 +81,10 @@ fn transform(cx: &Ctx, index: usize, m: &file::MeshDesc) -> Result<Mat4> {
 
 type TexPaths = Vec<Option<(std::path::PathBuf, String)>>;
 
-type Meshes = (Geometry, Vec<Material>, TexPaths, Vec<Origin>);
+type Meshes = (Geometry, Vec<Material>, TexPaths, Vec<Origin>, Vec<std::ops::Range<usize>>);
 
 /// Every mesh's triangles (transformed), the materials (MTL, then the scene's overrides), their texture
-/// paths and where each material's emission was set.
+/// paths, where each material's emission was set, and each mesh's triangles.
 fn meshes(cx: &Ctx, desc: &SceneFile) -> Result<Meshes> {
     let mut geo = Geometry::default();
     let mut materials: Vec<Material> = Vec::new();
@@ -90,7 +92,9 @@ fn meshes(cx: &Ctx, desc: &SceneFile) -> Result<Meshes> {
     let mut emission_at: Vec<Origin> = Vec::new();
     let mut by_name: HashMap<String, Vec<usize>> = HashMap::new();
     let mut default_material = None;
+    let mut mesh_tris = Vec::with_capacity(desc.mesh.len());
     for (mi, m) in desc.mesh.iter().enumerate() {
+        let first_tri = geo.triangles.len();
         let xf = transform(cx, mi, m)?;
         let nxf = Mat3::from_mat4(xf).inverse().transpose();
         let obj_path = relative_to(cx.path, &m.obj);
@@ -126,6 +130,7 @@ fn meshes(cx: &Ctx, desc: &SceneFile) -> Result<Meshes> {
         if let Some(p) = geo.positions[first_vertex..].iter().find_map(|p| limits::position(*p)) {
             return Err(cx.err("mesh", mi, "obj", format!("a vertex of '{}' at {p} after scale, rotate and translate", m.obj)));
         }
+        mesh_tris.push(first_tri..geo.triangles.len());
     }
     if geo.triangles.is_empty() {
         return Err(at_line(cx.path, 1, "the scene has no triangles (add a [[mesh]] with faces)"));
@@ -149,7 +154,7 @@ fn meshes(cx: &Ctx, desc: &SceneFile) -> Result<Meshes> {
             }
         }
     }
-    Ok((geo, materials, tex_paths, emission_at))
+    Ok((geo, materials, tex_paths, emission_at, mesh_tris))
 }
 
 /// Appends one model's vertices and triangles, transformed. A mirroring transform (negative
@@ -216,7 +221,7 @@ fn textures(cx: &Ctx, materials: &mut [Material], tex_paths: TexPaths) -> Result
 }
 
 /// FNV-1a (the cache file's checksum function) over positions, triangles, materials and lights.
-fn fingerprint(geo: &Geometry, materials: &[Material], lights: &Lights) -> u64 {
+fn fingerprint(geo: &Geometry, materials: &[Material], lights: &Lights, media: Option<&super::Media>) -> u64 {
     let mut bytes: Vec<u8> = Vec::with_capacity(geo.positions.len() * 12 + geo.triangles.len() * 16);
     for p in &geo.positions {
         bytes.extend(p.to_array().iter().flat_map(|x| x.to_le_bytes()));
@@ -229,6 +234,9 @@ fn fingerprint(geo: &Geometry, materials: &[Material], lights: &Lights) -> u64 {
     }
     for l in &lights.lights {
         bytes.extend(format!("{l:?}").bytes());
+    }
+    if let Some(m) = media {
+        bytes.extend(format!("{m:?}").bytes());
     }
     icache::file::fnv1a64(&bytes)
 }

@@ -20,6 +20,18 @@ pub struct SceneFile {
     pub light: Vec<LightDesc>,
     #[serde(default)]
     pub render: RenderDesc,
+    #[serde(default)]
+    pub medium: Vec<MediumDesc>,
+}
+
+/// `[[medium]]`: a homogeneous participating medium, bounded by the meshes that name it as `interior`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MediumDesc {
+    pub name: String,
+    pub sigma_a: [f32; 3],
+    pub sigma_s: [f32; 3],
+    pub g: Option<f32>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -31,6 +43,7 @@ pub struct CameraDesc {
     pub fov: f32,
     pub width: i64,
     pub height: i64,
+    pub medium: Option<String>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -47,6 +60,8 @@ pub struct MeshDesc {
     pub scale: Option<Scale>,
     pub rotate: Option<[f32; 3]>,
     pub translate: Option<[f32; 3]>,
+    /// The medium this closed mesh bounds.
+    pub interior: Option<String>,
 }
 
 #[derive(Debug, Default, Deserialize)]

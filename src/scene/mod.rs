@@ -8,6 +8,7 @@ mod obj;
 mod objcheck;
 mod build;
 mod lights;
+mod media;
 mod settings;
 
 use std::path::{Path, PathBuf};
@@ -15,6 +16,7 @@ use std::path::{Path, PathBuf};
 use glam::Vec3;
 
 pub use build::load;
+pub use media::{Media, MAX_SIGMA};
 pub use file::{IcacheDesc, PhotonsDesc};
 pub use settings::{FillMode, IcacheSettings, PhotonConfig, MAX_PHOTONS, SPACING_REFERENCE_SIDE};
 
@@ -23,6 +25,7 @@ use crate::camera::Camera;
 use crate::geometry::{spawn, Geometry, Hit};
 use crate::light::Lights;
 use crate::material::Material;
+use crate::medium::{Medium, MediumId, VACUUM};
 use crate::texture::Texture;
 
 /// The rendering method: the closed set.
@@ -62,6 +65,10 @@ impl Method {
 
 pub const METHODS: &str = "path | pm | pm-fg | photons";
 
+/// Null boundaries a ray may cross before it is given up (nested boundaries are a handful deep; this
+/// only stops a pathological mesh from trapping a ray).
+pub const MAX_NULL_CROSSINGS: u32 = 256;
+
 /// `[render]` after validation; `None` means "derive from the scene/method".
 #[derive(Clone, Debug)]
 pub struct RenderSettings {
@@ -87,6 +94,8 @@ pub struct Scene {
     pub bounds: (Vec3, Vec3),
     /// Hash of everything that affects light transport (not the camera), for photon and cache files.
     pub fingerprint: u64,
+    /// Participating media; `None` for a scene without `[[medium]]` (no media code runs).
+    pub media: Option<Media>,
 }
 
 impl Scene {
@@ -110,6 +119,83 @@ impl Scene {
         let o = spawn(hit, wi);
         let tmax = if dist.is_finite() { (dist - (o - hit.p).length()) * (1.0 - 1e-4) } else { f32::INFINITY };
         tmax > 0.0 && self.bvh.occluded(o, wi, tmax)
+    }
+
+    /// The participating medium with id `id`, if the scene has media and it is not clear.
+    #[inline]
+    pub fn medium(&self, id: MediumId) -> Option<&Medium> {
+        self.media.as_ref()?.get(id)
+    }
+
+    /// The medium a ray leaving `hit` toward `dir` travels in, given the one the arriving ray was in.
+    #[inline]
+    pub fn medium_after(&self, hit: &Hit, dir: Vec3, current: MediumId) -> MediumId {
+        match &self.media {
+            Some(m) => m.after(hit.tri, hit.ng, dir, current),
+            None => current,
+        }
+    }
+
+    /// The medium the camera sits in.
+    pub fn camera_medium(&self) -> MediumId {
+        self.media.as_ref().map_or(VACUUM, |m| m.camera)
+    }
+
+    /// What reaches `hit` from a light point in direction `wi` at distance `dist`, per channel: 0 or 1
+    /// without media; with media, the transmittance through the media on the way (in `medium`, the
+    /// medium of the ray that arrived at `hit`), crossing null boundaries. Counts its rays in `rays`.
+    pub fn visibility(&self, hit: &Hit, wi: Vec3, dist: f32, medium: MediumId, rays: &mut u64) -> Vec3 {
+        *rays += 1;
+        let Some(media) = &self.media else {
+            return if self.occluded(hit, wi, dist) { Vec3::ZERO } else { Vec3::ONE };
+        };
+        let o = spawn(hit, wi);
+        let tmax = if dist.is_finite() { (dist - (o - hit.p).length()) * (1.0 - 1e-4) } else { f32::INFINITY };
+        if !(tmax > 0.0) {
+            return Vec3::ONE;
+        }
+        self.transmittance(media, o, wi, tmax, media.after(hit.tri, hit.ng, wi, medium), rays)
+    }
+
+    /// [`visibility`](Self::visibility) from a point inside a medium (no surface to offset from).
+    pub fn visibility_from(&self, p: Vec3, wi: Vec3, dist: f32, medium: MediumId, rays: &mut u64) -> Vec3 {
+        *rays += 1;
+        match &self.media {
+            Some(media) => self.transmittance(media, p, wi, if dist.is_finite() { dist * (1.0 - 1e-4) } else { dist }, medium, rays),
+            None => {
+                let blocked = self.bvh.occluded(p, wi, if dist.is_finite() { dist * (1.0 - 1e-4) } else { dist });
+                if blocked { Vec3::ZERO } else { Vec3::ONE }
+            }
+        }
+    }
+
+    /// Transmittance from `o` along `dir` over `(0, tmax)` starting in `medium`: through null boundaries
+    /// (each crossing changes the medium), zero at any other surface.
+    fn transmittance(&self, media: &Media, mut o: Vec3, dir: Vec3, mut tmax: f32, mut medium: MediumId, rays: &mut u64) -> Vec3 {
+        let mut tr = Vec3::ONE;
+        for crossing in 0..MAX_NULL_CROSSINGS {
+            if crossing > 0 {
+                *rays += 1;
+            }
+            let raw = self.bvh.intersect(o, dir, tmax);
+            if let Some(m) = media.get(medium) {
+                tr *= m.transmittance(raw.map_or(tmax, |r| r.t));
+            }
+            let Some(raw) = raw else { return tr };
+            let tri = &self.geometry.triangles[raw.prim as usize];
+            if tr == Vec3::ZERO || !self.materials[tri.material as usize].bsdf.is_null() {
+                return Vec3::ZERO;
+            }
+            medium = media.after(raw.prim, tri.ng, dir, medium);
+            let h = self.geometry.hit_flat(o, dir, raw);
+            let next = spawn(&h, dir);
+            tmax -= (next - o).dot(dir);
+            o = next;
+            if !(tmax > 0.0) {
+                return tr;
+            }
+        }
+        Vec3::ZERO
     }
 
     /// Diffuse albedo at a hit (texture-resolved).

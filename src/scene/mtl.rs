@@ -87,13 +87,15 @@ pub fn apply_override(
         Bsdf::Mirror { .. } => "mirror".into(),
         Bsdf::Glass { .. } => "glass".into(),
         Bsdf::Glossy { .. } => "glossy".into(),
+        Bsdf::Null => "null".into(),
     });
     let allowed: &[&str] = match kind.as_str() {
         "diffuse" => &["albedo", "texture"],
         "mirror" => &["reflectance"],
         "glass" => &["ior", "transmittance"],
         "glossy" => &["albedo", "specular", "exponent"],
-        other => return Err(err(format!("unknown type '{other}' (diffuse | mirror | glass | glossy)"))),
+        "null" => &[],
+        other => return Err(err(format!("unknown type '{other}' (diffuse | mirror | glass | glossy | null)"))),
     };
     let given = [
         ("albedo", d.albedo.is_some()),
@@ -115,8 +117,12 @@ pub fn apply_override(
     if let Some(p) = d.emission.and_then(limits::emission) {
         return Err(key_err("emission", p));
     }
+    if kind == "null" && v3(d.emission).unwrap_or(mat.emission) != Vec3::ZERO {
+        return Err(err("a 'null' medium boundary cannot emit (set no emission, and no Ke in the MTL)".into()));
+    }
     let mut texture = None;
     mat.bsdf = match kind.as_str() {
+        "null" => Bsdf::Null,
         "diffuse" => {
             texture = d.texture.clone();
             Bsdf::Diffuse { albedo: v3(d.albedo).unwrap_or(kd), texture: None }

@@ -1,0 +1,299 @@
+//! `[[medium]]`, `[[mesh]] interior` and `[camera] medium`: checks them and works out which medium lies
+//! on each side of every boundary triangle, where the camera and each light sit, and how media nest.
+//!
+//! A boundary mesh must be closed and consistently oriented (every edge shared by exactly two faces that
+//! run it in opposite directions, vertices matched by position). Its inside is found from the sign of
+//! its volume, so either winding works. The medium outside a boundary mesh is that of the smallest other
+//! boundary mesh containing it (a glass of liquid standing in fog), vacuum if none.
+
+use std::collections::HashMap;
+use std::ops::Range;
+
+use glam::{DVec3, Vec3};
+
+use super::build::Ctx;
+use super::file::SceneFile;
+use crate::error::{at_line, Result};
+use crate::geometry::Geometry;
+use crate::light::Light;
+use crate::material::Material;
+use crate::medium::{Medium, MediumId, VACUUM};
+
+/// Largest σa or σs per channel (per scene unit).
+pub const MAX_SIGMA: f32 = 1e9;
+
+/// The scene's media and where they are.
+#[derive(Debug)]
+pub struct Media {
+    pub list: Vec<Medium>,
+    /// Per triangle: `[medium on the side ng points to, medium behind]`, for boundary triangles only.
+    sides: Vec<Option<[MediumId; 2]>>,
+    /// The medium the camera's eye is in.
+    pub camera: MediumId,
+    /// The medium each light emits into (indexed as `Lights::lights`).
+    pub lights: Vec<MediumId>,
+}
+
+impl Media {
+    /// The medium a ray leaving triangle `tri` (geometric normal `ng`) in direction `dir` travels in,
+    /// when it was in `current` before: changed only at a boundary.
+    pub fn after(&self, tri: u32, ng: Vec3, dir: Vec3, current: MediumId) -> MediumId {
+        match self.sides[tri as usize] {
+            Some([front, back]) => {
+                if dir.dot(ng) >= 0.0 {
+                    front
+                } else {
+                    back
+                }
+            }
+            None => current,
+        }
+    }
+
+    pub fn get(&self, id: MediumId) -> Option<&Medium> {
+        self.list.get(id as usize).filter(|m| !m.is_clear())
+    }
+
+    pub fn is_boundary(&self, tri: u32) -> bool {
+        self.sides[tri as usize].is_some()
+    }
+}
+
+/// One closed boundary mesh.
+struct Boundary {
+    medium: MediumId,
+    tris: Range<usize>,
+    /// |volume|, to pick the innermost of nested meshes.
+    volume: f64,
+    /// Whether the winding normals point out of the mesh.
+    outward: bool,
+}
+
+/// Builds the media from the scene file, or `None` when it has no `[[medium]]` (then nothing else may
+/// name one). `mesh_tris[i]` are the triangles of `[[mesh]]` entry `i`.
+pub(super) fn media(cx: &Ctx, desc: &SceneFile, geo: &Geometry, materials: &[Material], mesh_tris: &[Range<usize>], lights: &[Light]) -> Result<Option<Media>> {
+    let mut list: Vec<Medium> = Vec::new();
+    for (i, m) in desc.medium.iter().enumerate() {
+        if m.name.is_empty() || list.iter().any(|o| o.name == m.name) {
+            return Err(cx.err("medium", i, "name", format!("'{}' is empty or names an earlier medium too", m.name)));
+        }
+        for (k, v) in [("sigma_a", m.sigma_a), ("sigma_s", m.sigma_s)] {
+            if let Some(x) = v.iter().find(|x| !(**x >= 0.0 && **x <= MAX_SIGMA)) {
+                return Err(cx.err("medium", i, k, format!("{x} is outside [0, {MAX_SIGMA:e}] (per scene unit)")));
+            }
+        }
+        let g = m.g.unwrap_or(0.0);
+        if !(g > -1.0 && g < 1.0) {
+            return Err(cx.err("medium", i, "g", format!("{g} is outside (-1, 1)")));
+        }
+        list.push(Medium::new(m.name.clone(), Vec3::from(m.sigma_a), Vec3::from(m.sigma_s), g));
+    }
+    if list.len() >= VACUUM as usize {
+        return Err(cx.err("medium", VACUUM as usize, "name", format!("more than {} media", VACUUM - 1)));
+    }
+    let id_of = |name: &str| list.iter().position(|m| m.name == name).map(|i| i as MediumId);
+    let mut boundaries = Vec::new();
+    for (mi, m) in desc.mesh.iter().enumerate() {
+        let Some(name) = &m.interior else { continue };
+        let Some(medium) = id_of(name) else {
+            return Err(cx.err("mesh", mi, "interior", format!("no [[medium]] is named '{name}'")));
+        };
+        let tris = mesh_tris[mi].clone();
+        if let Some(why) = not_closed(geo, tris.clone()) {
+            return Err(cx.err("mesh", mi, "interior", format!("'{}' cannot bound a medium: {why}", m.obj)));
+        }
+        let volume = signed_volume(geo, tris.clone());
+        boundaries.push(Boundary { medium, tris, volume: volume.abs(), outward: volume > 0.0 });
+    }
+    let camera_line = || super::file::line_of_key(cx.text, "camera", 0, "medium");
+    if list.is_empty() {
+        if let Some(name) = &desc.camera.medium {
+            return Err(at_line(cx.path, camera_line(), format!("camera.medium: no [[medium]] is named '{name}'")));
+        }
+        if let Some(t) = geo.triangles.iter().find(|t| materials[t.material as usize].bsdf.is_null()) {
+            return Err(null_error(cx, &materials[t.material as usize]));
+        }
+        return Ok(None);
+    }
+    // Each boundary mesh's outside: the innermost other boundary containing a point just inside it.
+    let mut sides = vec![None; geo.triangles.len()];
+    for (bi, b) in boundaries.iter().enumerate() {
+        let probe = point_inside(geo, b);
+        let outside = innermost(geo, &boundaries, probe, Some(bi));
+        for t in b.tris.clone() {
+            sides[t] = Some(if b.outward { [outside, b.medium] } else { [b.medium, outside] });
+        }
+    }
+    for (t, tri) in geo.triangles.iter().enumerate() {
+        let m = &materials[tri.material as usize];
+        if m.bsdf.is_null() && sides[t].is_none() {
+            return Err(null_error(cx, m));
+        }
+    }
+    let eye = desc.camera.eye.into();
+    let camera = innermost(geo, &boundaries, eye, None);
+    if let Some(name) = &desc.camera.medium {
+        let Some(given) = id_of(name) else {
+            return Err(at_line(cx.path, camera_line(), format!("camera.medium: no [[medium]] is named '{name}'")));
+        };
+        if given != camera {
+            let is_in = if camera == VACUUM { "no medium".to_string() } else { format!("medium '{}'", list[camera as usize].name) };
+            return Err(at_line(cx.path, camera_line(), format!("camera.medium: the eye is inside {is_in} (by the boundary meshes), not '{name}'")));
+        }
+    }
+    let lights = lights.iter().map(|l| innermost(geo, &boundaries, light_point(geo, l), None)).collect();
+    Ok(Some(Media { list, sides, camera, lights }))
+}
+
+fn null_error(cx: &Ctx, m: &Material) -> crate::error::Error {
+    let line = super::file::line_of(cx.text, &["materials", &m.name, "type"], 0);
+    at_line(cx.path, line, format!("materials.{}: type 'null' is only for the boundary of a medium (a [[mesh]] with interior)", m.name))
+}
+
+/// Where a light's photons start, for the medium they start in: just off an emitting triangle.
+fn light_point(geo: &Geometry, l: &Light) -> Vec3 {
+    match *l {
+        Light::Area { tri, n, .. } => {
+            let c = geo.point_on(tri, 1.0 / 3.0, 1.0 / 3.0);
+            c + n * (1e-4 * geo.triangles[tri as usize].area.sqrt()).max(c.abs().max_element() * 1e-6)
+        }
+        Light::Point { pos, .. } | Light::Spot { pos, .. } => pos,
+        Light::Directional { center, radius, dir, .. } => center - dir * (2.0 * radius),
+    }
+}
+
+/// The medium of the smallest boundary mesh (other than `skip`) containing `p`; vacuum if none.
+fn innermost(geo: &Geometry, boundaries: &[Boundary], p: Vec3, skip: Option<usize>) -> MediumId {
+    boundaries
+        .iter()
+        .enumerate()
+        .filter(|(i, b)| Some(*i) != skip && contains(geo, b.tris.clone(), p))
+        .min_by(|(_, a), (_, b)| a.volume.total_cmp(&b.volume))
+        .map_or(VACUUM, |(_, b)| b.medium)
+}
+
+/// A point just inside a boundary mesh: the centre of its largest face, moved inward a little.
+fn point_inside(geo: &Geometry, b: &Boundary) -> Vec3 {
+    let t = b.tris.clone().max_by(|&i, &j| geo.triangles[i].area.total_cmp(&geo.triangles[j].area)).unwrap_or(b.tris.start);
+    let tri = &geo.triangles[t];
+    let c = geo.point_on(t as u32, 1.0 / 3.0, 1.0 / 3.0);
+    let inward = if b.outward { -tri.ng } else { tri.ng };
+    c + inward * (1e-3 * tri.area.sqrt())
+}
+
+/// Parity of crossings of a ray from `p` with the triangles `tris` (a closed mesh): inside when odd.
+/// The direction is fixed and off every axis and diagonal, so that it rarely grazes an edge.
+fn contains(geo: &Geometry, tris: Range<usize>, p: Vec3) -> bool {
+    let d = DVec3::new(0.5711, 0.6353, 0.5198).normalize();
+    let o = p.as_dvec3();
+    let mut n = 0;
+    for t in &geo.triangles[tris] {
+        let [a, b, c] = t.v.map(|k| geo.positions[k as usize].as_dvec3());
+        let (e1, e2) = (b - a, c - a);
+        let q = d.cross(e2);
+        let det = e1.dot(q);
+        if det.abs() < 1e-300 {
+            continue;
+        }
+        let s = o - a;
+        let u = s.dot(q) / det;
+        let r = s.cross(e1);
+        let v = d.dot(r) / det;
+        let dist = e2.dot(r) / det;
+        if u >= 0.0 && v >= 0.0 && u + v <= 1.0 && dist > 0.0 {
+            n += 1;
+        }
+    }
+    n % 2 == 1
+}
+
+fn signed_volume(geo: &Geometry, tris: Range<usize>) -> f64 {
+    geo.triangles[tris]
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.v.map(|k| geo.positions[k as usize].as_dvec3());
+            a.dot(b.cross(c)) / 6.0
+        })
+        .sum()
+}
+
+/// Vertices of a boundary mesh closer than this fraction of its extent are the same vertex (a sphere's
+/// pole written once per meridian, as sin π ≠ 0 in floating point).
+const WELD_TOLERANCE: f32 = 1e-6;
+
+/// Merges points closer than `eps` (a hash grid of cells `eps` wide, each point checked against the 27
+/// cells around it).
+struct Weld {
+    eps: f32,
+    cells: HashMap<[i64; 3], Vec<u32>>,
+    points: Vec<Vec3>,
+}
+
+impl Weld {
+    fn new(eps: f32) -> Weld {
+        Weld { eps: eps.max(f32::MIN_POSITIVE), cells: HashMap::new(), points: Vec::new() }
+    }
+
+    fn id(&mut self, p: Vec3) -> u32 {
+        let c = (p / self.eps).floor().as_i64vec3().to_array();
+        for dx in -1..=1 {
+            for dy in -1..=1 {
+                for dz in -1..=1 {
+                    if let Some(ids) = self.cells.get(&[c[0] + dx, c[1] + dy, c[2] + dz]) {
+                        if let Some(&i) = ids.iter().find(|&&i| self.points[i as usize].distance(p) <= self.eps) {
+                            return i;
+                        }
+                    }
+                }
+            }
+        }
+        let i = self.points.len() as u32;
+        self.points.push(p);
+        self.cells.entry(c).or_default().push(i);
+        i
+    }
+}
+
+/// Why the triangles `tris` do not form a closed, consistently oriented surface; `None` if they do.
+/// Vertices are matched by position (within [`WELD_TOLERANCE`]), so meshes that repeat vertices per face (for normals or texture
+/// coordinates) still count as closed.
+fn not_closed(geo: &Geometry, tris: Range<usize>) -> Option<String> {
+    if tris.is_empty() {
+        return Some("it has no faces".into());
+    }
+    let (lo, hi) = geo.triangles[tris.clone()].iter().flat_map(|t| t.v).fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), k| {
+        let p = geo.positions[k as usize];
+        (lo.min(p), hi.max(p))
+    });
+    let mut weld = Weld::new(WELD_TOLERANCE * (hi - lo).length());
+    let mut key = |k: u32| weld.id(geo.positions[k as usize]);
+    // A sliver whose corners weld together (a pole triangle of a latitude–longitude sphere) is no face.
+    let faces: Vec<[u32; 3]> = geo.triangles[tris].iter().map(|t| t.v.map(&mut key)).filter(|v| v[0] != v[1] && v[1] != v[2] && v[2] != v[0]).collect();
+    let edges = |v: &[u32; 3]| [(v[0], v[1]), (v[1], v[2]), (v[2], v[0])];
+    let mut directed: HashMap<(u32, u32), u32> = HashMap::new();
+    for v in &faces {
+        for e in edges(v) {
+            *directed.entry(e).or_default() += 1;
+        }
+    }
+    let at = |a: u32| {
+        let p = weld.points[a as usize];
+        format!("({}, {}, {})", p.x, p.y, p.z)
+    };
+    let (mut open, mut flipped) = (0usize, 0usize);
+    let mut example = None;
+    // In face order, so that the message names the same edge every time.
+    for (a, b) in faces.iter().flat_map(edges) {
+        let (n, back) = (directed[&(a, b)], directed.get(&(b, a)).copied().unwrap_or(0));
+        if n + back != 2 {
+            open += 1;
+            example.get_or_insert((a, b, "is not shared by exactly two faces"));
+        } else if n != 1 {
+            flipped += 1;
+            example.get_or_insert((a, b, "is run the same way by both its faces"));
+        }
+    }
+    let (a, b, what) = example?;
+    let summary = if open > 0 { format!("it is not closed ({open} face edges without exactly one opposite)") } else { format!("its faces are not consistently oriented ({flipped} edges)") };
+    Some(format!("{summary}; e.g. the edge {} – {} {what}", at(a), at(b)))
+}

@@ -1,0 +1,323 @@
+//! Participating media (issue 13): closed forms that a volumetric renderer must reproduce, the scene
+//! keys' validation, and determinism across thread counts.
+//!
+//! - Beer–Lambert: an emitter seen through purely absorbing slabs, one nested in the other (exact).
+//! - Single scattering in a slab lit by a directional light (closed form; `max_depth = 1` keeps only
+//!   the light scattered once).
+//! - A furnace: a black sphere whose inside emits Le, filled with a medium of albedo 1, is Le
+//!   everywhere.
+
+mod common;
+use common::*;
+
+use glam::Vec3;
+
+/// An axis-aligned box as OBJ text with material `mtl`, vertices numbered from `base + 1`, faces wound
+/// outward (`inward` turns them).
+fn box_obj(lo: [f32; 3], hi: [f32; 3], mtl: &str, base: usize, inward: bool) -> String {
+    let mut s = format!("usemtl {mtl}\n");
+    for k in 0..8 {
+        let c = |axis: usize| if k >> axis & 1 == 1 { hi[axis] } else { lo[axis] };
+        s += &format!("v {} {} {}\n", c(0), c(1), c(2));
+    }
+    // Corner k has x = bit 0, y = bit 1, z = bit 2; each face listed counter-clockwise seen from outside.
+    let faces = [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]];
+    for f in faces {
+        let [a, b, c, d] = f.map(|i| i + base + 1);
+        s += &if inward { format!("f {a} {c} {b}\nf {a} {d} {c}\n") } else { format!("f {a} {b} {c}\nf {a} {c} {d}\n") };
+    }
+    s
+}
+
+/// A quad in the plane z = `z` spanning ±`half` in x and y, facing +z.
+fn quad_facing_z(z: f32, half: f32, mtl: &str, base: usize) -> String {
+    let mut s = format!("usemtl {mtl}\n");
+    for (x, y) in [(-half, -half), (half, -half), (half, half), (-half, half)] {
+        s += &format!("v {x} {y} {z}\n");
+    }
+    let b = base + 1;
+    s + &format!("f {} {} {}\nf {} {} {}\n", b, b + 1, b + 2, b, b + 2, b + 3)
+}
+
+fn render(dir: &std::path::Path, extra: &[&str]) -> pmrender::io::output::Image {
+    let out = dir.join("out.exr");
+    let scene = p(dir, "scene.toml");
+    let mut args = vec!["render", scene.as_str(), "-o", out.to_str().unwrap(), "--quiet"];
+    args.extend_from_slice(extra);
+    let r = run(&args);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let img = read(&out);
+    std::fs::remove_file(&out).unwrap();
+    img
+}
+
+fn center(img: &pmrender::io::output::Image) -> Vec3 {
+    let (w, h) = (img.width, img.height);
+    let mut s = Vec3::ZERO;
+    for y in h / 2 - 1..h / 2 + 1 {
+        for x in w / 2 - 1..w / 2 + 1 {
+            s += img.pixels[(y * img.width + x) as usize];
+        }
+    }
+    s / 4.0
+}
+
+const SLAB_MTL: &str = "newmtl boundary\nKd 0 0 0\nnewmtl inner\nKd 0 0 0\nnewmtl lamp\nKd 0 0 0\nKe 1 1 1\n";
+
+/// An emitter of radiance 1 at z = −2 seen along −z through an absorbing slab (z ∈ [0, 1]) holding a
+/// second, more absorbing one (z ∈ [0.25, 0.5]); both boundaries are null.
+fn absorbing_slabs() -> tempfile::TempDir {
+    let toml = r#"version = 1
+[camera]
+eye = [0.0, 0.0, 10.0]
+target = [0.0, 0.0, 0.0]
+fov = 5.0
+width = 16
+height = 16
+
+[[medium]]
+name = "ink"
+sigma_a = [0.5, 1.0, 2.0]
+sigma_s = [0.0, 0.0, 0.0]
+
+[[medium]]
+name = "dye"
+sigma_a = [3.0, 0.0, 1.0]
+sigma_s = [0.0, 0.0, 0.0]
+
+[[mesh]]
+obj = "outer.obj"
+interior = "ink"
+
+[[mesh]]
+obj = "inner.obj"
+interior = "dye"
+
+[[mesh]]
+obj = "lamp.obj"
+
+[materials.boundary]
+type = "null"
+
+[materials.inner]
+type = "null"
+
+[render]
+method = "path"
+spp = 4
+"#;
+    let obj = |body: String| format!("mtllib scene.mtl\n{body}");
+    scene_dir(&[
+        ("scene.mtl", SLAB_MTL),
+        ("outer.obj", &obj(box_obj([-5.0, -5.0, 0.0], [5.0, 5.0, 1.0], "boundary", 0, false))),
+        // Wound inward: the inside is found from the mesh's volume, whatever its winding.
+        ("inner.obj", &obj(box_obj([-4.0, -4.0, 0.25], [4.0, 4.0, 0.5], "inner", 0, true))),
+        ("lamp.obj", &obj(quad_facing_z(-2.0, 8.0, "lamp", 0))),
+        ("scene.toml", toml),
+    ])
+}
+
+#[test]
+fn beer_lambert_through_nested_absorbing_slabs_is_exact() {
+    let d = absorbing_slabs();
+    let img = render(d.path(), &[]);
+    // Through 0.75 of ink and 0.25 of dye (the rays are within 0.1° of the axis: cos = 1 − 2e-6).
+    let expect = (-(Vec3::new(0.5, 1.0, 2.0) * 0.75 + Vec3::new(3.0, 0.0, 1.0) * 0.25)).exp();
+    let got = center(&img);
+    assert!((got - expect).abs().max_element() < 1e-4 * expect.max_element(), "got {got}, expected {expect}");
+    // The slab's edge is outside the view: every pixel sees the same (to the cosine of its ray).
+    for y in 0..img.height {
+        for x in 0..img.width {
+            let v = img.pixels[(y * img.width + x) as usize];
+            assert!((v - expect).abs().max_element() < 2e-3 * expect.max_element(), "pixel {x},{y}: {v} vs {expect}");
+        }
+    }
+}
+
+/// Single scattering of a directional light (irradiance E, direction making angle θ with the slab's
+/// normal) seen straight down through a slab of thickness d: L = σs p E (1 − e^{−σt d (1 + 1/μ)}) /
+/// (σt (1 + 1/μ)), μ = cos θ, p the phase function at the angle between the view ray and the light.
+#[test]
+fn single_scattering_in_a_slab_matches_its_closed_form() {
+    let (sa, ss, g, d, e) = (Vec3::new(0.1, 0.2, 0.4), Vec3::new(0.6, 0.3, 0.1), 0.4f32, 1.0f32, 2.0f32);
+    let theta = 40f32.to_radians();
+    let obj = String::from("mtllib scene.mtl\n") + &box_obj([-60.0, -60.0, -1.0], [60.0, 60.0, 0.0], "boundary", 0, false);
+    let light_dir = Vec3::new(theta.sin(), 0.0, -theta.cos()); // travels down into the slab
+    let toml = format!(
+        r#"version = 1
+[camera]
+eye = [0.0, 0.0, 10.0]
+target = [0.0, 0.0, 0.0]
+up = [0.0, 1.0, 0.0]
+fov = 8.0
+width = 16
+height = 16
+
+[[medium]]
+name = "fog"
+sigma_a = [{}, {}, {}]
+sigma_s = [{}, {}, {}]
+g = {g}
+
+[[mesh]]
+obj = "slab.obj"
+interior = "fog"
+
+[materials.boundary]
+type = "null"
+
+[[light]]
+type = "directional"
+direction = [{}, {}, {}]
+irradiance = [{e}, {e}, {e}]
+
+[render]
+method = "path"
+spp = 1024
+max_depth = 1
+"#,
+        sa.x, sa.y, sa.z, ss.x, ss.y, ss.z, light_dir.x, light_dir.y, light_dir.z
+    );
+    let dir = scene_dir(&[("scene.mtl", "newmtl boundary\nKd 0 0 0\n"), ("slab.obj", &obj), ("scene.toml", &toml)]);
+    let img = render(dir.path(), &[]);
+    let st = sa + ss;
+    let mu = theta.cos();
+    let view = Vec3::new(0.0, 0.0, -1.0);
+    let p = pmrender::medium::hg(g, view.dot(-light_dir));
+    let k = 1.0 + 1.0 / mu;
+    let expect = ss * p * e * (Vec3::ONE - (-st * d * k).exp()) / (st * k);
+    let got = mean(&img);
+    let rel = ((got - expect) / expect).abs().max_element();
+    assert!(rel < 0.01, "mean {got}, closed form {expect} ({:.2} % off)", rel * 100.0);
+}
+
+/// A black sphere whose inside emits 1, filled with a medium that scatters all it meets (albedo 1,
+/// forward-scattering): every path ends on the emitter, so L = 1 in every pixel.
+#[test]
+fn furnace_filled_with_a_scattering_medium_conserves_energy() {
+    let sphere = furnace_sphere(24, 12);
+    let toml = r#"version = 1
+[camera]
+eye = [0.1, 0.2, 0.05]
+target = [1.0, 0.3, 0.2]
+fov = 120.0
+width = 16
+height = 16
+
+[[medium]]
+name = "milk"
+sigma_a = [0.0, 0.0, 0.0]
+sigma_s = [2.0, 1.0, 4.0]
+g = 0.5
+
+[[mesh]]
+obj = "sphere.obj"
+interior = "milk"
+
+[render]
+method = "path"
+spp = 64
+max_depth = 1000
+"#;
+    let dir = scene_dir(&[("furnace.mtl", "newmtl inside\nKd 0 0 0\nKe 1 1 1\n"), ("sphere.obj", &sphere), ("scene.toml", toml)]);
+    let img = render(dir.path(), &[]);
+    let m = mean(&img);
+    assert!((m - Vec3::ONE).abs().max_element() < 0.01, "mean {m}, expected 1");
+}
+
+/// The inward sphere of `tests/furnace.rs` (a closed mesh: its pole fans weld by position).
+fn furnace_sphere(nu: usize, nv: usize) -> String {
+    let mut s = String::from("mtllib furnace.mtl\nusemtl inside\n");
+    for j in 0..=nv {
+        let th = std::f64::consts::PI * j as f64 / nv as f64;
+        for i in 0..nu {
+            let ph = 2.0 * std::f64::consts::PI * i as f64 / nu as f64;
+            s += &format!("v {} {} {}\n", th.sin() * ph.cos(), th.cos(), th.sin() * ph.sin());
+        }
+    }
+    let idx = |i: usize, j: usize| j * nu + (i % nu) + 1;
+    for j in 0..nv {
+        for i in 0..nu {
+            let (a, b, c, d) = (idx(i, j), idx(i + 1, j), idx(i + 1, j + 1), idx(i, j + 1));
+            s += &format!("f {a} {d} {b}\nf {b} {d} {c}\n");
+        }
+    }
+    s
+}
+
+#[test]
+fn media_images_do_not_depend_on_the_thread_count() {
+    let sphere = furnace_sphere(16, 8);
+    let toml = "version = 1\n[camera]\neye = [0.1, 0.2, 0.05]\ntarget = [1.0, 0.3, 0.2]\nfov = 100.0\nwidth = 12\nheight = 10\n\n[[medium]]\nname = \"fog\"\nsigma_a = [0.3, 0.2, 0.1]\nsigma_s = [1.0, 1.5, 2.0]\ng = -0.3\n\n[[mesh]]\nobj = \"sphere.obj\"\ninterior = \"fog\"\n\n[[light]]\ntype = \"point\"\nposition = [0.0, 0.5, 0.0]\nintensity = [1.0, 1.0, 1.0]\n\n[render]\nmethod = \"path\"\nspp = 8\n";
+    let dir = scene_dir(&[("furnace.mtl", "newmtl inside\nKd 0.5 0.5 0.5\n"), ("sphere.obj", &sphere), ("scene.toml", toml)]);
+    let a = render(dir.path(), &["--threads", "1"]);
+    let b = render(dir.path(), &["--threads", "2"]);
+    assert_eq!(a.pixels, b.pixels);
+    assert!(mean(&a).min_element() > 0.0);
+}
+
+/// Bad media input: exit status 2, one line naming the file and line of the key at fault, no output.
+#[test]
+fn bad_media_keys_are_refused_with_their_line() {
+    let base_obj = String::from("mtllib scene.mtl\n") + &box_obj([-1.0, -1.0, -1.0], [1.0, 1.0, 1.0], "boundary", 0, false);
+    let lamp_obj = String::from("mtllib scene.mtl\n") + &quad_facing_z(-3.0, 4.0, "lamp", 0);
+    let base = r#"version = 1
+[camera]
+eye = [0.0, 0.0, 5.0]
+target = [0.0, 0.0, 0.0]
+fov = 40.0
+width = 8
+height = 8
+
+[[medium]]
+name = "fog"
+sigma_a = [0.1, 0.1, 0.1]
+sigma_s = [0.5, 0.5, 0.5]
+g = 0.0
+
+[[mesh]]
+obj = "scene.obj"
+interior = "fog"
+
+[materials.boundary]
+type = "null"
+
+[render]
+method = "path"
+
+[[mesh]]
+obj = "lamp.obj"
+"#;
+    // Sanity: the base scene renders.
+    let ok = scene_dir(&[("scene.mtl", SLAB_MTL), ("scene.obj", &base_obj), ("lamp.obj", &lamp_obj), ("scene.toml", base)]);
+    render(ok.path(), &["--spp", "1"]);
+    let open_obj = base_obj.replacen("f 1 3 4\nf 1 4 2\n", "", 1);
+    let flipped_obj = base_obj.replacen("f 1 3 4\n", "f 1 4 3\n", 1);
+    let cases: Vec<(String, String, &[&str])> = vec![
+        (base.replace("sigma_a = [0.1, 0.1, 0.1]", "sigma_a = [0.1, -1.0, 0.1]"), base_obj.clone(), &["scene.toml:11:", "medium.sigma_a", "-1"]),
+        (base.replace("sigma_s = [0.5, 0.5, 0.5]", "sigma_s = [0.5, 1e30, 0.5]"), base_obj.clone(), &["scene.toml:12:", "medium.sigma_s"]),
+        (base.replace("g = 0.0", "g = 1.0"), base_obj.clone(), &["scene.toml:13:", "medium.g", "(-1, 1)"]),
+        (base.replace("interior = \"fog\"", "interior = \"smoke\""), base_obj.clone(), &["scene.toml:17:", "mesh.interior", "'smoke'"]),
+        (base.replace("fov = 40.0", "fov = 40.0\nmedium = \"fog\""), base_obj.clone(), &["scene.toml:6:", "camera.medium", "not 'fog'"]),
+        (base.replace("fov = 40.0", "fov = 40.0\nmedium = \"haze\""), base_obj.clone(), &["scene.toml:6:", "camera.medium", "'haze'"]),
+        (base.to_string(), open_obj.clone(), &["scene.toml:17:", "not closed"]),
+        (base.to_string(), flipped_obj, &["scene.toml:17:", "not consistently oriented"]),
+        (base.replace("interior = \"fog\"\n", ""), base_obj.clone(), &["scene.toml:19:", "materials.boundary", "only for the boundary of a medium"]),
+        (base.replace("name = \"fog\"", "name = \"fog\"\ncolour = 3"), base_obj.clone(), &["scene.toml:11:", "colour"]),
+        (base.replace("[materials.boundary]\ntype = \"null\"", "[materials.boundary]\ntype = \"null\"\nemission = [1.0, 1.0, 1.0]"), base_obj.clone(), &["scene.toml:20:", "cannot emit"]),
+        (base.replace("[[mesh]]", "[[medium]]\nname = \"fog\"\nsigma_a = [0.0, 0.0, 0.0]\nsigma_s = [0.0, 0.0, 0.0]\n\n[[mesh]]"), base_obj.clone(), &["scene.toml:16:", "medium.name", "'fog'"]),
+    ];
+    for (toml, obj, expect) in cases {
+        let d = scene_dir(&[("scene.mtl", SLAB_MTL), ("scene.obj", &obj), ("lamp.obj", &lamp_obj), ("scene.toml", &toml)]);
+        let out = d.path().join("out.exr");
+        let scene = p(d.path(), "scene.toml");
+        let r = run(&["render", &scene, "-o", out.to_str().unwrap(), "--quiet"]);
+        let stderr = String::from_utf8_lossy(&r.stderr);
+        assert_eq!(r.status.code(), Some(2), "{toml}\n{stderr}");
+        assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
+        for e in expect {
+            assert!(stderr.contains(e), "'{e}' not in: {stderr}");
+        }
+        assert!(!out.exists());
+    }
+}
