@@ -2,6 +2,8 @@
 //! material group, transforms applied), for rendering independent references. Same camera (vertical fov,
 //! box filter), materials, lights and resolution. The glossy model has no Mitsuba 3 plugin: it is written
 //! as `pm_phong`, which `tools/mref_phong.py` registers (tools/mitsuba_reference.py renders these scenes).
+//! Participating media become `homogeneous` media (albedo, σt, HG phase) attached to their boundary
+//! shapes as interior/exterior, the camera's by reference in the sensor, rendered by `volpath`.
 
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -13,6 +15,7 @@ use crate::error::{option, Result};
 use crate::io::atomic::write_bytes;
 use crate::light::Light;
 use crate::material::Bsdf;
+use crate::medium::{MediumId, VACUUM};
 use crate::scene::Scene;
 
 fn rgb(name: &str, c: Vec3) -> String {
@@ -56,24 +59,50 @@ fn bsdf_xml(scene: &Scene, m: usize) -> String {
 /// Writes DIR/scene.xml and DIR/mesh_<material>_<kind>.obj.
 pub fn export_mitsuba(scene: &Scene, dir: &Path, spp: u32) -> Result<()> {
     std::fs::create_dir_all(dir).map_err(|e| option("DIR", format!("cannot create '{}': {e}", dir.display())))?;
-    // Group triangles: (material, emissive-flat or smooth-with-normals or flat).
-    let mut groups: BTreeMap<(usize, u8), Vec<u32>> = BTreeMap::new();
+    // Group triangles: (material, emissive-flat or smooth-with-normals or flat, the media on the
+    // normal's side and behind it for a medium's boundary).
+    let mut groups: BTreeMap<(usize, u8, Option<[MediumId; 2]>), Vec<u32>> = BTreeMap::new();
     for (i, t) in scene.geometry.triangles.iter().enumerate() {
         let emissive = scene.materials[t.material as usize].emission.max_element() > 0.0;
         let kind = if emissive { 0 } else if t.has_normals { 1 } else { 2 };
-        groups.entry((t.material as usize, kind)).or_default().push(i as u32);
+        let sides = scene.media.as_ref().and_then(|m| m.sides(i as u32));
+        groups.entry((t.material as usize, kind, sides)).or_default().push(i as u32);
     }
+    let medium_id = |m: MediumId| format!("medium{m}");
     let cam = &scene.camera;
     let (eye, target, up) = (cam.eye, cam.eye + cam.forward(), cam.up_vector());
     let mut xml = String::from("<scene version=\"3.0.0\">\n");
-    let _ = writeln!(xml, r#"  <integrator type="path"><integer name="max_depth" value="{}"/></integrator>"#, scene.settings.max_depth + 1);
+    if let Some(media) = &scene.media {
+        for (k, m) in media.list.iter().enumerate() {
+            let _ = writeln!(
+                xml,
+                r#"  <medium type="homogeneous" id="{}">{}{}<phase type="hg"><float name="g" value="{}"/></phase></medium>"#,
+                medium_id(k as MediumId), rgb("albedo", m.albedo()), rgb("sigma_t", m.sigma_t), m.g
+            );
+        }
+    }
+    let integrator = if scene.media.is_some() { "volpath" } else { "path" };
+    let _ = writeln!(xml, r#"  <integrator type="{integrator}"><integer name="max_depth" value="{}"/></integrator>"#, scene.settings.max_depth + 1);
+    let camera_medium = match scene.camera_medium() {
+        VACUUM => String::new(),
+        m => format!(r#"<ref id="{}"/>"#, medium_id(m)),
+    };
     let _ = writeln!(
         xml,
-        r#"  <sensor type="perspective"><string name="fov_axis" value="y"/><float name="fov" value="{}"/><transform name="to_world"><lookat origin="{}" target="{}" up="{}"/></transform><sampler type="independent"><integer name="sample_count" value="{spp}"/></sampler><film type="hdrfilm"><integer name="width" value="{}"/><integer name="height" value="{}"/><rfilter type="box"/><string name="pixel_format" value="rgb"/></film></sensor>"#,
+        r#"  <sensor type="perspective"><string name="fov_axis" value="y"/><float name="fov" value="{}"/><transform name="to_world"><lookat origin="{}" target="{}" up="{}"/></transform><sampler type="independent"><integer name="sample_count" value="{spp}"/></sampler><film type="hdrfilm"><integer name="width" value="{}"/><integer name="height" value="{}"/><rfilter type="box"/><string name="pixel_format" value="rgb"/></film>{camera_medium}</sensor>"#,
         cam.fov_deg(), v(eye), v(target), v(up), cam.width, cam.height
     );
-    for ((m, kind), tris) in &groups {
-        let name = format!("mesh_{m}_{kind}.obj");
+    for (g, ((m, kind, sides), tris)) in groups.iter().enumerate() {
+        let name = if sides.is_some() { format!("mesh_{m}_{kind}_b{g}.obj") } else { format!("mesh_{m}_{kind}.obj") };
+        // Mitsuba's interior is behind the face normal, which is our winding normal here.
+        let interface: String = match sides {
+            Some([front, back]) => [("interior", *back), ("exterior", *front)]
+                .iter()
+                .filter(|(_, id)| *id != VACUUM)
+                .map(|(side, id)| format!(r#"<ref name="{side}" id="{}"/>"#, medium_id(*id)))
+                .collect(),
+            None => String::new(),
+        };
         let mut obj = String::new();
         for &ti in tris {
             let t = &scene.geometry.triangles[ti as usize];
@@ -102,7 +131,7 @@ pub fn export_mitsuba(scene: &Scene, dir: &Path, spp: u32) -> Result<()> {
         let mat = &scene.materials[*m];
         let emitter = if *kind == 0 { format!(r#"<emitter type="area">{}</emitter>"#, rgb("radiance", mat.emission)) } else { String::new() };
         let flat = if *kind == 1 { "" } else { r#"<boolean name="face_normals" value="true"/>"# };
-        let _ = writeln!(xml, r#"  <shape type="obj"><string name="filename" value="{name}"/>{flat}{}{emitter}</shape>"#, bsdf_xml(scene, *m));
+        let _ = writeln!(xml, r#"  <shape type="obj"><string name="filename" value="{name}"/>{flat}{}{emitter}{interface}</shape>"#, bsdf_xml(scene, *m));
     }
     for l in &scene.lights.lights {
         let line = match *l {

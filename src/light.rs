@@ -45,6 +45,8 @@ pub struct Emission {
     pub power: Vec3,
     /// Surface normal at the origin for area lights (for the ray offset), zero otherwise.
     pub n: Vec3,
+    /// Index of the light in `Lights::lights`.
+    pub light: usize,
 }
 
 pub struct Lights {
@@ -220,24 +222,24 @@ impl Lights {
                 let origin = geo.point_on(tri, b1, b2);
                 let dir = to_world(n, cosine_hemisphere([u[3], u[4]]));
                 // Le cos / (pdf_area · pdf_dir) = Le cos · A · π / cos = Le A π.
-                Some(Emission { origin, dir, power: le * area * PI / p_sel, n })
+                Some(Emission { origin, dir, power: le * area * PI / p_sel, n, light: i })
             }
             Light::Point { pos, intensity } => {
                 let dir = uniform_sphere([u[3], u[4]]);
-                Some(Emission { origin: pos, dir, power: intensity * 4.0 * PI / p_sel, n: Vec3::ZERO })
+                Some(Emission { origin: pos, dir, power: intensity * 4.0 * PI / p_sel, n: Vec3::ZERO, light: i })
             }
             Light::Spot { pos, dir: axis, intensity, cone, falloff } => {
                 let cos_max = cone.cos();
                 let dir = to_world(axis, uniform_cone([u[3], u[4]], cos_max));
                 let f = Light::spot_falloff(dir.dot(axis), cone, falloff);
                 let pdf = 1.0 / (2.0 * PI * (1.0 - cos_max)).max(1e-12);
-                Some(Emission { origin: pos, dir, power: intensity * f / (pdf * p_sel), n: Vec3::ZERO })
+                Some(Emission { origin: pos, dir, power: intensity * f / (pdf * p_sel), n: Vec3::ZERO, light: i })
             }
             Light::Directional { dir, irradiance, center, radius } => {
                 let (t, b) = onb(dir);
                 let d = concentric_disk([u[1], u[2]]) * radius;
                 let origin = center - dir * (2.0 * radius) + t * d.x + b * d.y;
-                Some(Emission { origin, dir, power: irradiance * PI * radius * radius / p_sel, n: Vec3::ZERO })
+                Some(Emission { origin, dir, power: irradiance * PI * radius * radius / p_sel, n: Vec3::ZERO, light: i })
             }
         }
     }

@@ -71,6 +71,28 @@ impl Medium {
         }
     }
 
+    /// One medium segment (length `t_max`, may be infinite) of a photon's free flight, sampled by
+    /// optical depth: `tau` is what is left of the flight's −ln(1−u), measured with each medium's mean
+    /// extinction σ̄ (a photon carries all three channels), and is used up across segments (exact, as
+    /// the exponential is memoryless). Each channel is weighted by its own transmittance over the pdf:
+    /// exact for grey media; for coloured ones the weights stay near 1 while the channels' σt are alike.
+    pub fn photon_segment(&self, t_max: f32, tau: &mut f32) -> Flight {
+        let mean = (self.sigma_t.x + self.sigma_t.y + self.sigma_t.z) / 3.0;
+        if self.sigma_s == Vec3::ZERO || mean == 0.0 {
+            return Flight::Through { weight: self.transmittance(t_max), ratio: Vec3::ONE };
+        }
+        let t = *tau / mean;
+        if t < t_max {
+            let pdf = mean * (-mean * t).exp();
+            let w = if pdf > 0.0 { self.transmittance(t) * self.sigma_s / pdf } else { Vec3::ZERO };
+            Flight::Scatter { t, weight: w, ratio: Vec3::ONE }
+        } else {
+            *tau -= mean * t_max;
+            let p = (-mean * t_max).exp();
+            Flight::Through { weight: if p > 0.0 { self.transmittance(t_max) / p } else { Vec3::ZERO }, ratio: Vec3::ONE }
+        }
+    }
+
     /// Single-scattering albedo σs/σt per channel (0 where σt = 0).
     pub fn albedo(&self) -> Vec3 {
         let a = self.sigma_s / self.sigma_t;

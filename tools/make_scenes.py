@@ -353,8 +353,84 @@ Kd 0.12 0.14 0.2
 """)
 
 
+BOUNDARY = """
+newmtl boundary
+Kd 0 0 0
+"""
+
+
+def fog_box(name, lo, hi):
+    """A medium's boundary: a closed box written as its own OBJ (a [[mesh]] with `interior`), material
+    `boundary` (the scene makes it `null`)."""
+    o = Obj()
+    o.box("fog", "boundary", lo, hi)
+    o.write(name, BOUNDARY)
+
+
+def fog_cornell():
+    """The Cornell box filled with a thin fog (issue 13): the box's inside, just within its walls and
+    under its light, is the boundary of the medium; a white block and a glass sphere stand in it."""
+    o = Obj()
+    cornell_walls(o)
+    o.box("block", "white", (-0.75, 0, -0.7), (-0.2, 0.9, -0.15))
+    o.sphere("glassSphere", "glass", (0.45, 0.38, 0.3), 0.38)
+    o.write("fog-cornell", WALLS + """
+newmtl glass
+Kd 0 0 0
+Ks 1 1 1
+Ni 1.5
+illum 7
+""")
+    fog_box("fog-cornell-fog", (-0.999, 0.001, -0.999), (0.999, 1.97, 0.999))
+
+
+def fog_spot():
+    """A spot of light shining down through a glass sphere in a fog-filled open room (issue 13): the beam,
+    and the volume caustic the sphere focuses into the fog below it. The spot is a small emitter inside a
+    black snoot, not a point spot light: light from a point reaches the fog through glass only along
+    paths a path tracer (ours or Mitsuba's) cannot sample, and both must be able to render the reference."""
+    o = Obj()
+    w, h = 1.5, 2.2
+    o.quad("floor", "floor", (-w, 0, w), (w, 0, w), (w, 0, -w), (-w, 0, -w))
+    o.quad("back", "white", (-w, 0, -w), (w, 0, -w), (w, h, -w), (-w, h, -w))
+    o.quad("left", "white", (-w, 0, w), (-w, 0, -w), (-w, h, -w), (-w, h, w))
+    o.quad("right", "white", (w, 0, -w), (w, 0, w), (w, h, w), (w, h, -w))
+    o.quad("ceiling", "white", (-w, h, -w), (w, h, -w), (w, h, w), (-w, h, w))
+    s, y0, y1 = 0.1, 1.8, h - 0.01
+    o.quad("lamp", "lamp", (-s, y1, -s), (s, y1, -s), (s, y1, s), (-s, y1, s))  # facing down
+    # The snoot: four black sides around the lamp, open below.
+    t, top = s + 0.01, h
+    o.quad("snoot", "black", (-t, y0, t), (t, y0, t), (t, top, t), (-t, top, t))
+    o.quad("snoot", "black", (t, y0, -t), (-t, y0, -t), (-t, top, -t), (t, top, -t))
+    o.quad("snoot", "black", (t, y0, t), (t, y0, -t), (t, top, -t), (t, top, t))
+    o.quad("snoot", "black", (-t, y0, -t), (-t, y0, t), (-t, top, t), (-t, top, -t))
+    o.write("fog-spot", """
+newmtl floor
+Kd 0.6 0.6 0.58
+newmtl white
+Kd 0.7 0.7 0.7
+newmtl black
+Kd 0.02 0.02 0.02
+newmtl lamp
+Kd 0 0 0
+Ke 600 555 480
+""")
+    g = Obj()
+    g.sphere("glassSphere", "glass", (0.0, 1.0, 0.0), 0.35)
+    g.write("fog-spot-sphere", """
+newmtl glass
+Kd 0 0 0
+Ks 1 1 1
+Ni 1.5
+illum 7
+""")
+    fog_box("fog-spot-fog", (-w + 0.001, 0.001, -w + 0.001), (w - 0.001, h - 0.001, w - 0.001))
+
+
 def main():
     os.makedirs(OUT, exist_ok=True)
+    fog_cornell()
+    fog_spot()
     cornell_caustics()
     interior_diffuse()
     water_caustics()

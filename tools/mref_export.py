@@ -25,9 +25,17 @@ def fmt3(v):
 
 
 def group_triangles(scene):
-    """{(material, flat): [(p, n, uv)]} with emissive triangles flattened and re-wound."""
+    """{(material, flat, boundary): [(p, n, uv)]} with emissive triangles flattened and re-wound, and a
+    medium's boundary triangles wound so that their normal points out of the medium (Mitsuba's
+    interior is behind the normal)."""
     groups = {}
     for t in scene.triangles:
+        if t.boundary is not None:
+            p = list(t.p) if scene.boundaries[t.boundary]["outward"] else [t.p[0], t.p[2], t.p[1]]
+            n = t.n if scene.boundaries[t.boundary]["outward"] or t.n is None else [t.n[0], t.n[2], t.n[1]]
+            uv = t.uv if scene.boundaries[t.boundary]["outward"] or not t.uv else [t.uv[0], t.uv[2], t.uv[1]]
+            groups.setdefault((t.material, n is None, t.boundary), []).append((p, n, uv))
+            continue
         mat = scene.materials[t.material]
         p, n = list(t.p), t.n
         if mat.emissive():
@@ -37,9 +45,9 @@ def group_triangles(scene):
                 t_uv = [t.uv[0], t.uv[2], t.uv[1]] if t.uv else None
             else:
                 t_uv = t.uv
-            groups.setdefault((t.material, True), []).append((p, None, t_uv))
+            groups.setdefault((t.material, True, -1), []).append((p, None, t_uv))
         else:
-            groups.setdefault((t.material, n is None), []).append((p, n, t.uv))
+            groups.setdefault((t.material, n is None, -1), []).append((p, n, t.uv))
     return groups
 
 
@@ -67,6 +75,8 @@ def write_obj(path, tris, with_uv):
 
 
 def bsdf_xml(mat):
+    if mat.kind == "null":
+        return '<bsdf type="null"/>'
     if mat.kind == "glass":
         return (f'<bsdf type="dielectric"><float name="int_ior" value="{mat.ior:.9g}"/>'
                 f'<float name="ext_ior" value="1"/>'
@@ -125,26 +135,45 @@ def export(scene, out_dir, spp, width, height):
     os.makedirs(out_dir, exist_ok=True)
     cam = scene.camera
     near, far = clip_range(scene)
+    media = bool(scene.boundaries)
+    mid = lambda name: "medium_" + "".join(c if c.isalnum() else "_" for c in name)
     body = [
-        f'<integrator type="path"><integer name="max_depth" value="{scene.max_depth + 1}"/>'
+        f'<integrator type="{"volpath" if media else "path"}"><integer name="max_depth" value="{scene.max_depth + 1}"/>'
         f'<boolean name="hide_emitters" value="false"/></integrator>',
         f'<sensor type="perspective"><string name="fov_axis" value="y"/><float name="fov" value="{cam["fov"]:.9g}"/>'
         f'<float name="near_clip" value="{near:.9g}"/><float name="far_clip" value="{far:.9g}"/>'
         f'<transform name="to_world">{lookat(cam["eye"], cam["target"], cam["up"])}</transform>'
         f'<sampler type="independent"><integer name="sample_count" value="{spp}"/></sampler>'
         f'<film type="hdrfilm"><integer name="width" value="{width}"/><integer name="height" value="{height}"/>'
-        f'<string name="pixel_format" value="rgb"/><rfilter type="box"/></film></sensor>',
+        f'<string name="pixel_format" value="rgb"/><rfilter type="box"/></film>'
+        + (f'<ref id="{mid(scene.camera_medium)}"/>' if scene.camera_medium else "") + '</sensor>',
     ]
-    for (mi, flat), tris in sorted(group_triangles(scene).items()):
+    for name, m in scene.media.items():
+        st = tuple(a + b for a, b in zip(m["sigma_a"], m["sigma_s"]))
+        albedo = tuple(s_ / t if t > 0 else 0.0 for s_, t in zip(m["sigma_s"], st))
+        body.insert(0, f'<medium type="homogeneous" id="{mid(name)}"><rgb name="albedo" value="{fmt3(albedo)}"/>'
+                       f'<rgb name="sigma_t" value="{fmt3(st)}"/><phase type="hg"><float name="g" value="{m["g"]:.9g}"/></phase></medium>')
+    for (mi, flat, boundary), tris in sorted(group_triangles(scene).items()):
         mat = scene.materials[mi]
-        name = f"m{mi:03d}_{'flat' if flat else 'smooth'}.obj"
+        name = f"m{mi:03d}_{'flat' if flat else 'smooth'}{'' if boundary < 0 else f'_b{boundary}'}.obj"
+        interface = ""
+        if boundary >= 0:
+            b = scene.boundaries[boundary]
+            interface = f'<ref name="interior" id="{mid(b["medium"])}"/>'
+            if b["outside"]:
+                interface += f'<ref name="exterior" id="{mid(b["outside"])}"/>'
+        elif media:
+            # Every other surface in a medium keeps the ray's medium: in Mitsuba a shape without an
+            # interface does too, except a dielectric's transmission, which pmrender's scenes avoid by
+            # making their glass a boundary.
+            pass
         write_obj(os.path.join(out_dir, name), tris, with_uv=bool(mat.texture))
         emitter = (f'<emitter type="area"><rgb name="radiance" value="{fmt3(mat.emission)}"/></emitter>'
                    if mat.emissive() else "")
         body.append(f'<!-- material {mat.name.replace("--", "- -")} ({mat.kind}) -->\n<shape type="obj">'
                     f'<string name="filename" value="{name}"/>'
                     f'<boolean name="face_normals" value="{"true" if flat else "false"}"/>'
-                    f'{bsdf_xml(mat)}{emitter}</shape>')
+                    f'{bsdf_xml(mat)}{emitter}{interface}</shape>')
     body += [light_xml(l) for l in scene.lights]
     xml = os.path.join(out_dir, "scene.xml")
     with open(xml, "w") as f:

@@ -2,18 +2,20 @@
 
 Used by tools/mitsuba_reference.py; not a command. See mref_scene.py for the semantics reproduced.
 """
+import math
 import os
 import tomllib
 
 from mref_scene import (Material, Scene, SceneError, Triangle, apply, cross, inverse_transpose,
                         material_from_mtl, matmul, norm, normalize, parse_mtl, resolve_texture, rot,
-                        set_glossy, sub, vec3)
+                        set_glossy, sub, vec3, dot)
 
 OVERRIDE_KEYS = {
     "diffuse": {"albedo", "texture"},
     "mirror": {"reflectance"},
     "glass": {"ior", "transmittance"},
     "glossy": {"albedo", "specular", "exponent"},
+    "null": set(),
 }
 
 
@@ -66,7 +68,7 @@ def read_obj(path):
     return vs, vts, vns, faces, mtllibs
 
 
-def load_mesh(scene, mesh, toml_dir, by_name):
+def load_mesh(scene, mesh, toml_dir, by_name, boundary=None):
     obj_path = os.path.join(toml_dir, mesh["obj"])
     if not os.path.isfile(obj_path):
         raise SceneError(f"mesh.obj: file '{obj_path}' not found")
@@ -96,7 +98,7 @@ def load_mesh(scene, mesh, toml_dir, by_name):
                 continue  # degenerate: pmrender drops it too
             n = [normalize(apply(nm, vns[c[2]])) for c in tri] if has_n else None
             uv = [vts[c[1]] for c in tri] if has_uv else None
-            scene.triangles.append(Triangle(p=p, n=n, uv=uv, material=mi))
+            scene.triangles.append(Triangle(p=p, n=n, uv=uv, material=mi, boundary=boundary))
 
 
 def default_material(scene):
@@ -144,7 +146,7 @@ def apply_override(mat, d, toml_dir):
             raise SceneError(f"materials.{mat.name}.ior = {ior} must be > 1")
         own_t = mat.transmittance if was == "glass" else (1.0, 1.0, 1.0)
         mat.ior, mat.transmittance = ior, get("transmittance", own_t)
-    else:
+    elif kind == "glossy":
         set_glossy(mat, get("albedo", kd), get("specular", ks), float(d.get("exponent", max(ns, 1.0))))
     mat.kind = kind
     if "emission" in d:
@@ -170,6 +172,49 @@ def load_light(d):
     raise SceneError(f"unknown light type {kind!r}")
 
 
+def contains(tris, q):
+    """Parity of a ray's crossings with the triangles `tris` (a closed mesh): inside when odd."""
+    d = normalize((0.5711, 0.6353, 0.5198))
+    n = 0
+    for p in tris:
+        e1, e2 = sub(p[1], p[0]), sub(p[2], p[0])
+        h = cross(d, e2)
+        det = dot(e1, h)
+        if abs(det) < 1e-300:
+            continue
+        s_ = sub(q, p[0])
+        u = dot(s_, h) / det
+        r = cross(s_, e1)
+        v = dot(d, r) / det
+        t = dot(e2, r) / det
+        if u >= 0 and v >= 0 and u + v <= 1 and t > 0:
+            n += 1
+    return n % 2 == 1
+
+
+def media_sides(scene):
+    """As pmrender: a boundary mesh's inside by the sign of its volume, its outside the medium of the
+    smallest other boundary mesh containing it, the camera's medium the innermost around the eye."""
+    tris = [[t.p for t in scene.triangles if t.boundary == b] for b in range(len(scene.boundaries))]
+    for b, ts in zip(scene.boundaries, tris):
+        vol = sum(dot(p[0], cross(p[1], p[2])) for p in ts) / 6.0
+        b["volume"], b["outward"] = abs(vol), vol > 0
+    def innermost(q, skip=None):
+        best = None
+        for i, (b, ts) in enumerate(zip(scene.boundaries, tris)):
+            if i != skip and contains(ts, q) and (best is None or b["volume"] < scene.boundaries[best]["volume"]):
+                best = i
+        return None if best is None else scene.boundaries[best]["medium"]
+    for i, (b, ts) in enumerate(zip(scene.boundaries, tris)):
+        big = max(ts, key=lambda p: norm(cross(sub(p[1], p[0]), sub(p[2], p[0]))))
+        c = tuple(sum(x) / 3 for x in zip(*big))
+        ng = normalize(cross(sub(big[1], big[0]), sub(big[2], big[0])))
+        area = norm(cross(sub(big[1], big[0]), sub(big[2], big[0]))) / 2
+        inward = tuple(-x for x in ng) if b["outward"] else ng
+        b["outside"] = innermost(tuple(ci + 1e-3 * math.sqrt(area) * w for ci, w in zip(c, inward)), skip=i)
+    scene.camera_medium = innermost(scene.camera["eye"])
+
+
 def load(path):
     with open(path, "rb") as f:
         doc = tomllib.load(f)
@@ -184,8 +229,16 @@ def load(path):
     scene = Scene(path=os.path.abspath(path), camera=camera, max_depth=int(r.get("max_depth", 64)),
                   spp=r.get("spp"), seed=int(r.get("seed", 0)))
     by_name = {}
+    scene.media = {m["name"]: {"sigma_a": vec3(m["sigma_a"], "medium.sigma_a"), "sigma_s": vec3(m["sigma_s"], "medium.sigma_s"),
+                               "g": float(m.get("g", 0.0))} for m in doc.get("medium", [])}
     for mesh in doc.get("mesh", []):
-        load_mesh(scene, mesh, toml_dir, by_name)
+        boundary = None
+        if "interior" in mesh:
+            if mesh["interior"] not in scene.media:
+                raise SceneError(f"mesh.interior: no [[medium]] is named '{mesh['interior']}'")
+            boundary = len(scene.boundaries)
+            scene.boundaries.append({"medium": mesh["interior"]})
+        load_mesh(scene, mesh, toml_dir, by_name, boundary)
     if not scene.triangles:
         raise SceneError("the scene has no triangles")
     for name, d in doc.get("materials", {}).items():
@@ -194,6 +247,8 @@ def load(path):
         for i in by_name[name]:
             apply_override(scene.materials[i], d, toml_dir)
     scene.lights = [load_light(d) for d in doc.get("light", [])]
+    if scene.boundaries:
+        media_sides(scene)
     if not scene.lights and not any(scene.materials[t.material].emissive() for t in scene.triangles):
         raise SceneError("the scene has no lights (add a [[light]] or a material with Ke > 0)")
     return scene

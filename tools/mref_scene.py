@@ -24,7 +24,7 @@ class SceneError(Exception):
 @dataclass
 class Material:
     name: str
-    kind: str = "diffuse"  # diffuse | mirror | glass | glossy
+    kind: str = "diffuse"  # diffuse | mirror | glass | glossy | null
     albedo: tuple = (0.8, 0.8, 0.8)
     texture: str | None = None  # absolute path
     reflectance: tuple = (1.0, 1.0, 1.0)
@@ -44,6 +44,7 @@ class Triangle:
     n: list | None  # three world-space unit normals, or None (flat)
     uv: list | None  # three (u, v), or None
     material: int
+    boundary: int | None = None  # index into Scene.boundaries for a medium's boundary mesh
 
 
 @dataclass
@@ -57,6 +58,9 @@ class Scene:
     spp: int | None = None
     seed: int = 0
     notes: list = field(default_factory=list)
+    media: dict = field(default_factory=dict)  # name -> {sigma_a, sigma_s, g}
+    boundaries: list = field(default_factory=list)  # per boundary mesh: medium, outside, outward, volume
+    camera_medium: str | None = None
 
 
 # ---------------------------------------------------------------- small vector helpers

@@ -42,6 +42,39 @@ pub trait PhotonScene: Sync {
     fn scatter(&self, hit: &SurfaceHit, wo: Vec3, u: [f32; 3]) -> Scatter;
     /// Whether any surface is specular (mirror/glass); if false the caustic map is never built.
     fn has_specular(&self) -> bool;
+    /// Whether photons fly through participating media ([`propagate`](Self::propagate)); without, a
+    /// path draws exactly the numbers it always drew.
+    fn has_media(&self) -> bool {
+        false
+    }
+    /// The next event of a photon leaving `origin` along `dir` in `medium`: a scattering event in the
+    /// medium, or the next surface (invisible medium boundaries crossed, the medium updated), with the
+    /// free flight's throughput weight. `u` are 2 numbers in [0,1). Called only when `has_media`.
+    fn propagate(&self, origin: Vec3, dir: Vec3, medium: u16, _u: [f32; 2]) -> Propagation {
+        match self.intersect(origin, dir) {
+            Some(hit) => Propagation::Surface { hit, weight: Vec3::ONE, medium },
+            None => Propagation::Escaped,
+        }
+    }
+    /// The medium a photon leaving `hit` along `dir` travels in, when it arrived in `current`.
+    fn medium_after(&self, _hit: &SurfaceHit, _dir: Vec3, current: u16) -> u16 {
+        current
+    }
+    /// A new direction after scattering in `medium` (travelling along `dir` before), sampled exactly by
+    /// the phase function.
+    fn scatter_in_medium(&self, dir: Vec3, _medium: u16, _u: [f32; 2]) -> Vec3 {
+        dir
+    }
+}
+
+/// Where a photon's free flight ended (see [`PhotonScene::propagate`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Propagation {
+    Escaped,
+    /// At a surface, reached in `medium`.
+    Surface { hit: SurfaceHit, weight: Vec3, medium: u16 },
+    /// At a scattering event at `pos` in `medium`; `weight` includes the scattering albedo.
+    Medium { pos: Vec3, weight: Vec3, medium: u16 },
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -49,6 +82,8 @@ pub struct EmittedRay {
     pub origin: Vec3,
     pub dir: Vec3,
     pub power: Vec3,
+    /// The medium the light sits in (`u16::MAX`: none).
+    pub medium: u16,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -79,6 +114,8 @@ pub enum Scatter {
 pub struct PhotonTargets {
     pub global: usize,
     pub caustic: usize,
+    /// Photons stored at scattering events in media (0: no volume map).
+    pub volume: usize,
     pub max_paths: u64,
 }
 
@@ -88,6 +125,9 @@ pub struct PhotonTargets {
 pub struct PhotonMaps {
     pub global: Option<PhotonMap>,
     pub caustic: Option<PhotonMap>,
+    /// Photons at scattering events in participating media (Jensen & Christensen 1998); only for
+    /// scenes with media. Surface normals are zero.
+    pub volume: Option<PhotonMap>,
 }
 
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -98,6 +138,8 @@ pub struct TraceStats {
     pub n_caustic_paths: u64,
     pub n_global_stored: u64,
     pub n_caustic_stored: u64,
+    pub n_volume_paths: u64,
+    pub n_volume_stored: u64,
     /// Paths abandoned on a non-finite or negative power, direction or hit (should stay ~0).
     pub n_paths_dropped: u64,
     /// Paths cut at [`MAX_DEPTH`].
@@ -107,8 +149,10 @@ pub struct TraceStats {
     pub trace_s: f64,
     pub global_build_s: f64,
     pub caustic_build_s: f64,
+    pub volume_build_s: f64,
     pub global_memory_bytes: u64,
     pub caustic_memory_bytes: u64,
+    pub volume_memory_bytes: u64,
 }
 
 impl AddAssign for TraceStats {
@@ -118,14 +162,18 @@ impl AddAssign for TraceStats {
         self.n_caustic_paths += o.n_caustic_paths;
         self.n_global_stored += o.n_global_stored;
         self.n_caustic_stored += o.n_caustic_stored;
+        self.n_volume_paths += o.n_volume_paths;
+        self.n_volume_stored += o.n_volume_stored;
         self.n_paths_dropped += o.n_paths_dropped;
         self.n_paths_depth_capped += o.n_paths_depth_capped;
         self.n_caustic_cut += o.n_caustic_cut;
         self.trace_s += o.trace_s;
         self.global_build_s += o.global_build_s;
         self.caustic_build_s += o.caustic_build_s;
+        self.volume_build_s += o.volume_build_s;
         self.global_memory_bytes += o.global_memory_bytes;
         self.caustic_memory_bytes += o.caustic_memory_bytes;
+        self.volume_memory_bytes += o.volume_memory_bytes;
     }
 }
 
@@ -153,14 +201,15 @@ pub fn trace_photons_cancellable<S: PhotonScene + ?Sized>(
     let caustic_target = if scene.has_specular() { targets.caustic } else { 0 };
     let mut global = Filling::new(targets.global);
     let mut caustic = Filling::new(caustic_target);
+    let mut volume = Filling::new(if scene.has_media() { targets.volume } else { 0 });
     let mut stats = TraceStats::default();
     let mut next_path = 0u64;
-    while (global.active || caustic.active) && next_path < targets.max_paths {
+    while (global.active || caustic.active || volume.active) && next_path < targets.max_paths {
         if cancel.load(Ordering::Relaxed) {
             return Err(Error::Cancelled);
         }
         let n_batch = BATCH_PATHS.min(targets.max_paths - next_path);
-        let want = Want { global: global.active, caustic: caustic.active };
+        let want = Want { global: global.active, caustic: caustic.active, volume: volume.active };
         let chunks: Vec<ChunkOut> = (0..n_batch.div_ceil(CHUNK_PATHS) as usize)
             .into_par_iter()
             .with_max_len(1)
@@ -180,10 +229,11 @@ pub fn trace_photons_cancellable<S: PhotonScene + ?Sized>(
             for j in 0..chunk.ends.len() {
                 let path = next_path;
                 next_path += 1;
-                let (g0, c0) = if j == 0 { (0, 0) } else { chunk.ends[j - 1] };
-                let (g1, c1) = chunk.ends[j];
+                let (g0, c0, v0) = if j == 0 { (0, 0, 0) } else { chunk.ends[j - 1] };
+                let (g1, c1, v1) = chunk.ends[j];
                 global.take(&chunk.global[g0..g1], path);
                 caustic.take(&chunk.caustic[c0..c1], path);
+                volume.take(&chunk.volume[v0..v1], path);
                 // Where little light reaches specular surfaces, the caustic map would keep emission going
                 // for a long time for a dim effect: it gets CAUSTIC_PATH_BUDGET × the paths the global
                 // map needed (at least CAUSTIC_MIN_PATHS), normalised by the paths emitted while it filled.
@@ -199,16 +249,16 @@ pub fn trace_photons_cancellable<S: PhotonScene + ?Sized>(
                     PathEnd::DepthCapped => stats.n_paths_depth_capped += 1,
                     PathEnd::Done => {}
                 }
-                if !global.active && !caustic.active {
+                if !global.active && !caustic.active && !volume.active {
                     break;
                 }
             }
-            if !global.active && !caustic.active {
+            if !global.active && !caustic.active && !volume.active {
                 break;
             }
         }
-        let stored = (global.photons.len() + caustic.photons.len()) as u64;
-        progress(stored, (global.target + caustic.target) as u64);
+        let stored = (global.photons.len() + caustic.photons.len() + volume.photons.len()) as u64;
+        progress(stored, (global.target + caustic.target + volume.target) as u64);
         if stored == 0 && next_path >= GIVE_UP_EMPTY_PATHS {
             break; // nothing reaches a non-specular surface: more paths will not change that
         }
@@ -220,6 +270,9 @@ pub fn trace_photons_cancellable<S: PhotonScene + ?Sized>(
     }
     let (global, n_global_paths) = global.finish(next_path);
     let (caustic, n_caustic_paths) = caustic.finish(next_path);
+    let (volume, n_volume_paths) = volume.finish(next_path);
+    stats.n_volume_paths = n_volume_paths;
+    stats.n_volume_stored = volume.as_ref().map_or(0, |p| p.len() as u64);
     stats.n_global_paths = n_global_paths;
     stats.n_caustic_paths = n_caustic_paths;
     stats.n_global_stored = global.as_ref().map_or(0, |p| p.len() as u64);
@@ -234,7 +287,10 @@ pub fn trace_photons_cancellable<S: PhotonScene + ?Sized>(
     stats.caustic_build_s = caustic_build_s;
     stats.global_memory_bytes = global.as_ref().map_or(0, |m| m.memory_bytes() as u64);
     stats.caustic_memory_bytes = caustic.as_ref().map_or(0, |m| m.memory_bytes() as u64);
-    Ok((PhotonMaps { global, caustic }, stats))
+    let (volume, volume_build_s) = build_map(volume)?;
+    stats.volume_build_s = volume_build_s;
+    stats.volume_memory_bytes = volume.as_ref().map_or(0, |m| m.memory_bytes() as u64);
+    Ok((PhotonMaps { global, caustic, volume }, stats))
 }
 
 fn build_map(photons: Option<Vec<Photon>>) -> Result<(Option<PhotonMap>, f64)> {
@@ -295,6 +351,7 @@ impl Filling {
 struct Want {
     global: bool,
     caustic: bool,
+    volume: bool,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -304,27 +361,29 @@ enum PathEnd {
     DepthCapped,
 }
 
-/// Photons of consecutive paths; `ends[j]` = (global, caustic) lengths after path j.
+/// Photons of consecutive paths; `ends[j]` = (global, caustic, volume) lengths after path j.
 #[derive(Default)]
 struct ChunkOut {
     global: Vec<Photon>,
     caustic: Vec<Photon>,
-    ends: Vec<(usize, usize)>,
+    volume: Vec<Photon>,
+    ends: Vec<(usize, usize, usize)>,
     end_kinds: Vec<PathEnd>,
 }
 
 fn trace_chunk<S: PhotonScene + ?Sized>(scene: &S, paths: std::ops::Range<u64>, seed: u64, want: Want) -> ChunkOut {
-    let mut out = ChunkOut { global: Vec::new(), caustic: Vec::new(), ends: Vec::new(), end_kinds: Vec::new() };
+    let mut out = ChunkOut::default();
     for i in paths {
-        let (g, c) = (out.global.len(), out.caustic.len());
+        let (g, c, v) = (out.global.len(), out.caustic.len(), out.volume.len());
         let mut sampler = PathSampler { index: i, seed, dim: 0, rng: None };
-        let end = trace_path(scene, &mut sampler, want, &mut out.global, &mut out.caustic);
+        let end = trace_path(scene, &mut sampler, want, &mut out);
         if end == PathEnd::Dropped {
             // A path that went bad leaves nothing behind.
             out.global.truncate(g);
             out.caustic.truncate(c);
+            out.volume.truncate(v);
         }
-        out.ends.push((out.global.len(), out.caustic.len()));
+        out.ends.push((out.global.len(), out.caustic.len(), out.volume.len()));
         out.end_kinds.push(end);
     }
     out
@@ -355,23 +414,58 @@ fn valid_power(power: Vec3) -> bool {
     power.is_finite() && power.min_element() >= 0.0
 }
 
-fn trace_path<S: PhotonScene + ?Sized>(
-    scene: &S,
-    s: &mut PathSampler,
-    want: Want,
-    global: &mut Vec<Photon>,
-    caustic: &mut Vec<Photon>,
-) -> PathEnd {
+fn trace_path<S: PhotonScene + ?Sized>(scene: &S, s: &mut PathSampler, want: Want, out: &mut ChunkOut) -> PathEnd {
     let u = [s.next(), s.next(), s.next(), s.next(), s.next()];
     let Some(ray) = scene.emit(u) else { return PathEnd::Done };
     if !valid_power(ray.power) || !ray.origin.is_finite() || !ray.dir.is_finite() {
         return PathEnd::Dropped;
     }
-    let (mut origin, mut dir, mut power) = (ray.origin, ray.dir, ray.power);
+    let media = scene.has_media();
+    let (mut origin, mut dir, mut power, mut medium) = (ray.origin, ray.dir, ray.power, ray.medium);
     let mut any_specular = false;
     let mut any_diffuse = false;
     for _ in 0..MAX_DEPTH {
-        let Some(hit) = scene.intersect(origin, dir) else { return PathEnd::Done };
+        let event = if media {
+            scene.propagate(origin, dir, medium, [s.next(), s.next()])
+        } else {
+            match scene.intersect(origin, dir) {
+                Some(hit) => Propagation::Surface { hit, weight: Vec3::ONE, medium },
+                None => Propagation::Escaped,
+            }
+        };
+        let hit = match event {
+            Propagation::Escaped => return PathEnd::Done,
+            Propagation::Surface { hit, weight, medium: m } => {
+                power *= weight;
+                medium = m;
+                hit
+            }
+            Propagation::Medium { pos, weight, medium: m } => {
+                // Stored with the power it scatters (× albedo): the volume estimate is then σs·Li.
+                let scattered = power * weight;
+                if !valid_power(scattered) || !pos.is_finite() {
+                    return PathEnd::Dropped;
+                }
+                if want.volume {
+                    let direct = !any_diffuse && !any_specular;
+                    out.volume.push(Photon { pos, wi: -dir, power: scattered, normal: Vec3::ZERO, indirect: any_diffuse, direct });
+                }
+                any_diffuse = true;
+                if !want.global && !want.volume {
+                    return PathEnd::Done;
+                }
+                let (u, u_roulette) = ([s.next(), s.next()], s.next());
+                let survive = weight.max_element().min(1.0);
+                if survive.is_nan() || survive <= 0.0 || u_roulette >= survive {
+                    return PathEnd::Done;
+                }
+                power = scattered / survive;
+                dir = scene.scatter_in_medium(dir, m, u);
+                origin = pos;
+                medium = m;
+                continue;
+            }
+        };
         if !hit.pos.is_finite() || !hit.normal.is_finite() {
             return PathEnd::Dropped;
         }
@@ -379,13 +473,13 @@ fn trace_path<S: PhotonScene + ?Sized>(
         if !hit.specular {
             let photon = Photon { pos: hit.pos, wi: wo, power, normal: hit.normal, indirect: any_diffuse, direct: !any_diffuse && !any_specular };
             if want.global {
-                global.push(photon);
+                out.global.push(photon);
             }
             if want.caustic && any_specular && !any_diffuse {
-                caustic.push(photon);
+                out.caustic.push(photon);
             }
             any_diffuse = true;
-            if !want.global {
+            if !want.global && !want.volume {
                 return PathEnd::Done; // no later hit can be a caustic photon
             }
         }
@@ -403,6 +497,9 @@ fn trace_path<S: PhotonScene + ?Sized>(
         power *= weight / survive;
         if !valid_power(power) || !o.is_finite() || !d.is_finite() {
             return PathEnd::Dropped;
+        }
+        if media {
+            medium = scene.medium_after(&hit, d, medium);
         }
         (origin, dir) = (o, d);
     }

@@ -169,12 +169,18 @@ const TEXEL_AREA_SAMPLES: u32 = 16;
 /// from a generator seeded with `seed` (the texel's value stays a function of the texel).
 fn direct_irradiance(scene: &Scene, tri: u32, p: Vec3, n: Vec3, seed: u64) -> Vec3 {
     let hit = Hit { p, t: 0.0, ng: n, ns: n, uv: Vec2::ZERO, tri, material: scene.geometry.triangles[tri as usize].material };
+    // With media: the medium on the texel's side, and shadow rays through it.
+    let medium = scene.media.as_ref().map_or(crate::medium::VACUUM, |m| m.medium_at(crate::geometry::spawn(&hit, n)));
     let arrive = |ls: &LightSample| -> Vec3 {
         let cos = ls.wi.dot(n);
-        if !(ls.pdf > 0.0 && cos > 0.0) || scene.occluded(&hit, ls.wi, ls.dist) {
+        if !(ls.pdf > 0.0 && cos > 0.0) {
             return Vec3::ZERO;
         }
-        ls.li * cos / ls.pdf
+        let vis = scene.visibility(&hit, ls.wi, ls.dist, medium, &mut 0);
+        if vis == Vec3::ZERO {
+            return Vec3::ZERO;
+        }
+        ls.li * cos / ls.pdf * vis
     };
     let lights = &scene.lights;
     let mut e: Vec3 = lights.delta_samples(&scene.geometry, p).map(|ls| arrive(&ls)).sum();

@@ -41,7 +41,7 @@ impl SceneCoverage<'_> {
         let skip = 1e-3 * max;
         [n, -n]
             .into_iter()
-            .filter_map(|d| self.0.bvh.intersect(p + skip * d, d, 2.0 * max).map(|raw| raw.t + skip))
+            .filter_map(|d| self.0.intersect_solid(p + skip * d, d, 2.0 * max).map(|raw| raw.t + skip))
             .fold(2.0 * max, f32::min)
     }
 
@@ -53,7 +53,7 @@ impl SceneCoverage<'_> {
         let (mut t0, mut area) = (0.0f32, 0.0f32);
         for layer in 0..MAX_LAYERS {
             let from = o + t0 * d;
-            let Some(raw) = self.0.bvh.intersect(from, d, length - t0) else { break };
+            let Some(raw) = self.0.intersect_solid(from, d, length - t0) else { break };
             let hit = self.0.geometry.hit(from, d, raw);
             if hit.ns.dot(n).abs() > MIN_NORMAL_COS && (layer == 0 || hit.ng.dot(d) < 0.0) {
                 area += 1.0 / hit.ng.dot(n).abs().max(MIN_FACET_COS);

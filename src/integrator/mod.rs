@@ -2,11 +2,13 @@
 pub mod atlas;
 pub mod cache_fill;
 pub mod coverage;
+pub mod media;
 pub mod path;
 pub mod photon_scene;
 pub mod photons;
 pub mod pm;
 pub mod terms;
+pub mod volume_grid;
 
 use glam::Vec3;
 

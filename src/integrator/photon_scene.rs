@@ -2,12 +2,13 @@
 //! importance mode.
 
 use glam::Vec3;
-use photon::{EmittedRay, PhotonScene, Scatter, SurfaceHit};
+use photon::{EmittedRay, PhotonScene, Propagation, Scatter, SurfaceHit};
 
 use super::Frame;
 use crate::geometry::{offset_origin, spawn, Hit};
 use crate::material::Transport;
-use crate::scene::Scene;
+use crate::medium::{sample_phase, Flight, VACUUM};
+use crate::scene::{Scene, MAX_NULL_CROSSINGS};
 
 pub struct PhotonView<'a>(pub &'a Scene);
 
@@ -24,7 +25,8 @@ impl PhotonScene for PhotonView<'_> {
     fn emit(&self, u: [f32; 5]) -> Option<EmittedRay> {
         let e = self.0.lights.emit(&self.0.geometry, u)?;
         let origin = if e.n == Vec3::ZERO { e.origin } else { offset_origin(e.origin, e.n) };
-        Some(EmittedRay { origin, dir: e.dir, power: e.power })
+        let medium = self.0.media.as_ref().map_or(VACUUM, |m| m.lights[e.light]);
+        Some(EmittedRay { origin, dir: e.dir, power: e.power, medium })
     }
 
     fn intersect(&self, origin: Vec3, dir: Vec3) -> Option<SurfaceHit> {
@@ -56,5 +58,45 @@ impl PhotonScene for PhotonView<'_> {
 
     fn has_specular(&self) -> bool {
         self.0.has_specular()
+    }
+
+    fn has_media(&self) -> bool {
+        self.0.media.is_some()
+    }
+
+    /// One optical depth per flight, used up across the media it crosses (`u[1]` is unused).
+    fn propagate(&self, origin: Vec3, dir: Vec3, medium: u16, u: [f32; 2]) -> Propagation {
+        let scene = self.0;
+        let (mut o, mut medium, mut weight) = (origin, medium, Vec3::ONE);
+        let mut tau = -(1.0 - u[0]).ln();
+        for _ in 0..MAX_NULL_CROSSINGS {
+            let raw = scene.bvh.intersect(o, dir, f32::INFINITY);
+            if let Some(m) = scene.medium(medium) {
+                match m.photon_segment(raw.map_or(f32::INFINITY, |r| r.t), &mut tau) {
+                    Flight::Scatter { t, weight: w, .. } => return Propagation::Medium { pos: o + dir * t, weight: weight * w, medium },
+                    Flight::Through { weight: w, .. } => weight *= w,
+                }
+            }
+            let Some(raw) = raw else { return Propagation::Escaped };
+            let hit = scene.geometry.hit(o, dir, raw);
+            if !scene.material(&hit).bsdf.is_null() {
+                let frame = Frame::new(&hit, -dir);
+                let bsdf = &scene.material(&hit).bsdf;
+                let hit = SurfaceHit { pos: hit.p, normal: frame.n, specular: bsdf.is_specular(), material: hit.material, prim: hit.tri, uv: hit.uv };
+                return Propagation::Surface { hit, weight, medium };
+            }
+            medium = scene.medium_after(&hit, dir, medium);
+            o = spawn(&hit, dir);
+        }
+        Propagation::Escaped
+    }
+
+    fn medium_after(&self, h: &SurfaceHit, dir: Vec3, current: u16) -> u16 {
+        self.0.medium_after(&self.hit(h), dir, current)
+    }
+
+    fn scatter_in_medium(&self, dir: Vec3, medium: u16, u: [f32; 2]) -> Vec3 {
+        let g = self.0.medium(medium).map_or(0.0, |m| m.g);
+        sample_phase(g, dir, u).0
     }
 }

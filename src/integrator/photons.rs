@@ -29,6 +29,9 @@ pub struct PhotonSettings {
     pub max_radius_caustic: f32,
     pub precompute_every: usize,
     pub caustic_filter: Filter,
+    /// Photons stored at scattering events in media (0 without media) and their estimate's radius cap.
+    pub volume: usize,
+    pub max_radius_volume: f32,
 }
 
 impl PhotonSettings {
@@ -57,7 +60,17 @@ impl PhotonSettings {
                 )
             }
         };
-        PhotonSettings { global, caustic, lookup, max_radius_global, max_radius_caustic, precompute_every, caustic_filter: d.caustic_filter }
+        // Media: as many volume photons as global ones, the radius cap from the media's volume as the
+        // surface caps come from the area (twice the radius holding k photons at the mean density).
+        let (volume, max_radius_volume) = match &scene.media {
+            Some(m) => {
+                let v = m.volume().max(1e-30);
+                let r = (3.0 * lookup as f64 * v / (4.0 * std::f64::consts::PI * global.max(1) as f64)).cbrt() as f32;
+                (global, (2.0 * r).min(scene.diagonal() * 0.25))
+            }
+            None => (0, 0.0),
+        };
+        PhotonSettings { global, caustic, lookup, max_radius_global, max_radius_caustic, precompute_every, caustic_filter: d.caustic_filter, volume, max_radius_volume }
     }
 }
 
@@ -70,6 +83,10 @@ pub fn atlas_k(lookup: usize) -> usize {
     (lookup / 2).max(8).min(lookup)
 }
 
+thread_local! {
+    static VOLUME_NEIGHBORS: std::cell::RefCell<Vec<photon::Neighbor>> = const { std::cell::RefCell::new(Vec::new()) };
+}
+
 pub struct PhotonData<'a> {
     pub maps: PhotonMaps,
     pub precomputed: Option<PrecomputedIrradiance>,
@@ -80,6 +97,8 @@ pub struct PhotonData<'a> {
     pub caustic_reach: Option<ReachGrid>,
     /// The global map's irradiance baked lazily onto the triangles, for final-gather rays.
     pub atlas: Option<IrradianceAtlas>,
+    /// The volume map's in-scattered radiance baked lazily over the media, for final-gather rays.
+    pub volume_grid: Option<super::volume_grid::VolumeGrid>,
 }
 
 impl<'a> PhotonData<'a> {
@@ -99,7 +118,43 @@ impl<'a> PhotonData<'a> {
 
     /// Stored-photon targets, with a path budget after which the pass stops instead of looping.
     pub fn targets(settings: &PhotonSettings) -> PhotonTargets {
-        photon::defaults::default_targets(settings.global, settings.caustic)
+        let mut t = photon::defaults::default_targets(settings.global, settings.caustic);
+        if settings.volume > 0 {
+            t.volume = settings.volume;
+            t.max_paths = photon::defaults::default_targets(settings.global.saturating_add(settings.volume), settings.caustic).max_paths;
+        }
+        t
+    }
+
+    /// In-scattered radiance σs·Li at `x` toward a final-gather ray travelling along `d` (medium asymmetry
+    /// `g`), all volume photons counted (single scattering included): the volume grid's.
+    pub fn gather_volume_radiance(&self, x: Vec3, d: Vec3, g: f32) -> Vec3 {
+        match (&self.volume_grid, &self.maps.volume) {
+            (Some(grid), Some(map)) => grid.radiance(map, x, d, g),
+            _ => Vec3::ZERO,
+        }
+    }
+
+    /// In-scattered radiance σs·Li at `p` in a medium of asymmetry `g`, toward a ray travelling along
+    /// `d`, from the volume photon map (Jensen & Christensen 1998: Σ p·ΔΦ / (4/3 π r³) over the k nearest
+    /// photons). Photons straight from a light are left out: single scattering is ray-marched.
+    pub fn volume_radiance(&self, p: Vec3, d: Vec3, g: f32, c: &mut super::SampleCounters) -> Vec3 {
+        let Some(map) = &self.maps.volume else { return Vec3::ZERO };
+        c.photon_estimates += 1;
+        VOLUME_NEIGHBORS.with(|nb| {
+            let mut nb = nb.borrow_mut();
+            map.tree().knn(p, self.settings.lookup, self.settings.max_radius_volume, &mut nb);
+            if nb.is_empty() {
+                return Vec3::ZERO;
+            }
+            let r2 = if nb.len() >= self.settings.lookup { nb.last().map_or(0.0, |n| n.dist2) } else { self.settings.max_radius_volume.powi(2) };
+            if !(r2 > 0.0) {
+                return Vec3::ZERO;
+            }
+            let photons = map.photons();
+            let sum: Vec3 = nb.iter().map(|n| &photons[n.index as usize]).filter(|ph| !ph.direct).map(|ph| ph.power * crate::medium::phase(g, d, ph.wi)).sum();
+            sum / (4.0 / 3.0 * std::f32::consts::PI * r2 * r2.sqrt())
+        })
     }
 
     /// Wraps the maps for the render: the caustic map's reach grid is built here.
@@ -107,7 +162,11 @@ impl<'a> PhotonData<'a> {
         let caustic_reach =
             maps.caustic.as_ref().map(|m| ReachGrid::build(m.photons().iter().map(|ph| ph.pos), settings.max_radius_caustic));
         let atlas = maps.global.as_ref().map(|g| IrradianceAtlas::new(&scene.geometry, g.len(), settings.precompute_every, atlas_k(settings.lookup), settings.max_radius_global));
-        PhotonData { maps, precomputed, settings, coverage: SceneCoverage(scene), caustic_reach, atlas }
+        let volume_grid = match (&maps.volume, &scene.media) {
+            (Some(_), Some(m)) => Some(super::volume_grid::VolumeGrid::new(m.bounds(), settings.lookup, settings.max_radius_volume)),
+            _ => None,
+        };
+        PhotonData { maps, precomputed, settings, coverage: SceneCoverage(scene), caustic_reach, atlas, volume_grid }
     }
 
     pub fn caustic_irradiance(&self, p: Vec3, n: Vec3, c: &mut super::SampleCounters) -> Vec3 {

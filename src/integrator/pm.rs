@@ -11,11 +11,13 @@ use gather::{GatherParams, GatherRay, GatherResult};
 use icache::{IrradianceCache, Pass};
 use photon::sampling::{hash_keys, Rng};
 
+use super::media;
 use super::photons::PhotonData;
 use super::terms::Terms;
 use super::{Frame, SampleCounters};
 use crate::geometry::{spawn, Hit};
 use crate::material::{Bsdf, Transport};
+use crate::medium::MediumId;
 use crate::scene::Scene;
 use crate::warp::{power_heuristic, reflect, to_world};
 
@@ -66,14 +68,34 @@ impl PmContext<'_> {
     /// surface when there are some (not for `pm-fg`, whose per-sample gathers are what it averages).
     pub fn shade(&self, origin: Vec3, dir: Vec3, memo: Option<&mut super::PixelMemo>, rng: &mut Rng, c: &mut SampleCounters) -> Terms {
         let memo = if matches!(self.source, IndirectSource::Gather) { None } else { memo };
-        self.shade_ray(origin, dir, 0, Via::Delta, memo, rng, c)
+        self.shade_ray(origin, dir, 0, Via::Delta, memo, self.scene.camera_medium(), rng, c)
     }
 
+    /// The terms along one ray travelling in `medium`: in a participating medium, the light it scatters
+    /// toward the ray up to the surface, plus the surface's terms times the transmittance; invisible
+    /// boundaries are crossed (not a bounce).
     #[allow(clippy::too_many_arguments)]
-    fn shade_ray(&self, o: Vec3, d: Vec3, depth: u32, via: Via, memo: Option<&mut super::PixelMemo>, rng: &mut Rng, c: &mut SampleCounters) -> Terms {
-        let mut t = Terms::default();
+    fn shade_ray(&self, o: Vec3, d: Vec3, depth: u32, via: Via, memo: Option<&mut super::PixelMemo>, medium: MediumId, rng: &mut Rng, c: &mut SampleCounters) -> Terms {
         c.rays += 1;
-        let Some(hit) = self.scene.intersect(o, d) else { return t };
+        let hit = self.scene.intersect(o, d);
+        let Some(m) = self.scene.medium(medium) else { return self.shade_hit(hit, d, depth, via, memo, medium, rng, c) };
+        let t_end = hit.map_or(f32::INFINITY, |h| h.t);
+        let (single, multiple) = if t_end.is_finite() { media::in_scattered(self, o, d, t_end, medium, m, rng, c) } else { (Vec3::ZERO, Vec3::ZERO) };
+        let mut t = self.shade_hit(hit, d, depth, via, memo, medium, rng, c).scaled(m.transmittance(t_end));
+        t.media_single += single;
+        t.media_multiple += multiple;
+        t
+    }
+
+    /// The terms at the end of a ray (`hit`, reached travelling along `d` in `medium`).
+    #[allow(clippy::too_many_arguments)]
+    fn shade_hit(&self, hit: Option<Hit>, d: Vec3, depth: u32, via: Via, memo: Option<&mut super::PixelMemo>, medium: MediumId, rng: &mut Rng, c: &mut SampleCounters) -> Terms {
+        let mut t = Terms::default();
+        let Some(hit) = hit else { return t };
+        if self.scene.material(&hit).bsdf.is_null() {
+            let next = self.scene.medium_after(&hit, d, medium);
+            return self.shade_ray(spawn(&hit, d), d, depth, via, memo, next, rng, c);
+        }
         let wo = -d;
         let le = self.scene.emitted(&hit, wo);
         t.emission = match via {
@@ -89,7 +111,8 @@ impl PmContext<'_> {
                 let u = [rng.uniform(), rng.uniform(), rng.uniform()];
                 match bsdf.sample(kd, frame.n, wo, frame.front, u, Transport::Radiance) {
                     Some(s) => {
-                        let sub = self.shade_ray(spawn(&hit, s.wi), s.wi, depth + 1, Via::Delta, None, rng, c);
+                        let next = self.scene.medium_after(&hit, s.wi, medium);
+                        let sub = self.shade_ray(spawn(&hit, s.wi), s.wi, depth + 1, Via::Delta, None, next, rng, c);
                         t.specular = s.weight * sub.sum();
                     }
                     None => c.zero_pdf += 1,
@@ -97,7 +120,7 @@ impl PmContext<'_> {
             }
             return t;
         }
-        t.direct = self.direct(&hit, &frame, wo, kd, bsdf, rng, c);
+        t.direct = self.direct(&hit, &frame, wo, kd, bsdf, medium, rng, c);
         let rho_d = bsdf.diffuse_albedo(kd) / PI;
         if rho_d != Vec3::ZERO {
             let remembered = memo.as_ref().and_then(|m| m.get(hit.tri, frame.front, c));
@@ -120,7 +143,7 @@ impl PmContext<'_> {
         }
         if let Bsdf::Glossy { specular, exponent, .. } = *bsdf {
             if depth + 1 < self.max_depth && specular.max_element() > 0.0 {
-                t.specular = self.glossy_lobe(&hit, &frame, wo, specular, exponent, depth, rng, c);
+                t.specular = self.glossy_lobe(&hit, &frame, wo, specular, exponent, depth, medium, rng, c);
             }
         }
         t
@@ -131,24 +154,24 @@ impl PmContext<'_> {
     /// one sample of the area lights. For glossy surfaces the area sample's specular part is MIS-weighted
     /// against the glossy-lobe ray of `glossy_lobe` (the diffuse part has no other strategy: weight 1).
     #[allow(clippy::too_many_arguments)]
-    fn direct(&self, hit: &Hit, frame: &Frame, wo: Vec3, kd: Vec3, bsdf: &Bsdf, rng: &mut Rng, c: &mut SampleCounters) -> Vec3 {
+    fn direct(&self, hit: &Hit, frame: &Frame, wo: Vec3, kd: Vec3, bsdf: &Bsdf, medium: MediumId, rng: &mut Rng, c: &mut SampleCounters) -> Vec3 {
         let lights = &self.scene.lights;
         let mut l = Vec3::ZERO;
         for ls in lights.delta_samples(&self.scene.geometry, hit.p) {
-            l += self.light_contribution(hit, frame, wo, kd, bsdf, &ls, c);
+            l += self.light_contribution(hit, frame, wo, kd, bsdf, &ls, medium, c);
         }
         // Shadow rays are cheap next to the rest of a pm sample: several area samples per hit.
         for _ in 0..AREA_LIGHT_SAMPLES {
             let u = [rng.uniform(), rng.uniform(), rng.uniform()];
             if let Some(ls) = lights.sample_area(&self.scene.geometry, hit.p, u) {
-                l += self.light_contribution(hit, frame, wo, kd, bsdf, &ls, c) / AREA_LIGHT_SAMPLES as f32;
+                l += self.light_contribution(hit, frame, wo, kd, bsdf, &ls, medium, c) / AREA_LIGHT_SAMPLES as f32;
             }
         }
         l
     }
 
     #[allow(clippy::too_many_arguments)]
-    fn light_contribution(&self, hit: &Hit, frame: &Frame, wo: Vec3, kd: Vec3, bsdf: &Bsdf, ls: &crate::light::LightSample, c: &mut SampleCounters) -> Vec3 {
+    fn light_contribution(&self, hit: &Hit, frame: &Frame, wo: Vec3, kd: Vec3, bsdf: &Bsdf, ls: &crate::light::LightSample, medium: MediumId, c: &mut SampleCounters) -> Vec3 {
         if !(ls.pdf > 0.0) {
             c.zero_pdf += 1;
             return Vec3::ZERO;
@@ -161,8 +184,8 @@ impl PmContext<'_> {
         if f == Vec3::ZERO || cos == 0.0 {
             return Vec3::ZERO;
         }
-        c.shadow_rays += 1;
-        if self.scene.occluded(hit, ls.wi, ls.dist) {
+        let vis = self.scene.visibility(hit, ls.wi, ls.dist, medium, &mut c.shadow_rays);
+        if vis == Vec3::ZERO {
             return Vec3::ZERO;
         }
         let f_diffuse = bsdf.diffuse_albedo(kd) / PI;
@@ -171,12 +194,12 @@ impl PmContext<'_> {
             Bsdf::Glossy { exponent, .. } if !ls.delta => power_heuristic(ls.pdf, phong_pdf(reflect(wo, frame.n), ls.wi, exponent)),
             _ => 1.0,
         };
-        (f_diffuse + f_spec * w) * ls.li * cos / ls.pdf
+        (f_diffuse + f_spec * w) * ls.li * cos / ls.pdf * vis
     }
 
     /// The glossy lobe of modified Phong, sampled exactly; its light is all of the next hit's radiance.
     #[allow(clippy::too_many_arguments)]
-    fn glossy_lobe(&self, hit: &Hit, frame: &Frame, wo: Vec3, ks: Vec3, exponent: f32, depth: u32, rng: &mut Rng, c: &mut SampleCounters) -> Vec3 {
+    fn glossy_lobe(&self, hit: &Hit, frame: &Frame, wo: Vec3, ks: Vec3, exponent: f32, depth: u32, medium: MediumId, rng: &mut Rng, c: &mut SampleCounters) -> Vec3 {
         let r = reflect(wo, frame.n);
         let (u0, u1) = (rng.uniform(), rng.uniform());
         let cos_a = u0.powf(1.0 / (exponent + 1.0));
@@ -190,7 +213,8 @@ impl PmContext<'_> {
         // f_spec cos / pdf = ks (n+2)/(n+1) cos θi.
         let weight = ks * ((exponent + 2.0) / (exponent + 1.0) * cos_i);
         let pdf = phong_pdf(r, wi, exponent);
-        let sub = self.shade_ray(spawn(hit, wi), wi, depth + 1, Via::Glossy { from: hit.p, pdf }, None, rng, c);
+        let next = self.scene.medium_after(hit, wi, medium);
+        let sub = self.shade_ray(spawn(hit, wi), wi, depth + 1, Via::Glossy { from: hit.p, pdf }, None, next, rng, c);
         weight * sub.sum()
     }
 
@@ -242,14 +266,16 @@ impl PmContext<'_> {
         }
         let mut rng = Rng::new(hash_keys(&[self.seed, 0x6a7e, seed]));
         let mut rays = 0u64;
+        // In a scene with media, the medium on the gather's side of the surface.
+        let medium = self.scene.media.as_ref().map(|m| m.medium_at(spawn(hit, frame.n)));
         let result = gather::gather(hit.p, frame.n, &self.gather, seed, &mut |dir: Vec3| -> GatherRay {
             if self.cancel.load(Ordering::Relaxed) {
                 return GatherRay::miss(Vec3::ZERO);
             }
             rays += 1;
-            let end = self.gather_ray(hit, dir, &mut rng, &mut rays);
+            let end = self.gather_ray(hit, dir, medium, &mut rng, &mut rays);
             let lit = if end.weight != Vec3::ZERO { end.weight * self.photons.gather_radiance(end.tri, end.front, end.p) } else { Vec3::ZERO };
-            GatherRay { radiance: lit + end.glossy, distance: end.distance }
+            GatherRay { radiance: lit + end.glossy + end.scattered, distance: end.distance }
         });
         if self.cancel.load(Ordering::Relaxed) {
             return interrupted_gather(frame);
@@ -264,17 +290,36 @@ impl PmContext<'_> {
     /// for a few bounces), whose radiance toward the ray is `weight` (the throughput of the specular
     /// chain) × its texel's diffuse radiance, plus a glossy surface's lobe. Emitters count zero (direct light is its own term) except
     /// for what they reflect; a miss is zero.
-    fn gather_ray(&self, from: &Hit, dir: Vec3, rng: &mut Rng, rays: &mut u64) -> GatherEnd {
+    /// In a scene with media (`medium` is then the one the ray starts in), the ray crosses invisible
+    /// boundaries and its throughput holds the transmittance; the light the media scatter into it is not
+    /// counted yet.
+    fn gather_ray(&self, from: &Hit, dir: Vec3, medium: Option<MediumId>, rng: &mut Rng, rays: &mut u64) -> GatherEnd {
         const MAX_SPECULAR: u32 = 4;
-        let Some(first) = self.scene.intersect_gather(spawn(from, dir), dir) else { return GatherEnd::MISS };
+        // The light media scatter into the ray: one point per stretch, uniform along it (a gather
+        // averages hundreds of rays).
+        let mut scattered = Vec3::ZERO;
+        let mut in_scatter = |o: Vec3, len: f32, m: &crate::medium::Medium, tr: Vec3| {
+            if len.is_finite() && m.sigma_s != Vec3::ZERO {
+                let t = rng.uniform() * len;
+                scattered += tr * m.transmittance(t) * self.photons.gather_volume_radiance(o + dir * t, dir, m.g) * len;
+            }
+        };
+        let (first, mut beta, mut medium) = match medium {
+            None => (self.scene.intersect_gather(spawn(from, dir), dir), Vec3::ONE, crate::medium::VACUUM),
+            Some(m) => match self.scene.intersect_through(spawn(from, dir), dir, m, rays, &mut in_scatter) {
+                Some((h, tr, m)) => (Some(h), tr, m),
+                None => (None, Vec3::ONE, m),
+            },
+        };
+        let Some(first) = first else { return GatherEnd { scattered, ..GatherEnd::MISS } };
         let distance = first.t;
-        let (mut hit, mut d, mut beta) = (first, dir, Vec3::ONE);
+        let (mut hit, mut d) = (first, dir);
         for bounce in 0..=MAX_SPECULAR {
             let frame = Frame::new(&hit, -d);
             let bsdf = &self.scene.material(&hit).bsdf;
             if !bsdf.is_specular() {
                 let glossy = self.photons.glossy_radiance(bsdf, &hit, &frame, -d) * beta;
-                return GatherEnd { p: hit.p, tri: hit.tri, front: frame.front, weight: beta, glossy, distance };
+                return GatherEnd { p: hit.p, tri: hit.tri, front: frame.front, weight: beta, glossy, scattered, distance };
             }
             let kd = self.scene.albedo(&hit);
             if bounce == MAX_SPECULAR {
@@ -284,7 +329,18 @@ impl PmContext<'_> {
             let Some(s) = bsdf.sample(kd, frame.n, -d, frame.front, u, Transport::Radiance) else { break };
             beta *= s.weight;
             *rays += 1;
-            match self.scene.intersect(spawn(&hit, s.wi), s.wi) {
+            let next = match self.scene.media {
+                None => self.scene.intersect(spawn(&hit, s.wi), s.wi),
+                Some(_) => {
+                    medium = self.scene.medium_after(&hit, s.wi, medium);
+                    self.scene.intersect_through(spawn(&hit, s.wi), s.wi, medium, rays, |_, _, _, _| {}).map(|(h, tr, m)| {
+                        beta *= tr;
+                        medium = m;
+                        h
+                    })
+                }
+            };
+            match next {
                 Some(h) => {
                     hit = h;
                     d = s.wi;
@@ -292,7 +348,7 @@ impl PmContext<'_> {
                 None => break,
             }
         }
-        GatherEnd { distance, ..GatherEnd::MISS }
+        GatherEnd { distance, scattered, ..GatherEnd::MISS }
     }
 }
 
@@ -306,11 +362,13 @@ struct GatherEnd {
     weight: Vec3,
     /// Radiance of a glossy surface's specular lobe toward the ray (a photon-map estimate).
     glossy: Vec3,
+    /// Radiance participating media scatter into the ray before its first surface.
+    scattered: Vec3,
     distance: f32,
 }
 
 impl GatherEnd {
-    const MISS: GatherEnd = GatherEnd { p: Vec3::ZERO, tri: 0, front: true, weight: Vec3::ZERO, glossy: Vec3::ZERO, distance: f32::INFINITY };
+    const MISS: GatherEnd = GatherEnd { p: Vec3::ZERO, tri: 0, front: true, weight: Vec3::ZERO, glossy: Vec3::ZERO, scattered: Vec3::ZERO, distance: f32::INFINITY };
 }
 
 /// Solid-angle pdf of the normalised Phong lobe about the mirror direction `r`.

@@ -96,7 +96,7 @@ fn file_len(path: Option<&Path>) -> u64 {
 pub fn estimate(scene: &Scene, plan: &Plan, opts: &Options) -> Vec<(String, u64)> {
     let pixels = plan.width as u64 * plan.height as u64;
     let photon_method = plan.method != Method::Path;
-    let n_images: u64 = if photon_method { 1 + crate::integrator::terms::TERM_NAMES.len() as u64 } else { 1 };
+    let n_images: u64 = if photon_method { 1 + crate::integrator::terms::term_names(scene.media.is_some()).len() as u64 } else { 1 };
     // Layers (12 B) + the EXR's interleaved floats (12 B per image) + PNG (3 B) + cache image (15 B).
     let image = pixels.saturating_mul(24 * n_images + 18);
     let mut items = vec![(format!("image {}×{} with {n_images} layer(s)", plan.width, plan.height), image)];

@@ -104,7 +104,7 @@ pub fn render(scene: &Scene, opts: &Options, progress: &dyn Progress, cancel: &A
     let (layers, s) = shade(&plan, n_layers, &*sample, progress, cancel)?;
     drop(sample);
     stats.shade = s;
-    let (beauty, layers) = beauty(&plan, layers);
+    let (beauty, layers) = beauty(&plan, scene.media.is_some(), layers);
     stats.finish(start, photons.as_ref(), cache.as_ref().map(|c| &c.cache));
 
     let photons = photons.zip(photon_info).map(|(p, info)| files::PhotonOutput { info, maps: p.maps, precomputed: p.precomputed });

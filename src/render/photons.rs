@@ -28,7 +28,7 @@ pub struct Maps {
 pub fn trace_photons(scene: &Scene, plan: &Plan, files: &FileOptions, progress: &dyn Progress, cancel: &AtomicBool) -> Result<(Maps, PhotonStats)> {
     let t = Instant::now();
     let settings = &plan.photons;
-    progress.start("photons", (settings.global + settings.caustic) as u64);
+    progress.start("photons", (settings.global + settings.caustic + settings.volume) as u64);
     let (maps, trace) = PhotonData::trace(scene, settings, plan.seed, &|done, _| progress.set(done), cancel)?;
     progress.finish();
     let time_s = t.elapsed().as_secs_f64();
@@ -59,7 +59,7 @@ pub fn load_photons(scene: &Scene, plan: &Plan, path: &Path) -> Result<(Maps, Ph
 
 fn photon_stats(plan: &Plan, time_s: f64, loaded: bool, trace: photon::TraceStats, precomputed: Option<(u64, u64)>) -> PhotonStats {
     let s = &plan.photons;
-    PhotonStats { time_s, loaded, trace, precomputed, lookup: s.lookup, max_radius_global: s.max_radius_global, max_radius_caustic: s.max_radius_caustic }
+    PhotonStats { time_s, loaded, trace, precomputed, lookup: s.lookup, max_radius_global: s.max_radius_global, max_radius_caustic: s.max_radius_caustic, max_radius_volume: s.max_radius_volume }
 }
 
 /// The maps wrapped for the render (see [`PhotonData::new`]); nothing here is counted.

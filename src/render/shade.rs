@@ -16,7 +16,7 @@ use crate::camera::Camera;
 use crate::error::Result;
 use crate::integrator::photons::PhotonData;
 use crate::integrator::pm::{IndirectSource, PmContext};
-use crate::integrator::terms::TERM_NAMES;
+use crate::integrator::terms::term_names;
 use crate::integrator::{path, PixelMemo, SampleCounters};
 use crate::io::output::Image;
 use crate::scene::{Method, Scene};
@@ -40,7 +40,7 @@ pub fn sampler<'a>(scene: &'a Scene, plan: &'a Plan, photons: Option<&'a PhotonD
         _ => IndirectSource::PhotonMap,
     };
     let ctx = plan.pm_context(scene, photons, source, cancel);
-    (pm_sample(ctx, &plan.camera, cache.and_then(|c| c.one_pass.as_ref())), TERM_NAMES.len())
+    (pm_sample(ctx, &plan.camera, cache.and_then(|c| c.one_pass.as_ref())), term_names(scene.media.is_some()).len())
 }
 
 fn path_sample<'a>(scene: &'a Scene, camera: &'a Camera) -> Box<SampleFn<'a>> {
@@ -53,6 +53,7 @@ fn path_sample<'a>(scene: &'a Scene, camera: &'a Camera) -> Box<SampleFn<'a>> {
 
 /// With a one-pass cache, each pixel sees only the records made before the fill reached it.
 fn pm_sample<'a>(ctx: PmContext<'a>, camera: &'a Camera, one_pass: Option<&'a icache::OnePassFill>) -> Box<SampleFn<'a>> {
+    let media = ctx.scene.media.is_some();
     Box::new(move |x: u32, y: u32, off: [f32; 2], memo: &mut PixelMemo, rng: &mut Rng, c: &mut SampleCounters| -> Vec<Vec3> {
         let d = camera.ray(x as f32 + off[0], y as f32 + off[1]);
         let terms = match (one_pass, &ctx.source) {
@@ -62,13 +63,13 @@ fn pm_sample<'a>(ctx: PmContext<'a>, camera: &'a Camera, one_pass: Option<&'a ic
             }
             _ => ctx.shade(camera.eye, d, Some(memo), rng, c),
         };
-        terms.to_layers()
+        terms.to_layers(media)
     })
 }
 
 /// The beauty and the named layers: `path`'s one image is the beauty; the photon-map methods' beauty
 /// is the sum of their terms.
-pub fn beauty(plan: &Plan, mut layers: Vec<Image>) -> (Image, Vec<(&'static str, Image)>) {
+pub fn beauty(plan: &Plan, media: bool, mut layers: Vec<Image>) -> (Image, Vec<(&'static str, Image)>) {
     if !plan.method.uses_photon_maps() {
         return (layers.remove(0), Vec::new());
     }
@@ -78,5 +79,5 @@ pub fn beauty(plan: &Plan, mut layers: Vec<Image>) -> (Image, Vec<(&'static str,
             *b += *v;
         }
     }
-    (beauty, TERM_NAMES.iter().copied().zip(layers).collect())
+    (beauty, term_names(media).iter().copied().zip(layers).collect())
 }

@@ -24,6 +24,8 @@ pub struct RenderStats {
     pub shade: ShadeStats,
     /// The irradiance atlas after shading (it fills lazily, in the cache fill and the shading).
     pub atlas: Option<AtlasStats>,
+    /// The volume grid's (estimated, all) cells after shading, with media.
+    pub volume_grid: Option<(usize, usize)>,
     /// The cache after shading; records loaded from a file are not counted as made in pass B.
     pub cache: Option<CacheStats>,
     /// Seconds from the plan to the end of shading.
@@ -56,6 +58,8 @@ pub struct PhotonStats {
     pub lookup: usize,
     pub max_radius_global: f32,
     pub max_radius_caustic: f32,
+    /// Zero without media.
+    pub max_radius_volume: f32,
 }
 
 /// Pass A, or the cache loaded instead.
@@ -90,13 +94,14 @@ impl RenderStats {
             n_degenerate: scene.geometry.n_degenerate as u64,
             n_lights: scene.lights.len() as u64,
         };
-        RenderStats { setup, photons: None, fill: None, shade: ShadeStats::default(), atlas: None, cache: None, total_s: 0.0, write_outputs_s: None, peak_rss_bytes: 0 }
+        RenderStats { setup, photons: None, fill: None, shade: ShadeStats::default(), atlas: None, volume_grid: None, cache: None, total_s: 0.0, write_outputs_s: None, peak_rss_bytes: 0 }
     }
 
     /// What is read once the phases are done: the atlas and the cache as shading left them, the time
     /// since `start`, the peak memory.
     pub fn finish(&mut self, start: Instant, photons: Option<&PhotonData>, cache: Option<&IrradianceCache>) {
         self.atlas = photons.and_then(|p| p.atlas.as_ref()).map(|a| a.stats());
+        self.volume_grid = photons.and_then(|p| p.volume_grid.as_ref()).map(|g| g.filled());
         let fill = self.fill.as_ref();
         self.cache = cache.map(|c| {
             let mut s = CacheStats::collect(c, &fill.map(|f| f.fill).unwrap_or_default(), &self.shade.counters.lookups);
@@ -160,6 +165,10 @@ impl RenderStats {
             r.count("Photons", "Irradiance atlas texels estimated", "photons.atlas_estimates", s.estimates);
             r.bytes("Photons", "Memory, irradiance atlas", "photons.atlas_memory_bytes", s.memory_bytes);
         }
+        if let Some((estimated, cells)) = self.volume_grid {
+            r.count("Photons", "Volume grid cells", "photons.volume_grid_cells", cells as u64);
+            r.count("Photons", "Volume grid cells estimated", "photons.volume_grid_estimates", estimated as u64);
+        }
         if let (Some(cs), Some(f)) = (&self.cache, &self.fill) {
             if f.n_loaded > 0 {
                 r.count("Irradiance cache", "Records loaded from file", "icache.records_loaded", f.n_loaded);
@@ -208,11 +217,16 @@ fn photon_rows(r: &mut Report, p: &PhotonStats) {
     r.count("Photons", "Global photons stored", "photons.global_stored", s.n_global_stored);
     r.count("Photons", "Caustic photons stored", "photons.caustic_stored", s.n_caustic_stored);
     r.seconds("Photons", "Trace time", "photons.trace_s", s.trace_s);
-    r.seconds("Photons", "Build time (kd-trees)", "photons.build_s", s.global_build_s + s.caustic_build_s);
+    r.seconds("Photons", "Build time (kd-trees)", "photons.build_s", s.global_build_s + s.caustic_build_s + s.volume_build_s);
     r.bytes("Photons", "Memory, global map", "photons.global_memory_bytes", s.global_memory_bytes);
     r.bytes("Photons", "Memory, caustic map", "photons.caustic_memory_bytes", s.caustic_memory_bytes);
     let precomputed_bytes = p.precomputed.map_or(0, |(_, bytes)| bytes);
-    r.bytes("Photons", "Memory", "photons.memory_bytes", s.global_memory_bytes + s.caustic_memory_bytes + precomputed_bytes);
+    if p.max_radius_volume > 0.0 {
+        r.count("Photons", "Volume photons stored", "photons.volume_stored", s.n_volume_stored);
+        r.bytes("Photons", "Memory, volume map", "photons.volume_memory_bytes", s.volume_memory_bytes);
+        r.number("Photons", "Max radius (volume)", "photons.max_radius_volume", p.max_radius_volume as f64);
+    }
+    r.bytes("Photons", "Memory", "photons.memory_bytes", s.global_memory_bytes + s.caustic_memory_bytes + s.volume_memory_bytes + precomputed_bytes);
     r.count("Photons", "Paths dropped (non-finite)", "rare.photon_paths_dropped", s.n_paths_dropped);
     r.count("Photons", "Caustic map stopped by its path budget", "photons.caustic_cut", s.n_caustic_cut);
     r.count("Photons", "Lookup k", "photons.lookup", p.lookup as u64);

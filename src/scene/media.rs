@@ -13,7 +13,8 @@ use glam::{DVec3, Vec3};
 
 use super::build::Ctx;
 use super::file::SceneFile;
-use crate::error::{at_line, Result};
+use crate::accel::embree::Bvh;
+use crate::error::{at_line, runtime, Result};
 use crate::geometry::Geometry;
 use crate::light::Light;
 use crate::material::Material;
@@ -23,7 +24,6 @@ use crate::medium::{Medium, MediumId, VACUUM};
 pub const MAX_SIGMA: f32 = 1e9;
 
 /// The scene's media and where they are.
-#[derive(Debug)]
 pub struct Media {
     pub list: Vec<Medium>,
     /// Per triangle: `[medium on the side ng points to, medium behind]`, for boundary triangles only.
@@ -32,6 +32,19 @@ pub struct Media {
     pub camera: MediumId,
     /// The medium each light emits into (indexed as `Lights::lights`).
     pub lights: Vec<MediumId>,
+    /// The boundary meshes, and a BVH of their triangles alone, for [`Media::medium_at`].
+    boundaries: Vec<Boundary>,
+    boundary_bvh: Bvh,
+    /// Per triangle of `boundary_bvh`: its boundary mesh.
+    boundary_of: Vec<u32>,
+    bounds: (Vec3, Vec3),
+}
+
+/// What the scene fingerprint hashes: the media and which sides they fill.
+impl std::fmt::Debug for Media {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Media").field("list", &self.list).field("sides", &self.sides).field("camera", &self.camera).field("lights", &self.lights).finish()
+    }
 }
 
 impl Media {
@@ -54,12 +67,43 @@ impl Media {
         self.list.get(id as usize).filter(|m| !m.is_clear())
     }
 
-    pub fn is_boundary(&self, tri: u32) -> bool {
-        self.sides[tri as usize].is_some()
+    /// `[medium on the side ng points to, medium behind]` of a boundary triangle; `None` elsewhere.
+    pub fn sides(&self, tri: u32) -> Option<[MediumId; 2]> {
+        self.sides[tri as usize]
+    }
+
+    /// The bounding box of the boundary meshes.
+    pub fn bounds(&self) -> (Vec3, Vec3) {
+        self.bounds
+    }
+
+    /// The summed volume of the boundary meshes (nested ones counted again).
+    pub fn volume(&self) -> f64 {
+        self.boundaries.iter().map(|b| b.volume).sum()
+    }
+
+    /// The medium at point `p` (not on a boundary): the innermost boundary mesh around it, found by the
+    /// parity of a ray's crossings with each boundary mesh (through the boundaries' own BVH).
+    pub fn medium_at(&self, p: Vec3) -> MediumId {
+        let d = Vec3::new(0.5711, 0.6353, 0.5198).normalize();
+        let mut inside = vec![false; self.boundaries.len()];
+        let mut o = p;
+        for _ in 0..crate::scene::MAX_NULL_CROSSINGS {
+            let Some(raw) = self.boundary_bvh.intersect(o, d, f32::INFINITY) else { break };
+            let b = self.boundary_of[raw.prim as usize] as usize;
+            inside[b] = !inside[b];
+            let q = o + d * raw.t;
+            o = crate::geometry::offset_origin(q, d);
+            if (o - q).dot(d) <= 0.0 {
+                o = q + d * (q.abs().max_element() * 1e-6).max(1e-6);
+            }
+        }
+        (0..self.boundaries.len()).filter(|&b| inside[b]).min_by(|&a, &b| self.boundaries[a].volume.total_cmp(&self.boundaries[b].volume)).map_or(VACUUM, |b| self.boundaries[b].medium)
     }
 }
 
 /// One closed boundary mesh.
+#[derive(Debug)]
 struct Boundary {
     medium: MediumId,
     tris: Range<usize>,
@@ -106,9 +150,10 @@ pub(super) fn media(cx: &Ctx, desc: &SceneFile, geo: &Geometry, materials: &[Mat
         boundaries.push(Boundary { medium, tris, volume: volume.abs(), outward: volume > 0.0 });
     }
     let camera_line = || super::file::line_of_key(cx.text, "camera", 0, "medium");
-    if list.is_empty() {
+    if boundaries.is_empty() {
         if let Some(name) = &desc.camera.medium {
-            return Err(at_line(cx.path, camera_line(), format!("camera.medium: no [[medium]] is named '{name}'")));
+            let why = if id_of(name).is_some() { format!("no [[mesh]] has interior = '{name}'") } else { format!("no [[medium]] is named '{name}'") };
+            return Err(at_line(cx.path, camera_line(), format!("camera.medium: {why}")));
         }
         if let Some(t) = geo.triangles.iter().find(|t| materials[t.material as usize].bsdf.is_null()) {
             return Err(null_error(cx, &materials[t.material as usize]));
@@ -142,7 +187,11 @@ pub(super) fn media(cx: &Ctx, desc: &SceneFile, geo: &Geometry, materials: &[Mat
         }
     }
     let lights = lights.iter().map(|l| innermost(geo, &boundaries, light_point(geo, l), None)).collect();
-    Ok(Some(Media { list, sides, camera, lights }))
+    let boundary_tris: Vec<[u32; 3]> = boundaries.iter().flat_map(|b| geo.triangles[b.tris.clone()].iter().map(|t| t.v)).collect();
+    let boundary_of = boundaries.iter().enumerate().flat_map(|(i, b)| std::iter::repeat_n(i as u32, b.tris.len())).collect();
+    let boundary_bvh = Bvh::build(&geo.positions, &boundary_tris).map_err(runtime)?;
+    let bounds = boundary_tris.iter().flatten().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &k| (lo.min(geo.positions[k as usize]), hi.max(geo.positions[k as usize])));
+    Ok(Some(Media { list, sides, camera, lights, boundaries, boundary_bvh, boundary_of, bounds }))
 }
 
 fn null_error(cx: &Ctx, m: &Material) -> crate::error::Error {

@@ -169,6 +169,61 @@ impl Scene {
         }
     }
 
+    /// Embree's closest hit in (0, tmax) that is not an invisible medium boundary (its `t` from
+    /// `origin`): what probes of the geometry (photon-disc coverage) see.
+    pub fn intersect_solid(&self, origin: Vec3, dir: Vec3, tmax: f32) -> Option<crate::accel::embree::RawHit> {
+        let mut raw = self.bvh.intersect(origin, dir, tmax)?;
+        if self.media.is_none() {
+            return Some(raw);
+        }
+        let mut t0 = 0.0f32;
+        for _ in 0..MAX_NULL_CROSSINGS {
+            let tri = &self.geometry.triangles[raw.prim as usize];
+            if !self.materials[tri.material as usize].bsdf.is_null() {
+                return Some(crate::accel::embree::RawHit { t: raw.t + t0, ..raw });
+            }
+            // Step just past the boundary (relative to the distance so far, as Embree's own precision).
+            let step = raw.t + (t0 + raw.t).max(origin.abs().max_element()).max(1e-6) * 1e-6;
+            t0 += step;
+            if t0 >= tmax {
+                return None;
+            }
+            raw = self.bvh.intersect(origin + dir * t0, dir, tmax - t0)?;
+        }
+        None
+    }
+
+    /// The first surface other than a null boundary along a ray starting in `medium` (scenes with
+    /// media): the hit (its `t` the whole distance), the transmittance on the way and the medium it is
+    /// reached in. Counts the rays after the first in `rays`. `segment(start, length, medium,
+    /// transmittance before it)` is called for each stretch in a participating medium (a miss's last
+    /// one is infinite).
+    pub fn intersect_through(&self, origin: Vec3, dir: Vec3, medium: MediumId, rays: &mut u64, mut segment: impl FnMut(Vec3, f32, &Medium, Vec3)) -> Option<(Hit, Vec3, MediumId)> {
+        let media = self.media.as_ref()?;
+        let (mut o, mut medium, mut tr, mut dist) = (origin, medium, Vec3::ONE, 0.0f32);
+        for crossing in 0..MAX_NULL_CROSSINGS {
+            if crossing > 0 {
+                *rays += 1;
+            }
+            let hit = self.intersect(o, dir);
+            if let Some(m) = media.get(medium) {
+                let len = hit.map_or(f32::INFINITY, |h| h.t);
+                segment(o, len, m, tr);
+                tr *= m.transmittance(len);
+            }
+            let mut hit = hit?;
+            if !self.material(&hit).bsdf.is_null() {
+                hit.t += dist;
+                return Some((hit, tr, medium));
+            }
+            medium = media.after(hit.tri, hit.ng, dir, medium);
+            let next = spawn(&hit, dir);
+            dist += (next - o).dot(dir);
+            o = next;
+        }
+        None
+    }
+
     /// Transmittance from `o` along `dir` over `(0, tmax)` starting in `medium`: through null boundaries
     /// (each crossing changes the medium), zero at any other surface.
     fn transmittance(&self, media: &Media, mut o: Vec3, dir: Vec3, mut tmax: f32, mut medium: MediumId, rays: &mut u64) -> Vec3 {

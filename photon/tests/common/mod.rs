@@ -31,7 +31,7 @@ impl PhotonScene for PlaneScene {
         let phi = 2.0 * std::f32::consts::PI * u[1];
         let dir = Vec3::new(s * phi.cos(), s * phi.sin(), z);
         // pdf = 1/(4π) over the sphere: power/pdf = 4π I.
-        Some(EmittedRay { origin: self.light, dir, power: Vec3::splat(4.0 * std::f32::consts::PI * self.intensity) })
+        Some(EmittedRay { origin: self.light, dir, power: Vec3::splat(4.0 * std::f32::consts::PI * self.intensity), medium: u16::MAX })
     }
 
     fn intersect(&self, origin: Vec3, dir: Vec3) -> Option<SurfaceHit> {
