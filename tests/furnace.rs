@@ -4,27 +4,6 @@
 mod common;
 use common::*;
 
-/// A closed latitude–longitude sphere of radius 1 with faces wound to face inward.
-pub fn inward_sphere(nu: usize, nv: usize) -> String {
-    let mut s = String::from("mtllib furnace.mtl\nusemtl inside\n");
-    for j in 0..=nv {
-        let th = std::f64::consts::PI * j as f64 / nv as f64;
-        for i in 0..nu {
-            let ph = 2.0 * std::f64::consts::PI * i as f64 / nu as f64;
-            s += &format!("v {} {} {}\n", th.sin() * ph.cos(), th.cos(), th.sin() * ph.sin());
-        }
-    }
-    let idx = |i: usize, j: usize| j * nu + (i % nu) + 1;
-    for j in 0..nv {
-        for i in 0..nu {
-            // (a, b, d) winds outward here; (a, d, b) faces the inside.
-            let (a, b, c, d) = (idx(i, j), idx(i + 1, j), idx(i + 1, j + 1), idx(i, j + 1));
-            s += &format!("f {a} {d} {b}\nf {b} {d} {c}\n");
-        }
-    }
-    s
-}
-
 fn furnace(rho: f32, le: f32, method: &str, spp: u32) -> (glam::Vec3, f32, f32) {
     let mtl = format!("newmtl inside\nKd {rho} {rho} {rho}\nKe {le} {le} {le}\n");
     let toml = "version = 1\n[camera]\neye = [0.1, 0.2, 0.05]\ntarget = [1.0, 0.3, 0.2]\nfov = 120.0\nwidth = 16\nheight = 16\n\n[[mesh]]\nobj = \"furnace.obj\"\n\n[render]\nmax_depth = 200\n";

@@ -180,9 +180,17 @@ impl Bvh {
 
     /// Closest hit in (0, tmax).
     pub fn intersect(&self, origin: Vec3, dir: Vec3, tmax: f32) -> Option<RawHit> {
+        self.intersect_range(origin, dir, 0.0, tmax)
+    }
+
+    /// Closest hit in (tnear, tmax), `t` measured from `origin`: the same ray continued past a surface it
+    /// crossed (an invisible medium boundary) without moving its origin off its line.
+    pub fn intersect_range(&self, origin: Vec3, dir: Vec3, tnear: f32, tmax: f32) -> Option<RawHit> {
         let mut ctx = Self::context();
+        let mut ray = Self::ray(origin, dir, tmax);
+        ray.tnear = tnear;
         let mut rh = RTCRayHit {
-            ray: Self::ray(origin, dir, tmax),
+            ray,
             hit: RTCHit { ng: [0.0; 3], u: 0.0, v: 0.0, prim_id: 0, geom_id: RTC_INVALID_GEOMETRY_ID, inst_id: [RTC_INVALID_GEOMETRY_ID] },
         };
         // SAFETY: scene is committed; ctx and rh are valid, aligned and live for the call.

@@ -13,8 +13,6 @@ use crate::material::Bsdf;
 
 /// Depth of the mirror/glass tree followed from each pixel (both branches at glass).
 const MAX_SPECULAR_DEPTH: u32 = 4;
-/// Invisible medium boundaries crossed on the way (each counts toward the depth).
-const MAX_NULL_DEPTH: u32 = 16;
 
 /// The non-specular points seen through pixel (x, y) that need soft indirect light: those through its
 /// centre, and those through its top-left corner that the centre does not see (another surface, an edge,
@@ -45,17 +43,11 @@ fn same_surface(a: &ShadingPoint, b: &ShadingPoint) -> bool {
 
 #[allow(clippy::too_many_arguments)]
 fn follow(ctx: &PmContext, camera: &Camera, d0: Vec3, o: Vec3, d: Vec3, dist: f32, depth: u32, out: &mut Vec<(ShadingPoint, Hit)>) {
-    let Some(hit) = ctx.scene.intersect(o, d) else { return };
+    let Some(hit) = ctx.scene.intersect_visible(o, d) else { return };
     let frame = Frame::new(&hit, -d);
     let bsdf = &ctx.scene.material(&hit).bsdf;
     let dist = dist + hit.t;
     match *bsdf {
-        // An invisible medium boundary: the surface behind it is the one seen.
-        Bsdf::Null => {
-            if depth < MAX_NULL_DEPTH {
-                follow(ctx, camera, d0, spawn(&hit, d), d, dist, depth + 1, out);
-            }
-        }
         Bsdf::Mirror { .. } | Bsdf::Glass { .. } => {
             if depth >= MAX_SPECULAR_DEPTH {
                 return;

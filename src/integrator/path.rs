@@ -8,7 +8,7 @@ use super::{Frame, SampleCounters};
 use crate::geometry::spawn;
 use crate::material::Transport;
 use crate::medium::{phase, sample_phase, Flight, MediumId};
-use crate::scene::{Scene, MAX_NULL_CROSSINGS};
+use crate::scene::{past, Scene, MAX_NULL_CROSSINGS};
 use crate::warp::power_heuristic;
 
 /// Radiance arriving at `origin` from direction `dir`, the ray starting in `medium`. In a scene with
@@ -25,6 +25,8 @@ pub fn radiance(scene: &Scene, origin: Vec3, dir: Vec3, medium: MediumId, max_de
     let mut prev_p = origin;
     let mut crossings = 0;
     let mut depth = 0;
+    // Past invisible boundaries the ray goes on along the same line: `t0` is how far it has come.
+    let mut t0 = 0.0f32;
     // Spectral MIS in media (see `Flight`): the channel that samples distances, drawn at the first
     // medium met, and each channel's path pdf over the hero's (scaled to mean 1); `beta` is already
     // divided by their mean.
@@ -32,20 +34,20 @@ pub fn radiance(scene: &Scene, origin: Vec3, dir: Vec3, medium: MediumId, max_de
     let mut ratio = Vec3::ONE;
     while depth < max_depth {
         c.rays += 1;
-        let hit = scene.intersect(o, d);
+        let hit = scene.intersect_after(o, d, t0);
         if let Some(m) = scene.medium(medium) {
             let h = *hero.get_or_insert_with(|| ((rng.uniform() * 3.0) as usize).min(2));
-            match m.sample_flight(hit.map_or(f32::INFINITY, |h| h.t), h, rng.uniform()) {
+            match m.sample_flight(hit.map_or(f32::INFINITY, |h| h.t - t0), h, rng.uniform()) {
                 Flight::Scatter { t, weight, ratio: r } => {
                     (beta, ratio) = spectral_mis(beta, ratio, weight, r);
-                    let p = o + d * t;
+                    let p = o + d * (t0 + t);
                     l += beta * medium_direct(scene, m.g, p, d, medium, rng, c);
                     let (wi, pdf) = sample_phase(m.g, d, [rng.uniform(), rng.uniform()]);
                     (delta_bounce, prev_pdf, prev_p) = (false, pdf, p);
                     if !roulette(depth, &mut beta, rng) {
                         break;
                     }
-                    (o, d) = (p, wi);
+                    (o, d, t0) = (p, wi, 0.0);
                     depth += 1;
                     continue;
                 }
@@ -60,7 +62,7 @@ pub fn radiance(scene: &Scene, origin: Vec3, dir: Vec3, medium: MediumId, max_de
                 break;
             }
             medium = scene.medium_after(&hit, d, medium);
-            o = spawn(&hit, d);
+            t0 = past(hit.t, o);
             continue;
         }
         let wo = -d;
@@ -95,6 +97,7 @@ pub fn radiance(scene: &Scene, origin: Vec3, dir: Vec3, medium: MediumId, max_de
         medium = scene.medium_after(&hit, s.wi, medium);
         o = spawn(&hit, s.wi);
         d = s.wi;
+        t0 = 0.0;
         depth += 1;
     }
     l

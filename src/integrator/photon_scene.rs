@@ -8,7 +8,7 @@ use super::Frame;
 use crate::geometry::{offset_origin, spawn, Hit};
 use crate::material::Transport;
 use crate::medium::{sample_phase, Flight, VACUUM};
-use crate::scene::{Scene, MAX_NULL_CROSSINGS};
+use crate::scene::{past, Scene, MAX_NULL_CROSSINGS};
 
 pub struct PhotonView<'a>(pub &'a Scene);
 
@@ -67,18 +67,18 @@ impl PhotonScene for PhotonView<'_> {
     /// One optical depth per flight, used up across the media it crosses (`u[1]` is unused).
     fn propagate(&self, origin: Vec3, dir: Vec3, medium: u16, u: [f32; 2]) -> Propagation {
         let scene = self.0;
-        let (mut o, mut medium, mut weight) = (origin, medium, Vec3::ONE);
+        let (mut t0, mut medium, mut weight) = (0.0f32, medium, Vec3::ONE);
         let mut tau = -(1.0 - u[0]).ln();
         for _ in 0..MAX_NULL_CROSSINGS {
-            let raw = scene.bvh.intersect(o, dir, f32::INFINITY);
+            let raw = scene.bvh.intersect_range(origin, dir, t0, f32::INFINITY);
             if let Some(m) = scene.medium(medium) {
-                match m.photon_segment(raw.map_or(f32::INFINITY, |r| r.t), &mut tau) {
-                    Flight::Scatter { t, weight: w, .. } => return Propagation::Medium { pos: o + dir * t, weight: weight * w, medium },
+                match m.photon_segment(raw.map_or(f32::INFINITY, |r| r.t - t0), &mut tau) {
+                    Flight::Scatter { t, weight: w, .. } => return Propagation::Medium { pos: origin + dir * (t0 + t), weight: weight * w, medium },
                     Flight::Through { weight: w, .. } => weight *= w,
                 }
             }
             let Some(raw) = raw else { return Propagation::Escaped };
-            let hit = scene.geometry.hit(o, dir, raw);
+            let hit = scene.geometry.hit(origin, dir, raw);
             if !scene.material(&hit).bsdf.is_null() {
                 let frame = Frame::new(&hit, -dir);
                 let bsdf = &scene.material(&hit).bsdf;
@@ -86,7 +86,7 @@ impl PhotonScene for PhotonView<'_> {
                 return Propagation::Surface { hit, weight, medium };
             }
             medium = scene.medium_after(&hit, dir, medium);
-            o = spawn(&hit, dir);
+            t0 = past(hit.t, origin);
         }
         Propagation::Escaped
     }

@@ -18,7 +18,7 @@ use super::{Frame, SampleCounters};
 use crate::geometry::{spawn, Hit};
 use crate::material::{Bsdf, Transport};
 use crate::medium::MediumId;
-use crate::scene::Scene;
+use crate::scene::{past, Scene};
 use crate::warp::{power_heuristic, reflect, to_world};
 
 /// Area-light samples per non-specular hit in `direct` (chosen from the chart's error/time trade-off).
@@ -68,33 +68,33 @@ impl PmContext<'_> {
     /// surface when there are some (not for `pm-fg`, whose per-sample gathers are what it averages).
     pub fn shade(&self, origin: Vec3, dir: Vec3, memo: Option<&mut super::PixelMemo>, rng: &mut Rng, c: &mut SampleCounters) -> Terms {
         let memo = if matches!(self.source, IndirectSource::Gather) { None } else { memo };
-        self.shade_ray(origin, dir, 0, Via::Delta, memo, self.scene.camera_medium(), rng, c)
+        self.shade_ray(origin, dir, 0.0, 0, Via::Delta, memo, self.scene.camera_medium(), rng, c)
     }
 
     /// The terms along one ray travelling in `medium`: in a participating medium, the light it scatters
     /// toward the ray up to the surface, plus the surface's terms times the transmittance; invisible
-    /// boundaries are crossed (not a bounce).
+    /// boundaries are crossed (not a bounce), the ray going on along its line beyond `t0`.
     #[allow(clippy::too_many_arguments)]
-    fn shade_ray(&self, o: Vec3, d: Vec3, depth: u32, via: Via, memo: Option<&mut super::PixelMemo>, medium: MediumId, rng: &mut Rng, c: &mut SampleCounters) -> Terms {
+    fn shade_ray(&self, o: Vec3, d: Vec3, t0: f32, depth: u32, via: Via, memo: Option<&mut super::PixelMemo>, medium: MediumId, rng: &mut Rng, c: &mut SampleCounters) -> Terms {
         c.rays += 1;
-        let hit = self.scene.intersect(o, d);
-        let Some(m) = self.scene.medium(medium) else { return self.shade_hit(hit, d, depth, via, memo, medium, rng, c) };
-        let t_end = hit.map_or(f32::INFINITY, |h| h.t);
-        let (single, multiple) = if t_end.is_finite() { media::in_scattered(self, o, d, t_end, medium, m, rng, c) } else { (Vec3::ZERO, Vec3::ZERO) };
-        let mut t = self.shade_hit(hit, d, depth, via, memo, medium, rng, c).scaled(m.transmittance(t_end));
+        let hit = self.scene.intersect_after(o, d, t0);
+        let Some(m) = self.scene.medium(medium) else { return self.shade_hit(o, hit, d, depth, via, memo, medium, rng, c) };
+        let t_end = hit.map_or(f32::INFINITY, |h| h.t - t0);
+        let (single, multiple) = if t_end.is_finite() { media::in_scattered(self, o + d * t0, d, t_end, medium, m, rng, c) } else { (Vec3::ZERO, Vec3::ZERO) };
+        let mut t = self.shade_hit(o, hit, d, depth, via, memo, medium, rng, c).scaled(m.transmittance(t_end));
         t.media_single += single;
         t.media_multiple += multiple;
         t
     }
 
-    /// The terms at the end of a ray (`hit`, reached travelling along `d` in `medium`).
+    /// The terms at the end of a ray from `o` (`hit`, reached travelling along `d` in `medium`).
     #[allow(clippy::too_many_arguments)]
-    fn shade_hit(&self, hit: Option<Hit>, d: Vec3, depth: u32, via: Via, memo: Option<&mut super::PixelMemo>, medium: MediumId, rng: &mut Rng, c: &mut SampleCounters) -> Terms {
+    fn shade_hit(&self, o: Vec3, hit: Option<Hit>, d: Vec3, depth: u32, via: Via, memo: Option<&mut super::PixelMemo>, medium: MediumId, rng: &mut Rng, c: &mut SampleCounters) -> Terms {
         let mut t = Terms::default();
         let Some(hit) = hit else { return t };
         if self.scene.material(&hit).bsdf.is_null() {
             let next = self.scene.medium_after(&hit, d, medium);
-            return self.shade_ray(spawn(&hit, d), d, depth, via, memo, next, rng, c);
+            return self.shade_ray(o, d, past(hit.t, o), depth, via, memo, next, rng, c);
         }
         let wo = -d;
         let le = self.scene.emitted(&hit, wo);
@@ -112,7 +112,7 @@ impl PmContext<'_> {
                 match bsdf.sample(kd, frame.n, wo, frame.front, u, Transport::Radiance) {
                     Some(s) => {
                         let next = self.scene.medium_after(&hit, s.wi, medium);
-                        let sub = self.shade_ray(spawn(&hit, s.wi), s.wi, depth + 1, Via::Delta, None, next, rng, c);
+                        let sub = self.shade_ray(spawn(&hit, s.wi), s.wi, 0.0, depth + 1, Via::Delta, None, next, rng, c);
                         t.specular = s.weight * sub.sum();
                     }
                     None => c.zero_pdf += 1,
@@ -214,7 +214,7 @@ impl PmContext<'_> {
         let weight = ks * ((exponent + 2.0) / (exponent + 1.0) * cos_i);
         let pdf = phong_pdf(r, wi, exponent);
         let next = self.scene.medium_after(hit, wi, medium);
-        let sub = self.shade_ray(spawn(hit, wi), wi, depth + 1, Via::Glossy { from: hit.p, pdf }, None, next, rng, c);
+        let sub = self.shade_ray(spawn(hit, wi), wi, 0.0, depth + 1, Via::Glossy { from: hit.p, pdf }, None, next, rng, c);
         weight * sub.sum()
     }
 

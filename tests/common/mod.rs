@@ -128,3 +128,24 @@ pub fn render_cornell(method: &str, spp: u32, dir: &Path, extra: &[&str]) -> (Im
 pub fn cornell_reference() -> Image {
     read(&repo().join("tests/reference/cornell-caustics-path.exr"))
 }
+
+/// A closed latitude–longitude sphere of radius 1 with faces wound to face inward.
+pub fn inward_sphere(nu: usize, nv: usize) -> String {
+    let mut s = String::from("mtllib furnace.mtl\nusemtl inside\n");
+    for j in 0..=nv {
+        let th = std::f64::consts::PI * j as f64 / nv as f64;
+        for i in 0..nu {
+            let ph = 2.0 * std::f64::consts::PI * i as f64 / nu as f64;
+            s += &format!("v {} {} {}\n", th.sin() * ph.cos(), th.cos(), th.sin() * ph.sin());
+        }
+    }
+    let idx = |i: usize, j: usize| j * nu + (i % nu) + 1;
+    for j in 0..nv {
+        for i in 0..nu {
+            // (a, b, d) winds outward here; (a, d, b) faces the inside.
+            let (a, b, c, d) = (idx(i, j), idx(i + 1, j), idx(i + 1, j + 1), idx(i, j + 1));
+            s += &format!("f {a} {d} {b}\nf {b} {d} {c}\n");
+        }
+    }
+    s
+}
