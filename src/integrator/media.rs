@@ -1,6 +1,6 @@
 //! Light that a participating medium scatters toward a ray, for the photon-map methods: single
 //! scattering ray-marched with light samples (jittered steps, every delta light, one area-light sample
-//! per step), multiple scattering from the volume photon map at fewer steps (it varies slowly).
+//! per step), multiple scattering read at the same steps from the media radiance cache (`volume_grid`).
 
 use glam::Vec3;
 use photon::sampling::Rng;
@@ -11,10 +11,8 @@ use crate::medium::{phase, Medium, MediumId};
 
 /// Steps per march: one per 1/32 of the scene's diagonal on the way (at least 2) …
 const MIN_STEPS: u32 = 2;
-/// … at most this many …
+/// … at most this many.
 const MAX_STEPS: u32 = 32;
-/// … of which at most this many read the volume photon map.
-const MULTIPLE_STEPS: u32 = 4;
 
 /// (single, multiple) scattered radiance reaching the origin `o` of a ray travelling along `d` through
 /// medium `m` (id `medium`) over `[0, t_end)`, attenuated on the way back to `o`.
@@ -30,15 +28,14 @@ pub fn in_scattered(ctx: &PmContext, o: Vec3, d: Vec3, t_end: f32, medium: Mediu
         single += m.transmittance(t) * light_at(ctx, x, d, m.g, medium, rng, c);
     }
     single *= m.sigma_s * dt;
+    // Multiple scattering from the media radiance cache, at the same steps (it is smooth and cheap).
     let mut multiple = Vec3::ZERO;
     if ctx.photons.maps.volume.is_some() {
-        let k = n.min(MULTIPLE_STEPS);
-        let dk = t_end / k as f32;
-        for i in 0..k {
-            let t = (i as f32 + rng.uniform()) * dk;
-            multiple += m.transmittance(t) * ctx.photons.volume_radiance(o + d * t, d, m.g, c);
+        for i in 0..n {
+            let t = (i as f32 + rng.uniform()) * dt;
+            multiple += m.transmittance(t) * ctx.photons.cached_multiple(o + d * t, d, m.g);
         }
-        multiple *= dk;
+        multiple *= dt;
     }
     (single, multiple)
 }

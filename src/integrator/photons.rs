@@ -135,6 +135,15 @@ impl<'a> PhotonData<'a> {
         }
     }
 
+    /// Multiply scattered radiance σs·Li at `x` toward a camera ray travelling along `d` (asymmetry
+    /// `g`): the media radiance cache's.
+    pub fn cached_multiple(&self, x: Vec3, d: Vec3, g: f32) -> Vec3 {
+        match (&self.volume_grid, &self.maps.volume) {
+            (Some(grid), Some(map)) => grid.multiple(map, x, d, g),
+            _ => Vec3::ZERO,
+        }
+    }
+
     /// In-scattered radiance σs·Li at `p` in a medium of asymmetry `g`, toward a ray travelling along
     /// `d`, from the volume photon map (Jensen & Christensen 1998: Σ p·ΔΦ / (4/3 π r³) over the k nearest
     /// photons). Photons straight from a light are left out: single scattering is ray-marched.
@@ -163,7 +172,7 @@ impl<'a> PhotonData<'a> {
             maps.caustic.as_ref().map(|m| ReachGrid::build(m.photons().iter().map(|ph| ph.pos), settings.max_radius_caustic));
         let atlas = maps.global.as_ref().map(|g| IrradianceAtlas::new(&scene.geometry, g.len(), settings.precompute_every, atlas_k(settings.lookup), settings.max_radius_global));
         let volume_grid = match (&maps.volume, &scene.media) {
-            (Some(_), Some(m)) => Some(super::volume_grid::VolumeGrid::new(m.bounds(), settings.lookup, settings.max_radius_volume)),
+            (Some(_), Some(m)) => Some(super::volume_grid::VolumeGrid::new(m.bounds(), settings.lookup, settings.max_radius_volume, scene.settings.icache.media_gradients())),
             _ => None,
         };
         PhotonData { maps, precomputed, settings, coverage: SceneCoverage(scene), caustic_reach, atlas, volume_grid }

@@ -132,6 +132,7 @@ pub struct IcacheDesc {
     pub fill: Option<String>,
     pub adaptive: Option<bool>,
     pub adaptive_threshold: Option<f32>,
+    pub media_gradients: Option<bool>,
 }
 
 /// Parses the scene file text; errors name the file and line.

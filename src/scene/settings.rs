@@ -60,9 +60,15 @@ pub struct IcacheSettings {
     max_spacing_given: bool,
     pub rays: usize,
     pub fill: FillMode,
+    /// Media radiance-cache records extrapolated by their gradients (`media_gradients`, default true).
+    media_gradients: bool,
 }
 
 impl IcacheSettings {
+    pub fn media_gradients(&self) -> bool {
+        self.media_gradients
+    }
+
     /// The cache parameters for a `width` × `height` image: default spacings grow with an image larger
     /// than [`SPACING_REFERENCE_SIDE`]; spacings the file gives stay. A given `max_spacing_px` below the
     /// grown default minimum lowers that minimum (checked at load against the ungrown one).
@@ -202,7 +208,8 @@ fn icache(cx: &Ctx, d: &IcacheDesc) -> Result<IcacheSettings> {
     // What `check_icache` has not caught yet (a check added to `CacheParams` later).
     params.validate().map_err(|e| err("accuracy", e.to_string()))?;
     let rays = d.rays.map_or(gather::DEFAULT_RAYS, |r| r as usize);
-    Ok(IcacheSettings { params, min_spacing_given: d.min_spacing_px.is_some(), max_spacing_given: d.max_spacing_px.is_some(), rays, fill })
+    let media_gradients = d.media_gradients.unwrap_or(true);
+    Ok(IcacheSettings { params, min_spacing_given: d.min_spacing_px.is_some(), max_spacing_given: d.max_spacing_px.is_some(), rays, fill, media_gradients })
 }
 
 /// `[render.icache]` numbers, each blamed on its own key: accuracies and spacings positive and finite,
@@ -247,7 +254,7 @@ mod tests {
     fn icache(min: Option<f32>, max: Option<f32>) -> IcacheSettings {
         let d = CacheParams::default();
         let params = CacheParams { min_spacing_px: min.unwrap_or(d.min_spacing_px), max_spacing_px: max.unwrap_or(d.max_spacing_px), ..d };
-        IcacheSettings { params, min_spacing_given: min.is_some(), max_spacing_given: max.is_some(), rays: 500, fill: FillMode::TwoPass }
+        IcacheSettings { params, min_spacing_given: min.is_some(), max_spacing_given: max.is_some(), rays: 500, fill: FillMode::TwoPass, media_gradients: true }
     }
 
     #[test]
