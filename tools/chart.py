@@ -43,8 +43,9 @@ from mref_exr import read_rgb  # noqa: E402
 RELMSE_EPS = 0.01  # the metric's denominator offset, as tools/compare.py
 
 
-def plan(quick):
-    """(method, label, series, spp, edits) per run; edits are dotted [render] keys for the scene copy."""
+def plan(quick, media=False):
+    """(method, label, series, spp, edits) per run; edits are dotted [render] keys for the scene copy.
+    Scenes with participating media add pm without the media records' gradients."""
     runs = [("pm", f"pm spp={s}", "pm (spp)", s, {}) for s in ((8, 32) if quick else (4, 8, 16, 32, 64))]
     rays = (250,) if quick else (125, 250, 1000)
     runs += [("pm", f"pm rays={r}", "pm (gather rays)", 32, {"icache.rays": r}) for r in rays]
@@ -56,6 +57,9 @@ def plan(quick):
     runs += [("pm-fg", f"pm-fg spp={s}", "pm-fg", s, {}) for s in ((1,) if quick else (1, 2))]
     runs += [("path", f"path spp={s}", "path", s, {}) for s in ((16, 64, 256) if quick else (16, 64, 256, 1024))]
     runs += [("photons", f"photons spp={s}", "photons", s, {}) for s in ((8,) if quick else (8, 32))]
+    if media:
+        runs += [("pm", f"pm no media gradients spp={s}", "pm (no media gradients)", s,
+                  {"icache.media_gradients": False}) for s in ((32,) if quick else (8, 32))]
     return runs
 
 
@@ -193,7 +197,9 @@ def run_scene(binary, name, quick, tmp, log):
     render(binary, scene_copy(scene, hq_edits, tmp, f"{name}-hq"), hq_path, "pm", 16 if quick else 64, size, seed=7)
     masks = {k: term_mask(hq_path, k, read_rgb(hq_path)) for k in ("caustic", "specular")}
     rows = []
-    for i, (method, label, series, spp, edits) in enumerate(plan(quick)):
+    with open(scene) as f:
+        media = "[[medium]]" in f.read()
+    for i, (method, label, series, spp, edits) in enumerate(plan(quick, media)):
         sc = scene_copy(scene, edits, tmp, f"{name}-{i}") if edits else scene
         exr = os.path.join(tmp, f"{name}-{i}.exr")
         wall, total = render(binary, sc, exr, method, spp, size)

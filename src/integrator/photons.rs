@@ -83,10 +83,6 @@ pub fn atlas_k(lookup: usize) -> usize {
     (lookup / 2).max(8).min(lookup)
 }
 
-thread_local! {
-    static VOLUME_NEIGHBORS: std::cell::RefCell<Vec<photon::Neighbor>> = const { std::cell::RefCell::new(Vec::new()) };
-}
-
 pub struct PhotonData<'a> {
     pub maps: PhotonMaps,
     pub precomputed: Option<PrecomputedIrradiance>,
@@ -144,27 +140,6 @@ impl<'a> PhotonData<'a> {
         }
     }
 
-    /// In-scattered radiance σs·Li at `p` in a medium of asymmetry `g`, toward a ray travelling along
-    /// `d`, from the volume photon map (Jensen & Christensen 1998: Σ p·ΔΦ / (4/3 π r³) over the k nearest
-    /// photons). Photons straight from a light are left out: single scattering is ray-marched.
-    pub fn volume_radiance(&self, p: Vec3, d: Vec3, g: f32, c: &mut super::SampleCounters) -> Vec3 {
-        let Some(map) = &self.maps.volume else { return Vec3::ZERO };
-        c.photon_estimates += 1;
-        VOLUME_NEIGHBORS.with(|nb| {
-            let mut nb = nb.borrow_mut();
-            map.tree().knn(p, self.settings.lookup, self.settings.max_radius_volume, &mut nb);
-            if nb.is_empty() {
-                return Vec3::ZERO;
-            }
-            let r2 = if nb.len() >= self.settings.lookup { nb.last().map_or(0.0, |n| n.dist2) } else { self.settings.max_radius_volume.powi(2) };
-            if !(r2 > 0.0) {
-                return Vec3::ZERO;
-            }
-            let photons = map.photons();
-            let sum: Vec3 = nb.iter().map(|n| &photons[n.index as usize]).filter(|ph| !ph.direct).map(|ph| ph.power * crate::medium::phase(g, d, ph.wi)).sum();
-            sum / (4.0 / 3.0 * std::f32::consts::PI * r2 * r2.sqrt())
-        })
-    }
 
     /// Wraps the maps for the render: the caustic map's reach grid is built here.
     pub fn new(maps: PhotonMaps, precomputed: Option<PrecomputedIrradiance>, settings: PhotonSettings, scene: &'a Scene) -> Self {
