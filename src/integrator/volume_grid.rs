@@ -19,7 +19,7 @@ use glam::{IVec3, UVec3, Vec3};
 use photon::PhotonMap;
 
 /// Most records in the lattice (the spacing grows to stay under it).
-const MAX_RECORDS: u64 = 1 << 18;
+pub const MAX_RECORDS: u64 = 1 << 18;
 
 /// One lattice record: `s[m]` are the moments (0: power, 1–3: power × ωi.x, y, z) per unit volume;
 /// `grad[m][axis]` their derivatives.

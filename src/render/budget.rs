@@ -93,6 +93,9 @@ fn file_len(path: Option<&Path>) -> u64 {
 }
 
 /// What the render will need, item by item (name, bytes).
+/// A media record in its lazily filled slot.
+const MEDIA_RECORD_BYTES: u64 = std::mem::size_of::<std::sync::OnceLock<crate::integrator::volume_grid::MediaRecord>>() as u64;
+
 pub fn estimate(scene: &Scene, plan: &Plan, opts: &Options) -> Vec<(String, u64)> {
     let pixels = plan.width as u64 * plan.height as u64;
     let photon_method = plan.method != Method::Path;
@@ -105,13 +108,17 @@ pub fn estimate(scene: &Scene, plan: &Plan, opts: &Options) -> Vec<(String, u64)
             Some(p) => file_len(Some(p)).saturating_mul(3),
             None => {
                 let s = &plan.photons;
-                (s.global as u64 + s.caustic as u64 + 2 * photon::trace::MAX_DEPTH as u64).saturating_mul(PHOTON_PEAK_BYTES)
+                (s.global as u64 + s.caustic as u64 + s.volume as u64 + 3 * photon::trace::MAX_DEPTH as u64).saturating_mul(PHOTON_PEAK_BYTES)
             }
         };
         items.push(("photon maps".into(), photons));
         // The irradiance atlas: at most MAX_TEXEL_SLOTS slots, and a grid per triangle.
         let atlas = crate::integrator::atlas::MAX_TEXEL_SLOTS * 28 + scene.geometry.triangles.len() as u64 * 64;
         items.push(("irradiance atlas".into(), atlas));
+        if scene.media.is_some() {
+            // The media records: two lattices of at most MAX_RECORDS (a record and its lock).
+            items.push(("media records".into(), 2 * crate::integrator::volume_grid::MAX_RECORDS * MEDIA_RECORD_BYTES));
+        }
     }
     let memos = pixels.saturating_mul(MEMO_BYTES_PER_PIXEL);
     if plan.method == Method::Pm {

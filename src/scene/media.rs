@@ -9,7 +9,7 @@
 use std::collections::HashMap;
 use std::ops::Range;
 
-use glam::{DVec3, Vec3};
+use glam::Vec3;
 
 use super::build::Ctx;
 use super::file::SceneFile;
@@ -85,12 +85,21 @@ impl Media {
     /// The medium at point `p` (not on a boundary): the innermost boundary mesh around it, found by the
     /// parity of a ray's crossings with each boundary mesh (through the boundaries' own BVH).
     pub fn medium_at(&self, p: Vec3) -> MediumId {
+        innermost_by_bvh(&self.boundaries, &self.boundary_bvh, &self.boundary_of, p, None)
+    }
+}
+
+/// The medium of the smallest boundary mesh (other than `skip`) around `p`, by the parity of a ray's
+/// crossings with each boundary mesh through their BVH; vacuum if none.
+fn innermost_by_bvh(boundaries: &[Boundary], bvh: &Bvh, boundary_of: &[u32], p: Vec3, skip: Option<usize>) -> MediumId {
+    {
         let d = Vec3::new(0.5711, 0.6353, 0.5198).normalize();
-        let mut inside = vec![false; self.boundaries.len()];
+        let mut inside = vec![false; boundaries.len()];
         let mut o = p;
-        for _ in 0..crate::scene::MAX_NULL_CROSSINGS {
-            let Some(raw) = self.boundary_bvh.intersect(o, d, f32::INFINITY) else { break };
-            let b = self.boundary_of[raw.prim as usize] as usize;
+        // Every crossing counts: a ray crosses each boundary face at most once.
+        for _ in 0..=boundary_of.len() {
+            let Some(raw) = bvh.intersect(o, d, f32::INFINITY) else { break };
+            let b = boundary_of[raw.prim as usize] as usize;
             inside[b] = !inside[b];
             let q = o + d * raw.t;
             o = crate::geometry::offset_origin(q, d);
@@ -98,7 +107,7 @@ impl Media {
                 o = q + d * (q.abs().max_element() * 1e-6).max(1e-6);
             }
         }
-        (0..self.boundaries.len()).filter(|&b| inside[b]).min_by(|&a, &b| self.boundaries[a].volume.total_cmp(&self.boundaries[b].volume)).map_or(VACUUM, |b| self.boundaries[b].medium)
+        (0..boundaries.len()).filter(|&b| inside[b] && Some(b) != skip).min_by(|&a, &b| boundaries[a].volume.total_cmp(&boundaries[b].volume)).map_or(VACUUM, |b| boundaries[b].medium)
     }
 }
 
@@ -160,11 +169,14 @@ pub(super) fn media(cx: &Ctx, desc: &SceneFile, geo: &Geometry, materials: &[Mat
         }
         return Ok(None);
     }
+    let boundary_tris: Vec<[u32; 3]> = boundaries.iter().flat_map(|b| geo.triangles[b.tris.clone()].iter().map(|t| t.v)).collect();
+    let boundary_of: Vec<u32> = boundaries.iter().enumerate().flat_map(|(i, b)| std::iter::repeat_n(i as u32, b.tris.len())).collect();
+    let boundary_bvh = Bvh::build(&geo.positions, &boundary_tris).map_err(runtime)?;
+    let innermost = |p: Vec3, skip: Option<usize>| innermost_by_bvh(&boundaries, &boundary_bvh, &boundary_of, p, skip);
     // Each boundary mesh's outside: the innermost other boundary containing a point just inside it.
     let mut sides = vec![None; geo.triangles.len()];
     for (bi, b) in boundaries.iter().enumerate() {
-        let probe = point_inside(geo, b);
-        let outside = innermost(geo, &boundaries, probe, Some(bi));
+        let outside = innermost(point_inside(geo, b), Some(bi));
         for t in b.tris.clone() {
             sides[t] = Some(if b.outward { [outside, b.medium] } else { [b.medium, outside] });
         }
@@ -175,8 +187,7 @@ pub(super) fn media(cx: &Ctx, desc: &SceneFile, geo: &Geometry, materials: &[Mat
             return Err(null_error(cx, m));
         }
     }
-    let eye = desc.camera.eye.into();
-    let camera = innermost(geo, &boundaries, eye, None);
+    let camera = innermost(desc.camera.eye.into(), None);
     if let Some(name) = &desc.camera.medium {
         let Some(given) = id_of(name) else {
             return Err(at_line(cx.path, camera_line(), format!("camera.medium: no [[medium]] is named '{name}'")));
@@ -186,10 +197,7 @@ pub(super) fn media(cx: &Ctx, desc: &SceneFile, geo: &Geometry, materials: &[Mat
             return Err(at_line(cx.path, camera_line(), format!("camera.medium: the eye is inside {is_in} (by the boundary meshes), not '{name}'")));
         }
     }
-    let lights = lights.iter().map(|l| innermost(geo, &boundaries, light_point(geo, l), None)).collect();
-    let boundary_tris: Vec<[u32; 3]> = boundaries.iter().flat_map(|b| geo.triangles[b.tris.clone()].iter().map(|t| t.v)).collect();
-    let boundary_of = boundaries.iter().enumerate().flat_map(|(i, b)| std::iter::repeat_n(i as u32, b.tris.len())).collect();
-    let boundary_bvh = Bvh::build(&geo.positions, &boundary_tris).map_err(runtime)?;
+    let lights = lights.iter().map(|l| innermost(light_point(geo, l), None)).collect();
     let bounds = boundary_tris.iter().flatten().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &k| (lo.min(geo.positions[k as usize]), hi.max(geo.positions[k as usize])));
     Ok(Some(Media { list, sides, camera, lights, boundaries, boundary_bvh, boundary_of, bounds }))
 }
@@ -211,16 +219,6 @@ fn light_point(geo: &Geometry, l: &Light) -> Vec3 {
     }
 }
 
-/// The medium of the smallest boundary mesh (other than `skip`) containing `p`; vacuum if none.
-fn innermost(geo: &Geometry, boundaries: &[Boundary], p: Vec3, skip: Option<usize>) -> MediumId {
-    boundaries
-        .iter()
-        .enumerate()
-        .filter(|(i, b)| Some(*i) != skip && contains(geo, b.tris.clone(), p))
-        .min_by(|(_, a), (_, b)| a.volume.total_cmp(&b.volume))
-        .map_or(VACUUM, |(_, b)| b.medium)
-}
-
 /// A point just inside a boundary mesh: the centre of its largest face, moved inward a little.
 fn point_inside(geo: &Geometry, b: &Boundary) -> Vec3 {
     let t = b.tris.clone().max_by(|&i, &j| geo.triangles[i].area.total_cmp(&geo.triangles[j].area)).unwrap_or(b.tris.start);
@@ -228,32 +226,6 @@ fn point_inside(geo: &Geometry, b: &Boundary) -> Vec3 {
     let c = geo.point_on(t as u32, 1.0 / 3.0, 1.0 / 3.0);
     let inward = if b.outward { -tri.ng } else { tri.ng };
     c + inward * (1e-3 * tri.area.sqrt())
-}
-
-/// Parity of crossings of a ray from `p` with the triangles `tris` (a closed mesh): inside when odd.
-/// The direction is fixed and off every axis and diagonal, so that it rarely grazes an edge.
-fn contains(geo: &Geometry, tris: Range<usize>, p: Vec3) -> bool {
-    let d = DVec3::new(0.5711, 0.6353, 0.5198).normalize();
-    let o = p.as_dvec3();
-    let mut n = 0;
-    for t in &geo.triangles[tris] {
-        let [a, b, c] = t.v.map(|k| geo.positions[k as usize].as_dvec3());
-        let (e1, e2) = (b - a, c - a);
-        let q = d.cross(e2);
-        let det = e1.dot(q);
-        if det.abs() < 1e-300 {
-            continue;
-        }
-        let s = o - a;
-        let u = s.dot(q) / det;
-        let r = s.cross(e1);
-        let v = d.dot(r) / det;
-        let dist = e2.dot(r) / det;
-        if u >= 0.0 && v >= 0.0 && u + v <= 1.0 && dist > 0.0 {
-            n += 1;
-        }
-    }
-    n % 2 == 1
 }
 
 fn signed_volume(geo: &Geometry, tris: Range<usize>) -> f64 {
