@@ -139,6 +139,15 @@ impl Lights {
         (0..self.lights.len()).filter(|&i| !matches!(self.lights[i], Light::Area { .. })).filter_map(move |i| self.sample_light(i, 1.0, geo, p, [0.5; 3]))
     }
 
+    /// The incident light at `p` from delta light `i` (point, spot, directional; `None` for an area
+    /// light or outside a spot's cone).
+    pub fn delta_sample(&self, i: usize, geo: &Geometry, p: Vec3) -> Option<LightSample> {
+        if matches!(self.lights[i], Light::Area { .. }) {
+            return None;
+        }
+        self.sample_light(i, 1.0, geo, p, [0.5; 3])
+    }
+
     /// Solid-angle pdf with which `sample_area` would pick point `q` on emissive triangle `tri` from `p`.
     pub fn pdf_hit_area(&self, tri: u32, p: Vec3, q: Vec3) -> f32 {
         match &self.select_area {
