@@ -116,6 +116,15 @@ impl VolumeGrid {
         *cells[i].get_or_init(|| estimate(map, centre, self.k, self.max_radius, which == Photons::NotDirect))
     }
 
+    /// The lattice points where a record of either kind was made.
+    pub fn record_positions(&self) -> Vec<Vec3> {
+        let (dx, dy) = (self.dims.x as usize, self.dims.y as usize);
+        (0..self.all.len())
+            .filter(|&i| self.all[i].get().is_some() || self.multiple[i].get().is_some())
+            .map(|i| self.lo + (UVec3::new((i % dx) as u32, ((i / dx) % dy) as u32, (i / (dx * dy)) as u32).as_vec3() + 0.5) * self.cell)
+            .collect()
+    }
+
     /// Records created so far (of both kinds), of all.
     pub fn filled(&self) -> (usize, usize) {
         let n = |v: &Vec<OnceLock<MediaRecord>>| v.iter().filter(|c| c.get().is_some()).count();

@@ -84,9 +84,17 @@ fn write_ply(w: &mut impl Write, n: usize, lists: &[(u8, &[photon::Photon])]) ->
 }
 
 /// The beauty with a dot at every record, coloured by its radius in pixels (blue small → red large,
-/// log scale between the cache's min and max spacing).
-pub fn cache_image(set: &mut OutputSet, path: &Path, beauty: &Image, cache: &IrradianceCache, camera: &Camera) -> Result<()> {
+/// log scale between the cache's min and max spacing); in scenes with media, a white pixel at every
+/// media record in view (drawn first: surface records stay on top).
+pub fn cache_image(set: &mut OutputSet, path: &Path, beauty: &Image, cache: &IrradianceCache, camera: &Camera, media_records: &[Vec3]) -> Result<()> {
     let mut img = beauty.clone();
+    for &q in media_records {
+        if let Some((x, y)) = camera.project(q) {
+            if (x as u32) < img.width && (y as u32) < img.height && x >= 0.0 && y >= 0.0 {
+                img.pixels[(y as u32 * img.width + x as u32) as usize] = Vec3::ONE;
+            }
+        }
+    }
     let p = cache.params();
     let (lo, hi) = (p.min_spacing_px.max(1e-3).ln(), p.max_spacing_px.max(1e-3).ln());
     for r in cache.records() {

@@ -66,6 +66,8 @@ pub struct RenderOutput {
     pub cache: Option<icache::IrradianceCache>,
     /// Traced photon maps, kept when `--save-photons` or `--dump-photons` asks for them.
     pub photons: Option<files::PhotonOutput>,
+    /// Where the media radiance cache made records (for `--cache-image`); empty without media.
+    pub media_records: Vec<glam::Vec3>,
 }
 
 /// Renders `scene` without writing anything; `Interrupted` soon after `cancel` is set, in any phase.
@@ -107,8 +109,9 @@ pub fn render(scene: &Scene, opts: &Options, progress: &dyn Progress, cancel: &A
     let (beauty, layers) = beauty(&plan, scene.media.is_some(), layers);
     stats.finish(start, photons.as_ref(), cache.as_ref().map(|c| &c.cache));
 
+    let media_records = photons.as_ref().and_then(|p| p.volume_grid.as_ref()).map_or(Vec::new(), |g| g.record_positions());
     let photons = photons.zip(photon_info).map(|(p, info)| files::PhotonOutput { info, maps: p.maps, precomputed: p.precomputed });
-    Ok((RenderOutput { beauty, layers, cache: cache.map(|c| c.cache), photons }, stats))
+    Ok((RenderOutput { beauty, layers, cache: cache.map(|c| c.cache), photons, media_records }, stats))
 }
 
 fn interrupted(cancel: &AtomicBool) -> Result<()> {

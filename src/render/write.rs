@@ -52,7 +52,7 @@ pub fn write_outputs(paths: &OutputPaths, scene: &Scene, out: RenderOutput, mut 
             }
             if let Some(p) = &paths.cache_image {
                 let cam = scene.camera.with_resolution(out.beauty.width, out.beauty.height);
-                cache_image(&mut set, p, &out.beauty, c, &cam)?;
+                cache_image(&mut set, p, &out.beauty, c, &cam, &out.media_records)?;
                 interrupted()?;
             }
         }
