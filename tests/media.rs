@@ -445,3 +445,19 @@ fn single_scattering_of_a_point_light_matches_a_numerical_integral() {
     let m = mean(&path).x as f64;
     assert!((m / exact - 1.0).abs() < 0.015, "path (max_depth 1) {m} vs integral {exact}");
 }
+
+/// A fog so dense (σs = 1e9 per unit, albedo ≈ 1, g near 1) that photons never leave it and nothing
+/// reaches a surface: every method still finishes promptly (the photon pass gave the global map up to
+/// 20 M paths of 64 scatterings each before the media path budget) and writes finite pixels.
+#[test]
+fn a_dense_fog_does_not_hang_any_method() {
+    let scene = std::fs::read_to_string(repo().join("scenes/fog-cornell.toml")).unwrap();
+    let scene = scene.replace("sigma_s = [0.25, 0.25, 0.25]", "sigma_s = [1e9, 1e9, 1e9]").replace("g = 0.3", "g = 0.99999").replace("models/", &format!("{}/scenes/models/", repo().display()));
+    let dir = scene_dir(&[("scene.toml", &scene)]);
+    for method in ["path", "pm", "pm-fg", "photons"] {
+        let start = std::time::Instant::now();
+        let img = render(dir.path(), &["--method", method, "--width", "16", "--height", "16", "--spp", "4"]);
+        assert!(start.elapsed() < std::time::Duration::from_secs(60), "{method} took {:?}", start.elapsed());
+        assert!(img.pixels.iter().all(|p| p.is_finite()), "{method}: non-finite pixels");
+    }
+}

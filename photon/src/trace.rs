@@ -146,6 +146,8 @@ pub struct TraceStats {
     pub n_paths_depth_capped: u64,
     /// 1 when the caustic map stopped short of its target at [`CAUSTIC_PATH_BUDGET`].
     pub n_caustic_cut: u64,
+    /// 1 when the global or the volume map stopped short of its target at [`MEDIA_PATH_BUDGET`].
+    pub n_media_cut: u64,
     pub trace_s: f64,
     pub global_build_s: f64,
     pub caustic_build_s: f64,
@@ -167,6 +169,7 @@ impl AddAssign for TraceStats {
         self.n_paths_dropped += o.n_paths_dropped;
         self.n_paths_depth_capped += o.n_paths_depth_capped;
         self.n_caustic_cut += o.n_caustic_cut;
+        self.n_media_cut += o.n_media_cut;
         self.trace_s += o.trace_s;
         self.global_build_s += o.global_build_s;
         self.caustic_build_s += o.caustic_build_s;
@@ -244,6 +247,10 @@ pub fn trace_photons_cancellable<S: PhotonScene + ?Sized>(
                         stats.n_caustic_cut = 1;
                     }
                 }
+                // With media, a map that fills slowly next to the other (a dense fog that photons seldom
+                // cross to a surface, or a thin one they seldom scatter in) gets MEDIA_PATH_BUDGET × the
+                // paths the other needed, at least MEDIA_MIN_PATHS.
+                stats.n_media_cut += media_cut(&global, &mut volume, path) + media_cut(&volume, &mut global, path);
                 match chunk.end_kinds[j] {
                     PathEnd::Dropped => stats.n_paths_dropped += 1,
                     PathEnd::DepthCapped => stats.n_paths_depth_capped += 1,
@@ -302,6 +309,24 @@ fn build_map(photons: Option<Vec<Photon>>) -> Result<(Option<PhotonMap>, f64)> {
 /// A map while it fills: it takes whole paths until it holds `target` photons.
 /// Paths after which a pass that has stored nothing at all stops (`NothingStored`).
 pub const GIVE_UP_EMPTY_PATHS: u64 = 200_000;
+
+/// Stops `b` (returns 1) when `a` is full and `b` has had its media path budget by `path`.
+fn media_cut(a: &Filling, b: &mut Filling, path: u64) -> u64 {
+    match (a.active, b.active, a.n_paths) {
+        (false, true, Some(n)) if path + 1 >= n.saturating_mul(MEDIA_PATH_BUDGET).max(MEDIA_MIN_PATHS) => {
+            b.active = false;
+            b.n_paths = Some(path + 1);
+            1
+        }
+        _ => 0,
+    }
+}
+
+/// In scenes with media: paths the global or the volume map may take once the other is full, as a
+/// multiple of the paths that filled it …
+pub const MEDIA_PATH_BUDGET: u64 = 10;
+/// … but never fewer than this many.
+pub const MEDIA_MIN_PATHS: u64 = 200_000;
 
 /// Paths the caustic map may take, as a multiple of the paths that filled the global map …
 pub const CAUSTIC_PATH_BUDGET: u64 = 10;
