@@ -76,7 +76,7 @@ pub fn max_radius_for_area(area: f32, scene_diagonal: f32, n_photons: usize, k: 
 /// Default targets: the default counts, and a path budget of [`PATHS_PER_TARGET_PHOTON`] per photon.
 pub fn default_targets(global: usize, caustic: usize) -> PhotonTargets {
     let wanted = (global as u64).saturating_add(caustic as u64);
-    PhotonTargets { global, caustic, volume: 0, max_paths: wanted.saturating_mul(PATHS_PER_TARGET_PHOTON).max(MIN_MAX_PATHS) }
+    PhotonTargets { global, caustic, volume: 0, volume_caustic: 0, max_paths: wanted.saturating_mul(PATHS_PER_TARGET_PHOTON).max(MIN_MAX_PATHS) }
 }
 
 impl Default for PhotonTargets {

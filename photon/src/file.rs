@@ -302,7 +302,7 @@ pub fn read_maps(bytes: &[u8], expected_fingerprint: u64) -> Result<LoadedMaps> 
     let info = MapsInfo {
         fingerprint: w[0],
         seed: w[1],
-        targets: PhotonTargets { global: w[2] as usize, caustic: w[3] as usize, volume: 0, max_paths: w[4] },
+        targets: PhotonTargets { global: w[2] as usize, caustic: w[3] as usize, volume: 0, volume_caustic: 0, max_paths: w[4] },
         n_paths_emitted: w[5],
         n_global_paths: w[6],
         n_caustic_paths: w[7],
@@ -346,7 +346,7 @@ pub fn read_maps(bytes: &[u8], expected_fingerprint: u64) -> Result<LoadedMaps> 
             Ok(None)
         }
     };
-    let maps = PhotonMaps { global: map(flag(HAS_GLOBAL), global)?, caustic: map(flag(HAS_CAUSTIC), caustic)?, volume: None };
+    let maps = PhotonMaps { global: map(flag(HAS_GLOBAL), global)?, caustic: map(flag(HAS_CAUSTIC), caustic)?, volume: None, volume_caustic: None };
     let precomputed = if flag(HAS_PRECOMPUTED) {
         Some(PrecomputedIrradiance::from_points(points, header.max_radius).map_err(corrupt)?)
     } else {

@@ -116,6 +116,8 @@ pub struct PhotonTargets {
     pub caustic: usize,
     /// Photons stored at scattering events in media (0: no volume map).
     pub volume: usize,
+    /// Volume photons of L S+ V paths (the volume caustic map; 0: none, as without specular surfaces).
+    pub volume_caustic: usize,
     pub max_paths: u64,
 }
 
@@ -128,6 +130,9 @@ pub struct PhotonMaps {
     /// Photons at scattering events in participating media (Jensen & Christensen 1998); only for
     /// scenes with media. Surface normals are zero.
     pub volume: Option<PhotonMap>,
+    /// Volume photons whose path met only specular surfaces before (L S+ V: the beam a glass sphere
+    /// focuses into fog), traced to a target of their own like the caustic map.
+    pub volume_caustic: Option<PhotonMap>,
 }
 
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -140,6 +145,8 @@ pub struct TraceStats {
     pub n_caustic_stored: u64,
     pub n_volume_paths: u64,
     pub n_volume_stored: u64,
+    pub n_volume_caustic_paths: u64,
+    pub n_volume_caustic_stored: u64,
     /// Paths abandoned on a non-finite or negative power, direction or hit (should stay ~0).
     pub n_paths_dropped: u64,
     /// Paths cut at [`MAX_DEPTH`].
@@ -155,6 +162,7 @@ pub struct TraceStats {
     pub global_memory_bytes: u64,
     pub caustic_memory_bytes: u64,
     pub volume_memory_bytes: u64,
+    pub volume_caustic_memory_bytes: u64,
 }
 
 impl AddAssign for TraceStats {
@@ -166,6 +174,8 @@ impl AddAssign for TraceStats {
         self.n_caustic_stored += o.n_caustic_stored;
         self.n_volume_paths += o.n_volume_paths;
         self.n_volume_stored += o.n_volume_stored;
+        self.n_volume_caustic_paths += o.n_volume_caustic_paths;
+        self.n_volume_caustic_stored += o.n_volume_caustic_stored;
         self.n_paths_dropped += o.n_paths_dropped;
         self.n_paths_depth_capped += o.n_paths_depth_capped;
         self.n_caustic_cut += o.n_caustic_cut;
@@ -177,6 +187,7 @@ impl AddAssign for TraceStats {
         self.global_memory_bytes += o.global_memory_bytes;
         self.caustic_memory_bytes += o.caustic_memory_bytes;
         self.volume_memory_bytes += o.volume_memory_bytes;
+        self.volume_caustic_memory_bytes += o.volume_caustic_memory_bytes;
     }
 }
 
@@ -205,14 +216,15 @@ pub fn trace_photons_cancellable<S: PhotonScene + ?Sized>(
     let mut global = Filling::new(targets.global);
     let mut caustic = Filling::new(caustic_target);
     let mut volume = Filling::new(if scene.has_media() { targets.volume } else { 0 });
+    let mut volume_caustic = Filling::new(if scene.has_media() && scene.has_specular() { targets.volume_caustic } else { 0 });
     let mut stats = TraceStats::default();
     let mut next_path = 0u64;
-    while (global.active || caustic.active || volume.active) && next_path < targets.max_paths {
+    while (global.active || caustic.active || volume.active || volume_caustic.active) && next_path < targets.max_paths {
         if cancel.load(Ordering::Relaxed) {
             return Err(Error::Cancelled);
         }
         let n_batch = BATCH_PATHS.min(targets.max_paths - next_path);
-        let want = Want { global: global.active, caustic: caustic.active, volume: volume.active };
+        let want = Want { global: global.active, caustic: caustic.active, volume: volume.active, volume_caustic: volume_caustic.active };
         let chunks: Vec<ChunkOut> = (0..n_batch.div_ceil(CHUNK_PATHS) as usize)
             .into_par_iter()
             .with_max_len(1)
@@ -232,11 +244,12 @@ pub fn trace_photons_cancellable<S: PhotonScene + ?Sized>(
             for j in 0..chunk.ends.len() {
                 let path = next_path;
                 next_path += 1;
-                let (g0, c0, v0) = if j == 0 { (0, 0, 0) } else { chunk.ends[j - 1] };
-                let (g1, c1, v1) = chunk.ends[j];
+                let (g0, c0, v0, w0) = if j == 0 { (0, 0, 0, 0) } else { chunk.ends[j - 1] };
+                let (g1, c1, v1, w1) = chunk.ends[j];
                 global.take(&chunk.global[g0..g1], path);
                 caustic.take(&chunk.caustic[c0..c1], path);
                 volume.take(&chunk.volume[v0..v1], path);
+                volume_caustic.take(&chunk.volume_caustic[w0..w1], path);
                 // Where little light reaches specular surfaces, the caustic map would keep emission going
                 // for a long time for a dim effect: it gets CAUSTIC_PATH_BUDGET × the paths the global
                 // map needed (at least CAUSTIC_MIN_PATHS), normalised by the paths emitted while it filled.
@@ -245,6 +258,13 @@ pub fn trace_photons_cancellable<S: PhotonScene + ?Sized>(
                         caustic.active = false;
                         caustic.n_paths = Some(path + 1);
                         stats.n_caustic_cut = 1;
+                    }
+                }
+                // The volume caustic map likewise, against the volume map.
+                if let (false, true, Some(v)) = (volume.active, volume_caustic.active, volume.n_paths) {
+                    if path + 1 >= v.saturating_mul(CAUSTIC_PATH_BUDGET).max(CAUSTIC_MIN_PATHS) {
+                        volume_caustic.active = false;
+                        volume_caustic.n_paths = Some(path + 1);
                     }
                 }
                 // With media, a map that fills slowly next to the other (a dense fog that photons seldom
@@ -256,16 +276,16 @@ pub fn trace_photons_cancellable<S: PhotonScene + ?Sized>(
                     PathEnd::DepthCapped => stats.n_paths_depth_capped += 1,
                     PathEnd::Done => {}
                 }
-                if !global.active && !caustic.active && !volume.active {
+                if !global.active && !caustic.active && !volume.active && !volume_caustic.active {
                     break;
                 }
             }
-            if !global.active && !caustic.active && !volume.active {
+            if !global.active && !caustic.active && !volume.active && !volume_caustic.active {
                 break;
             }
         }
-        let stored = (global.photons.len() + caustic.photons.len() + volume.photons.len()) as u64;
-        progress(stored, (global.target + caustic.target + volume.target) as u64);
+        let stored = (global.photons.len() + caustic.photons.len() + volume.photons.len() + volume_caustic.photons.len()) as u64;
+        progress(stored, (global.target + caustic.target + volume.target + volume_caustic.target) as u64);
         if stored == 0 && next_path >= GIVE_UP_EMPTY_PATHS {
             break; // nothing reaches a non-specular surface: more paths will not change that
         }
@@ -278,6 +298,9 @@ pub fn trace_photons_cancellable<S: PhotonScene + ?Sized>(
     let (global, n_global_paths) = global.finish(next_path);
     let (caustic, n_caustic_paths) = caustic.finish(next_path);
     let (volume, n_volume_paths) = volume.finish(next_path);
+    let (volume_caustic, n_volume_caustic_paths) = volume_caustic.finish(next_path);
+    stats.n_volume_caustic_paths = n_volume_caustic_paths;
+    stats.n_volume_caustic_stored = volume_caustic.as_ref().map_or(0, |p| p.len() as u64);
     stats.n_volume_paths = n_volume_paths;
     stats.n_volume_stored = volume.as_ref().map_or(0, |p| p.len() as u64);
     stats.n_global_paths = n_global_paths;
@@ -295,9 +318,11 @@ pub fn trace_photons_cancellable<S: PhotonScene + ?Sized>(
     stats.global_memory_bytes = global.as_ref().map_or(0, |m| m.memory_bytes() as u64);
     stats.caustic_memory_bytes = caustic.as_ref().map_or(0, |m| m.memory_bytes() as u64);
     let (volume, volume_build_s) = build_map(volume)?;
-    stats.volume_build_s = volume_build_s;
+    let (volume_caustic, volume_caustic_build_s) = build_map(volume_caustic)?;
+    stats.volume_build_s = volume_build_s + volume_caustic_build_s;
     stats.volume_memory_bytes = volume.as_ref().map_or(0, |m| m.memory_bytes() as u64);
-    Ok((PhotonMaps { global, caustic, volume }, stats))
+    stats.volume_caustic_memory_bytes = volume_caustic.as_ref().map_or(0, |m| m.memory_bytes() as u64);
+    Ok((PhotonMaps { global, caustic, volume, volume_caustic }, stats))
 }
 
 fn build_map(photons: Option<Vec<Photon>>) -> Result<(Option<PhotonMap>, f64)> {
@@ -377,6 +402,7 @@ struct Want {
     global: bool,
     caustic: bool,
     volume: bool,
+    volume_caustic: bool,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -386,20 +412,21 @@ enum PathEnd {
     DepthCapped,
 }
 
-/// Photons of consecutive paths; `ends[j]` = (global, caustic, volume) lengths after path j.
+/// Photons of consecutive paths; `ends[j]` = (global, caustic, volume, volume caustic) lengths after path j.
 #[derive(Default)]
 struct ChunkOut {
     global: Vec<Photon>,
     caustic: Vec<Photon>,
     volume: Vec<Photon>,
-    ends: Vec<(usize, usize, usize)>,
+    volume_caustic: Vec<Photon>,
+    ends: Vec<(usize, usize, usize, usize)>,
     end_kinds: Vec<PathEnd>,
 }
 
 fn trace_chunk<S: PhotonScene + ?Sized>(scene: &S, paths: std::ops::Range<u64>, seed: u64, want: Want) -> ChunkOut {
     let mut out = ChunkOut::default();
     for i in paths {
-        let (g, c, v) = (out.global.len(), out.caustic.len(), out.volume.len());
+        let (g, c, v, w) = (out.global.len(), out.caustic.len(), out.volume.len(), out.volume_caustic.len());
         let mut sampler = PathSampler { index: i, seed, dim: 0, rng: None };
         let end = trace_path(scene, &mut sampler, want, &mut out);
         if end == PathEnd::Dropped {
@@ -407,8 +434,9 @@ fn trace_chunk<S: PhotonScene + ?Sized>(scene: &S, paths: std::ops::Range<u64>, 
             out.global.truncate(g);
             out.caustic.truncate(c);
             out.volume.truncate(v);
+            out.volume_caustic.truncate(w);
         }
-        out.ends.push((out.global.len(), out.caustic.len(), out.volume.len()));
+        out.ends.push((out.global.len(), out.caustic.len(), out.volume.len(), out.volume_caustic.len()));
         out.end_kinds.push(end);
     }
     out
@@ -471,13 +499,17 @@ fn trace_path<S: PhotonScene + ?Sized>(scene: &S, s: &mut PathSampler, want: Wan
                 if !valid_power(scattered) || !pos.is_finite() {
                     return PathEnd::Dropped;
                 }
+                let direct = !any_diffuse && !any_specular;
+                let photon = Photon { pos, wi: -dir, power: scattered, normal: Vec3::ZERO, indirect: any_diffuse, direct };
                 if want.volume {
-                    let direct = !any_diffuse && !any_specular;
-                    out.volume.push(Photon { pos, wi: -dir, power: scattered, normal: Vec3::ZERO, indirect: any_diffuse, direct });
+                    out.volume.push(photon);
+                }
+                if want.volume_caustic && any_specular && !any_diffuse {
+                    out.volume_caustic.push(photon);
                 }
                 any_diffuse = true;
                 if !want.global && !want.volume {
-                    return PathEnd::Done;
+                    return PathEnd::Done; // no later event can be a caustic one
                 }
                 let (u, u_roulette) = ([s.next(), s.next()], s.next());
                 let survive = weight.max_element().min(1.0);

@@ -12,7 +12,7 @@ fn no_progress(_: u64, _: u64) {}
 #[test]
 fn global_map_matches_point_light_on_a_floor() {
     let scene = lit_floor();
-    let targets = PhotonTargets { global: 200_000, caustic: 10_000, volume: 0, max_paths: 10_000_000 };
+    let targets = PhotonTargets { global: 200_000, caustic: 10_000, volume: 0, volume_caustic: 0, max_paths: 10_000_000 };
     let (maps, stats) = trace_photons(&scene, &targets, 7, &no_progress).unwrap();
     assert!(maps.caustic.is_none(), "no specular surface, no caustic map");
     let global = maps.global.unwrap();
@@ -44,7 +44,7 @@ fn global_map_matches_point_light_on_a_floor() {
 /// RMS relative error of the caustic estimate over a grid of floor points.
 fn caustic_rms_error(n_caustic: usize, k: usize) -> f64 {
     let scene = mirror_wall();
-    let targets = PhotonTargets { global: 1_000, caustic: n_caustic, volume: 0, max_paths: 50_000_000 };
+    let targets = PhotonTargets { global: 1_000, caustic: n_caustic, volume: 0, volume_caustic: 0, max_paths: 50_000_000 };
     let (maps, stats) = trace_photons(&scene, &targets, 3, &no_progress).unwrap();
     assert!(stats.n_caustic_stored as usize >= n_caustic);
     let caustic = maps.caustic.unwrap();
@@ -85,7 +85,7 @@ fn caustic_map_holds_only_light_specular_diffuse_paths() {
     // the mirror and then the floor (L D S D, ~3 % of paths) must be in the global map only.
     let scene = mirror_wall_with_ceiling();
     // The global map is still filling while the caustic map fills, so every path is traced in full.
-    let targets = PhotonTargets { global: 300_000, caustic: 20_000, volume: 0, max_paths: 10_000_000 };
+    let targets = PhotonTargets { global: 300_000, caustic: 20_000, volume: 0, volume_caustic: 0, max_paths: 10_000_000 };
     let (maps, stats) = trace_photons(&scene, &targets, 1, &no_progress).unwrap();
     let caustic = maps.caustic.unwrap();
     let on_floor = caustic.photons().iter().filter(|ph| ph.pos.z.abs() < 1e-5).count();

@@ -10,7 +10,7 @@ const FINGERPRINT: u64 = 0xFEED_F00D_1234_5678;
 
 fn encoded() -> (Vec<u8>, MapsInfo) {
     let scene = mirror_wall();
-    let targets = PhotonTargets { global: 3_000, caustic: 500, volume: 0, max_paths: 1_000_000 };
+    let targets = PhotonTargets { global: 3_000, caustic: 500, volume: 0, volume_caustic: 0, max_paths: 1_000_000 };
     let (maps, stats) = trace_photons(&scene, &targets, 5, &|_, _| {}).unwrap();
     let (pre, _) = PrecomputedIrradiance::build(maps.global.as_ref().unwrap(), 4, 50, 0.5, &photon::FullDisc).unwrap();
     let info = MapsInfo::new(FINGERPRINT, 5, targets, &stats);

@@ -17,7 +17,7 @@ fn run(scene: &PlaneScene, targets: PhotonTargets, threads: usize) -> (PhotonMap
 #[test]
 fn maps_are_identical_with_one_and_two_threads() {
     let scene = mirror_wall();
-    let targets = PhotonTargets { global: 30_000, caustic: 5_000, volume: 0, max_paths: 10_000_000 };
+    let targets = PhotonTargets { global: 30_000, caustic: 5_000, volume: 0, volume_caustic: 0, max_paths: 10_000_000 };
     let (a, sa) = run(&scene, targets, 1);
     let (b, sb) = run(&scene, targets, 2);
     for (x, y) in [(&a.global, &b.global), (&a.caustic, &b.caustic)] {
@@ -33,7 +33,7 @@ fn maps_are_identical_with_one_and_two_threads() {
 #[test]
 fn maps_stop_at_the_path_that_reaches_the_target() {
     let scene = mirror_wall();
-    let small = PhotonTargets { global: 12_345, caustic: 0, volume: 0, max_paths: 10_000_000 };
+    let small = PhotonTargets { global: 12_345, caustic: 0, volume: 0, volume_caustic: 0, max_paths: 10_000_000 };
     let (maps, stats) = run(&scene, small, 2);
     assert!(maps.caustic.is_none());
     let n = stats.n_global_stored;
@@ -54,7 +54,7 @@ fn maps_stop_at_the_path_that_reaches_the_target() {
 fn no_diffuse_surface_is_an_error_not_a_hang() {
     let mut scene = mirror_wall();
     scene.planes.remove(0); // only the mirror is left
-    let targets = PhotonTargets { global: 1_000, caustic: 1_000, volume: 0, max_paths: 50_000 };
+    let targets = PhotonTargets { global: 1_000, caustic: 1_000, volume: 0, volume_caustic: 0, max_paths: 50_000 };
     let calls = AtomicU64::new(0);
     let result = trace_photons(&scene, &targets, 0, &|stored, target| {
         assert_eq!((stored, target), (0, 2_000));
@@ -77,7 +77,7 @@ fn a_mirror_the_light_cannot_reach_gives_no_caustic_map() {
         reflectance: 1.0,
     };
     scene.planes[0].reflectance = 0.0;
-    let targets = PhotonTargets { global: 1_000, caustic: 1_000, volume: 0, max_paths: 100_000 };
+    let targets = PhotonTargets { global: 1_000, caustic: 1_000, volume: 0, volume_caustic: 0, max_paths: 100_000 };
     let (maps, stats) = trace_photons(&scene, &targets, 0, &|_, _| {}).unwrap();
     assert!(maps.global.is_some());
     assert!(maps.caustic.is_none());

@@ -58,12 +58,14 @@ pub fn in_scattered(ctx: &PmContext, o: Vec3, d: Vec3, t_end: f32, medium: Mediu
         stepped += m.transmittance(t) * light_at(ctx, x, d, m.g, medium, o, t_end, rng, c);
     }
     single = (single + stepped * dt) * m.sigma_s;
-    // Multiple scattering from the media radiance cache, at the same steps (it is smooth and cheap).
+    // Multiple scattering from the media radiance cache, at the same steps (it is smooth and cheap), and
+    // the volume caustic from its own map at full resolution.
     let mut multiple = Vec3::ZERO;
     if ctx.photons.maps.volume.is_some() {
         for i in 0..n {
             let t = (i as f32 + rng.uniform()) * dt;
-            multiple += m.transmittance(t) * ctx.photons.cached_multiple(o + d * t, d, m.g);
+            let x = o + d * t;
+            multiple += m.transmittance(t) * (ctx.photons.cached_multiple(x, d, m.g) + ctx.photons.volume_caustic_radiance(x, d, m.g, c));
         }
         multiple *= dt;
     }

@@ -32,6 +32,9 @@ pub struct PhotonSettings {
     /// Photons stored at scattering events in media (0 without media) and their estimate's radius cap.
     pub volume: usize,
     pub max_radius_volume: f32,
+    /// L S+ V photons (scenes with media and specular surfaces; 0 otherwise), and their radius cap.
+    pub volume_caustic: usize,
+    pub max_radius_volume_caustic: f32,
 }
 
 impl PhotonSettings {
@@ -70,7 +73,10 @@ impl PhotonSettings {
             }
             None => (0, 0.0),
         };
-        PhotonSettings { global, caustic, lookup, max_radius_global, max_radius_caustic, precompute_every, caustic_filter: d.caustic_filter, volume, max_radius_volume }
+        // The volume caustic map as the surface one: 100 k photons, half the radius.
+        let volume_caustic = if volume > 0 && scene.has_specular() { 100_000 } else { 0 };
+        let max_radius_volume_caustic = max_radius_volume * 0.5;
+        PhotonSettings { global, caustic, lookup, max_radius_global, max_radius_caustic, precompute_every, caustic_filter: d.caustic_filter, volume, max_radius_volume, volume_caustic, max_radius_volume_caustic }
     }
 }
 
@@ -81,6 +87,10 @@ impl PhotonSettings {
 /// 0.000046 → 0.000040, the fill's k-NN searches about half as long).
 pub fn atlas_k(lookup: usize) -> usize {
     (lookup / 2).max(8).min(lookup)
+}
+
+thread_local! {
+    static NEIGHBORS: std::cell::RefCell<Vec<photon::Neighbor>> = const { std::cell::RefCell::new(Vec::new()) };
 }
 
 pub struct PhotonData<'a> {
@@ -95,6 +105,8 @@ pub struct PhotonData<'a> {
     pub atlas: Option<IrradianceAtlas>,
     /// The volume map's in-scattered radiance baked lazily over the media, for final-gather rays.
     pub volume_grid: Option<super::volume_grid::VolumeGrid>,
+    /// Where the volume caustic map has a photon within its lookup radius.
+    pub volume_caustic_reach: Option<ReachGrid>,
 }
 
 impl<'a> PhotonData<'a> {
@@ -117,7 +129,9 @@ impl<'a> PhotonData<'a> {
         let mut t = photon::defaults::default_targets(settings.global, settings.caustic);
         if settings.volume > 0 {
             t.volume = settings.volume;
-            t.max_paths = photon::defaults::default_targets(settings.global.saturating_add(settings.volume), settings.caustic).max_paths;
+            t.volume_caustic = settings.volume_caustic;
+            let more = settings.volume.saturating_add(settings.volume_caustic);
+            t.max_paths = photon::defaults::default_targets(settings.global.saturating_add(more), settings.caustic).max_paths;
         }
         t
     }
@@ -129,6 +143,29 @@ impl<'a> PhotonData<'a> {
             (Some(grid), Some(map)) => grid.radiance(map, x, d, g),
             _ => Vec3::ZERO,
         }
+    }
+
+    /// In-scattered radiance σs·Li at `x` toward a ray travelling along `d` (asymmetry `g`) from the
+    /// volume caustic map: Jensen & Christensen's Σ p·ΔΦ / (4/3 π r³) over the k nearest photons, at
+    /// full resolution where the beam is (zero where the map has no photon within reach).
+    pub fn volume_caustic_radiance(&self, x: Vec3, d: Vec3, g: f32, c: &mut super::SampleCounters) -> Vec3 {
+        let Some(map) = &self.maps.volume_caustic else { return Vec3::ZERO };
+        if self.volume_caustic_reach.as_ref().is_some_and(|r| !r.may_reach(x)) {
+            return Vec3::ZERO;
+        }
+        c.photon_estimates += 1;
+        let (k, cap) = (self.settings.lookup, self.settings.max_radius_volume_caustic);
+        NEIGHBORS.with(|nb| {
+            let mut nb = nb.borrow_mut();
+            map.tree().knn(x, k, cap, &mut nb);
+            let r2 = if nb.len() >= k { nb.last().map_or(0.0, |n| n.dist2) } else { cap * cap };
+            if nb.is_empty() || r2.is_nan() || r2 <= 0.0 {
+                return Vec3::ZERO;
+            }
+            let photons = map.photons();
+            let sum: Vec3 = nb.iter().map(|n| &photons[n.index as usize]).map(|ph| ph.power * crate::medium::phase(g, d, ph.wi)).sum();
+            sum / (4.0 / 3.0 * std::f32::consts::PI * r2 * r2.sqrt())
+        })
     }
 
     /// Multiply scattered radiance σs·Li at `x` toward a camera ray travelling along `d` (asymmetry
@@ -147,10 +184,17 @@ impl<'a> PhotonData<'a> {
             maps.caustic.as_ref().map(|m| ReachGrid::build(m.photons().iter().map(|ph| ph.pos), settings.max_radius_caustic));
         let atlas = maps.global.as_ref().map(|g| IrradianceAtlas::new(&scene.geometry, g.len(), settings.precompute_every, atlas_k(settings.lookup), settings.max_radius_global));
         let volume_grid = match (&maps.volume, &scene.media) {
-            (Some(_), Some(m)) => Some(super::volume_grid::VolumeGrid::new(m.bounds(), settings.lookup, settings.max_radius_volume, scene.settings.icache.media_gradients())),
+            (Some(_), Some(m)) => Some(super::volume_grid::VolumeGrid::new(
+                m.bounds(),
+                settings.lookup,
+                settings.max_radius_volume,
+                scene.settings.icache.media_gradients(),
+                maps.volume_caustic.is_some(),
+            )),
             _ => None,
         };
-        PhotonData { maps, precomputed, settings, coverage: SceneCoverage(scene), caustic_reach, atlas, volume_grid }
+        let volume_caustic_reach = maps.volume_caustic.as_ref().map(|m| ReachGrid::build(m.photons().iter().map(|ph| ph.pos), settings.max_radius_volume_caustic));
+        PhotonData { maps, precomputed, settings, coverage: SceneCoverage(scene), caustic_reach, atlas, volume_grid, volume_caustic_reach }
     }
 
     pub fn caustic_irradiance(&self, p: Vec3, n: Vec3, c: &mut super::SampleCounters) -> Vec3 {

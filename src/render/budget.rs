@@ -108,7 +108,7 @@ pub fn estimate(scene: &Scene, plan: &Plan, opts: &Options) -> Vec<(String, u64)
             Some(p) => file_len(Some(p)).saturating_mul(3),
             None => {
                 let s = &plan.photons;
-                (s.global as u64 + s.caustic as u64 + s.volume as u64 + 3 * photon::trace::MAX_DEPTH as u64).saturating_mul(PHOTON_PEAK_BYTES)
+                (s.global as u64 + s.caustic as u64 + s.volume as u64 + s.volume_caustic as u64 + 4 * photon::trace::MAX_DEPTH as u64).saturating_mul(PHOTON_PEAK_BYTES)
             }
         };
         items.push(("photon maps".into(), photons));

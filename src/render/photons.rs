@@ -28,7 +28,7 @@ pub struct Maps {
 pub fn trace_photons(scene: &Scene, plan: &Plan, files: &FileOptions, progress: &dyn Progress, cancel: &AtomicBool) -> Result<(Maps, PhotonStats)> {
     let t = Instant::now();
     let settings = &plan.photons;
-    progress.start("photons", (settings.global + settings.caustic + settings.volume) as u64);
+    progress.start("photons", (settings.global + settings.caustic + settings.volume + settings.volume_caustic) as u64);
     let (maps, trace) = PhotonData::trace(scene, settings, plan.seed, &|done, _| progress.set(done), cancel)?;
     progress.finish();
     let time_s = t.elapsed().as_secs_f64();

@@ -223,11 +223,13 @@ fn photon_rows(r: &mut Report, p: &PhotonStats) {
     let precomputed_bytes = p.precomputed.map_or(0, |(_, bytes)| bytes);
     if p.max_radius_volume > 0.0 {
         r.count("Photons", "Volume photons stored", "photons.volume_stored", s.n_volume_stored);
+        r.count("Photons", "Volume caustic photons stored (L S+ V)", "photons.volume_caustic_stored", s.n_volume_caustic_stored);
+        r.bytes("Photons", "Memory, volume caustic map", "photons.volume_caustic_memory_bytes", s.volume_caustic_memory_bytes);
         r.bytes("Photons", "Memory, volume map", "photons.volume_memory_bytes", s.volume_memory_bytes);
         r.number("Photons", "Max radius (volume)", "photons.max_radius_volume", p.max_radius_volume as f64);
         r.count("Photons", "Global or volume map stopped by its path budget", "photons.media_cut", s.n_media_cut);
     }
-    r.bytes("Photons", "Memory", "photons.memory_bytes", s.global_memory_bytes + s.caustic_memory_bytes + s.volume_memory_bytes + precomputed_bytes);
+    r.bytes("Photons", "Memory", "photons.memory_bytes", s.global_memory_bytes + s.caustic_memory_bytes + s.volume_memory_bytes + s.volume_caustic_memory_bytes + precomputed_bytes);
     r.count("Photons", "Paths dropped (non-finite)", "rare.photon_paths_dropped", s.n_paths_dropped);
     r.count("Photons", "Caustic map stopped by its path budget", "photons.caustic_cut", s.n_caustic_cut);
     r.count("Photons", "Lookup k", "photons.lookup", p.lookup as u64);
