@@ -467,6 +467,24 @@ fn valid_power(power: Vec3) -> bool {
     power.is_finite() && power.min_element() >= 0.0
 }
 
+/// Stores a photon met at a diffuse surface or in a medium (`in_medium`) in its map, and in that map's
+/// caustic one when the path met only specular surfaces before (`caustic`). Whether the path still
+/// has something to store: after this event no photon of it can be a caustic one.
+fn store(out: &mut ChunkOut, want: Want, photon: Photon, caustic: bool, in_medium: bool) -> bool {
+    let (map, wanted, caustic_map, caustic_wanted) = if in_medium {
+        (&mut out.volume, want.volume, &mut out.volume_caustic, want.volume_caustic)
+    } else {
+        (&mut out.global, want.global, &mut out.caustic, want.caustic)
+    };
+    if wanted {
+        map.push(photon);
+    }
+    if caustic_wanted && caustic {
+        caustic_map.push(photon);
+    }
+    want.global || want.volume
+}
+
 fn trace_path<S: PhotonScene + ?Sized>(scene: &S, s: &mut PathSampler, want: Want, out: &mut ChunkOut) -> PathEnd {
     let u = [s.next(), s.next(), s.next(), s.next(), s.next()];
     let Some(ray) = scene.emit(u) else { return PathEnd::Done };
@@ -499,17 +517,11 @@ fn trace_path<S: PhotonScene + ?Sized>(scene: &S, s: &mut PathSampler, want: Wan
                 if !valid_power(scattered) || !pos.is_finite() {
                     return PathEnd::Dropped;
                 }
-                let direct = !any_diffuse && !any_specular;
-                let photon = Photon { pos, wi: -dir, power: scattered, normal: Vec3::ZERO, indirect: any_diffuse, direct };
-                if want.volume {
-                    out.volume.push(photon);
-                }
-                if want.volume_caustic && any_specular && !any_diffuse {
-                    out.volume_caustic.push(photon);
-                }
+                let photon = Photon { pos, wi: -dir, power: scattered, normal: Vec3::ZERO, indirect: any_diffuse, direct: !any_diffuse && !any_specular };
+                let go_on = store(out, want, photon, any_specular && !any_diffuse, true);
                 any_diffuse = true;
-                if !want.global && !want.volume {
-                    return PathEnd::Done; // no later event can be a caustic one
+                if !go_on {
+                    return PathEnd::Done;
                 }
                 let (u, u_roulette) = ([s.next(), s.next()], s.next());
                 let survive = weight.max_element().min(1.0);
@@ -529,15 +541,10 @@ fn trace_path<S: PhotonScene + ?Sized>(scene: &S, s: &mut PathSampler, want: Wan
         let wo = -dir;
         if !hit.specular {
             let photon = Photon { pos: hit.pos, wi: wo, power, normal: hit.normal, indirect: any_diffuse, direct: !any_diffuse && !any_specular };
-            if want.global {
-                out.global.push(photon);
-            }
-            if want.caustic && any_specular && !any_diffuse {
-                out.caustic.push(photon);
-            }
+            let go_on = store(out, want, photon, any_specular && !any_diffuse, false);
             any_diffuse = true;
-            if !want.global && !want.volume {
-                return PathEnd::Done; // no later hit can be a caustic photon
+            if !go_on {
+                return PathEnd::Done;
             }
         }
         let u = [s.next(), s.next(), s.next()];
