@@ -2,7 +2,8 @@
 #![allow(dead_code)]
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::{Command, Output, Stdio};
+use std::time::{Duration, Instant};
 
 use glam::Vec3;
 use pmrender::io::output::{read_layer, Image};
@@ -13,6 +14,20 @@ pub fn bin() -> PathBuf {
 
 pub fn run(args: &[&str]) -> Output {
     Command::new(bin()).args(args).output().expect("pmrender runs")
+}
+
+/// Runs the binary, killing it after `limit` (a hang is a failure, not a stuck test run).
+pub fn run_bounded(args: &[&str], limit: Duration) -> Output {
+    let mut child = Command::new(bin()).args(args).stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().expect("pmrender runs");
+    let start = Instant::now();
+    while child.try_wait().expect("wait").is_none() {
+        if start.elapsed() > limit {
+            let _ = child.kill();
+            panic!("pmrender {args:?} still running after {limit:?}");
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    child.wait_with_output().expect("output")
 }
 
 pub fn repo() -> PathBuf {
