@@ -209,54 +209,51 @@ impl Scene {
     /// reached in. Counts the rays after the first in `rays`. `segment(start, length, medium,
     /// transmittance before it)` is called for each stretch in a participating medium (a miss's last
     /// one is infinite).
-    pub fn intersect_through(&self, origin: Vec3, dir: Vec3, medium: MediumId, rays: &mut u64, mut segment: impl FnMut(Vec3, f32, &Medium, Vec3)) -> Option<(Hit, Vec3, MediumId)> {
+    pub fn intersect_through(&self, origin: Vec3, dir: Vec3, medium: MediumId, rays: &mut u64, segment: impl FnMut(Vec3, f32, &Medium, Vec3)) -> Option<(Hit, Vec3, MediumId)> {
         let media = self.media.as_ref()?;
-        let (mut medium, mut tr, mut t0) = (medium, Vec3::ONE, 0.0f32);
-        for crossing in 0..MAX_NULL_CROSSINGS {
-            if crossing > 0 {
-                *rays += 1;
-            }
-            let hit = self.intersect_after(origin, dir, t0);
-            if let Some(m) = media.get(medium) {
-                let len = hit.map_or(f32::INFINITY, |h| h.t - t0);
-                segment(origin + dir * t0, len, m, tr);
-                tr *= m.transmittance(len);
-            }
-            let hit = hit?;
-            if !self.material(&hit).bsdf.is_null() {
-                return Some((hit, tr, medium));
-            }
-            medium = media.after(hit.tri, hit.ng, dir, medium);
-            t0 = past(hit.t, origin);
-        }
-        None
+        let (raw, tr, medium) = self.walk(media, origin, dir, f32::INFINITY, medium, rays, segment);
+        raw.map(|raw| (self.geometry.hit(origin, dir, raw), tr, medium))
     }
 
     /// Transmittance from `o` along `dir` over `(0, tmax)` starting in `medium`: through null boundaries
     /// (each crossing changes the medium), zero at any other surface.
-    fn transmittance(&self, media: &Media, o: Vec3, dir: Vec3, tmax: f32, mut medium: MediumId, rays: &mut u64) -> Vec3 {
-        let mut tr = Vec3::ONE;
-        let mut t0 = 0.0f32;
+    fn transmittance(&self, media: &Media, o: Vec3, dir: Vec3, tmax: f32, medium: MediumId, rays: &mut u64) -> Vec3 {
+        match self.walk(media, o, dir, tmax, medium, rays, |_, _, _, _| {}) {
+            (None, tr, _) => tr,
+            (Some(_), _, _) => Vec3::ZERO,
+        }
+    }
+
+    /// A ray from `o` along `dir` within (0, tmax) starting in `medium`, crossing null boundaries on its
+    /// own line: the first other surface it meets (`t` from `o`; `None` if it meets none), the
+    /// transmittance before it and the medium it is in there. `segment` sees each stretch in a
+    /// participating medium (start, length, medium, transmittance before it).
+    #[allow(clippy::too_many_arguments)]
+    fn walk(&self, media: &Media, o: Vec3, dir: Vec3, tmax: f32, mut medium: MediumId, rays: &mut u64, mut segment: impl FnMut(Vec3, f32, &Medium, Vec3)) -> (Option<crate::accel::embree::RawHit>, Vec3, MediumId) {
+        let (mut tr, mut t0) = (Vec3::ONE, 0.0f32);
         for crossing in 0..MAX_NULL_CROSSINGS {
             if crossing > 0 {
                 *rays += 1;
             }
             let raw = self.bvh.intersect_range(o, dir, t0, tmax);
             if let Some(m) = media.get(medium) {
-                tr *= m.transmittance(raw.map_or(tmax, |r| r.t) - t0);
+                let len = raw.map_or(tmax, |r| r.t) - t0;
+                segment(o + dir * t0, len, m, tr);
+                tr *= m.transmittance(len);
             }
-            let Some(raw) = raw else { return tr };
+            let Some(raw) = raw else { return (None, tr, medium) };
             let tri = &self.geometry.triangles[raw.prim as usize];
-            if tr == Vec3::ZERO || !self.materials[tri.material as usize].bsdf.is_null() {
-                return Vec3::ZERO;
+            if !self.materials[tri.material as usize].bsdf.is_null() {
+                return (Some(raw), tr, medium);
             }
             medium = media.after(raw.prim, tri.ng, dir, medium);
             t0 = past(raw.t, o);
             if !(t0 < tmax) {
-                return tr;
+                return (None, tr, medium);
             }
         }
-        Vec3::ZERO
+        // Trapped: nothing gets through.
+        (None, Vec3::ZERO, medium)
     }
 
     /// Diffuse albedo at a hit (texture-resolved).
