@@ -5,7 +5,7 @@
 //! The budget is `--max-memory`, else the `PMRENDER_MAX_MEMORY` environment variable, else 75 % of the
 //! physical RAM (`MemTotal` in /proc/meminfo, or the cgroup's memory limit when smaller; 8 GiB when
 //! neither can be read). The estimates are upper bounds of the peaks, per item:
-//! - image: every full-size layer (beauty + terms, 12 B per pixel each), the interleaved EXR buffer and
+//! - image: every full-size layer (beauty + terms, 12 B per pixel each), adaptive sampling's sums, the interleaved EXR buffer and
 //!   the PNG/cache-image copies, over the whole image even with `--crop` (other pixels are black);
 //! - photon maps: [`PHOTON_PEAK_BYTES`] per stored photon while tracing and building, or 3 × the size
 //!   of a `--load-photons` file;
@@ -100,8 +100,9 @@ pub fn estimate(scene: &Scene, plan: &Plan, opts: &Options) -> Vec<(String, u64)
     let pixels = plan.width as u64 * plan.height as u64;
     let photon_method = plan.method != Method::Path;
     let n_images: u64 = if photon_method { 1 + crate::integrator::terms::term_names(scene.media.is_some()).len() as u64 } else { 1 };
-    // Layers (12 B) + the EXR's interleaved floats (12 B per image) + PNG (3 B) + cache image (15 B).
-    let image = pixels.saturating_mul(24 * n_images + 18);
+    // Layers (12 B) + the EXR's interleaved floats (12 B per image) + PNG (3 B) + cache image (15 B) +
+    // adaptive sampling's sums.
+    let image = pixels.saturating_mul(24 * n_images + 18 + super::tiles::SUMS_BYTES_PER_PIXEL);
     let mut items = vec![(format!("image {}×{} with {n_images} layer(s)", plan.width, plan.height), image)];
     if photon_method {
         let photons = match &opts.files.load_photons {
