@@ -3,8 +3,8 @@
 //! `accuracy` *is* Ward's `a`: with Ward's weight a record is usable where |p − pᵢ|/R'ᵢ + √(1 − n·nᵢ) < a,
 //! so on a flat surface it reaches a·R'ᵢ. With the TL weight a record reaches R'ᵢ/(2κ) (ε_p = d/(R'/2)).
 //! We set κ = 1/(2a) so both weightings reach the same distance for the same `accuracy`.
-//! Defaults: a = 0.5 in pass A (κ = 1, the TL fill value) and a = 0.75 in pass B (κ = 2/3, some
-//! smoothing). DESIGN §2 gives κ = 0.5 for pass B; measured against the Mitsuba references, records
+//! Defaults: a = 0.5 in pass A (κ = 1, the TL fill value) and [`PASS_B_REACH`] = 1.5 times that in pass
+//! B (a = 0.75, κ = 2/3: some smoothing). DESIGN §2 gives κ = 0.5 for pass B; measured against the Mitsuba references, records
 //! reaching twice their pass-A distance, extrapolated by their gradients, left Sibenik's walls 0.5–1 %
 //! bright at 128² (8×8-block relMSE 0.000176, 2.2× what path reaches in the same time) and every box
 //! scene 0.1–0.3 % bright; at κ = 2/3: 0.000117, and the boxes' relMSE 2–15 % lower (the blinds room's,
@@ -63,6 +63,9 @@ pub struct CacheParams {
 /// Reach of a new record under adaptive caching, as a multiple of its plain reach (R' and both pixel
 /// spacing bounds).
 pub const ADAPTIVE_START: f32 = 2.0;
+/// Pass B's default `a` as a multiple of pass A's: records reach 1.5 times as far when shading as when
+/// filling.
+pub const PASS_B_REACH: f32 = 1.5;
 /// Default Weber threshold of adaptive caching (`[render.icache] adaptive_threshold`).
 pub const DEFAULT_WEBER: f32 = 0.1;
 
@@ -75,7 +78,7 @@ impl Default for CacheParams {
             gradients: true,
             min_spacing_px: 3.0,
             max_spacing_px: 20.0,
-            pass_b_accuracy: Some(0.75),
+            pass_b_accuracy: Some(PASS_B_REACH * 0.5),
             adaptive: None,
         }
     }

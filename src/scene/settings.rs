@@ -191,14 +191,15 @@ fn icache(cx: &Ctx, d: &IcacheDesc) -> Result<IcacheSettings> {
         Some("one-pass") => FillMode::OnePass,
         Some(other) => return Err(err("fill", format!("unknown fill '{other}' (two-pass | one-pass)"))),
     };
+    let accuracy = d.accuracy.unwrap_or(defaults.accuracy);
     let params = CacheParams {
-        accuracy: d.accuracy.unwrap_or(defaults.accuracy),
+        accuracy,
         weight,
         neighbor_clamping: d.neighbor_clamping.unwrap_or(defaults.neighbor_clamping),
         gradients: d.gradients.unwrap_or(defaults.gradients),
         min_spacing_px: d.min_spacing_px.unwrap_or(defaults.min_spacing_px),
         max_spacing_px: d.max_spacing_px.unwrap_or(defaults.max_spacing_px),
-        pass_b_accuracy: d.pass_b_accuracy.or(defaults.pass_b_accuracy),
+        pass_b_accuracy: Some(d.pass_b_accuracy.unwrap_or(icache::params::PASS_B_REACH * accuracy)),
         // Adaptive caching: on with `adaptive = true` or a threshold; it lives in the two-pass fill.
         adaptive: match fill {
             FillMode::TwoPass if d.adaptive.unwrap_or(d.adaptive_threshold.is_some()) => Some(d.adaptive_threshold.unwrap_or(icache::params::DEFAULT_WEBER)),
@@ -213,7 +214,8 @@ fn icache(cx: &Ctx, d: &IcacheDesc) -> Result<IcacheSettings> {
 }
 
 /// `[render.icache]` numbers, each blamed on its own key: accuracies and spacings positive and finite,
-/// `min_spacing_px ≤ max_spacing_px`, `pass_b_accuracy ≥ accuracy` (defaults fill the keys not given).
+/// `min_spacing_px ≤ max_spacing_px`, `pass_b_accuracy ≥ accuracy` (defaults fill the keys not given;
+/// pass B's is 1.5 times the accuracy given).
 fn check_icache(cx: &Ctx, d: &IcacheDesc) -> Result<()> {
     let err = |key: &str, msg: String| cx.err("render.icache", 0, key, msg);
     let defaults = icache::CacheParams::default();
@@ -236,10 +238,8 @@ fn check_icache(cx: &Ctx, d: &IcacheDesc) -> Result<()> {
         return Err(err(key, format!("min_spacing_px = {min} is larger than max_spacing_px = {max}")));
     }
     let a = d.accuracy.unwrap_or(defaults.accuracy);
-    let b = d.pass_b_accuracy.or(defaults.pass_b_accuracy).unwrap_or(a);
-    if b < a {
-        let key = if d.pass_b_accuracy.is_some() { "pass_b_accuracy" } else { "accuracy" };
-        return Err(err(key, format!("pass_b_accuracy = {b} is smaller than accuracy = {a}")));
+    if let Some(b) = d.pass_b_accuracy.filter(|&b| b < a) {
+        return Err(err("pass_b_accuracy", format!("pass_b_accuracy = {b} is smaller than accuracy = {a}")));
     }
     match d.rays {
         Some(r) if !(4..=1_000_000).contains(&r) => Err(err("rays", format!("{r} must be in 4..=1000000"))),
