@@ -4,8 +4,8 @@
 //! so on a flat surface it reaches a·R'ᵢ. With the TL weight a record reaches R'ᵢ/(2κ) (ε_p = d/(R'/2)).
 //! We set κ = 1/(2a) so both weightings reach the same distance for the same `accuracy`.
 //! Defaults: a = 0.5 in pass A (κ = 1, the TL fill value) and [`PASS_B_REACH`] = 1.5 times that in pass
-//! B (a = 0.75, κ = 2/3: some smoothing). DESIGN §2 gives κ = 0.5 for pass B; measured against the Mitsuba references, records
-//! reaching twice their pass-A distance, extrapolated by their gradients, left Sibenik's walls 0.5–1 %
+//! B (a = 0.75, κ = 2/3: some smoothing). DESIGN §2 gives κ = 0.5 for pass B; measured against the
+//! Mitsuba references, records reaching twice their pass-A distance, extrapolated by their gradients, left Sibenik's walls 0.5–1 %
 //! bright at 128² (8×8-block relMSE 0.000176, 2.2× what path reaches in the same time) and every box
 //! scene 0.1–0.3 % bright; at κ = 2/3: 0.000117, and the boxes' relMSE 2–15 % lower (the blinds room's,
 //! whose sub-pixel slats miss records in pass B, 10 % higher). With Ward's weight those `a` are loose in
@@ -66,19 +66,21 @@ pub const ADAPTIVE_START: f32 = 2.0;
 /// Pass B's default `a` as a multiple of pass A's: records reach 1.5 times as far when shading as when
 /// filling.
 pub const PASS_B_REACH: f32 = 1.5;
+/// Default `accuracy` (pass A's `a`).
+pub const DEFAULT_ACCURACY: f32 = 0.5;
 /// Default Weber threshold of adaptive caching (`[render.icache] adaptive_threshold`).
 pub const DEFAULT_WEBER: f32 = 0.1;
 
 impl Default for CacheParams {
     fn default() -> Self {
         CacheParams {
-            accuracy: 0.5,
+            accuracy: DEFAULT_ACCURACY,
             weight: Weighting::TabellionLamorlette,
             neighbor_clamping: true,
             gradients: true,
             min_spacing_px: 3.0,
             max_spacing_px: 20.0,
-            pass_b_accuracy: Some(PASS_B_REACH * 0.5),
+            pass_b_accuracy: Some(PASS_B_REACH * DEFAULT_ACCURACY),
             adaptive: None,
         }
     }

@@ -5,8 +5,9 @@
 //! The budget is `--max-memory`, else the `PMRENDER_MAX_MEMORY` environment variable, else 75 % of the
 //! physical RAM (`MemTotal` in /proc/meminfo, or the cgroup's memory limit when smaller; 8 GiB when
 //! neither can be read). The estimates are upper bounds of the peaks, per item:
-//! - image: every full-size layer (beauty + terms, 12 B per pixel each), adaptive sampling's sums, the interleaved EXR buffer and
-//!   the PNG/cache-image copies, over the whole image even with `--crop` (other pixels are black);
+//! - image: every full-size layer (beauty + terms, 12 B per pixel each), adaptive sampling's sums, the
+//!   interleaved EXR buffer and the PNG/cache-image copies, over the whole image even with `--crop`
+//!   (other pixels are black);
 //! - photon maps: [`PHOTON_PEAK_BYTES`] per stored photon while tracing and building, or 3 × the size
 //!   of a `--load-photons` file;
 //! - irradiance cache: pass A keeps the shading points of every pixel of the image

@@ -73,11 +73,17 @@ const REL_FLOOR: f64 = 0.01;
 /// Sub-pixel offset of sample `s`: its quarter of the pixel when it belongs to a whole group of four
 /// within `spp`, anywhere otherwise; jittered by (u, v).
 fn offset(s: u32, spp: u32, u: f32, v: f32) -> [f32; 2] {
-    if (s / GROUP + 1) * GROUP > spp {
+    if !in_whole_group(s, spp) {
         return [u, v];
     }
     let cell = s % GROUP;
     [((cell % 2) as f32 + u) * 0.5, ((cell / 2) as f32 + v) * 0.5]
+}
+
+/// True when sample `s` of at most `spp` belongs to a whole group of four (then it sits in quarter
+/// `s % 4`).
+fn in_whole_group(s: u32, spp: u32) -> bool {
+    (s / GROUP + 1) * GROUP <= spp
 }
 
 /// True when a pixel's samples, whose mean is `mean`, estimate it well enough: Σ_c Var[x̄_c] / (x̄_c² + 0.01)
@@ -128,7 +134,7 @@ struct PixelSums {
 impl PixelSums {
     /// Adds sample `s` (of at most `spp`) with beauty `b`.
     fn add(&mut self, s: u32, spp: u32, b: Vec3) {
-        if (s / GROUP + 1) * GROUP > spp {
+        if !in_whole_group(s, spp) {
             return;
         }
         let (group, quarter) = ((s / GROUP) as usize, (s % GROUP) as usize);
