@@ -289,7 +289,7 @@ impl IrradianceCache {
     /// Tell the index that record `id`'s R' has shrunk.
     pub(crate) fn reindex(&mut self, id: u32) {
         let rec = &self.records[id as usize];
-        self.index.shrink(id, rec.pos, self.indexed[id as usize], rec.r_clamped * self.params.index_factor());
+        self.indexed[id as usize] = self.index.shrink(id, rec.pos, self.indexed[id as usize], rec.r_clamped * self.params.index_factor());
     }
 
     /// The shrinks logged since the last call.

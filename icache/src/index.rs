@@ -130,27 +130,43 @@ impl Octree {
         }
     }
 
-    /// Record `id`, inserted with sphere (`center`, `old_radius`), now reaches `new_radius` ≤ `old_radius`:
-    /// its entries stay in the same cells (which still cover the smaller sphere) but test the smaller
-    /// radius, so lookups meet it only where it can reach. On Sibenik neighbor clamping shrinks most
-    /// records after insertion; with their inserted spheres a lookup met about twice the candidates.
-    pub fn shrink(&mut self, id: u32, center: Vec3, old_radius: f32, new_radius: f32) {
+    /// Record `id`, indexed with sphere (`center`, `old_radius`), now reaches `new_radius` ≤ `old_radius`.
+    /// Where the smaller sphere belongs to the same level, its entries stay in their cells (which still
+    /// cover it) and test the smaller radius; where it belongs deeper, they move to that level's cells.
+    /// Returns the radius the record is now indexed with (the `old_radius` of its next shrink). On
+    /// Sibenik neighbor clamping shrinks most records after insertion: with the entries left in their
+    /// first cells a pass-A lookup scanned 111 spheres to find 11 containing the point.
+    pub fn shrink(&mut self, id: u32, center: Vec3, old_radius: f32, new_radius: f32) -> f32 {
         let r = if old_radius.is_nan() { f32::INFINITY } else { old_radius.max(0.0) };
         if !(center.is_finite() && new_radius >= 0.0 && new_radius < r) {
-            return;
+            return old_radius;
         }
-        let target = self.level_for(r);
-        self.shrink_rec(0, self.origin, self.size, 0, target, center, r, id, new_radius);
+        let (from, to) = (self.level_for(r), self.level_for(new_radius));
+        if to == from || !r.is_finite() {
+            self.shrink_rec(0, self.origin, self.size, 0, from, center, r, id, Some(new_radius));
+            return old_radius;
+        }
+        self.shrink_rec(0, self.origin, self.size, 0, from, center, r, id, None);
+        self.insert_rec(0, self.origin, self.size, 0, to, center, new_radius, id);
+        new_radius
     }
 
+    /// At level `target`, in every cell the sphere (`c`, `r`) overlaps: record `id`'s entry takes radius
+    /// `new_radius`, or leaves the cell when that is `None`.
     #[allow(clippy::too_many_arguments)]
-    fn shrink_rec(&mut self, node: usize, lo: Vec3, size: f32, depth: u32, target: u32, c: Vec3, r: f32, id: u32, new_radius: f32) {
+    fn shrink_rec(&mut self, node: usize, lo: Vec3, size: f32, depth: u32, target: u32, c: Vec3, r: f32, id: u32, new_radius: Option<f32>) {
         if dist2_to_box(c, lo, size) > r * r {
             return;
         }
         if depth == target {
-            if let Some(s) = self.nodes[node].spheres.iter_mut().find(|s| s.id == id) {
-                s.radius = s.radius.min(new_radius);
+            let spheres = &mut self.nodes[node].spheres;
+            match new_radius {
+                Some(nr) => {
+                    if let Some(s) = spheres.iter_mut().find(|s| s.id == id) {
+                        s.radius = s.radius.min(nr);
+                    }
+                }
+                None => spheres.retain(|s| s.id != id),
             }
             return;
         }
@@ -285,17 +301,25 @@ mod tests {
         };
         let at = |d: f32| c + Vec3::new(0.0, d, 0.0);
         assert_eq!(ids(&tree, at(0.8)), [0, 1]);
-        tree.shrink(0, c, 1.0, 0.5);
+        let r = tree.shrink(0, c, 1.0, 0.5);
         assert_eq!(ids(&tree, at(0.8)), [1]);
         assert_eq!(ids(&tree, at(0.45)), [0, 1]);
-        // A second shrink names the radius the sphere was inserted with (its cells).
-        tree.shrink(0, c, 1.0, 0.2);
+        // A second shrink names the radius the first one returned (its cells); this one moves the
+        // sphere two levels down (cells of 0.625 for a diameter of 0.4).
+        let r = tree.shrink(0, c, r, 0.2);
+        assert_eq!(r, 0.2);
         assert_eq!(ids(&tree, at(0.45)), [1]);
         assert_eq!(ids(&tree, at(0.15)), [0, 1]);
+        for d in [-0.19f32, 0.0, 0.19] {
+            for axis in [Vec3::X, Vec3::Y, Vec3::Z] {
+                assert!(ids(&tree, c + d * axis).contains(&0), "{d} {axis}");
+            }
+        }
         // Growing is not shrinking, and odd values change nothing.
-        tree.shrink(0, c, 1.0, 0.9);
-        tree.shrink(0, c, 1.0, f32::NAN);
+        assert_eq!(tree.shrink(0, c, r, 0.9), r);
+        assert_eq!(tree.shrink(0, c, r, f32::NAN), r);
         assert_eq!(ids(&tree, at(0.45)), [1]);
+        assert_eq!(ids(&tree, at(0.15)), [0, 1]);
     }
 
     #[test]

@@ -13,6 +13,7 @@ mod insert;
 pub mod onepass;
 pub mod order;
 pub mod params;
+mod point_grid;
 pub mod record;
 pub mod stats;
 pub mod twopass;

@@ -105,6 +105,16 @@ fn pass_b_covers_every_point_and_is_accurate() {
     let (cache, fill_stats) = fill(2);
     assert_eq!(fill_stats.n_uncovered_after, 0);
     assert!(fill_stats.insert.n_shrunk_by_neighbors > 0, "the leaking gathers should have been clamped");
+    assert!(fill_stats.n_repair_sweeps > 0, "the shrinks should have been repaired");
+    // Every point pass A saw is covered in pass A after the repair sweeps (which look up only the points
+    // that lost more records than they had).
+    for y in 0..H {
+        for x in 0..W {
+            for sp in shading_points(x, y) {
+                assert!(cache.lookup(sp.pos, sp.normal, crate::Pass::A).is_some(), "pixel ({x}, {y}) uncovered");
+            }
+        }
+    }
     let mut lookups = LookupStats::default();
     let (mean_rel, max_rel) = interpolation_error(&cache, &mut lookups);
     assert_eq!(lookups.n_misses, 0);
