@@ -145,7 +145,7 @@ impl IrradianceCache {
         if !(p.is_finite() && n.is_finite()) {
             return None;
         }
-        self.with_candidates(p, n_records, |ids| {
+        self.with_candidates(p, pass, n_records, |ids| {
             let mut acc = Accum::default();
             for &id in ids {
                 self.accumulate(&self.records[id as usize], p, n, pass, &mut acc);
@@ -164,7 +164,7 @@ impl IrradianceCache {
         if !(p.is_finite() && n.is_finite()) {
             return (None, None);
         }
-        self.with_candidates(p, usize::MAX, |ids| {
+        self.with_candidates(p, Pass::A, usize::MAX, |ids| {
             let mut acc = Accum::default();
             // (id, luminance of its extrapolation) of the usable records, in record order.
             let mut used: Vec<(u32, f32)> = Vec::with_capacity(ids.len());
@@ -189,14 +189,17 @@ impl IrradianceCache {
         })
     }
 
-    /// `f` over the ids of the index's candidate records at `p` below `n_records`, sorted and unique.
-    /// Sums run in record order, not in index order: the index of a cache loaded from a file can hold
-    /// the same records in other nodes, and the image must not change in the last bit.
-    fn with_candidates<T>(&self, p: Vec3, n_records: usize, f: impl FnOnce(&[u32]) -> T) -> T {
+    /// `f` over the ids of the index's candidate records at `p` for `pass` below `n_records`, sorted and
+    /// unique. Sums run in record order, not in index order: the index of a cache loaded from a file can
+    /// hold the same records in other nodes, and the image must not change in the last bit.
+    fn with_candidates<T>(&self, p: Vec3, pass: Pass, n_records: usize, f: impl FnOnce(&[u32]) -> T) -> T {
+        // A record is usable only within a·R' (both weightings; see `params`), and the index holds it
+        // with the loosest pass's reach.
+        let scale = (self.params.a(pass) / self.params.index_factor()).min(1.0);
         CANDIDATES.with(|cell| {
             let mut ids = cell.borrow_mut();
             ids.clear();
-            self.index.for_each_candidate(p, |id| {
+            self.index.for_each_candidate_within(p, scale, |id| {
                 if (id as usize) < n_records {
                     ids.push(id)
                 }

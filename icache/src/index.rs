@@ -31,10 +31,11 @@ struct Sphere {
 }
 
 impl Sphere {
+    /// Whether `p` lies in the sphere with its radius scaled by √`scale2`.
     #[inline]
-    fn contains(&self, p: Vec3) -> bool {
+    fn contains_scaled(&self, p: Vec3, scale2: f32) -> bool {
         // Never reject on rounding: the caller's exact test decides at the border.
-        (p - self.center).length_squared() <= self.radius * self.radius * (1.0 + 1e-5)
+        (p - self.center).length_squared() <= self.radius * self.radius * scale2 * (1.0 + 1e-5)
     }
 }
 
@@ -182,14 +183,22 @@ impl Octree {
 
     /// Call `f` with every record whose sphere contains `p` (with its radius as last shrunk: a superset
     /// of the records usable there; each id at most once).
-    pub fn for_each_candidate(&self, p: Vec3, mut f: impl FnMut(u32)) {
+    pub fn for_each_candidate(&self, p: Vec3, f: impl FnMut(u32)) {
+        self.for_each_candidate_within(p, 1.0, f)
+    }
+
+    /// [`for_each_candidate`](Self::for_each_candidate) with every sphere's radius scaled by `scale` ≤ 1:
+    /// a lookup whose records reach less far than the index holds them (pass A: a·R' where the index
+    /// holds pass B's reach) rejects the others here, without reading their records.
+    pub fn for_each_candidate_within(&self, p: Vec3, scale: f32, mut f: impl FnMut(u32)) {
         if !self.in_root(p) {
             self.outside.iter().for_each(|&id| f(id));
             return;
         }
+        let scale2 = scale * scale;
         let (mut node, mut lo, mut size) = (0usize, self.origin, self.size);
         loop {
-            self.nodes[node].spheres.iter().filter(|s| s.contains(p)).for_each(|s| f(s.id));
+            self.nodes[node].spheres.iter().filter(|s| s.contains_scaled(p, scale2)).for_each(|s| f(s.id));
             let first = self.nodes[node].first_child as usize;
             if first == 0 {
                 return;

@@ -198,6 +198,16 @@ fn direct_irradiance(scene: &Scene, tri: u32, p: Vec3, n: Vec3, seed: u64) -> Ve
     e
 }
 
+/// A texel: its slot, and the triangle side and cell it belongs to.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Texel {
+    index: u32,
+    tri: u32,
+    front: bool,
+    i: u32,
+    j: u32,
+}
+
 /// Counts for the statistics.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct AtlasStats {
@@ -250,11 +260,22 @@ impl IrradianceAtlas {
     /// Irradiance of the global map on the `front` (winding) or back side of triangle `tri`, at the texel
     /// holding `p`.
     pub fn lookup(&self, cov: &SceneCoverage, global: &PhotonMap, tri: u32, front: bool, p: Vec3) -> TexelIrradiance {
+        self.read(cov, global, self.texel(tri, front, p))
+    }
+
+    /// The texel holding `p` on the `front` (winding) or back side of triangle `tri`.
+    pub fn texel(&self, tri: u32, front: bool, p: Vec3) -> Texel {
         let (grid, first) = &self.grids[tri as usize];
         let (i, j) = grid.cell(p);
         let side = if front { 0 } else { grid.nu as u32 * grid.nv as u32 };
-        let index = first + side + j * grid.nu as u32 + i;
+        Texel { index: first + side + j * grid.nu as u32 + i, tri, front, i, j }
+    }
+
+    /// A texel's value: its slot's, estimated first if no ray has reached it yet.
+    pub fn read(&self, cov: &SceneCoverage, global: &PhotonMap, texel: Texel) -> TexelIrradiance {
+        let Texel { index, tri, front, i, j } = texel;
         *self.slots[index as usize].get_or_init(|| {
+            let grid = &self.grids[tri as usize].0;
             let scene = cov.0;
             let t = &scene.geometry.triangles[tri as usize];
             let n = if front { t.ng } else { -t.ng };

@@ -90,6 +90,7 @@ pub fn atlas_k(lookup: usize) -> usize {
 }
 
 thread_local! {
+    static TEXELS: std::cell::RefCell<Vec<super::atlas::Texel>> = const { std::cell::RefCell::new(Vec::new()) };
     static NEIGHBORS: std::cell::RefCell<Vec<photon::Neighbor>> = const { std::cell::RefCell::new(Vec::new()) };
 }
 
@@ -214,6 +215,21 @@ impl<'a> PhotonData<'a> {
     /// `tri`): the atlas texel's mean albedo / π × all of its irradiance.
     pub fn gather_radiance(&self, tri: u32, front: bool, p: Vec3) -> Vec3 {
         self.texel(tri, front, p).map_or(Vec3::ZERO, |t| t.radiance)
+    }
+
+    /// [`gather_radiance`](Self::gather_radiance) at many ends at once, appended to `out` in order: the
+    /// texels are found first, then read, so that the memory reads of neighbouring ends overlap.
+    pub fn gather_radiance_batch(&self, ends: &[(u32, bool, Vec3)], out: &mut Vec<Vec3>) {
+        let (Some(atlas), Some(global)) = (self.atlas.as_ref(), self.maps.global.as_ref()) else {
+            out.extend(ends.iter().map(|_| Vec3::ZERO));
+            return;
+        };
+        TEXELS.with(|cell| {
+            let mut texels = cell.borrow_mut();
+            texels.clear();
+            texels.extend(ends.iter().map(|&(tri, front, p)| atlas.texel(tri, front, p)));
+            out.extend(texels.iter().map(|&t| atlas.read(&self.coverage, global, t).radiance));
+        })
     }
 
     /// Soft indirect irradiance (direct and caustic photons left out) at a point that has its own

@@ -268,14 +268,26 @@ impl PmContext<'_> {
         let mut rays = 0u64;
         // In a scene with media, the medium on the gather's side of the surface.
         let medium = self.scene.media.as_ref().map(|m| m.medium_at(spawn(hit, frame.n)));
-        let result = gather::gather(hit.p, frame.n, &self.gather, seed, &mut |dir: Vec3| -> GatherRay {
-            if self.cancel.load(Ordering::Relaxed) {
-                return GatherRay::miss(Vec3::ZERO);
+        // Every ray is traced to its end first (in order: specular chains draw from `rng`), then the
+        // texels of the diffuse ends are read together.
+        let result = gather::gather_batch(hit.p, frame.n, &self.gather, seed, &mut |dirs: &[Vec3], out: &mut Vec<GatherRay>| {
+            let mut ends = Vec::with_capacity(dirs.len());
+            for &dir in dirs {
+                if self.cancel.load(Ordering::Relaxed) {
+                    ends.push(GatherEnd::MISS);
+                    continue;
+                }
+                rays += 1;
+                ends.push(self.gather_ray(hit, dir, medium, &mut rng, &mut rays));
             }
-            rays += 1;
-            let end = self.gather_ray(hit, dir, medium, &mut rng, &mut rays);
-            let lit = if end.weight != Vec3::ZERO { end.weight * self.photons.gather_radiance(end.tri, end.front, end.p) } else { Vec3::ZERO };
-            GatherRay { radiance: lit + end.glossy + end.scattered, distance: end.distance }
+            let diffuse: Vec<(u32, bool, Vec3)> = ends.iter().filter(|e| e.weight != Vec3::ZERO).map(|e| (e.tri, e.front, e.p)).collect();
+            let mut texels = Vec::with_capacity(diffuse.len());
+            self.photons.gather_radiance_batch(&diffuse, &mut texels);
+            let mut texels = texels.into_iter();
+            out.extend(ends.iter().map(|end| {
+                let lit = if end.weight != Vec3::ZERO { end.weight * texels.next().unwrap_or(Vec3::ZERO) } else { Vec3::ZERO };
+                GatherRay { radiance: lit + end.glossy + end.scattered, distance: end.distance }
+            }));
         });
         if self.cancel.load(Ordering::Relaxed) {
             return interrupted_gather(frame);
