@@ -154,6 +154,20 @@ impl IrradianceCache {
         })
     }
 
+    /// [`lookup`](Self::lookup) over the records from id `since` on, scanned without the index: the
+    /// lookup of a point that no record before `since` could interpolate (records only narrow), which
+    /// gives the same answer as the full one.
+    pub(crate) fn lookup_since(&self, p: Vec3, n: Vec3, pass: Pass, since: usize) -> Option<Lookup> {
+        if !(p.is_finite() && n.is_finite()) {
+            return None;
+        }
+        let mut acc = Accum::default();
+        for rec in self.records.get(since..).unwrap_or(&[]) {
+            self.accumulate(rec, p, n, pass, &mut acc);
+        }
+        self.finish(acc)
+    }
+
     /// Pass A's lookup under adaptive caching (Křivánek et al. 2006): the interpolation at (p, n), unless
     /// the usable records disagree there — one's extrapolated luminance differs from their weighted mean
     /// by more than the Weber fraction τ — and the most deviant of them can still shrink. Then no

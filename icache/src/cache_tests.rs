@@ -257,3 +257,29 @@ fn shrink_log_names_the_points_a_record_lost() {
     assert!(!c.lost_cover(&log[0], at(0.12), n), "never inside");
     assert!(!c.lost_cover(&log[0], at(0.095), -n), "facing away: never usable");
 }
+
+/// A wave's insertions with the neighbours searched at the wave's start (`insert_near`, as the two-pass
+/// fill does them in parallel) give bitwise the records of plain insertions, neighbor clamping included.
+#[test]
+fn insertion_with_neighbours_found_at_the_wave_start_is_exact() {
+    let mut rng = Rng::new(23);
+    let news: Vec<NewRecord> = plane_points(&mut rng, 400)
+        .into_iter()
+        .map(|p| new_rec(p, Vec3::Z, Vec3::ONE, 0.05 + 2.0 * rng.uniform() * rng.uniform(), 0.01))
+        .collect();
+    let mut plain = cache(CacheParams::default());
+    let mut near = cache(CacheParams::default());
+    for wave in news.chunks(16) {
+        let since = near.len();
+        let found: Vec<Option<Vec<u32>>> = wave.iter().map(|r| near.neighbor_candidates(r)).collect();
+        for (r, ids) in wave.iter().zip(&found) {
+            plain.insert(*r);
+            near.insert_near(*r, ids.as_deref().map(|ids| (ids, since)));
+        }
+    }
+    assert!(plain.insert_totals().n_shrunk_by_neighbors > 100, "{:?}", plain.insert_totals());
+    assert_eq!(plain.insert_totals(), near.insert_totals());
+    for (a, b) in plain.records().iter().zip(near.records()) {
+        assert_eq!(a.to_bits(), b.to_bits());
+    }
+}

@@ -125,6 +125,23 @@ impl IrradianceCache {
 
     /// Add a gather result as a new record (see the module header for the steps).
     pub fn insert(&mut self, new: NewRecord) -> InsertStats {
+        self.insert_near(new, None)
+    }
+
+    /// The records whose spheres may overlap the sphere `new` will get (a superset: radii only shrink),
+    /// from the index as it stands; `None` when `new` cannot be placed. Read-only, so a wave's gathers
+    /// can make these queries in parallel and its serial insertions skip them ([`Self::insert_near`]).
+    pub(crate) fn neighbor_candidates(&self, new: &NewRecord) -> Option<Vec<u32>> {
+        let rec = prepare(&self.params, new, &mut InsertStats::default())?;
+        let mut ids = Vec::new();
+        self.index.query_sphere(rec.pos, rec.r_clamped, &mut ids);
+        Some(ids)
+    }
+
+    /// [`insert`](Self::insert), given `near = (ids, since)`: the [`neighbor_candidates`] of `new` when
+    /// the cache held `since` records (those inserted after are checked too). The same record and the
+    /// same clampings as `insert`, without searching the index for the new record's neighbours.
+    pub(crate) fn insert_near(&mut self, new: NewRecord, near: Option<(&[u32], usize)>) -> InsertStats {
         let mut stats = InsertStats::default();
         let Some(rec) = prepare(&self.params, &new, &mut stats) else {
             stats.n_rejected += 1;
@@ -134,7 +151,7 @@ impl IrradianceCache {
         let j = self.records.len();
         self.records.push(rec);
         let mut shrunk = Vec::new();
-        if self.params.neighbor_clamping && self.clamp_new_record(j) {
+        if self.params.neighbor_clamping && self.clamp_new_record(j, near) {
             shrunk.push(j as u32);
         }
         // 5. Insert into the index (before propagation, which must see the new record).
@@ -151,11 +168,19 @@ impl IrradianceCache {
         stats
     }
 
-    /// 4a. R_j ← min(R_j, R_k + |p_j − p_k|) over existing records k overlapping j. True if R_j shrank.
-    fn clamp_new_record(&mut self, j: usize) -> bool {
+    /// 4a. R_j ← min(R_j, R_k + |p_j − p_k|) over existing records k overlapping j (from the index, or
+    /// `near`'s candidates and the records after them). True if R_j shrank.
+    fn clamp_new_record(&mut self, j: usize, near: Option<(&[u32], usize)>) -> bool {
         let rec_j = self.records[j];
         let mut ids = std::mem::take(&mut self.scratch);
-        self.index.query_sphere(rec_j.pos, rec_j.r_clamped, &mut ids);
+        match near {
+            Some((candidates, since)) => {
+                ids.clear();
+                ids.extend_from_slice(candidates);
+                ids.extend(since as u32..j as u32);
+            }
+            None => self.index.query_sphere(rec_j.pos, rec_j.r_clamped, &mut ids),
+        }
         let mut r_j = rec_j.r_harmonic;
         for &k in &ids {
             let rec_k = &self.records[k as usize];
