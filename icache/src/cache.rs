@@ -226,12 +226,7 @@ impl IrradianceCache {
 
     /// The same as [`lookup`](Self::lookup) by scanning every record: the oracle for the index.
     pub fn lookup_brute(&self, p: Vec3, n: Vec3, pass: Pass) -> Option<Lookup> {
-        if !(p.is_finite() && n.is_finite()) {
-            return None;
-        }
-        let mut acc = Accum::default();
-        self.records.iter().for_each(|rec| self.accumulate(rec, p, n, pass, &mut acc));
-        self.finish(acc)
+        self.lookup_since(p, n, pass, 0)
     }
 
     /// Indices of the records usable at (p, n), by brute force, sorted (for tests and debugging views).

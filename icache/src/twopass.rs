@@ -220,12 +220,13 @@ fn repair<P: Clone + Send + Sync, S: Default + AddAssign + Send>(
                 found
             })
             .collect();
+        // Each record has one shrink in the log and each point is found once per sphere: the pairs are
+        // distinct. Sorted, a point's pairs are together, in visiting order (the store's).
         lost.sort_unstable();
-        lost.dedup();
         // A point still has a record if it lost fewer than it could interpolate at its last lookup, less
         // those lost in earlier sweeps: records only narrow, and each that stopped reaching it is in one
         // log (once it stops it never reaches again). On Sibenik's first sweep 459 k points lost a
-        // record and 1.6 k their cover. The rest are looked up, in visiting order (the store's).
+        // record and 1.6 k their cover. The rest are looked up.
         let mut check = Vec::new();
         for ids in lost.chunk_by(|a, b| a.0 == b.0) {
             let (k, n) = (ids[0].0 as usize, ids.len() as u32);

@@ -90,7 +90,6 @@ pub fn atlas_k(lookup: usize) -> usize {
 }
 
 thread_local! {
-    static TEXELS: std::cell::RefCell<Vec<super::atlas::Texel>> = const { std::cell::RefCell::new(Vec::new()) };
     static NEIGHBORS: std::cell::RefCell<Vec<photon::Neighbor>> = const { std::cell::RefCell::new(Vec::new()) };
 }
 
@@ -224,12 +223,8 @@ impl<'a> PhotonData<'a> {
             out.extend(ends.iter().map(|_| Vec3::ZERO));
             return;
         };
-        TEXELS.with(|cell| {
-            let mut texels = cell.borrow_mut();
-            texels.clear();
-            texels.extend(ends.iter().map(|&(tri, front, p)| atlas.texel(tri, front, p)));
-            out.extend(texels.iter().map(|&t| atlas.read(&self.coverage, global, t).radiance));
-        })
+        let texels: Vec<_> = ends.iter().map(|&(tri, front, p)| atlas.texel(tri, front, p)).collect();
+        out.extend(texels.into_iter().map(|t| atlas.read(&self.coverage, global, t).radiance));
     }
 
     /// Soft indirect irradiance (direct and caustic photons left out) at a point that has its own
