@@ -53,3 +53,24 @@ fn one_pass_pm_is_identical_with_one_and_two_threads() {
     assert_eq!(one, render("2"));
     assert_ne!(one, render_bytes("pm", "2", d.path()), "the one-pass fill must differ from the two-pass fill");
 }
+
+/// Records made between the rounds of adaptive sampling for the samples that found none (the blinds
+/// room's sub-pixel slats at 64×48) and those pixels' rounds taken again: still byte-identical.
+#[test]
+fn pm_growing_its_cache_in_pass_b_is_identical_with_one_and_two_threads() {
+    let d = tempfile::tempdir().unwrap();
+    let scene = repo().join("scenes/blinds-room.toml");
+    let render = |threads: &str| {
+        let (out, stats) = (d.path().join(format!("blinds-{threads}.exr")), d.path().join(format!("blinds-{threads}.json")));
+        let r = run(&[
+            "render", &scene.to_string_lossy(), "-o", &out.to_string_lossy(), "--stats", &stats.to_string_lossy(), "--threads", threads,
+            "--width", "64", "--height", "48", "--spp", "16", "--quiet",
+        ]);
+        assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+        let j: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap();
+        (std::fs::read(out).expect("output written"), j["icache"]["records_pass_b"].as_u64().unwrap(), j["icache"]["samples_redone"].as_u64().unwrap())
+    };
+    let (one, records, redone) = render("1");
+    assert!(records > 0 && redone > 0, "the test needs pass-B records: {records} records, {redone} samples redone");
+    assert_eq!(one, render("2").0);
+}

@@ -35,7 +35,8 @@ fn rare_events_stay_rare_on_every_shipped_scene() {
         let (lookups, misses, gathered) = (ic("lookups_pass_b"), ic("misses_pass_b"), ic("gathered_pass_b"));
         eprintln!("[shipped] {name}: pass-B lookups {lookups}, misses {misses}, gathered {gathered}, one-record {}", ic("single_record_pass_b"));
         assert!(lookups > 0.0, "{name}: no pass-B lookups");
-        assert!(misses <= 0.05 * lookups, "{name}: {misses} misses of {lookups} lookups");
+        // Issue 10: ≤ 0.1 % (pass B makes records for the samples that miss, between its rounds).
+        assert!(misses <= 1e-3 * lookups, "{name}: {misses} misses of {lookups} lookups");
         assert!(gathered <= 0.002 * lookups, "{name}: {gathered} full gathers in pass B of {lookups} lookups");
         assert_eq!(j["rare"]["nan_or_negative"], 0, "{name}");
         let rays = j["rays"]["total"].as_f64().unwrap();

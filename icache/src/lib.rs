@@ -32,4 +32,4 @@ pub use params::{CacheParams, Pass, Weighting};
 pub use record::{NewRecord, Record};
 pub use stats::{CacheStats, FillStats, InsertStats, LookupStats, RadiusHistogram};
 pub use onepass::{fill_one_pass, fill_one_pass_cancellable, OnePassFill};
-pub use twopass::{fill_pass_a, fill_pass_a_cancellable, ShadingPoint};
+pub use twopass::{fill_pass_a, fill_pass_a_cancellable, fill_pixels_cancellable, ShadingPoint};

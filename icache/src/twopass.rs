@@ -119,11 +119,49 @@ pub fn fill_pass_a_cancellable<P: Clone + Send + Sync, S: Default + AddAssign + 
     progress: &ProgressFn,
     cancel: &AtomicBool,
 ) -> (FillStats, S) {
-    let mut tally = Tally { fill: FillStats::default(), gathers: S::default() };
     let total = width as u64 * height as u64;
+    fill_in_order(cache, width, height, HierarchicalOrder::new(width, height), total, shading_points, gather, progress, cancel)
+}
+
+/// More records where shading found none: the shading points of `pixels` (in any order; visited in the
+/// hierarchical order, so their gathers spread over the image) filled as pass A fills the image's —
+/// looked up, gathered where uncovered, in waves, then repaired — against the cache as it is. Between
+/// rounds of shading (`pm`'s pass B), with the points its samples missed; deterministic as pass A is.
+pub fn fill_pixels_cancellable<P: Clone + Send + Sync, S: Default + AddAssign + Send>(
+    cache: &mut IrradianceCache,
+    width: u32,
+    height: u32,
+    pixels: &[(u32, u32)],
+    shading_points: &PointsWithFn<P>,
+    gather: &GatherWithFn<P, S>,
+    cancel: &AtomicBool,
+) -> (FillStats, S) {
+    let mut wanted = vec![false; width as usize * height as usize];
+    for &(x, y) in pixels {
+        if x < width && y < height {
+            wanted[(y * width + x) as usize] = true;
+        }
+    }
+    let order = HierarchicalOrder::new(width, height).filter(move |&(x, y)| wanted[(y * width + x) as usize]);
+    fill_in_order(cache, width, height, order, pixels.len() as u64, shading_points, gather, &|_, _| {}, cancel)
+}
+
+/// Pass A over the pixels of `order` (`total` of them), then its repair sweeps.
+#[allow(clippy::too_many_arguments)]
+fn fill_in_order<P: Clone + Send + Sync, S: Default + AddAssign + Send>(
+    cache: &mut IrradianceCache,
+    width: u32,
+    height: u32,
+    order: impl Iterator<Item = (u32, u32)>,
+    total: u64,
+    shading_points: &PointsWithFn<P>,
+    gather: &GatherWithFn<P, S>,
+    progress: &ProgressFn,
+    cancel: &AtomicBool,
+) -> (FillStats, S) {
+    let mut tally = Tally { fill: FillStats::default(), gathers: S::default() };
     let mut store = PointStore::new(width, height);
     cache.log_shrinks(true);
-    let order = HierarchicalOrder::new(width, height);
     let first = sweep(cache, order, shading_points, &mut store, gather, &mut tally, &|done| progress(done, total), cancel);
     tally.fill.n_pixels = total;
     if first > 0 {

@@ -5,7 +5,9 @@
 use glam::Vec3;
 use photon::sampling::hash_keys;
 
-use crate::twopass::{fill_pass_a, ShadingPoint};
+use std::sync::atomic::AtomicBool;
+
+use crate::twopass::{fill_pass_a, fill_pixels_cancellable, NoStats, ShadingPoint};
 use crate::{CacheParams, FillStats, IrradianceCache, LookupStats, NewRecord, Pass};
 
 const W: u32 = 96;
@@ -25,6 +27,11 @@ fn shading_points(x: u32, y: u32) -> Vec<ShadingPoint> {
     if x < 3 {
         return Vec::new(); // a strip with nothing visible
     }
+    box_points(x, y)
+}
+
+/// The points of pixel (x, y), the strip included.
+fn box_points(x: u32, y: u32) -> Vec<ShadingPoint> {
     let n_sub = if x.is_multiple_of(13) && y.is_multiple_of(11) { 2 } else { 1 };
     let tan_half = (30f32).to_radians().tan();
     let pixel_angle = 2.0 * tan_half / H as f32;
@@ -134,6 +141,42 @@ fn pass_b_covers_every_point_and_is_accurate() {
     assert_eq!(stats.radius_px.n, cache.len() as u64);
     assert!(stats.radius_px.min_px >= 3.0 - 1e-3 && stats.radius_px.max_px <= 20.0 + 1e-3);
     assert!(stats.mean_records_per_lookup() >= 1.0);
+}
+
+/// Points pass A never saw (a block of pixels it found empty: what pass B's samples reach between pass
+/// A's points): records made for them afterwards cover every one, keep the records before them, and do
+/// not depend on the thread count.
+#[test]
+fn records_for_points_pass_a_missed_cover_them() {
+    let hole = |x: u32, y: u32| (30..70).contains(&x) && (16..48).contains(&y);
+    let block: Vec<(u32, u32)> = (0..H).flat_map(|y| (0..W).map(move |x| (x, y))).filter(|&(x, y)| hole(x, y)).collect();
+    let grow = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        let mut cache = IrradianceCache::new(Vec3::new(-3.0, -1.0, -6.0), Vec3::new(3.0, 2.0, 1.0), plain()).unwrap();
+        let around = |x, y| if hole(x, y) { Vec::new() } else { box_points(x, y) };
+        pool.install(|| fill_pass_a(&mut cache, W, H, &around, &gather, &|_, _| {}));
+        let before = cache.records().to_vec();
+        let uncovered = block.iter().flat_map(|&(x, y)| box_points(x, y)).filter(|sp| cache.lookup(sp.pos, sp.normal, Pass::B).is_none()).count();
+        let points = |x, y| box_points(x, y).into_iter().map(|sp| (sp, ())).collect();
+        let gather = |x, y, i, sp: &ShadingPoint, _: &()| (gather(x, y, i, sp), NoStats);
+        let (stats, _) = pool.install(|| fill_pixels_cancellable(&mut cache, W, H, &block, &points, &gather, &AtomicBool::new(false)));
+        (cache, before, uncovered, stats)
+    };
+    let (cache, before, uncovered, stats) = grow(2);
+    assert!(uncovered > block.len() / 2, "the block should be mostly uncovered before: {uncovered} of {}", block.len());
+    assert_eq!(stats.n_pixels, block.len() as u64);
+    assert!(stats.insert.n_inserted > 0 && cache.len() == before.len() + stats.insert.n_inserted as usize);
+    // The records before keep their place and irradiance (neighbor clamping may narrow them).
+    assert!(before.iter().zip(cache.records()).all(|(a, b)| a.pos == b.pos && a.e == b.e && b.r_clamped <= a.r_clamped));
+    for &(x, y) in &block {
+        for sp in box_points(x, y) {
+            assert!(cache.lookup(sp.pos, sp.normal, Pass::A).is_some(), "pixel ({x}, {y}) of the block uncovered");
+        }
+    }
+    let (c1, _, _, s1) = grow(1);
+    assert_eq!(s1, stats);
+    assert_eq!(c1.len(), cache.len());
+    assert!(c1.records().iter().zip(cache.records()).all(|(a, b)| a.to_bits() == b.to_bits()));
 }
 
 #[test]

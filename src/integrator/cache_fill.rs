@@ -36,6 +36,19 @@ pub fn shading_hits(ctx: &PmContext, camera: &Camera, x: u32, y: u32) -> Vec<(Sh
     out
 }
 
+/// The non-specular points seen through pixel (x, y) at the given offsets within it (samples of pass B
+/// that found no record). Not merged: the fill looks each up before its gather, and a point merged into
+/// a neighbour half a pixel away was left uncovered as often as not (blinds room at 128²: 247 misses
+/// left of 203 k lookups merged, 96 not, for 3 % more records).
+pub fn sample_hits(ctx: &PmContext, camera: &Camera, x: u32, y: u32, offsets: &[[f32; 2]]) -> Vec<(ShadingPoint, Hit)> {
+    let mut out = Vec::new();
+    for off in offsets {
+        let d = camera.ray(x as f32 + off[0], y as f32 + off[1]);
+        follow(ctx, camera, d, camera.eye, d, 0.0, 0, &mut out);
+    }
+    out
+}
+
 /// Half a pixel apart on one smooth surface: the centre's record will cover the corner.
 fn same_surface(a: &ShadingPoint, b: &ShadingPoint) -> bool {
     a.normal.dot(b.normal) > 0.95 && (a.pos - b.pos).dot(a.normal).abs() < a.pixel_world && (a.pos - b.pos).length() < 2.0 * a.pixel_world

@@ -83,6 +83,20 @@ const MEMO_SURFACES: usize = 4;
 pub const MEMO_BYTES_PER_PIXEL: u64 = (std::mem::size_of::<PixelMemo>() + 16 + MEMO_SURFACES * std::mem::size_of::<MemoEntry>()) as u64;
 
 impl PixelMemo {
+    /// Surfaces remembered.
+    pub fn len(&self) -> usize {
+        self.entries.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.entries.is_empty()
+    }
+
+    /// Forget the surfaces remembered after the first `n`.
+    pub fn truncate(&mut self, n: usize) {
+        self.entries.truncate(n);
+    }
+
     /// Forget every surface and free the memory.
     pub fn clear(&mut self) {
         self.entries = Vec::new();
@@ -119,6 +133,13 @@ pub struct SampleCounters {
     /// k-NN photon-map estimates made for caustics and for `photons`' indirect term (glossy-lobe estimates
     /// at gather ends are not counted; the atlas counts its own).
     pub photon_estimates: u64,
+}
+
+impl SampleCounters {
+    /// The rays and gathers alone (work done, whatever became of its result).
+    pub fn work(&self) -> SampleCounters {
+        SampleCounters { rays: self.rays, shadow_rays: self.shadow_rays, gathers: self.gathers, gather_rays: self.gather_rays, ..SampleCounters::default() }
+    }
 }
 
 impl std::ops::AddAssign for SampleCounters {

@@ -89,7 +89,7 @@ pub fn render(scene: &Scene, opts: &Options, progress: &dyn Progress, cancel: &A
     };
     interrupted(cancel)?;
 
-    let cache = match (plan.method, &photons) {
+    let mut cache = match (plan.method, &photons) {
         (Method::Pm, Some(photons)) => {
             let (cache, s) = match &opts.files.load_cache {
                 Some(file) => load_cache(scene, file)?,
@@ -102,8 +102,8 @@ pub fn render(scene: &Scene, opts: &Options, progress: &dyn Progress, cancel: &A
     };
     interrupted(cancel)?;
 
-    let (sample, n_layers) = sampler(scene, &plan, photons.as_ref(), cache.as_ref(), cancel);
-    let (layers, s) = shade(&plan, n_layers, &*sample, progress, cancel)?;
+    let (mut sample, n_layers) = sampler(scene, &plan, photons.as_ref(), cache.as_mut(), cancel);
+    let (layers, s) = shade(&plan, n_layers, &mut *sample, progress, cancel)?;
     drop(sample);
     stats.shade = s;
     let (beauty, layers) = beauty(&plan, scene.media.is_some(), layers);

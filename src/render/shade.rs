@@ -10,40 +10,98 @@ use photon::sampling::Rng;
 
 use super::fill::CacheFill;
 use super::stats::ShadeStats;
-use super::tiles::{render_tiles, SampleFn};
+use super::tiles::{render_tiles, GrowStats, MissedSample, Sampler};
 use super::{Plan, Progress};
 use crate::camera::Camera;
 use crate::error::Result;
+use crate::geometry::Hit;
+use crate::integrator::cache_fill::{gather_record, sample_hits};
 use crate::integrator::photons::PhotonData;
 use crate::integrator::pm::{IndirectSource, PmContext};
 use crate::integrator::terms::term_names;
 use crate::integrator::{path, PixelMemo, SampleCounters};
 use crate::io::output::Image;
 use crate::scene::{Method, Scene};
+use icache::ShadingPoint;
 
-/// `n_layers` images of the plan's window, by `sample`. `cancel` is read before every sample.
-pub fn shade(plan: &Plan, n_layers: usize, sample: &SampleFn, progress: &dyn Progress, cancel: &AtomicBool) -> Result<(Vec<Image>, ShadeStats)> {
+/// `n_layers` images of the plan's window, by `sampler`. `cancel` is read before every sample.
+pub fn shade(plan: &Plan, n_layers: usize, sampler: &mut dyn Sampler, progress: &dyn Progress, cancel: &AtomicBool) -> Result<(Vec<Image>, ShadeStats)> {
     let t = Instant::now();
     progress.start("shade", plan.window.n_pixels());
-    let (layers, counters, samples) = render_tiles(plan.width, plan.height, plan.window, plan.sampling(), plan.seed, n_layers, sample, &|n| progress.set(n), cancel)?;
+    let (layers, mut counters, samples) = render_tiles(plan.width, plan.height, plan.window, plan.sampling(), plan.seed, n_layers, sampler, &|n| progress.set(n), cancel)?;
     progress.finish();
-    Ok((layers, ShadeStats { time_s: t.elapsed().as_secs_f64(), counters, samples }))
+    // The gathers of records made between rounds are rays of the shading.
+    let grown = sampler.grown();
+    counters += grown.counters.work();
+    Ok((layers, ShadeStats { time_s: t.elapsed().as_secs_f64(), counters, samples, grown }))
 }
 
-/// The method's per-sample closure and its number of layers: `path`'s radiance without photon maps;
-/// with them, the terms of the split, soft indirect light read from `cache` when there is one.
-pub fn sampler<'a>(scene: &'a Scene, plan: &'a Plan, photons: Option<&'a PhotonData<'a>>, cache: Option<&'a CacheFill>, cancel: &'a AtomicBool) -> (Box<SampleFn<'a>>, usize) {
+/// The method's sampler and its number of layers: `path`'s radiance without photon maps; with them,
+/// the terms of the split, soft indirect light read from `cache` when there is one (which grows
+/// between rounds where samples find no record, except a one-pass cache).
+pub fn sampler<'a>(scene: &'a Scene, plan: &'a Plan, photons: Option<&'a PhotonData<'a>>, cache: Option<&'a mut CacheFill>, cancel: &'a AtomicBool) -> (Box<dyn Sampler + 'a>, usize) {
     let Some(photons) = photons else { return (path_sample(scene, &plan.camera), 1) };
-    let source = match (cache, plan.method) {
-        (Some(c), _) => IndirectSource::Cache(&c.cache),
-        (None, Method::PmFg) => IndirectSource::Gather,
-        _ => IndirectSource::PhotonMap,
-    };
-    let ctx = plan.pm_context(scene, photons, source, cancel);
-    (pm_sample(ctx, &plan.camera, cache.and_then(|c| c.one_pass.as_ref())), term_names(scene.media.is_some()).len())
+    let n_layers = term_names(scene.media.is_some()).len();
+    let ctx = plan.pm_context(scene, photons, IndirectSource::PhotonMap, cancel);
+    match cache {
+        Some(fill) if fill.one_pass.is_none() => (Box::new(GrowingCache { ctx, plan, fill, grown: GrowStats::default() }), n_layers),
+        Some(fill) => {
+            let fill: &'a CacheFill = fill;
+            let ctx = PmContext { source: IndirectSource::Cache(&fill.cache), ..ctx };
+            (pm_sample(ctx, &plan.camera, fill.one_pass.as_ref()), n_layers)
+        }
+        None => {
+            let source = if plan.method == Method::PmFg { IndirectSource::Gather } else { IndirectSource::PhotonMap };
+            (pm_sample(PmContext { source, ..ctx }, &plan.camera, None), n_layers)
+        }
+    }
 }
 
-fn path_sample<'a>(scene: &'a Scene, camera: &'a Camera) -> Box<SampleFn<'a>> {
+/// `pm` reading its (two-pass) cache: each sample looks records up; between rounds, the samples that
+/// found none get records of their own, made as pass A makes them (see [`render_tiles`]).
+struct GrowingCache<'a> {
+    /// Everything but the cache, which `sample` lends it.
+    ctx: PmContext<'a>,
+    plan: &'a Plan,
+    fill: &'a mut CacheFill,
+    grown: GrowStats,
+}
+
+impl Sampler for GrowingCache<'_> {
+    fn sample(&self, x: u32, y: u32, off: [f32; 2], memo: &mut PixelMemo, rng: &mut Rng, c: &mut SampleCounters) -> Vec<Vec3> {
+        let ctx = PmContext { source: IndirectSource::Cache(&self.fill.cache), ..self.ctx };
+        let d = self.plan.camera.ray(x as f32 + off[0], y as f32 + off[1]);
+        ctx.shade(self.plan.camera.eye, d, Some(memo), rng, c).to_layers(self.ctx.scene.media.is_some())
+    }
+
+    fn adds_records(&self) -> bool {
+        true
+    }
+
+    fn add_records(&mut self, missed: &[MissedSample]) -> Result<bool> {
+        let (ctx, camera) = (self.ctx, &self.plan.camera);
+        let pixels: Vec<(u32, u32)> = missed.chunk_by(|a, b| (a.x, a.y) == (b.x, b.y)).map(|m| (m[0].x, m[0].y)).collect();
+        let points = |x: u32, y: u32| {
+            let from = missed.partition_point(|m| (m.y, m.x) < (y, x));
+            let offsets: Vec<[f32; 2]> = missed[from..].iter().take_while(|m| (m.x, m.y) == (x, y)).map(|m| m.offset).collect();
+            sample_hits(&ctx, camera, x, y, &offsets)
+        };
+        // Seeds apart from pass A's gathers at the same pixel, and from earlier rounds'.
+        let first = (self.grown.rounds as usize + 1) << 16;
+        let gather = |x, y, i, sp: &ShadingPoint, hit: &Hit| gather_record(&ctx, x, y, first + i, sp, hit);
+        let (fill, counters) = icache::fill_pixels_cancellable(&mut self.fill.cache, self.plan.width, self.plan.height, &pixels, &points, &gather, ctx.cancel);
+        self.grown.rounds += 1;
+        self.grown.fill += fill;
+        self.grown.counters += counters;
+        Ok(fill.insert.n_inserted > 0)
+    }
+
+    fn grown(&self) -> GrowStats {
+        self.grown
+    }
+}
+
+fn path_sample<'a>(scene: &'a Scene, camera: &'a Camera) -> Box<dyn Sampler + 'a> {
     let max_depth = scene.settings.max_depth;
     Box::new(move |x: u32, y: u32, off: [f32; 2], _: &mut PixelMemo, rng: &mut Rng, c: &mut SampleCounters| -> Vec<Vec3> {
         let d = camera.ray(x as f32 + off[0], y as f32 + off[1]);
@@ -52,7 +110,7 @@ fn path_sample<'a>(scene: &'a Scene, camera: &'a Camera) -> Box<SampleFn<'a>> {
 }
 
 /// With a one-pass cache, each pixel sees only the records made before the fill reached it.
-fn pm_sample<'a>(ctx: PmContext<'a>, camera: &'a Camera, one_pass: Option<&'a icache::OnePassFill>) -> Box<SampleFn<'a>> {
+fn pm_sample<'a>(ctx: PmContext<'a>, camera: &'a Camera, one_pass: Option<&'a icache::OnePassFill>) -> Box<dyn Sampler + 'a> {
     let media = ctx.scene.media.is_some();
     Box::new(move |x: u32, y: u32, off: [f32; 2], memo: &mut PixelMemo, rng: &mut Rng, c: &mut SampleCounters| -> Vec<Vec3> {
         let d = camera.ray(x as f32 + off[0], y as f32 + off[1]);

@@ -6,7 +6,7 @@ use std::time::Instant;
 
 use icache::{CacheStats, IrradianceCache};
 
-use super::tiles::SampleCount;
+use super::tiles::{GrowStats, SampleCount};
 use super::Plan;
 use crate::integrator::atlas::AtlasStats;
 use crate::integrator::photons::PhotonData;
@@ -80,6 +80,8 @@ pub struct ShadeStats {
     pub time_s: f64,
     pub counters: SampleCounters,
     pub samples: SampleCount,
+    /// Records made between rounds for samples that found none.
+    pub grown: GrowStats,
 }
 
 impl RenderStats {
@@ -173,7 +175,7 @@ impl RenderStats {
             if f.n_loaded > 0 {
                 r.count("Irradiance cache", "Records loaded from file", "icache.records_loaded", f.n_loaded);
             }
-            cache_rows(r, cs, &f.fill, fill.gather_rays + shade.gather_rays);
+            cache_rows(r, cs, &f.fill, fill.gather_rays + shade.gather_rays, &self.shade);
         }
         r.count("Final gather", "Gathers", "gather.gathers", fill.gathers + shade.gathers);
         r.count("Final gather", "Gather rays", "gather.rays", fill.gather_rays + shade.gather_rays);
@@ -240,9 +242,12 @@ fn photon_rows(r: &mut Report, p: &PhotonStats) {
     }
 }
 
-fn cache_rows(r: &mut Report, s: &CacheStats, fill: &icache::FillStats, gather_rays: u64) {
+fn cache_rows(r: &mut Report, s: &CacheStats, fill: &icache::FillStats, gather_rays: u64, shade: &ShadeStats) {
     r.count("Irradiance cache", "Records created in pass A", "icache.records_pass_a", s.records_pass_a);
-    r.count("Irradiance cache", "Records created in pass B", "icache.records_pass_b", s.records_pass_b);
+    r.count("Irradiance cache", "Records created in pass B (between rounds, for missed samples)", "icache.records_pass_b", s.records_pass_b);
+    r.count("Irradiance cache", "Pass-B rounds that made records", "icache.rounds_with_records", shade.grown.rounds);
+    r.count("Irradiance cache", "Pass-B samples taken again with the new records", "icache.samples_redone", shade.samples.redone);
+    r.count("Irradiance cache", "Pass-B pixel rounds taken again", "icache.pixel_rounds_redone", shade.samples.redone_pixels);
     r.count("Irradiance cache", "Lookups", "icache.lookups", s.lookups);
     r.count("Irradiance cache", "Pass-B lookups", "icache.lookups_pass_b", s.lookups_pass_b);
     r.count("Irradiance cache", "Pass-B misses (no record interpolates)", "icache.misses_pass_b", s.misses_pass_b);

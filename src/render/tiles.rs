@@ -54,6 +54,52 @@ impl Window {
 /// `memo` is the pixel's, cleared before each round of its samples.
 pub type SampleFn<'a> = dyn Fn(u32, u32, [f32; 2], &mut PixelMemo, &mut Rng, &mut SampleCounters) -> Vec<Vec3> + Sync + 'a;
 
+/// A sample whose shading found no cache record for a surface it reached (a pass-B miss).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MissedSample {
+    pub x: u32,
+    pub y: u32,
+    pub offset: [f32; 2],
+}
+
+/// What a method computes per sample ([`SampleFn`]) and, for a method that reads a cache it can grow
+/// (`pm`), the records it makes between rounds for the samples that missed.
+pub trait Sampler: Sync {
+    fn sample(&self, x: u32, y: u32, offset: [f32; 2], memo: &mut PixelMemo, rng: &mut Rng, c: &mut SampleCounters) -> Vec<Vec3>;
+
+    /// Whether [`Self::add_records`] can make any (then each round keeps what it needs to take a
+    /// pixel's samples again).
+    fn adds_records(&self) -> bool {
+        false
+    }
+
+    /// Records for the round's missed samples (in pixel order); true when it made any, and the pixels
+    /// of those samples then take the round's samples again.
+    fn add_records(&mut self, _missed: &[MissedSample]) -> Result<bool> {
+        Ok(false)
+    }
+
+    /// What [`Self::add_records`] did over the render.
+    fn grown(&self) -> GrowStats {
+        GrowStats::default()
+    }
+}
+
+/// Records made between rounds for missed samples: the fills' statistics and their gathers' counters.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct GrowStats {
+    /// Rounds after which records were made.
+    pub rounds: u64,
+    pub fill: icache::FillStats,
+    pub counters: SampleCounters,
+}
+
+impl<F: Fn(u32, u32, [f32; 2], &mut PixelMemo, &mut Rng, &mut SampleCounters) -> Vec<Vec3> + Sync + ?Sized> Sampler for F {
+    fn sample(&self, x: u32, y: u32, offset: [f32; 2], memo: &mut PixelMemo, rng: &mut Rng, c: &mut SampleCounters) -> Vec<Vec3> {
+        self(x, y, offset, memo, rng, c)
+    }
+}
+
 /// How many samples each pixel takes.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Sampling {
@@ -116,6 +162,10 @@ pub struct SampleCount {
     pub pixels: u64,
     /// Pixels that took the most samples allowed without meeting the noise target.
     pub at_limit: u64,
+    /// Samples taken again, after records were made for a miss of their pixel's round.
+    pub redone: u64,
+    /// Pixels whose round was taken again (once per round).
+    pub redone_pixels: u64,
 }
 
 /// One pixel's running sums (besides its layers').
@@ -161,6 +211,22 @@ struct TileState {
     /// reuse the soft indirect light its first round computed: on Sibenik 500² the rounds made
     /// adaptive sampling cost 1.5× per sample what fixed sampling does).
     memos: Vec<PixelMemo>,
+    /// This round's pixels that missed, as they stood before it (when the sampler adds records).
+    redo: Vec<Redo>,
+}
+
+/// Layers a pixel's state before a round can hold (the photon-map methods have 5, or 7 with media).
+const MAX_LAYERS: usize = 8;
+
+/// A pixel as it stood before a round in which some sample missed, to take the round again.
+struct Redo {
+    k: usize,
+    sums: PixelSums,
+    layers: [Vec3; MAX_LAYERS],
+    memo_len: usize,
+    /// The round's samples as first taken: what they counted, and where they missed.
+    counters: SampleCounters,
+    missed: Vec<[f32; 2]>,
 }
 
 /// Sample counts of the rounds: 4, 8, 16, … up to `spp` (one round of `spp` without a noise target).
@@ -182,8 +248,11 @@ fn rounds(spp: u32, adaptive: bool) -> Vec<u32> {
 /// goes on if it, or any of its 8 neighbours, has not [`converged`]. Looking at the neighbours catches
 /// what one pixel's few samples can miss — a sub-pixel slat, the edge of a shadow — when the next pixel
 /// has seen it; each round's decisions read only the previous rounds' sums, so the image does not depend
-/// on the thread count. `progress` is called with a number of pixels (rounds count as fractions of the
-/// window); `cancel` (read before every sample) stops early with `Interrupted`.
+/// on the thread count. After each round, a sampler that [`Sampler::adds_records`] gets the samples whose
+/// lookups missed; when it makes records for them, their pixels take that round's samples again (from
+/// their state before it), now reading those records. `progress` is called with a number of pixels
+/// (rounds count as fractions of the window); `cancel` (read before every sample) stops early with
+/// `Interrupted`.
 #[allow(clippy::too_many_arguments)]
 pub fn render_tiles(
     width: u32,
@@ -192,18 +261,19 @@ pub fn render_tiles(
     sampling: Sampling,
     seed: u64,
     n_layers: usize,
-    sample: &SampleFn,
+    sampler: &mut dyn Sampler,
     progress: &(dyn Fn(u64) + Sync),
     cancel: &AtomicBool,
 ) -> Result<(Vec<Image>, SampleCounters, SampleCount)> {
     let spp = sampling.spp.max(1);
     let adaptive = sampling.noise > 0.0 && spp > MIN_ADAPTIVE_SPP;
+    let keep_redo = sampler.adds_records() && n_layers <= MAX_LAYERS;
     let mut tiles = Vec::new();
     for ty in (window.y0..window.y1).step_by(TILE as usize) {
         for tx in (window.x0..window.x1).step_by(TILE as usize) {
             let w = Window { x0: tx, y0: ty, x1: (tx + TILE).min(window.x1), y1: (ty + TILE).min(window.y1) };
             let n = w.n_pixels() as usize;
-            tiles.push(TileState { window: w, pixels: vec![PixelSums::default(); n], layers: vec![vec![Vec3::ZERO; n]; n_layers], memos: vec![PixelMemo::default(); n] });
+            tiles.push(TileState { window: w, pixels: vec![PixelSums::default(); n], layers: vec![vec![Vec3::ZERO; n]; n_layers], memos: vec![PixelMemo::default(); n], redo: Vec::new() });
         }
     }
     let (ww, wh) = ((window.x1 - window.x0) as usize, (window.y1 - window.y0) as usize);
@@ -212,8 +282,11 @@ pub fn render_tiles(
     let rounds = rounds(spp, adaptive);
     let done = AtomicU64::new(0);
     let mut total = SampleCounters::default();
+    let mut count = SampleCount::default();
+    let round_of = RoundSpec { width, spp, seed, adaptive };
     for (round, &target) in rounds.iter().enumerate() {
         let active_ref = &active;
+        let sampler_ref: &dyn Sampler = sampler;
         let counters = tiles
             .par_iter_mut()
             // One tile per task: rayon's default splitting leaves ranges of hundreds of tiles that no
@@ -221,39 +294,15 @@ pub fn render_tiles(
             // in a few tiles, ended with one thread idle for up to a second (Sibenik 1000²).
             .with_max_len(1)
             .map(|t| {
-                let mut counters = SampleCounters::default();
                 let w = t.window;
+                let mut counters = SampleCounters::default();
                 for y in w.y0..w.y1 {
                     for x in w.x0..w.x1 {
-                        if cancel.load(Ordering::Relaxed) {
-                            return counters;
-                        }
                         if !active_ref[(y - window.y0) as usize * ww + (x - window.x0) as usize] {
                             continue;
                         }
-                        let k = ((y - w.y0) * (w.x1 - w.x0) + (x - w.x0)) as usize;
-                        let pixel = y as u64 * width as u64 + x as u64;
-                        let px = &mut t.pixels[k];
-                        let memo = &mut t.memos[k];
-                        while px.n < target {
-                            // Read every sample: one relaxed load next to a whole camera path costs
-                            // nothing, and a single pixel at 100 000 spp must stop at once.
-                            if cancel.load(Ordering::Relaxed) {
-                                return counters;
-                            }
-                            let mut rng = Rng::new(hash_keys(&[seed, pixel, px.n as u64]));
-                            let (u, v) = (rng.uniform(), rng.uniform());
-                            let values = sample(x, y, offset(px.n, spp, u, v), memo, &mut rng, &mut counters);
-                            let mut b = Vec3::ZERO;
-                            for (layer, l) in t.layers.iter_mut().zip(values) {
-                                let l = sanitize(l, &mut counters);
-                                layer[k] += l;
-                                b += l;
-                            }
-                            if adaptive {
-                                px.add(px.n, spp, b);
-                            }
-                            px.n += 1;
+                        if !round_of.take(t, x, y, target, sampler_ref, keep_redo, &mut counters, cancel) {
+                            return counters;
                         }
                     }
                 }
@@ -268,6 +317,9 @@ pub fn render_tiles(
         total += counters;
         if cancel.load(Ordering::Relaxed) {
             return Err(Error::Interrupted);
+        }
+        if keep_redo {
+            redo_missed(&mut tiles, &round_of, target, sampler, &mut total, &mut count, cancel)?;
         }
         if round + 1 == rounds.len() {
             break;
@@ -302,7 +354,6 @@ pub fn render_tiles(
         }
     }
     let mut images = vec![Image::new(width, height); n_layers];
-    let mut count = SampleCount::default();
     for t in &tiles {
         let w = t.window;
         for y in w.y0..w.y1 {
@@ -319,6 +370,132 @@ pub fn render_tiles(
         }
     }
     Ok((images, total, count))
+}
+
+/// What every round shares: where samples go and how their random numbers are drawn.
+struct RoundSpec {
+    width: u32,
+    spp: u32,
+    seed: u64,
+    adaptive: bool,
+}
+
+impl RoundSpec {
+    /// Pixel (x, y) of tile `t` takes samples until it has `target`; with `keep_redo`, a pixel whose
+    /// samples missed keeps its state from before them (and their counters) in `t.redo` instead of
+    /// adding the counters to `counters`. False when `cancel` stopped it.
+    #[allow(clippy::too_many_arguments)]
+    fn take(&self, t: &mut TileState, x: u32, y: u32, target: u32, sampler: &dyn Sampler, keep_redo: bool, counters: &mut SampleCounters, cancel: &AtomicBool) -> bool {
+        let w = t.window;
+        let k = ((y - w.y0) * (w.x1 - w.x0) + (x - w.x0)) as usize;
+        let before = keep_redo.then(|| {
+            let mut layers = [Vec3::ZERO; MAX_LAYERS];
+            for (l, layer) in layers.iter_mut().zip(&t.layers) {
+                *l = layer[k];
+            }
+            Redo { k, sums: t.pixels[k].clone(), layers, memo_len: t.memos[k].len(), counters: SampleCounters::default(), missed: Vec::new() }
+        });
+        let mut own = SampleCounters::default();
+        let mut missed = Vec::new();
+        let pixel = y as u64 * self.width as u64 + x as u64;
+        let px = &mut t.pixels[k];
+        let memo = &mut t.memos[k];
+        while px.n < target {
+            // Read every sample: one relaxed load next to a whole camera path costs nothing, and a
+            // single pixel at 100 000 spp must stop at once.
+            if cancel.load(Ordering::Relaxed) {
+                *counters += own;
+                return false;
+            }
+            let mut rng = Rng::new(hash_keys(&[self.seed, pixel, px.n as u64]));
+            let (u, v) = (rng.uniform(), rng.uniform());
+            let off = offset(px.n, self.spp, u, v);
+            let misses = own.lookups.n_misses;
+            let values = sampler.sample(x, y, off, memo, &mut rng, &mut own);
+            if own.lookups.n_misses > misses {
+                missed.push(off);
+            }
+            let mut b = Vec3::ZERO;
+            for (layer, l) in t.layers.iter_mut().zip(values) {
+                let l = sanitize(l, &mut own);
+                layer[k] += l;
+                b += l;
+            }
+            if self.adaptive {
+                px.add(px.n, self.spp, b);
+            }
+            px.n += 1;
+        }
+        match before {
+            Some(before) if !missed.is_empty() => t.redo.push(Redo { counters: own, missed, ..before }),
+            _ => *counters += own,
+        }
+        true
+    }
+}
+
+/// After a round: the samples that missed go to the sampler; if it made records for them, their pixels
+/// go back to where they stood before the round and take it again (the first attempt's rays count in
+/// `total`, its lookups do not); otherwise the round stands as taken.
+fn redo_missed(tiles: &mut [TileState], round: &RoundSpec, target: u32, sampler: &mut dyn Sampler, total: &mut SampleCounters, count: &mut SampleCount, cancel: &AtomicBool) -> Result<()> {
+    let mut missed = Vec::new();
+    for t in tiles.iter() {
+        let w = t.window;
+        for r in &t.redo {
+            let (x, y) = (w.x0 + r.k as u32 % (w.x1 - w.x0), w.y0 + r.k as u32 / (w.x1 - w.x0));
+            missed.extend(r.missed.iter().map(|&offset| MissedSample { x, y, offset }));
+        }
+    }
+    if missed.is_empty() {
+        return Ok(());
+    }
+    missed.sort_by_key(|m| (m.y, m.x));
+    let added = sampler.add_records(&missed)?;
+    if !added {
+        for t in tiles.iter_mut() {
+            for r in t.redo.drain(..) {
+                *total += r.counters;
+            }
+        }
+        return Ok(());
+    }
+    for t in tiles.iter_mut() {
+        for r in &t.redo {
+            *total += r.counters.work();
+            count.redone += (target - r.sums.n) as u64;
+            count.redone_pixels += 1;
+            t.pixels[r.k] = r.sums.clone();
+            for (layer, l) in t.layers.iter_mut().zip(r.layers) {
+                layer[r.k] = l;
+            }
+            t.memos[r.k].truncate(r.memo_len);
+        }
+    }
+    let sampler_ref: &dyn Sampler = sampler;
+    let counters = tiles
+        .par_iter_mut()
+        .with_max_len(1)
+        .map(|t| {
+            let mut counters = SampleCounters::default();
+            let redo = std::mem::take(&mut t.redo);
+            let w = t.window;
+            for r in redo {
+                let (x, y) = (w.x0 + r.k as u32 % (w.x1 - w.x0), w.y0 + r.k as u32 / (w.x1 - w.x0));
+                if !round.take(t, x, y, target, sampler_ref, false, &mut counters, cancel) {
+                    break;
+                }
+            }
+            counters
+        })
+        .reduce(SampleCounters::default, |mut a, b| {
+            a += b;
+            a
+        });
+    *total += counters;
+    if cancel.load(Ordering::Relaxed) {
+        return Err(Error::Interrupted);
+    }
+    Ok(())
 }
 
 #[cfg(test)]
