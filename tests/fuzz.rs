@@ -161,7 +161,9 @@ fn nan_in_binary_files_with_a_valid_checksum_is_refused() {
     let d = scene_dir(&[("room.obj", ROOM_OBJ), ("room.mtl", ROOM_MTL), ("scene.toml", &format!("{ROOM_TOML}\n[render.photons]\nglobal = 2000\n"))]);
     let (ph, ic, fp) = saved_files(&d.path().join("scene.toml"));
     // Photon files: every f32 after the 112-byte header is a photon or irradiance-point value.
-    // Cache files: every f32 after the 76-byte header (icache::file::HEADER_BYTES) is a record value.
+    // Cache files: every f32 after the header (icache::file::HEADER_BYTES) and the stages (u32 each, their
+    // count at byte 68) is a record value.
+    let rec0 = icache::file::HEADER_BYTES + 4 * u32::from_le_bytes(ic[68..72].try_into().unwrap()) as usize;
     let mut rng = Rng::new(99);
     for i in 0..iters(300) {
         let bad = [f32::NAN, -f32::NAN, f32::from_bits(0x7fc0_1234)][i % 3];
@@ -169,7 +171,7 @@ fn nan_in_binary_files_with_a_valid_checksum_is_refused() {
         let m = with_float(&ph, at, bad, 8);
         let r = catch_unwind(AssertUnwindSafe(|| photon::file::read_maps(&m, fp).is_err()));
         assert_eq!(r.ok(), Some(true), "NaN at photon-file byte {at} accepted (or panicked)");
-        let at = 76 + 4 * (rng.next_u32() as usize % ((ic.len() - 84) / 4));
+        let at = rec0 + 4 * (rng.next_u32() as usize % ((ic.len() - rec0 - 8) / 4));
         let m = with_float(&ic, at, bad, 0);
         let r = catch_unwind(AssertUnwindSafe(|| icache::IrradianceCache::from_bytes(&m, fp).is_err()));
         assert_eq!(r.ok(), Some(true), "NaN at cache-file byte {at} accepted (or panicked)");

@@ -406,14 +406,16 @@ fn photon_and_cache_files_with_bad_values_are_refused() {
         refused(d.path(), &p(d.path(), "scene.toml"), &["--method", "pm", "--load-photons", &p(d.path(), "bad.phot")], &["--load-photons", expect]);
         std::fs::remove_file(d.path().join("bad.phot")).unwrap();
     }
-    // Cache layout (version 2): 44-byte prefix, bounds min and max (6 f32) at 44, count, records of 33 f32
-    // from 76.
+    // Cache layout (version 3): 44-byte prefix, bounds min and max (6 f32) at 44, stage count u32 at 68,
+    // record count, the stages (u32 each) from 80, then records of 33 f32.
+    let n_stages = u32::from_le_bytes(cache[68..72].try_into().unwrap()) as usize;
+    let rec0 = icache::file::HEADER_BYTES + 4 * n_stages;
     let cache_cases: [(&[(usize, f32)], &str); 5] = [
         (&[(44, -3e38), (56, 3e38)], "bounds"),
         (&[(48, f32::NAN)], "bounds"),
-        (&[(76 + 24, f32::NAN)], "record 0"),
-        (&[(76 + 24, -1.0)], "record 0"),
-        (&[(76 + 12, 5.0)], "record 0"),
+        (&[(rec0 + 24, f32::NAN)], "record 0"),
+        (&[(rec0 + 24, -1.0)], "record 0"),
+        (&[(rec0 + 12, 5.0)], "record 0"),
     ];
     for (edits, expect) in cache_cases {
         let bad = patched(&cache, edits, 0);

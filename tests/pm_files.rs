@@ -83,3 +83,39 @@ fn damaged_and_mismatched_files_are_input_errors() {
     assert!(stderr.contains("--load-photons"), "{stderr}");
     assert!(!Path::new(&room_out).exists());
 }
+
+/// A cache whose pass B made records (the blinds room's sub-pixel slats) replays them: loaded, each
+/// round reads the records it read when the cache was made, so the render is the same again, and a crop
+/// (at fixed spp: adaptive sampling's edge pixels look at neighbours outside the window) equals the same
+/// pixels of the full render.
+#[test]
+fn a_cache_with_pass_b_records_reproduces_the_render() {
+    let d = tempfile::tempdir().unwrap();
+    let scene = repo().join("scenes/blinds-room.toml");
+    let (ph, cache) = (p(d.path(), "maps.phot"), p(d.path(), "cache.ic"));
+    let render = |name: &str, extra: &[&str]| {
+        let (out, stats) = (d.path().join(format!("{name}.exr")), d.path().join(format!("{name}.json")));
+        let mut args = vec!["render", scene.to_str().unwrap(), "-o", out.to_str().unwrap(), "--stats", stats.to_str().unwrap(), "--width", "64", "--height", "48", "--quiet"];
+        args.extend_from_slice(extra);
+        let r = run(&args);
+        assert!(r.status.success(), "{name}: {}", String::from_utf8_lossy(&r.stderr));
+        let j: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap();
+        (std::fs::read(&out).unwrap(), j["icache"]["records_pass_b"].as_u64().unwrap())
+    };
+    for spp in [&["--spp", "8", "--noise", "0"][..], &["--spp", "16"][..]] {
+        let (full, records) = render("full", &[spp, &["--save-photons", &ph, "--save-cache", &cache]].concat());
+        assert!(records > 0, "the test needs pass-B records");
+        let (again, _) = render("again", &[spp, &["--load-photons", &ph, "--load-cache", &cache]].concat());
+        assert!(full == again, "{spp:?}: the render with the loaded cache differs");
+    }
+    let fixed = ["--spp", "8", "--noise", "0", "--load-photons", &ph, "--load-cache", &cache];
+    render("full", &["--spp", "8", "--noise", "0", "--save-photons", &ph, "--save-cache", &cache]);
+    render("crop", &[&fixed[..], &["--crop", "10", "12", "50", "40"]].concat());
+    let (a, b) = (read(&d.path().join("full.exr")), read(&d.path().join("crop.exr")));
+    for y in 12..40 {
+        for x in 10..50 {
+            let i = (y * 64 + x) as usize;
+            assert_eq!(a.pixels[i], b.pixels[i], "pixel ({x}, {y})");
+        }
+    }
+}

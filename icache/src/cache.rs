@@ -62,6 +62,11 @@ pub struct IrradianceCache {
     /// the record's radii before it, for the fill's repair sweeps (only points that a record could
     /// interpolate before a shrink and cannot after it can have lost their cover).
     pub(crate) shrink_log: Option<Vec<Shrink>>,
+    /// Records below this id keep their radii: insertions neither clamp nor shrink them (set by
+    /// [`Self::freeze`]).
+    pub(crate) frozen: usize,
+    /// The record count at the end of each stage of the fill ([`Self::end_stage`]).
+    pub(crate) stages: Vec<u32>,
 }
 
 /// A record's radii before one of its shrinks.
@@ -96,7 +101,28 @@ impl IrradianceCache {
             scratch: Vec::new(),
             indexed: Vec::new(),
             shrink_log: None,
+            frozen: 0,
+            stages: Vec::new(),
         })
+    }
+
+    /// From now on the records there are keep their radii: later insertions clamp themselves against
+    /// them but shrink none of them (neighbor clamping and adaptive caching act on the later records
+    /// only), so a lookup over the first [`len`](Self::len) records gives what it gives now.
+    pub fn freeze(&mut self) {
+        self.frozen = self.records.len();
+    }
+
+    /// Ends a stage of the fill — pass A, or a round of pass B, whether or not it made records — noting
+    /// the record count. With frozen records, [`Self::lookup_first`] over a stage's count is the cache as
+    /// it stood then, also in a cache read from a file: a render with it takes the same samples.
+    pub fn end_stage(&mut self) {
+        self.stages.push(self.records.len() as u32);
+    }
+
+    /// The record count at the end of each stage so far.
+    pub fn stages(&self) -> &[u32] {
+        &self.stages
     }
 
     pub fn params(&self) -> &CacheParams {
@@ -194,7 +220,7 @@ impl IrradianceCache {
             let deviant = used
                 .iter()
                 .filter(|(_, li)| (li - mean).abs() > tau * mean)
-                .filter(|(id, _)| self.can_shrink_adaptive(&self.records[*id as usize]))
+                .filter(|(id, _)| self.can_shrink_adaptive(*id))
                 .max_by(|a, b| (a.1 - mean).abs().total_cmp(&(b.1 - mean).abs()).then(b.0.cmp(&a.0)));
             match deviant {
                 Some(&(id, _)) if used.len() > 1 => (None, Some(id)),

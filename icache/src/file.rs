@@ -1,8 +1,9 @@
 //! Cache files: a second render of the same scene (another view, crop or machine) reuses the records.
 //!
 //! Layout, little-endian: magic `PMICACHE`, version u32, scene fingerprint u64 (the caller's hash of
-//! whatever makes records valid), parameters, index bounds, record count u64, records (33 × f32 each),
-//! then FNV-1a 64 of every preceding byte. Lengths are checked against the count before anything is
+//! whatever makes records valid), parameters, index bounds, stage count u32, record count u64, the stages
+//! (u32 each: the record count after pass A and after each round of pass B; see
+//! [`IrradianceCache::stages`]), records (33 × f32 each), then FNV-1a 64 of every preceding byte. Lengths are checked against the count before anything is
 //! allocated, and every field is validated, so a bad file is an error, never a panic.
 #![forbid(unsafe_code)]
 
@@ -16,13 +17,15 @@ use crate::params::{CacheParams, Weighting};
 use crate::record::{Record, RECORD_FLOATS};
 
 const MAGIC: &[u8; 8] = b"PMICACHE";
-pub const FILE_VERSION: u32 = 2;
-/// magic 8 + version 4 + fingerprint 8 + params 24 + bounds 24 + count 8.
-pub const HEADER_BYTES: usize = 76;
+pub const FILE_VERSION: u32 = 3;
+/// magic 8 + version 4 + fingerprint 8 + params 24 + bounds 24 + stage count 4 + record count 8.
+pub const HEADER_BYTES: usize = 80;
+/// Most stages a file holds (pass A and the rounds of pass B: 4, 8, 16, … samples up to 100 000).
+pub const MAX_STAGES: usize = 64;
 const RECORD_BYTES: usize = RECORD_FLOATS * 4;
 const CHECKSUM_BYTES: usize = 8;
 /// Largest cache file read: 32 million records (a cache holds thousands to a few million).
-pub const MAX_FILE_BYTES: u64 = HEADER_BYTES as u64 + (32 << 20) * RECORD_BYTES as u64 + CHECKSUM_BYTES as u64;
+pub const MAX_FILE_BYTES: u64 = HEADER_BYTES as u64 + 4 * MAX_STAGES as u64 + (32 << 20) * RECORD_BYTES as u64 + CHECKSUM_BYTES as u64;
 
 /// FNV-1a, 64 bit.
 pub fn fnv1a64(bytes: &[u8]) -> u64 {
@@ -129,7 +132,7 @@ fn record_problem(r: &Record) -> Option<&'static str> {
 impl IrradianceCache {
     /// Serialise the cache; `fingerprint` identifies the scene the records belong to.
     pub fn to_bytes(&self, fingerprint: u64) -> Vec<u8> {
-        let mut out = Vec::with_capacity(HEADER_BYTES + self.records.len() * RECORD_BYTES + CHECKSUM_BYTES);
+        let mut out = Vec::with_capacity(HEADER_BYTES + 4 * MAX_STAGES + self.records.len() * RECORD_BYTES + CHECKSUM_BYTES);
         out.extend_from_slice(MAGIC);
         out.extend_from_slice(&FILE_VERSION.to_le_bytes());
         out.extend_from_slice(&fingerprint.to_le_bytes());
@@ -137,7 +140,10 @@ impl IrradianceCache {
         for v in [self.bounds.0, self.bounds.1] {
             v.to_array().iter().for_each(|f| out.extend_from_slice(&f.to_le_bytes()));
         }
+        let stages = &self.stages[..self.stages.len().min(MAX_STAGES)];
+        out.extend_from_slice(&(stages.len() as u32).to_le_bytes());
         out.extend_from_slice(&(self.records.len() as u64).to_le_bytes());
+        stages.iter().for_each(|n| out.extend_from_slice(&n.to_le_bytes()));
         for r in &self.records {
             r.to_floats().iter().for_each(|f| out.extend_from_slice(&f.to_le_bytes()));
         }
@@ -168,8 +174,12 @@ impl IrradianceCache {
         if bytes.len() < HEADER_BYTES + CHECKSUM_BYTES {
             return Err(truncated("header", (HEADER_BYTES + CHECKSUM_BYTES) as u64));
         }
+        let n_stages = u32::from_le_bytes(bytes[HEADER_BYTES - 12..HEADER_BYTES - 8].try_into().expect("4 bytes")) as usize;
+        if n_stages > MAX_STAGES {
+            return Err(Error::InvalidParams(format!("{n_stages} stages in cache file (at most {MAX_STAGES})")));
+        }
         let count = u64::from_le_bytes(bytes[HEADER_BYTES - 8..HEADER_BYTES].try_into().expect("8 bytes"));
-        let needed = (count as u128) * RECORD_BYTES as u128 + (HEADER_BYTES + CHECKSUM_BYTES) as u128;
+        let needed = (count as u128) * RECORD_BYTES as u128 + (HEADER_BYTES + 4 * n_stages + CHECKSUM_BYTES) as u128;
         if needed != available as u128 {
             return Err(truncated("records", needed.min(u64::MAX as u128) as u64));
         }
@@ -186,7 +196,12 @@ impl IrradianceCache {
         let params = read_params(&mut c)?;
         let (lo, hi) = (c.vec3(), c.vec3());
         let mut cache = IrradianceCache::new(lo, hi, params)?;
-        c.u64(); // count, read above
+        c.u32(); // stage count, read above
+        c.u64(); // record count, read above
+        let stages: Vec<u32> = (0..n_stages).map(|_| c.u32()).collect();
+        if stages.windows(2).any(|w| w[0] > w[1]) || stages.last().is_some_and(|&n| n as u64 > count) {
+            return Err(Error::InvalidParams(format!("cache file stages {stages:?} are not record counts in order (of {count})")));
+        }
         cache.records.reserve_exact(count as usize);
         for index in 0..count {
             let mut floats = [0f32; RECORD_FLOATS];
@@ -197,6 +212,8 @@ impl IrradianceCache {
             }
             cache.push_raw(rec);
         }
+        cache.stages = stages;
+        cache.frozen = cache.len();
         Ok(cache)
     }
 

@@ -20,9 +20,18 @@ fn sample_cache() -> IrradianceCache {
         let mut rec = new_rec(p, Vec3::Z, Vec3::splat(rng.uniform()), r, 0.01);
         rec.grad_t = [Vec3::X * 0.01; 3];
         c.insert(rec);
+        if i == 149 {
+            // Pass A ends; a round of pass B adds the rest.
+            c.end_stage();
+            c.freeze();
+        }
     }
+    c.end_stage();
     c
 }
+
+/// Bytes before the first record: the header and the sample cache's two stages.
+const RECORDS_AT: usize = crate::file::HEADER_BYTES + 8;
 
 /// Rewrite the trailing checksum so a deliberate edit reaches the field validation.
 fn reseal(bytes: &mut [u8]) {
@@ -43,6 +52,7 @@ fn round_trip_is_exact() {
     assert_eq!(c.params(), d.params());
     assert_eq!(c.bounds(), d.bounds());
     assert_eq!(c.len(), d.len());
+    assert_eq!((c.stages(), d.stages()), (&[150, 200][..], &[150, 200][..]));
     for (a, b) in c.records().iter().zip(d.records()) {
         assert_eq!(a.to_bits(), b.to_bits());
     }
@@ -81,13 +91,26 @@ fn damaged_files_give_clear_errors() {
 
     // A huge record count is caught by the length check before any allocation.
     let mut bad = good.clone();
-    bad[68..76].copy_from_slice(&u64::MAX.to_le_bytes());
+    bad[72..80].copy_from_slice(&u64::MAX.to_le_bytes());
     reseal(&mut bad);
     assert!(matches!(IrradianceCache::from_bytes(&bad, FP), Err(Error::Truncated { .. })));
 
+    // Stages: too many, out of order, past the record count.
+    let mut bad = good.clone();
+    bad[68..72].copy_from_slice(&u32::MAX.to_le_bytes());
+    reseal(&mut bad);
+    assert!(matches!(IrradianceCache::from_bytes(&bad, FP), Err(Error::InvalidParams(_))));
+    for stages in [[160u32, 150], [150, 201]] {
+        let mut bad = good.clone();
+        bad[80..84].copy_from_slice(&stages[0].to_le_bytes());
+        bad[84..88].copy_from_slice(&stages[1].to_le_bytes());
+        reseal(&mut bad);
+        assert!(matches!(IrradianceCache::from_bytes(&bad, FP), Err(Error::InvalidParams(_))), "{stages:?}");
+    }
+
     // A NaN inside a record, with a valid checksum.
     let mut bad = good.clone();
-    bad[76 + 132 + 24..76 + 132 + 28].copy_from_slice(&f32::NAN.to_le_bytes()); // record 1, e.x
+    bad[RECORDS_AT + 132 + 24..RECORDS_AT + 132 + 28].copy_from_slice(&f32::NAN.to_le_bytes()); // record 1, e.x
     reseal(&mut bad);
     assert!(matches!(IrradianceCache::from_bytes(&bad, FP), Err(Error::CorruptRecord { index: 1, .. })));
 

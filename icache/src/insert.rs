@@ -102,6 +102,9 @@ impl IrradianceCache {
     /// Adaptive caching: halve record `id`'s R' (never below its plain pixel spacing bound), logging
     /// its old reach for the repair sweeps. False when it is already there.
     pub(crate) fn shrink_adaptive(&mut self, id: u32) -> bool {
+        if (id as usize) < self.frozen {
+            return false;
+        }
         let params = self.params;
         let rec = &mut self.records[id as usize];
         let floor = spacing_bounds(&params, rec.pixel_world).0;
@@ -119,8 +122,9 @@ impl IrradianceCache {
     }
 
     /// Whether record `id` can still be shrunk by adaptive caching.
-    pub(crate) fn can_shrink_adaptive(&self, rec: &Record) -> bool {
-        rec.r_clamped > 1.001 * spacing_bounds(&self.params, rec.pixel_world).0
+    pub(crate) fn can_shrink_adaptive(&self, id: u32) -> bool {
+        let rec = &self.records[id as usize];
+        id as usize >= self.frozen && rec.r_clamped > 1.001 * spacing_bounds(&self.params, rec.pixel_world).0
     }
 
     /// Add a gather result as a new record (see the module header for the steps).
@@ -211,7 +215,7 @@ impl IrradianceCache {
             }
             self.index.query_sphere(rec_k.pos, rec_k.r_clamped, &mut ids);
             for &m in &ids {
-                if m == k {
+                if m == k || (m as usize) < self.frozen {
                     continue;
                 }
                 let rec_m = &mut self.records[m as usize];

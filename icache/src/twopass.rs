@@ -125,8 +125,10 @@ pub fn fill_pass_a_cancellable<P: Clone + Send + Sync, S: Default + AddAssign + 
 
 /// More records where shading found none: the shading points of `pixels` (in any order; visited in the
 /// hierarchical order, so their gathers spread over the image) filled as pass A fills the image's —
-/// looked up, gathered where uncovered, in waves, then repaired — against the cache as it is. Between
-/// rounds of shading (`pm`'s pass B), with the points its samples missed; deterministic as pass A is.
+/// looked up, gathered where uncovered, in waves, then repaired — against the cache as it is, whose
+/// records are [frozen](IrradianceCache::freeze) first (the new ones shrink none of them, so no point
+/// they covered loses its cover). Between rounds of shading (`pm`'s pass B), with the points its samples
+/// missed; deterministic as pass A is.
 pub fn fill_pixels_cancellable<P: Clone + Send + Sync, S: Default + AddAssign + Send>(
     cache: &mut IrradianceCache,
     width: u32,
@@ -143,6 +145,7 @@ pub fn fill_pixels_cancellable<P: Clone + Send + Sync, S: Default + AddAssign + 
         }
     }
     let order = HierarchicalOrder::new(width, height).filter(move |&(x, y)| wanted[(y * width + x) as usize]);
+    cache.freeze();
     fill_in_order(cache, width, height, order, pixels.len() as u64, shading_points, gather, &|_, _| {}, cancel)
 }
 

@@ -46,6 +46,9 @@ pub struct PmContext<'a> {
     pub seed: u64,
     /// Interrupt flag: a final gather that sees it set stops tracing (its result is then discarded).
     pub cancel: &'a AtomicBool,
+    /// A pass-B lookup that finds no record is counted and answered with zero, without the fallbacks:
+    /// the sample is taken again once records are made for it (see `render::tiles`).
+    pub defer_misses: bool,
 }
 
 /// A caustic irradiance at most this fraction of the soft indirect one is reused within a pixel (see
@@ -238,12 +241,16 @@ impl PmContext<'_> {
 
     /// A pass-B cache lookup's irradiance; where no record interpolates, records of the same reach whose
     /// normal differs more (a curved silhouette) extrapolate; only where there is none either, this sample
-    /// gathers for itself, creating no record (a miss, counted).
+    /// gathers for itself, creating no record (a miss, counted). With `defer_misses`, a miss is counted
+    /// and answers zero: the sample will be taken again.
     fn cached(&self, lookup: impl Fn(Pass) -> Option<icache::Lookup>, hit: &Hit, frame: &Frame, rng: &mut Rng, c: &mut SampleCounters) -> Vec3 {
         let found = lookup(Pass::B);
         c.lookups.record(found.as_ref());
         if let Some(l) = found {
             return l.e;
+        }
+        if self.defer_misses {
+            return Vec3::ZERO;
         }
         match lookup(Pass::Extrapolate) {
             Some(l) => {

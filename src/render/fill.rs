@@ -41,6 +41,7 @@ pub fn fill_cache(scene: &Scene, plan: &Plan, photons: &PhotonData, progress: &d
     let (fill, counters, one_pass) = match scene.settings.icache.fill {
         FillMode::TwoPass => {
             let (fill, counters) = icache::fill_pass_a_cancellable(&mut cache, w, h, &points, &gather, &report_progress, cancel);
+            cache.end_stage();
             (fill, counters, None)
         }
         FillMode::OnePass => {

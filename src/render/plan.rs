@@ -45,7 +45,7 @@ impl Plan {
 
     /// The photon-map methods' integrator, reading soft indirect light from `source`.
     pub fn pm_context<'a>(&self, scene: &'a Scene, photons: &'a PhotonData<'a>, source: IndirectSource<'a>, cancel: &'a AtomicBool) -> PmContext<'a> {
-        PmContext { scene, photons, source, gather: self.gather, max_depth: scene.settings.max_depth, seed: self.seed, cancel }
+        PmContext { scene, photons, source, gather: self.gather, max_depth: scene.settings.max_depth, seed: self.seed, cancel, defer_misses: false }
     }
 }
 

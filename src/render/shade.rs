@@ -44,7 +44,7 @@ pub fn sampler<'a>(scene: &'a Scene, plan: &'a Plan, photons: Option<&'a PhotonD
     let n_layers = term_names(scene.media.is_some()).len();
     let ctx = plan.pm_context(scene, photons, IndirectSource::PhotonMap, cancel);
     match cache {
-        Some(fill) if fill.one_pass.is_none() => (Box::new(GrowingCache { ctx, plan, fill, grown: GrowStats::default() }), n_layers),
+        Some(fill) if fill.one_pass.is_none() => (Box::new(GrowingCache::new(ctx, plan, fill)), n_layers),
         Some(fill) => {
             let fill: &'a CacheFill = fill;
             let ctx = PmContext { source: IndirectSource::Cache(&fill.cache), ..ctx };
@@ -58,18 +58,34 @@ pub fn sampler<'a>(scene: &'a Scene, plan: &'a Plan, photons: Option<&'a PhotonD
 }
 
 /// `pm` reading its (two-pass) cache: each sample looks records up; between rounds, the samples that
-/// found none get records of their own, made as pass A makes them (see [`render_tiles`]).
+/// found none get records of their own, made as pass A makes them (see [`render_tiles`]). Each round
+/// reads the records of the stages before it ([`icache::IrradianceCache::stages`]): with a cache read
+/// from a file, the stages it holds are replayed (the rounds read what they read when it was made, so a
+/// crop equals the same pixels of the full render), and records are made only past them.
 struct GrowingCache<'a> {
     /// Everything but the cache, which `sample` lends it.
     ctx: PmContext<'a>,
     plan: &'a Plan,
     fill: &'a mut CacheFill,
     grown: GrowStats,
+    /// Records the current round reads, and its index.
+    view: usize,
+    round: usize,
+}
+
+impl<'a> GrowingCache<'a> {
+    fn new(ctx: PmContext<'a>, plan: &'a Plan, fill: &'a mut CacheFill) -> Self {
+        if fill.cache.stages().is_empty() {
+            fill.cache.end_stage();
+        }
+        let view = fill.cache.stages()[0] as usize;
+        GrowingCache { ctx, plan, fill, grown: GrowStats::default(), view, round: 0 }
+    }
 }
 
 impl Sampler for GrowingCache<'_> {
-    fn sample(&self, x: u32, y: u32, off: [f32; 2], memo: &mut PixelMemo, rng: &mut Rng, c: &mut SampleCounters) -> Vec<Vec3> {
-        let ctx = PmContext { source: IndirectSource::Cache(&self.fill.cache), ..self.ctx };
+    fn sample(&self, x: u32, y: u32, off: [f32; 2], memo: &mut PixelMemo, rng: &mut Rng, c: &mut SampleCounters, defer_misses: bool) -> Vec<Vec3> {
+        let ctx = PmContext { source: IndirectSource::CacheUpTo(&self.fill.cache, self.view), defer_misses, ..self.ctx };
         let d = self.plan.camera.ray(x as f32 + off[0], y as f32 + off[1]);
         ctx.shade(self.plan.camera.eye, d, Some(memo), rng, c).to_layers(self.ctx.scene.media.is_some())
     }
@@ -78,22 +94,33 @@ impl Sampler for GrowingCache<'_> {
         true
     }
 
-    fn add_records(&mut self, missed: &[MissedSample]) -> Result<bool> {
-        let (ctx, camera) = (self.ctx, &self.plan.camera);
-        let pixels: Vec<(u32, u32)> = missed.chunk_by(|a, b| (a.x, a.y) == (b.x, b.y)).map(|m| (m[0].x, m[0].y)).collect();
-        let points = |x: u32, y: u32| {
-            let from = missed.partition_point(|m| (m.y, m.x) < (y, x));
-            let offsets: Vec<[f32; 2]> = missed[from..].iter().take_while(|m| (m.x, m.y) == (x, y)).map(|m| m.offset).collect();
-            sample_hits(&ctx, camera, x, y, &offsets)
-        };
-        // Seeds apart from pass A's gathers at the same pixel, and from earlier rounds'.
-        let first = (self.grown.rounds as usize + 1) << 16;
-        let gather = |x, y, i, sp: &ShadingPoint, hit: &Hit| gather_record(&ctx, x, y, first + i, sp, hit);
-        let (fill, counters) = icache::fill_pixels_cancellable(&mut self.fill.cache, self.plan.width, self.plan.height, &pixels, &points, &gather, ctx.cancel);
-        self.grown.rounds += 1;
-        self.grown.fill += fill;
-        self.grown.counters += counters;
-        Ok(fill.insert.n_inserted > 0)
+    fn end_round(&mut self, missed: &[MissedSample]) -> Result<()> {
+        self.round += 1;
+        if let Some(&n) = self.fill.cache.stages().get(self.round) {
+            // A stage of the file's render: its records, made from that render's misses.
+            self.view = n as usize;
+            return Ok(());
+        }
+        let cache = &mut self.fill.cache;
+        if !missed.is_empty() {
+            let (ctx, camera) = (self.ctx, &self.plan.camera);
+            let pixels: Vec<(u32, u32)> = missed.chunk_by(|a, b| (a.x, a.y) == (b.x, b.y)).map(|m| (m[0].x, m[0].y)).collect();
+            let points = |x: u32, y: u32| {
+                let from = missed.partition_point(|m| (m.y, m.x) < (y, x));
+                let offsets: Vec<[f32; 2]> = missed[from..].iter().take_while(|m| (m.x, m.y) == (x, y)).map(|m| m.offset).collect();
+                sample_hits(&ctx, camera, x, y, &offsets)
+            };
+            // Seeds apart from pass A's gathers at the same pixel, and from other rounds'.
+            let first = self.round << 16;
+            let gather = |x, y, i, sp: &ShadingPoint, hit: &Hit| gather_record(&ctx, x, y, first + i, sp, hit);
+            let (fill, counters) = icache::fill_pixels_cancellable(cache, self.plan.width, self.plan.height, &pixels, &points, &gather, ctx.cancel);
+            self.grown.rounds += (fill.insert.n_inserted > 0) as u64;
+            self.grown.fill += fill;
+            self.grown.counters += counters;
+        }
+        cache.end_stage();
+        self.view = cache.len();
+        Ok(())
     }
 
     fn grown(&self) -> GrowStats {

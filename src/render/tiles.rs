@@ -65,21 +65,24 @@ pub struct MissedSample {
 /// What a method computes per sample ([`SampleFn`]) and, for a method that reads a cache it can grow
 /// (`pm`), the records it makes between rounds for the samples that missed.
 pub trait Sampler: Sync {
-    fn sample(&self, x: u32, y: u32, offset: [f32; 2], memo: &mut PixelMemo, rng: &mut Rng, c: &mut SampleCounters) -> Vec<Vec3>;
+    /// With `defer_misses` (a round's first attempt, when [`Self::adds_records`]), a lookup that finds
+    /// no record may answer anything cheap: every pixel with a miss takes the round again.
+    #[allow(clippy::too_many_arguments)]
+    fn sample(&self, x: u32, y: u32, offset: [f32; 2], memo: &mut PixelMemo, rng: &mut Rng, c: &mut SampleCounters, defer_misses: bool) -> Vec<Vec3>;
 
-    /// Whether [`Self::add_records`] can make any (then each round keeps what it needs to take a
+    /// Whether [`Self::end_round`] can add records (then each round keeps what it needs to take a
     /// pixel's samples again).
     fn adds_records(&self) -> bool {
         false
     }
 
-    /// Records for the round's missed samples (in pixel order); true when it made any, and the pixels
-    /// of those samples then take the round's samples again.
-    fn add_records(&mut self, _missed: &[MissedSample]) -> Result<bool> {
-        Ok(false)
+    /// After each round (when [`Self::adds_records`]): records for the round's missed samples (in pixel
+    /// order), before the pixels of those samples take the round again.
+    fn end_round(&mut self, _missed: &[MissedSample]) -> Result<()> {
+        Ok(())
     }
 
-    /// What [`Self::add_records`] did over the render.
+    /// What [`Self::end_round`] did over the render.
     fn grown(&self) -> GrowStats {
         GrowStats::default()
     }
@@ -95,7 +98,7 @@ pub struct GrowStats {
 }
 
 impl<F: Fn(u32, u32, [f32; 2], &mut PixelMemo, &mut Rng, &mut SampleCounters) -> Vec<Vec3> + Sync + ?Sized> Sampler for F {
-    fn sample(&self, x: u32, y: u32, offset: [f32; 2], memo: &mut PixelMemo, rng: &mut Rng, c: &mut SampleCounters) -> Vec<Vec3> {
+    fn sample(&self, x: u32, y: u32, offset: [f32; 2], memo: &mut PixelMemo, rng: &mut Rng, c: &mut SampleCounters, _: bool) -> Vec<Vec3> {
         self(x, y, offset, memo, rng, c)
     }
 }
@@ -249,8 +252,8 @@ fn rounds(spp: u32, adaptive: bool) -> Vec<u32> {
 /// what one pixel's few samples can miss — a sub-pixel slat, the edge of a shadow — when the next pixel
 /// has seen it; each round's decisions read only the previous rounds' sums, so the image does not depend
 /// on the thread count. After each round, a sampler that [`Sampler::adds_records`] gets the samples whose
-/// lookups missed; when it makes records for them, their pixels take that round's samples again (from
-/// their state before it), now reading those records. `progress` is called with a number of pixels
+/// lookups missed (answered cheaply: see [`Sampler::sample`]); their pixels then take that round's
+/// samples again (from their state before it), reading the records the sampler made for them. `progress` is called with a number of pixels
 /// (rounds count as fractions of the window); `cancel` (read before every sample) stops early with
 /// `Interrupted`.
 #[allow(clippy::too_many_arguments)]
@@ -411,7 +414,7 @@ impl RoundSpec {
             let (u, v) = (rng.uniform(), rng.uniform());
             let off = offset(px.n, self.spp, u, v);
             let misses = own.lookups.n_misses;
-            let values = sampler.sample(x, y, off, memo, &mut rng, &mut own);
+            let values = sampler.sample(x, y, off, memo, &mut rng, &mut own, keep_redo);
             if own.lookups.n_misses > misses {
                 missed.push(off);
             }
@@ -434,9 +437,9 @@ impl RoundSpec {
     }
 }
 
-/// After a round: the samples that missed go to the sampler; if it made records for them, their pixels
-/// go back to where they stood before the round and take it again (the first attempt's rays count in
-/// `total`, its lookups do not); otherwise the round stands as taken.
+/// After a round: the samples that missed go to the sampler, which may add records for them; then their
+/// pixels go back to where they stood before the round and take it again, misses answered in full this
+/// time (the first attempt's rays count in `total`, its lookups do not).
 fn redo_missed(tiles: &mut [TileState], round: &RoundSpec, target: u32, sampler: &mut dyn Sampler, total: &mut SampleCounters, count: &mut SampleCount, cancel: &AtomicBool) -> Result<()> {
     let mut missed = Vec::new();
     for t in tiles.iter() {
@@ -446,17 +449,9 @@ fn redo_missed(tiles: &mut [TileState], round: &RoundSpec, target: u32, sampler:
             missed.extend(r.missed.iter().map(|&offset| MissedSample { x, y, offset }));
         }
     }
-    if missed.is_empty() {
-        return Ok(());
-    }
     missed.sort_by_key(|m| (m.y, m.x));
-    let added = sampler.add_records(&missed)?;
-    if !added {
-        for t in tiles.iter_mut() {
-            for r in t.redo.drain(..) {
-                *total += r.counters;
-            }
-        }
+    sampler.end_round(&missed)?;
+    if missed.is_empty() {
         return Ok(());
     }
     for t in tiles.iter_mut() {
