@@ -63,6 +63,8 @@ pub struct Estimate {
     pub hit_max_radius: bool,
     /// Half-thickness of the slab the photons were counted in (0 when none was searched).
     pub half_thickness: f32,
+    /// Radius of the disc the estimate divided by (0 when none was searched).
+    pub radius: f32,
 }
 
 /// Photons and the kd-tree over their positions (tree index i = `photons[i]`).
@@ -249,7 +251,7 @@ impl PhotonMap {
                 n_found += 1;
             }
             let area = std::f32::consts::PI * r * r * disc.fraction.clamp(1e-3, 4.0);
-            (Estimate { e: Vec3::ZERO, n_found, hit_max_radius, half_thickness: max_height }, sums.map(|sum| sum / (norm * area)))
+            (Estimate { e: Vec3::ZERO, n_found, hit_max_radius, half_thickness: max_height, radius: r }, sums.map(|sum| sum / (norm * area)))
         })
     }
 

@@ -22,7 +22,7 @@ use std::sync::OnceLock;
 
 use glam::{Vec2, Vec3};
 use photon::sampling::{hash_keys, Rng};
-use photon::PhotonMap;
+use photon::{Estimate, PhotonMap};
 
 use super::coverage::SceneCoverage;
 use crate::geometry::{Geometry, Hit};
@@ -32,9 +32,12 @@ use crate::scene::Scene;
 
 /// Texels per triangle side at most, per barycentric axis.
 pub const MAX_TEXELS_PER_AXIS: u32 = 255;
-/// Texel slots at most (28 bytes each, allocated up front); a scene that would need more gets coarser
-/// texels.
+/// Texel slots at most (28 bytes each, allocated up front, and 20 more with a caustic map); a scene that
+/// would need more gets coarser texels.
 pub const MAX_TEXEL_SLOTS: u64 = 4 << 20;
+/// A texel's caustic estimate serves the whole texel when its disc's radius is at least this many texels
+/// (see [`IrradianceAtlas::caustic`]).
+pub const CAUSTIC_TEXEL_REACH: f32 = 2.0;
 
 /// What a texel holds: the diffuse radiance it reflects (its mean diffuse albedo / π × all of its
 /// irradiance, direct from shadow rays and the rest from photons), and the irradiance of its indirect
@@ -49,6 +52,10 @@ pub struct IrradianceAtlas {
     /// Each triangle's texel grid, and the first of its slots (front side, then back side).
     grids: Vec<(Grid, u32)>,
     slots: Vec<OnceLock<TexelIrradiance>>,
+    /// With a caustic map: each texel's caustic irradiance at its middle, and whether it serves the whole
+    /// texel ([`Self::caustic`]).
+    caustic: Vec<OnceLock<(Vec3, bool)>>,
+    caustic_estimated: AtomicU64,
     k: usize,
     max_radius: f32,
     estimated: AtomicU64,
@@ -214,6 +221,8 @@ pub struct AtlasStats {
     /// Texels of the scene (estimated or not).
     pub slots: u64,
     pub estimates: u64,
+    /// Caustic estimates made at texel middles ([`IrradianceAtlas::caustic`]).
+    pub caustic_estimates: u64,
     pub memory_bytes: u64,
 }
 
@@ -250,6 +259,8 @@ impl IrradianceAtlas {
             return IrradianceAtlas {
                 grids,
                 slots: (0..n_slots).map(|_| OnceLock::new()).collect(),
+                caustic: Vec::new(),
+                caustic_estimated: AtomicU64::new(0),
                 k,
                 max_radius,
                 estimated: AtomicU64::new(0),
@@ -292,14 +303,45 @@ impl IrradianceAtlas {
         AtlasStats {
             slots: self.slots.len() as u64,
             estimates: self.estimated.load(Ordering::Relaxed),
-            memory_bytes: (self.slots.len() * std::mem::size_of::<OnceLock<TexelIrradiance>>() + self.grids.len() * std::mem::size_of::<(Grid, u32)>()) as u64,
+            caustic_estimates: self.caustic_estimated.load(Ordering::Relaxed),
+            memory_bytes: (self.slots.len() * std::mem::size_of::<OnceLock<TexelIrradiance>>()
+                + self.caustic.len() * std::mem::size_of::<OnceLock<(Vec3, bool)>>()
+                + self.grids.len() * std::mem::size_of::<(Grid, u32)>()) as u64,
         }
+    }
+
+    /// Caustic texels too (a slot per texel, empty until read): see [`Self::caustic`].
+    pub fn with_caustic(mut self) -> Self {
+        self.caustic = (0..self.slots.len()).map(|_| OnceLock::new()).collect();
+        self
+    }
+
+    /// The caustic irradiance at the texel holding `p` on the `front` or back side of triangle `tri`
+    /// (geometric normal `ng`), where the caustic is smooth at the texel's scale: `estimate(middle, normal)` is made once per
+    /// texel, at its middle, and its value serves the whole texel when its disc is wide next to the
+    /// texel — [`CAUSTIC_TEXEL_REACH`] texels in radius, or the lookup's maximum radius (fewer than k
+    /// caustic photons within it: a faint caustic of sparse photons) and at least a texel. `None` where
+    /// the texel's estimate is sharper (a focused caustic): the caller estimates at `p` itself. The
+    /// value is a function of the texel alone, whichever sample reads it first.
+    pub fn caustic(&self, tri: u32, ng: Vec3, front: bool, p: Vec3, estimate: impl FnOnce(Vec3, Vec3) -> Estimate) -> Option<Vec3> {
+        if self.caustic.is_empty() {
+            return None;
+        }
+        let t = self.texel(tri, front, p);
+        let grid = &self.grids[tri as usize].0;
+        let (e, smooth) = *self.caustic[t.index as usize].get_or_init(|| {
+            self.caustic_estimated.fetch_add(1, Ordering::Relaxed);
+            let est = estimate(grid.middle(t.i, t.j), if front { ng } else { -ng });
+            (est.e, est.radius >= CAUSTIC_TEXEL_REACH * grid.cell || (est.hit_max_radius && est.radius >= grid.cell))
+        });
+        smooth.then_some(e)
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::geometry::Triangle;
 
     #[test]
     fn a_sliver_gets_a_row_of_texels_and_centres_stay_on_it() {
@@ -320,5 +362,43 @@ mod tests {
         // A right triangle 2 × 1 m: 4 × 2 texels (its longest edge is the hypotenuse).
         let g = Grid::of(Vec3::ZERO, Vec3::new(2.0, 0.0, 0.0), Vec3::new(0.0, 1.0, 0.0), 0.5);
         assert_eq!((g.nu, g.nv), (5, 2));
+    }
+
+    #[test]
+    fn a_wide_caustic_estimate_serves_its_texel_and_a_narrow_one_does_not() {
+        // One triangle of 2 m² (its longest edge along x), 100 photons, 8 a texel: texels of 0.4 m.
+        let tri = Triangle { v: [0, 1, 2], material: 0, ng: Vec3::Z, area: 2.0, has_normals: false, has_uv: false };
+        let geometry = Geometry { positions: vec![Vec3::ZERO, Vec3::new(4.0, 0.0, 0.0), Vec3::new(2.0, 1.0, 0.0)], triangles: vec![tri], ..Default::default() };
+        let atlas = IrradianceAtlas::new(&geometry, 100, 8, 50, 1.0);
+        let cell = atlas.grids[0].0.cell;
+        assert!((cell - 0.4).abs() < 1e-4, "{cell}");
+        assert_eq!(atlas.caustic(0, Vec3::Z, true, Vec3::new(0.1, 0.1, 0.0), |_, _| unreachable!()), None, "no caustic map");
+        let atlas = atlas.with_caustic();
+        let calls = &std::cell::Cell::new(0);
+        let estimate = |radius: f32, hit_max_radius: bool| {
+            move |middle: Vec3, n: Vec3| {
+                calls.set(calls.get() + 1);
+                assert_eq!(n.z.abs(), 1.0);
+                Estimate { e: middle, radius, hit_max_radius, ..Default::default() }
+            }
+        };
+        // Two points of one texel: one estimate, at the texel's middle (0.2 along, halfway up the
+        // triangle's 0.1 m there), for both.
+        let (p, q) = (Vec3::new(0.05, 0.01, 0.0), Vec3::new(0.35, 0.1, 0.0));
+        let first = atlas.caustic(0, Vec3::Z, true, p, estimate(2.0 * cell, false));
+        assert!(first.is_some_and(|e| (e - Vec3::new(0.2, 0.05, 0.0)).length() < 1e-5), "{first:?}");
+        assert_eq!(atlas.caustic(0, Vec3::Z, true, q, estimate(0.0, false)), first);
+        assert_eq!(calls.get(), 1);
+        // The back side is another texel (estimated with the back's normal). A disc of a texel and a
+        // half: per sample, unless it reached the lookup's maximum radius (a faint caustic).
+        let back = |m: Vec3, n: Vec3| {
+            assert_eq!(n, Vec3::NEG_Z);
+            estimate(1.5 * cell, false)(m, n)
+        };
+        assert_eq!(atlas.caustic(0, Vec3::Z, false, p, back), None);
+        assert!(atlas.caustic(0, Vec3::Z, true, Vec3::new(1.0, 0.1, 0.0), estimate(1.5 * cell, true)).is_some());
+        assert_eq!(atlas.caustic(0, Vec3::Z, true, Vec3::new(2.0, 0.1, 0.0), estimate(0.5 * cell, true)), None);
+        assert_eq!(calls.get(), 4);
+        assert_eq!(atlas.stats().caustic_estimates, 4);
     }
 }

@@ -11,6 +11,7 @@ use super::atlas::IrradianceAtlas;
 use super::coverage::SceneCoverage;
 use super::photon_scene::PhotonView;
 use crate::error::Result;
+use crate::geometry::Hit;
 use crate::scene::Scene;
 
 /// Default size of an irradiance-atlas texel, in global photons at the scene's mean density
@@ -183,6 +184,7 @@ impl<'a> PhotonData<'a> {
         let caustic_reach =
             maps.caustic.as_ref().map(|m| ReachGrid::build(m.photons().iter().map(|ph| ph.pos), settings.max_radius_caustic));
         let atlas = maps.global.as_ref().map(|g| IrradianceAtlas::new(&scene.geometry, g.len(), settings.precompute_every, atlas_k(settings.lookup), settings.max_radius_global));
+        let atlas = if maps.caustic.is_some() { atlas.map(IrradianceAtlas::with_caustic) } else { atlas };
         let volume_grid = match (&maps.volume, &scene.media) {
             (Some(_), Some(m)) => Some(super::volume_grid::VolumeGrid::new(
                 m.bounds(),
@@ -197,17 +199,22 @@ impl<'a> PhotonData<'a> {
         PhotonData { maps, precomputed, settings, coverage: SceneCoverage(scene), caustic_reach, atlas, volume_grid, volume_caustic_reach }
     }
 
-    pub fn caustic_irradiance(&self, p: Vec3, n: Vec3, c: &mut super::SampleCounters) -> Vec3 {
+    pub fn caustic_irradiance(&self, hit: &Hit, front: bool, n: Vec3, c: &mut super::SampleCounters) -> Vec3 {
+        let p = hit.p;
         if self.caustic_reach.as_ref().is_some_and(|g| !g.may_reach(p)) {
             return Vec3::ZERO;
         }
-        match &self.maps.caustic {
-            Some(m) => {
-                c.photon_estimates += 1;
-                m.irradiance(p, n, self.settings.lookup, self.settings.max_radius_caustic, self.settings.caustic_filter, &self.coverage).e
-            }
-            None => Vec3::ZERO,
-        }
+        let Some(m) = &self.maps.caustic else { return Vec3::ZERO };
+        let (k, r, filter) = (self.settings.lookup, self.settings.max_radius_caustic, self.settings.caustic_filter);
+        // A faint caustic's sparse photons make wide discs: one estimate per atlas texel serves it.
+        let smooth = self.atlas.as_ref().and_then(|a| {
+            let ng = self.coverage.0.geometry.triangles[hit.tri as usize].ng;
+            a.caustic(hit.tri, ng, front, p, |middle, n| m.irradiance(middle, n, k, r, filter, &self.coverage))
+        });
+        smooth.unwrap_or_else(|| {
+            c.photon_estimates += 1;
+            m.irradiance(p, n, k, r, filter, &self.coverage).e
+        })
     }
 
     /// Diffuse radiance where a final-gather ray ends (point `p` on the `front` or back side of triangle

@@ -129,9 +129,9 @@ impl PmContext<'_> {
             let remembered = memo.as_ref().and_then(|m| m.get(hit.tri, frame.front, c));
             let (caustic, indirect) = match remembered {
                 Some((Some(caustic), indirect)) => (caustic, indirect),
-                Some((None, indirect)) => (self.photons.caustic_irradiance(hit.p, frame.n, c), indirect),
+                Some((None, indirect)) => (self.photons.caustic_irradiance(&hit, frame.front, frame.n, c), indirect),
                 None => {
-                    let caustic = self.photons.caustic_irradiance(hit.p, frame.n, c);
+                    let caustic = self.photons.caustic_irradiance(&hit, frame.front, frame.n, c);
                     let before = c.lookups;
                     let indirect = self.indirect(&hit, &frame, matches!(via, Via::Glossy { .. }), rng, c);
                     if let Some(m) = memo {

@@ -114,8 +114,10 @@ pub fn estimate(scene: &Scene, plan: &Plan, opts: &Options) -> Vec<(String, u64)
             }
         };
         items.push(("photon maps".into(), photons));
-        // The irradiance atlas: at most MAX_TEXEL_SLOTS slots, and a grid per triangle.
-        let atlas = crate::integrator::atlas::MAX_TEXEL_SLOTS * 28 + scene.geometry.triangles.len() as u64 * 64;
+        // The irradiance atlas: at most MAX_TEXEL_SLOTS slots (and as many caustic slots with a caustic
+        // map), and a grid per triangle.
+        let slot_bytes = if plan.photons.caustic > 0 { 28 + 20 } else { 28 };
+        let atlas = crate::integrator::atlas::MAX_TEXEL_SLOTS * slot_bytes + scene.geometry.triangles.len() as u64 * 64;
         items.push(("irradiance atlas".into(), atlas));
         if scene.media.is_some() {
             // The media records: two lattices of at most MAX_RECORDS (a record and its lock).

@@ -165,6 +165,7 @@ impl RenderStats {
         if let Some(s) = &self.atlas {
             r.count("Photons", "Irradiance atlas texels", "photons.atlas_texels", s.slots);
             r.count("Photons", "Irradiance atlas texels estimated", "photons.atlas_estimates", s.estimates);
+            r.count("Photons", "Caustic estimates at texel middles (smooth caustics)", "photons.caustic_texel_estimates", s.caustic_estimates);
             r.bytes("Photons", "Memory, irradiance atlas", "photons.atlas_memory_bytes", s.memory_bytes);
         }
         if let Some((estimated, cells)) = self.volume_grid {
