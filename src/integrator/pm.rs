@@ -27,10 +27,9 @@ const AREA_LIGHT_SAMPLES: u32 = 4;
 /// Where soft indirect irradiance comes from.
 #[derive(Clone, Copy)]
 pub enum IndirectSource<'a> {
-    /// A filled cache read with pass-B accuracy.
-    Cache(&'a IrradianceCache),
-    /// The first n records of a one-pass cache (what the fill had made when it reached the pixel), read
-    /// with pass-B accuracy, so the two fills differ only in which records a pixel can see.
+    /// The first n records of the cache, read with pass-B accuracy: of a one-pass cache, what the fill had
+    /// made when it reached the pixel (so the two fills differ only in which records a pixel can see); of
+    /// a two-pass cache, the records of the stages before the current round of samples.
     CacheUpTo(&'a IrradianceCache, usize),
     Gather,
     PhotonMap,
@@ -233,7 +232,6 @@ impl PmContext<'_> {
                 c.photon_estimates += 1;
                 self.photons.global_indirect_irradiance(hit.p, frame.n)
             }
-            IndirectSource::Cache(cache) => self.cached(|pass| cache.lookup(hit.p, frame.n, pass), hit, frame, rng, c),
             IndirectSource::CacheUpTo(cache, n) => self.cached(|pass| cache.lookup_first(hit.p, frame.n, pass, n), hit, frame, rng, c),
             IndirectSource::Gather => self.final_gather(hit, frame, rng.next_u32() as u64, c).e,
         }

@@ -22,7 +22,7 @@ use crate::integrator::terms::term_names;
 use crate::integrator::{path, PixelMemo, SampleCounters};
 use crate::io::output::Image;
 use crate::scene::{Method, Scene};
-use icache::ShadingPoint;
+use icache::{IrradianceCache, ShadingPoint};
 
 /// `n_layers` images of the plan's window, by `sampler`. `cancel` is read before every sample.
 pub fn shade(plan: &Plan, n_layers: usize, sampler: &mut dyn Sampler, progress: &dyn Progress, cancel: &AtomicBool) -> Result<(Vec<Image>, ShadeStats)> {
@@ -47,8 +47,7 @@ pub fn sampler<'a>(scene: &'a Scene, plan: &'a Plan, photons: Option<&'a PhotonD
         Some(fill) if fill.one_pass.is_none() => (Box::new(GrowingCache::new(ctx, plan, fill)), n_layers),
         Some(fill) => {
             let fill: &'a CacheFill = fill;
-            let ctx = PmContext { source: IndirectSource::Cache(&fill.cache), ..ctx };
-            (pm_sample(ctx, &plan.camera, fill.one_pass.as_ref()), n_layers)
+            (pm_sample(ctx, &plan.camera, fill.one_pass.as_ref().map(|order| (&fill.cache, order))), n_layers)
         }
         None => {
             let source = if plan.method == Method::PmFg { IndirectSource::Gather } else { IndirectSource::PhotonMap };
@@ -86,8 +85,7 @@ impl<'a> GrowingCache<'a> {
 impl Sampler for GrowingCache<'_> {
     fn sample(&self, x: u32, y: u32, off: [f32; 2], memo: &mut PixelMemo, rng: &mut Rng, c: &mut SampleCounters, defer_misses: bool) -> Vec<Vec3> {
         let ctx = PmContext { source: IndirectSource::CacheUpTo(&self.fill.cache, self.view), defer_misses, ..self.ctx };
-        let d = self.plan.camera.ray(x as f32 + off[0], y as f32 + off[1]);
-        ctx.shade(self.plan.camera.eye, d, Some(memo), rng, c).to_layers(self.ctx.scene.media.is_some())
+        camera_sample(&ctx, &self.plan.camera, x, y, off, memo, rng, c)
     }
 
     fn adds_records(&self) -> bool {
@@ -137,19 +135,21 @@ fn path_sample<'a>(scene: &'a Scene, camera: &'a Camera) -> Box<dyn Sampler + 'a
 }
 
 /// With a one-pass cache, each pixel sees only the records made before the fill reached it.
-fn pm_sample<'a>(ctx: PmContext<'a>, camera: &'a Camera, one_pass: Option<&'a icache::OnePassFill>) -> Box<dyn Sampler + 'a> {
-    let media = ctx.scene.media.is_some();
+fn pm_sample<'a>(ctx: PmContext<'a>, camera: &'a Camera, one_pass: Option<(&'a IrradianceCache, &'a icache::OnePassFill)>) -> Box<dyn Sampler + 'a> {
     Box::new(move |x: u32, y: u32, off: [f32; 2], memo: &mut PixelMemo, rng: &mut Rng, c: &mut SampleCounters| -> Vec<Vec3> {
-        let d = camera.ray(x as f32 + off[0], y as f32 + off[1]);
-        let terms = match (one_pass, &ctx.source) {
-            (Some(order), IndirectSource::Cache(cache)) => {
-                let seen = IndirectSource::CacheUpTo(cache, order.visible_records(x, y));
-                PmContext { source: seen, ..ctx }.shade(camera.eye, d, Some(memo), rng, c)
-            }
-            _ => ctx.shade(camera.eye, d, Some(memo), rng, c),
+        let ctx = match one_pass {
+            Some((cache, order)) => PmContext { source: IndirectSource::CacheUpTo(cache, order.visible_records(x, y)), ..ctx },
+            None => ctx,
         };
-        terms.to_layers(media)
+        camera_sample(&ctx, camera, x, y, off, memo, rng, c)
     })
+}
+
+/// One camera sample of the photon-map methods: the terms of the split along the ray through (x, y) + off.
+#[allow(clippy::too_many_arguments)]
+fn camera_sample(ctx: &PmContext, camera: &Camera, x: u32, y: u32, off: [f32; 2], memo: &mut PixelMemo, rng: &mut Rng, c: &mut SampleCounters) -> Vec<Vec3> {
+    let d = camera.ray(x as f32 + off[0], y as f32 + off[1]);
+    ctx.shade(camera.eye, d, Some(memo), rng, c).to_layers(ctx.scene.media.is_some())
 }
 
 /// The beauty and the named layers: `path`'s one image is the beauty; the photon-map methods' beauty
