@@ -91,6 +91,10 @@ struct RenderArgs {
     /// (0: every pixel takes --spp). Default: 0.04 for pm, pm-fg and photons, 0 for path.
     #[arg(long, allow_negative_numbers = true)]
     noise: Option<f64>,
+    /// With a noise target, the most samples of a pixel whose samples made no Monte Carlo estimate
+    /// (no area light, glass, glossy lobe or medium on their way): default 32, at most --spp.
+    #[arg(long, allow_negative_numbers = true)]
+    aa_spp: Option<i64>,
     #[arg(long, allow_negative_numbers = true)]
     width: Option<i64>,
     #[arg(long, allow_negative_numbers = true)]
@@ -184,6 +188,7 @@ fn options(a: &RenderArgs) -> Result<Options> {
     Ok(Options {
         method,
         spp: in_range("--spp", a.spp, MAX_SPP)?,
+        aa_spp: in_range("--aa-spp", a.aa_spp, MAX_SPP)?,
         noise: match a.noise {
             Some(t) if !(0.0..=1.0).contains(&t) => return Err(option("--noise", format!("{t} must be in 0..=1"))),
             t => t.map(|t| t as f32),

@@ -20,6 +20,7 @@ const MAX_STEPS: u32 = 32;
 /// medium `m` (id `medium`) over `[0, t_end)`, attenuated on the way back to `o`.
 #[allow(clippy::too_many_arguments)]
 pub fn in_scattered(ctx: &PmContext, o: Vec3, d: Vec3, t_end: f32, medium: MediumId, m: &Medium, rng: &mut Rng, c: &mut SampleCounters) -> (Vec3, Vec3) {
+    c.monte_carlo += 1;
     let step_len = ctx.scene.diagonal() / 32.0;
     let n = if step_len > 0.0 { ((t_end / step_len).ceil() as u32).clamp(MIN_STEPS, MAX_STEPS) } else { MIN_STEPS };
     let dt = t_end / n as f32;

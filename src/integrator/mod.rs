@@ -133,6 +133,11 @@ pub struct SampleCounters {
     /// k-NN photon-map estimates made for caustics and for `photons`' indirect term (glossy-lobe estimates
     /// at gather ends are not counted; the atlas counts its own).
     pub photon_estimates: u64,
+    /// Monte Carlo estimates made in samples: area-light samples, a glass's choice between reflection
+    /// and refraction, glossy lobes, media marching, per-sample gathers. A pixel whose samples made none
+    /// differs from sample to sample only by where they fall in it (adaptive sampling caps it at
+    /// `aa_spp`).
+    pub monte_carlo: u64,
 }
 
 impl SampleCounters {
@@ -152,6 +157,7 @@ impl std::ops::AddAssign for SampleCounters {
         self.gathers += o.gathers;
         self.gather_rays += o.gather_rays;
         self.photon_estimates += o.photon_estimates;
+        self.monte_carlo += o.monte_carlo;
     }
 }
 

@@ -16,6 +16,7 @@ use crate::warp::power_heuristic;
 /// transmittance at every scattering event, Henyey–Greenstein sampling, null boundaries crossed without
 /// counting a bounce. Without media it draws exactly the numbers it always drew.
 pub fn radiance(scene: &Scene, origin: Vec3, dir: Vec3, medium: MediumId, max_depth: u32, rng: &mut Rng, c: &mut SampleCounters) -> Vec3 {
+    c.monte_carlo += 1;
     let mut l = Vec3::ZERO;
     let mut beta = Vec3::ONE;
     let (mut o, mut d) = (origin, dir);

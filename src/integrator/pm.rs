@@ -110,6 +110,7 @@ impl PmContext<'_> {
         let kd = self.scene.albedo(&hit);
         if bsdf.is_specular() {
             if depth + 1 < self.max_depth {
+                c.monte_carlo += matches!(bsdf, Bsdf::Glass { .. }) as u64;
                 let u = [rng.uniform(), rng.uniform(), rng.uniform()];
                 match bsdf.sample(kd, frame.n, wo, frame.front, u, Transport::Radiance) {
                     Some(s) => {
@@ -163,6 +164,7 @@ impl PmContext<'_> {
             l += self.light_contribution(hit, frame, wo, kd, bsdf, &ls, medium, c);
         }
         // Shadow rays are cheap next to the rest of a pm sample: several area samples per hit.
+        c.monte_carlo += lights.has_area() as u64;
         for _ in 0..AREA_LIGHT_SAMPLES {
             let u = [rng.uniform(), rng.uniform(), rng.uniform()];
             if let Some(ls) = lights.sample_area(&self.scene.geometry, hit.p, u) {
@@ -203,6 +205,7 @@ impl PmContext<'_> {
     #[allow(clippy::too_many_arguments)]
     fn glossy_lobe(&self, hit: &Hit, frame: &Frame, wo: Vec3, ks: Vec3, exponent: f32, depth: u32, medium: MediumId, rng: &mut Rng, c: &mut SampleCounters) -> Vec3 {
         let r = reflect(wo, frame.n);
+        c.monte_carlo += 1;
         let (u0, u1) = (rng.uniform(), rng.uniform());
         let cos_a = u0.powf(1.0 / (exponent + 1.0));
         let sin_a = (1.0 - cos_a * cos_a).max(0.0).sqrt();
@@ -233,7 +236,10 @@ impl PmContext<'_> {
                 self.photons.global_indirect_irradiance(hit.p, frame.n)
             }
             IndirectSource::CacheUpTo(cache, n) => self.cached(|pass| cache.lookup_first(hit.p, frame.n, pass, n), hit, frame, rng, c),
-            IndirectSource::Gather => self.final_gather(hit, frame, rng.next_u32() as u64, c).e,
+            IndirectSource::Gather => {
+                c.monte_carlo += 1;
+                self.final_gather(hit, frame, rng.next_u32() as u64, c).e
+            }
         }
     }
 
@@ -257,6 +263,7 @@ impl PmContext<'_> {
             }
             None => {
                 c.lookups.n_gathered += 1;
+                c.monte_carlo += 1;
                 self.final_gather(hit, frame, rng.next_u32() as u64, c).e
             }
         }

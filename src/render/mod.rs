@@ -49,6 +49,8 @@ pub struct Options {
     pub spp: Option<u32>,
     /// Adaptive sampling's noise target (`--noise`); see [`tiles::Sampling`].
     pub noise: Option<f32>,
+    /// `--aa-spp`; see [`tiles::Sampling`].
+    pub aa_spp: Option<u32>,
     pub width: Option<u32>,
     pub height: Option<u32>,
     pub seed: Option<u64>,

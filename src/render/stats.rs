@@ -41,6 +41,7 @@ pub struct Setup {
     pub width: u32,
     pub height: u32,
     pub spp: u32,
+    pub aa_spp: u32,
     pub noise: f32,
     pub n_triangles: u64,
     pub n_degenerate: u64,
@@ -91,6 +92,7 @@ impl RenderStats {
             width: plan.width,
             height: plan.height,
             spp: plan.spp,
+            aa_spp: plan.aa_spp,
             noise: plan.noise,
             n_triangles: scene.geometry.triangles.len() as u64,
             n_degenerate: scene.geometry.n_degenerate as u64,
@@ -203,6 +205,10 @@ impl RenderStats {
         r.count("Image", "Height", "image.height", s.height as u64);
         r.count("Image", "Samples per pixel (most)", "image.spp", s.spp as u64);
         r.number("Image", "Noise target (0: fixed spp)", "image.noise", s.noise as f64);
+        if s.noise > 0.0 {
+            r.count("Image", "Samples per pixel without Monte Carlo estimates (most)", "image.aa_spp", s.aa_spp as u64);
+            r.count("Image", "Pixels with Monte Carlo estimates (area lights, glass, glossy, media)", "image.pixels_monte_carlo", n.monte_carlo_pixels);
+        }
         r.number("Image", "Samples per pixel (mean)", "image.spp_mean", n.samples as f64 / n.pixels.max(1) as f64);
         r.count("Image", "Pixels at the sample limit", "image.pixels_at_limit", n.at_limit);
         r.count("Image", "Samples", "image.samples", n.samples);

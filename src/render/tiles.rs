@@ -110,6 +110,10 @@ pub struct Sampling {
     pub spp: u32,
     /// Relative standard error of a pixel's mean at which it stops (0: every pixel takes `spp`).
     pub noise: f32,
+    /// With a `noise` target, the most a pixel takes whose samples made no Monte Carlo estimate
+    /// ([`SampleCounters::monte_carlo`]): they differ only by where they fall in the pixel (a texture's
+    /// mortar lines, an edge), which more samples resolve slowly and nobody sees as noise. At most `spp`.
+    pub aa_spp: u32,
 }
 
 /// The fewest samples a pixel takes under a noise target (one group of strata).
@@ -163,8 +167,11 @@ fn converged(px: &PixelSums, mean: Vec3, noise: f32) -> bool {
 pub struct SampleCount {
     pub samples: u64,
     pub pixels: u64,
-    /// Pixels that took the most samples allowed without meeting the noise target.
+    /// Pixels that took the most samples allowed them (`spp`, or `aa_spp` without Monte Carlo estimates)
+    /// without meeting the noise target.
     pub at_limit: u64,
+    /// Pixels whose samples made Monte Carlo estimates.
+    pub monte_carlo_pixels: u64,
     /// Samples taken again, after records were made for a miss of their pixel's round.
     pub redone: u64,
     /// Pixels whose round was taken again (once per round).
@@ -182,6 +189,8 @@ struct PixelSums {
     diff2: [f32; 3],
     /// The beauty of each quarter's sample in the first group of a pair, until its second group comes.
     first: [[f32; 3]; 4],
+    /// Whether a sample made a Monte Carlo estimate (the pixel may then go past `aa_spp`).
+    monte_carlo: bool,
 }
 
 impl PixelSums {
@@ -232,15 +241,17 @@ struct Redo {
     missed: Vec<[f32; 2]>,
 }
 
-/// Sample counts of the rounds: 4, 8, 16, … up to `spp` (one round of `spp` without a noise target).
-fn rounds(spp: u32, adaptive: bool) -> Vec<u32> {
+/// Sample counts of the rounds: 4, 8, 16, … up to `spp` (one round of `spp` without a noise target),
+/// `aa_spp` among them.
+fn rounds(spp: u32, aa_spp: u32, adaptive: bool) -> Vec<u32> {
     if !adaptive {
         return vec![spp];
     }
     let mut r = vec![MIN_ADAPTIVE_SPP.min(spp)];
     while *r.last().unwrap_or(&spp) < spp {
-        let next = (r[r.len() - 1] * 2).min(spp);
-        r.push(next);
+        let last = r[r.len() - 1];
+        let next = (last * 2).min(spp);
+        r.push(if last < aa_spp && aa_spp < next { aa_spp } else { next });
     }
     r
 }
@@ -270,6 +281,7 @@ pub fn render_tiles(
 ) -> Result<(Vec<Image>, SampleCounters, SampleCount)> {
     let spp = sampling.spp.max(1);
     let adaptive = sampling.noise > 0.0 && spp > MIN_ADAPTIVE_SPP;
+    let aa_spp = sampling.aa_spp.clamp(1, spp);
     let keep_redo = sampler.adds_records() && n_layers <= MAX_LAYERS;
     let mut tiles = Vec::new();
     for ty in (window.y0..window.y1).step_by(TILE as usize) {
@@ -282,7 +294,7 @@ pub fn render_tiles(
     let (ww, wh) = ((window.x1 - window.x0) as usize, (window.y1 - window.y0) as usize);
     // Pixels (window row-major) that take the next round's samples.
     let mut active = vec![true; ww * wh];
-    let rounds = rounds(spp, adaptive);
+    let rounds = rounds(spp, aa_spp, adaptive);
     let done = AtomicU64::new(0);
     let mut total = SampleCounters::default();
     let mut count = SampleCount::default();
@@ -327,8 +339,11 @@ pub fn render_tiles(
         if round + 1 == rounds.len() {
             break;
         }
-        // Next round: pixels not converged, and their neighbours.
+        // Next round: pixels not converged, and their neighbours; past `aa_spp`, only those whose samples
+        // made Monte Carlo estimates.
+        let past_aa = rounds[round + 1] > aa_spp;
         let mut open = vec![false; ww * wh];
+        let mut allowed = vec![true; ww * wh];
         for t in &tiles {
             let w = t.window;
             for y in w.y0..w.y1 {
@@ -336,13 +351,15 @@ pub fn render_tiles(
                     let k = ((y - w.y0) * (w.x1 - w.x0) + (x - w.x0)) as usize;
                     let px = &t.pixels[k];
                     let mean = t.layers.iter().map(|l| l[k]).sum::<Vec3>() / px.n as f32;
-                    open[(y - window.y0) as usize * ww + (x - window.x0) as usize] = !converged(px, mean, sampling.noise);
+                    let at = (y - window.y0) as usize * ww + (x - window.x0) as usize;
+                    allowed[at] = !past_aa || px.monte_carlo;
+                    open[at] = allowed[at] && !converged(px, mean, sampling.noise);
                 }
             }
         }
         for y in 0..wh {
             for x in 0..ww {
-                active[y * ww + x] = (y.saturating_sub(1)..(y + 2).min(wh)).any(|yy| (x.saturating_sub(1)..(x + 2).min(ww)).any(|xx| open[yy * ww + xx]));
+                active[y * ww + x] = allowed[y * ww + x] && (y.saturating_sub(1)..(y + 2).min(wh)).any(|yy| (x.saturating_sub(1)..(x + 2).min(ww)).any(|xx| open[yy * ww + xx]));
             }
         }
         // A pixel that stops sampling needs its memo no more.
@@ -362,10 +379,11 @@ pub fn render_tiles(
         for y in w.y0..w.y1 {
             for x in w.x0..w.x1 {
                 let k = ((y - w.y0) * (w.x1 - w.x0) + (x - w.x0)) as usize;
-                let n = t.pixels[k].n;
+                let (n, monte_carlo) = (t.pixels[k].n, t.pixels[k].monte_carlo);
                 count.samples += n as u64;
                 count.pixels += 1;
-                count.at_limit += (adaptive && n == spp) as u64;
+                count.at_limit += (adaptive && n == if monte_carlo { spp } else { aa_spp }) as u64;
+                count.monte_carlo_pixels += monte_carlo as u64;
                 for (img, layer) in images.iter_mut().zip(&t.layers) {
                     img.pixels[(y * width + x) as usize] = layer[k] / n.max(1) as f32;
                 }
@@ -413,8 +431,9 @@ impl RoundSpec {
             let mut rng = Rng::new(hash_keys(&[self.seed, pixel, px.n as u64]));
             let (u, v) = (rng.uniform(), rng.uniform());
             let off = offset(px.n, self.spp, u, v);
-            let misses = own.lookups.n_misses;
+            let (misses, monte_carlo) = (own.lookups.n_misses, own.monte_carlo);
             let values = sampler.sample(x, y, off, memo, &mut rng, &mut own, keep_redo);
+            px.monte_carlo |= own.monte_carlo > monte_carlo;
             if own.lookups.n_misses > misses {
                 missed.push(off);
             }
@@ -511,6 +530,31 @@ mod tests {
         assert_eq!(offset(3, 6, 0.0, 0.0), [0.5, 0.5]);
     }
 
+    #[test]
+    fn pixels_without_monte_carlo_estimates_stop_at_aa_spp() {
+        // 8 × 1 pixels, every sample a coin flip between 0 and 1 (never converges at noise 0.01); pixels
+        // 0–3 count a Monte Carlo estimate in each sample, pixels 4–7 none.
+        let sampler = |x: u32, _y: u32, _off: [f32; 2], _m: &mut PixelMemo, rng: &mut Rng, c: &mut SampleCounters| {
+            c.monte_carlo += (x < 4) as u64;
+            vec![Vec3::splat((rng.uniform() < 0.5) as u32 as f32)]
+        };
+        let run = |spp, aa_spp| {
+            let mut s = sampler;
+            let sampling = Sampling { spp, noise: 0.01, aa_spp };
+            render_tiles(8, 1, Window::full(8, 1), sampling, 1, 1, &mut s, &|_| {}, &AtomicBool::new(false)).unwrap().2
+        };
+        let count = run(128, 32);
+        // 4 pixels × 128 + 4 × 32, every one at its limit.
+        assert_eq!(count.samples, 4 * 128 + 4 * 32);
+        assert_eq!((count.at_limit, count.monte_carlo_pixels), (8, 4));
+        // aa_spp = spp: every pixel to spp.
+        assert_eq!(run(64, 64).samples, 8 * 64);
+        // Fixed sampling (no noise target) ignores aa_spp.
+        let mut s = sampler;
+        let fixed = render_tiles(8, 1, Window::full(8, 1), Sampling { spp: 16, noise: 0.0, aa_spp: 4 }, 1, 1, &mut s, &|_| {}, &AtomicBool::new(false)).unwrap().2;
+        assert_eq!(fixed.samples, 8 * 16);
+    }
+
     fn pixel(samples: &[f32], spp: u32) -> PixelSums {
         let mut px = PixelSums::default();
         for (s, &x) in samples.iter().enumerate() {
@@ -545,8 +589,11 @@ mod tests {
         assert!(!super::converged(&PixelSums { pairs: 0, ..px }, Vec3::splat(0.5), 0.2));
         // Samples past the last whole group (spp 6) are in no quarter: they leave the pairs alone.
         assert_eq!(pixel(&[0.0, 1.0, 0.0, 1.0, 0.0, 1.0], 6).pairs, 0);
-        assert_eq!(rounds(32, true), [4, 8, 16, 32]);
-        assert_eq!(rounds(20, true), [4, 8, 16, 20]);
-        assert_eq!(rounds(32, false), [32]);
+        assert_eq!(rounds(32, 32, true), [4, 8, 16, 32]);
+        assert_eq!(rounds(20, 20, true), [4, 8, 16, 20]);
+        assert_eq!(rounds(32, 32, false), [32]);
+        // aa_spp is one of the rounds.
+        assert_eq!(rounds(128, 32, true), [4, 8, 16, 32, 64, 128]);
+        assert_eq!(rounds(128, 20, true), [4, 8, 16, 20, 40, 80, 128]);
     }
 }

@@ -98,6 +98,7 @@ pub struct LightDesc {
 pub struct RenderDesc {
     pub method: Option<String>,
     pub spp: Option<i64>,
+    pub aa_spp: Option<i64>,
     pub noise: Option<f64>,
     pub seed: Option<u64>,
     pub max_depth: Option<i64>,

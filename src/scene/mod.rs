@@ -84,6 +84,8 @@ pub fn past(t: f32, origin: Vec3) -> f32 {
 pub struct RenderSettings {
     pub method: Option<Method>,
     pub spp: Option<u32>,
+    /// Under a noise target, the most samples of a pixel without Monte Carlo estimates.
+    pub aa_spp: Option<u32>,
     /// Adaptive sampling's noise target; `None`: the method's default.
     pub noise: Option<f32>,
     pub seed: u64,

@@ -136,6 +136,10 @@ pub(super) fn settings(cx: &Ctx, desc: &SceneFile) -> Result<RenderSettings> {
         Some(s) if !(1..=MAX_SPP).contains(&s) => return Err(cx.err("render", 0, "spp", format!("{s} must be in 1..={MAX_SPP}"))),
         s => s.map(|s| s as u32),
     };
+    let aa_spp = match r.aa_spp {
+        Some(s) if !(1..=MAX_SPP).contains(&s) => return Err(cx.err("render", 0, "aa_spp", format!("{s} must be in 1..={MAX_SPP}"))),
+        s => s.map(|s| s as u32),
+    };
     let noise = match r.noise {
         Some(t) if !(0.0..=1.0).contains(&t) => return Err(cx.err("render", 0, "noise", format!("{t} must be in 0..=1"))),
         t => t.map(|t| t as f32),
@@ -146,7 +150,7 @@ pub(super) fn settings(cx: &Ctx, desc: &SceneFile) -> Result<RenderSettings> {
     };
     let icache = icache(cx, &r.icache.clone().unwrap_or_default())?;
     let photons = photons(cx, &r.photons.clone().unwrap_or_default())?;
-    Ok(RenderSettings { method, spp, noise, seed: r.seed.unwrap_or(0), max_depth, photons, icache })
+    Ok(RenderSettings { method, spp, aa_spp, noise, seed: r.seed.unwrap_or(0), max_depth, photons, icache })
 }
 
 /// `[render.photons]`: counts in range, a positive radius within the coordinate limit, a known filter.
