@@ -59,6 +59,40 @@ struct RTCRayHit {
     hit: RTCHit,
 }
 
+/// Rays and hits of a packet of 8 (Embree's `RTCRayHit8`, structure of arrays).
+#[repr(C, align(32))]
+struct RTCRayHit8 {
+    org: [[f32; 8]; 3],
+    tnear: [f32; 8],
+    dir: [[f32; 8]; 3],
+    time: [f32; 8],
+    tfar: [f32; 8],
+    mask: [c_uint; 8],
+    id: [c_uint; 8],
+    flags: [c_uint; 8],
+    ng: [[f32; 8]; 3],
+    u: [f32; 8],
+    v: [f32; 8],
+    prim_id: [c_uint; 8],
+    geom_id: [c_uint; 8],
+    inst_id: [[c_uint; 8]; 1],
+}
+
+#[repr(C, align(32))]
+struct Valid8([i32; 8]);
+
+/// Context flag: the rays of a packet start close together and run alike.
+const RTC_INTERSECT_CONTEXT_FLAG_COHERENT: c_uint = 1;
+
+/// One ray of a packet: origin, direction, and the range (tnear, tfar) its hit must lie in.
+#[derive(Clone, Copy, Debug)]
+pub struct PacketRay {
+    pub origin: Vec3,
+    pub dir: Vec3,
+    pub tnear: f32,
+    pub tfar: f32,
+}
+
 #[link(name = "embree3")]
 extern "C" {
     fn rtcNewDevice(config: *const c_char) -> RTCDevice;
@@ -82,6 +116,7 @@ extern "C" {
     fn rtcReleaseGeometry(geometry: RTCGeometry);
     fn rtcCommitScene(scene: RTCScene);
     fn rtcIntersect1(scene: RTCScene, context: *mut RTCIntersectContext, rayhit: *mut RTCRayHit);
+    fn rtcIntersect8(valid: *const i32, scene: RTCScene, context: *mut RTCIntersectContext, rayhit: *mut RTCRayHit8);
     fn rtcOccluded1(scene: RTCScene, context: *mut RTCIntersectContext, ray: *mut RTCRay);
 }
 
@@ -201,6 +236,47 @@ impl Bvh {
             u: rh.hit.u,
             v: rh.hit.v,
         })
+    }
+
+    /// The closest hit of each of up to 8 rays that start close together and run alike (the probes of a
+    /// photon disc's coverage), traced as one coherent packet: `out[i]` is `rays[i]`'s, as
+    /// [`intersect_range`](Self::intersect_range) would find it.
+    pub fn intersect8(&self, rays: &[PacketRay], out: &mut [Option<RawHit>]) {
+        assert!(rays.len() <= 8 && out.len() >= rays.len());
+        let mut ctx = Self::context();
+        ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+        let mut valid = Valid8([0; 8]);
+        let mut rh = RTCRayHit8 {
+            org: [[0.0; 8]; 3],
+            tnear: [0.0; 8],
+            dir: [[0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0], [0.0; 8], [1.0; 8]],
+            time: [0.0; 8],
+            tfar: [0.0; 8],
+            mask: [u32::MAX; 8],
+            id: [0; 8],
+            flags: [0; 8],
+            ng: [[0.0; 8]; 3],
+            u: [0.0; 8],
+            v: [0.0; 8],
+            prim_id: [0; 8],
+            geom_id: [RTC_INVALID_GEOMETRY_ID; 8],
+            inst_id: [[RTC_INVALID_GEOMETRY_ID; 8]; 1],
+        };
+        for (i, r) in rays.iter().enumerate() {
+            valid.0[i] = -1;
+            for a in 0..3 {
+                rh.org[a][i] = r.origin[a];
+                rh.dir[a][i] = r.dir[a];
+            }
+            rh.tnear[i] = r.tnear;
+            rh.tfar[i] = r.tfar;
+        }
+        // SAFETY: scene is committed; `valid` and `rh` are 32-byte aligned, laid out as Embree's int[8]
+        // and RTCRayHit8, and live for the call; lanes past `rays.len()` are marked invalid.
+        unsafe { rtcIntersect8(valid.0.as_ptr(), self.scene, &mut ctx, &mut rh) };
+        for i in 0..rays.len() {
+            out[i] = (rh.geom_id[i] != RTC_INVALID_GEOMETRY_ID).then_some(RawHit { t: rh.tfar[i], prim: rh.prim_id[i], u: rh.u[i], v: rh.v[i] });
+        }
     }
 
     /// Whether anything blocks the segment (0, tmax).

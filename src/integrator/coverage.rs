@@ -18,6 +18,7 @@ use glam::Vec3;
 use photon::map::{Disc, MIN_NORMAL_COS};
 use photon::sampling::hash_keys;
 
+use crate::accel::embree::PacketRay;
 use crate::scene::Scene;
 
 /// Probes per disc: the fraction's resolution (its noise is averaged by the final gather).
@@ -66,6 +67,42 @@ impl SceneCoverage<'_> {
         }
         area
     }
+
+    /// [`layers`](Self::layers) of every probe at once (origins `origins`, all along `d`), traced in
+    /// coherent packets of 8: the probes of a disc are parallel and close together, so a packet's rays
+    /// share most of their way through the BVH. For scenes without media (whose invisible boundaries
+    /// [`layers`](Self::layers) steps through one ray at a time).
+    fn layers_packed(&self, origins: &[Vec3], d: Vec3, length: f32, n: Vec3, area: &mut [f32]) {
+        let geometry = &self.0.geometry;
+        let mut t0 = [0.0f32; PROBES as usize];
+        let mut open: Vec<usize> = (0..origins.len()).collect();
+        let mut rays = [PacketRay { origin: Vec3::ZERO, dir: d, tnear: 0.0, tfar: length }; 8];
+        let mut hits = [None; 8];
+        for layer in 0..MAX_LAYERS {
+            let mut still = Vec::with_capacity(open.len());
+            for chunk in open.chunks(8) {
+                for (ray, &i) in rays.iter_mut().zip(chunk) {
+                    *ray = PacketRay { origin: origins[i], dir: d, tnear: t0[i], tfar: length };
+                }
+                self.0.bvh.intersect8(&rays[..chunk.len()], &mut hits);
+                for (hit, &i) in hits.iter().zip(chunk) {
+                    let Some(raw) = *hit else { continue };
+                    let h = geometry.hit(origins[i], d, raw);
+                    if h.ns.dot(n).abs() > MIN_NORMAL_COS && (layer == 0 || h.ng.dot(d) < 0.0) {
+                        area[i] += 1.0 / h.ng.dot(n).abs().max(MIN_FACET_COS);
+                    }
+                    t0[i] = raw.t + 1e-3 * length;
+                    if t0[i] < length {
+                        still.push(i);
+                    }
+                }
+            }
+            open = still;
+            if open.is_empty() {
+                break;
+            }
+        }
+    }
 }
 
 impl photon::Coverage for SceneCoverage<'_> {
@@ -77,13 +114,20 @@ impl photon::Coverage for SceneCoverage<'_> {
         let (t, b) = n.any_orthonormal_pair();
         let key = hash_keys(&[p.x.to_bits() as u64, p.y.to_bits() as u64, p.z.to_bits() as u64]);
         let turn = (key >> 40) as f32 / (1u64 << 24) as f32 * std::f32::consts::TAU;
-        let mut surface = 0.0f32;
-        for i in 0..PROBES {
+        let origins: [Vec3; PROBES as usize] = std::array::from_fn(|i| {
             let rho = r * ((i as f32 + 0.5) / PROBES as f32).sqrt();
             let phi = turn + i as f32 * GOLDEN_ANGLE;
-            let q = p + rho * (phi.cos() * t + phi.sin() * b);
-            surface += self.layers(q + half_thickness * n, -n, 2.0 * half_thickness, n);
+            p + rho * (phi.cos() * t + phi.sin() * b) + half_thickness * n
+        });
+        let mut area = [0.0f32; PROBES as usize];
+        if self.0.media.is_none() {
+            self.layers_packed(&origins, -n, 2.0 * half_thickness, n, &mut area);
+        } else {
+            for (a, &o) in area.iter_mut().zip(&origins) {
+                *a = self.layers(o, -n, 2.0 * half_thickness, n);
+            }
         }
+        let surface: f32 = area.iter().sum();
         // The query point is on a surface: never less than one probe's worth.
         Disc { half_thickness, fraction: surface.max(1.0) / PROBES as f32 }
     }
