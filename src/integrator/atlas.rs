@@ -120,7 +120,7 @@ impl Grid {
 }
 
 /// Texture samples averaged into a texel's albedo (4 × 4, stratified over its part of the triangle).
-const TEXEL_ALBEDO_SIDE: u32 = 4;
+const TEXEL_ALBEDO_SIDE: u32 = 2;
 
 /// The mean diffuse albedo of texel (i, j) of triangle `tri`: the material's constant one, or the mean of
 /// its texture at [`TEXEL_ALBEDO_SIDE`]² stratified points of the texel's part of the triangle (jittered

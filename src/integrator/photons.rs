@@ -81,13 +81,15 @@ impl PhotonSettings {
     }
 }
 
-/// Photons per atlas texel estimate: half the lookup's `k` (at least 8). A texel is read only by
+/// Photons per atlas texel estimate: a third of the lookup's `k` (at least 8). A texel is read only by
 /// final-gather rays, and a gather averages hundreds of texels, so a texel's noise averages out while the
 /// blur of a wider disc does not; its direct part comes from shadow rays, so only the smooth caustic and
-/// indirect part is estimated (Sibenik 1024²: image mean 0.9943 → 0.9957 of the reference, block relMSE
-/// 0.000046 → 0.000040, the fill's k-NN searches about half as long).
+/// indirect part is estimated. At half the lookup's k (from k = 100: Sibenik 1024² image mean 0.9943 →
+/// 0.9957 of the reference, block relMSE 0.000046 → 0.000040); a third (128², against the references):
+/// Sponza block relMSE 0.000169 → 0.000154, blinds-room 0.000403 → 0.000373, Sibenik 0.000116 →
+/// 0.000126, the boxes unchanged, and FLANN's share of the render 10.3–11.0 % → 8.8–9.2 % (Sibenik 600²).
 pub fn atlas_k(lookup: usize) -> usize {
-    (lookup / 2).max(8).min(lookup)
+    (lookup / 3).max(8).min(lookup)
 }
 
 thread_local! {
