@@ -17,6 +17,14 @@
 //! no such difference and the estimate is the samples' plain variance, which can only be larger. On
 //! Sibenik at 1000² the plain estimate kept a quarter of the pixels (mortar between stones, mouldings)
 //! sampling to the limit of 32.
+//!
+//! Pixels differ in what more samples buy. Where a pixel's samples make no Monte Carlo estimate — delta
+//! lights, cached and photon-map irradiance, mirrors — its samples differ only by where they fall in it
+//! (a texture's mortar lines, an edge), and it stops at `aa_spp` (32). Where they do (area-light samples,
+//! a glass's reflect-or-refract choice, glossy lobes, media, per-sample gathers), the pixel's noise is
+//! what more samples remove, and it may go on to `spp` (128): on the box scenes, lit by area lights, the
+//! error against the references fell by 35–50 % at little cost (cornell-caustics 0.00167 → 0.00104 in
+//! the same time), while Sibenik's textured stone (point and spot lights) stays at 32.
 
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
