@@ -249,7 +249,8 @@ impl Bvh {
         let mut rh = RTCRayHit8 {
             org: [[0.0; 8]; 3],
             tnear: [0.0; 8],
-            dir: [[0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0], [0.0; 8], [1.0; 8]],
+            // Invalid lanes are never traced; a unit direction keeps them well-formed all the same.
+            dir: [[0.0; 8], [0.0; 8], [1.0; 8]],
             time: [0.0; 8],
             tfar: [0.0; 8],
             mask: [u32::MAX; 8],

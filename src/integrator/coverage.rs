@@ -18,11 +18,12 @@ use glam::Vec3;
 use photon::map::{Disc, MIN_NORMAL_COS};
 use photon::sampling::hash_keys;
 
-use crate::accel::embree::PacketRay;
+use crate::accel::embree::{PacketRay, RawHit};
 use crate::scene::Scene;
 
 /// Probes per disc: the fraction's resolution (its noise is averaged by the final gather).
 const PROBES: u32 = 24;
+const N_PROBES: usize = PROBES as usize;
 const GOLDEN_ANGLE: f32 = 2.399_963_2;
 /// Facets steeper than this to the disc count as this steep (a probe grazing a facet says little).
 const MIN_FACET_COS: f32 = 0.25;
@@ -55,10 +56,7 @@ impl SceneCoverage<'_> {
         for layer in 0..MAX_LAYERS {
             let from = o + t0 * d;
             let Some(raw) = self.0.intersect_solid(from, d, length - t0) else { break };
-            let hit = self.0.geometry.hit(from, d, raw);
-            if hit.ns.dot(n).abs() > MIN_NORMAL_COS && (layer == 0 || hit.ng.dot(d) < 0.0) {
-                area += 1.0 / hit.ng.dot(n).abs().max(MIN_FACET_COS);
-            }
+            area += self.facet_area(from, d, raw, n, layer);
             // Step past this facet (a thousandth of the slab: far below any layer spacing that matters).
             t0 += raw.t + 1e-3 * length;
             if t0 >= length {
@@ -68,37 +66,49 @@ impl SceneCoverage<'_> {
         area
     }
 
-    /// [`layers`](Self::layers) of every probe at once (origins `origins`, all along `d`), traced in
-    /// coherent packets of 8: the probes of a disc are parallel and close together, so a packet's rays
-    /// share most of their way through the BVH. For scenes without media (whose invisible boundaries
-    /// [`layers`](Self::layers) steps through one ray at a time).
-    fn layers_packed(&self, origins: &[Vec3], d: Vec3, length: f32, n: Vec3, area: &mut [f32]) {
-        let geometry = &self.0.geometry;
-        let mut t0 = [0.0f32; PROBES as usize];
-        let mut open: Vec<usize> = (0..origins.len()).collect();
+    /// What the facet a probe from `o` along `d` met as its `layer`-th counts (see [`layers`](Self::layers)).
+    fn facet_area(&self, o: Vec3, d: Vec3, raw: RawHit, n: Vec3, layer: u32) -> f32 {
+        let hit = self.0.geometry.hit(o, d, raw);
+        if hit.ns.dot(n).abs() > MIN_NORMAL_COS && (layer == 0 || hit.ng.dot(d) < 0.0) {
+            1.0 / hit.ng.dot(n).abs().max(MIN_FACET_COS)
+        } else {
+            0.0
+        }
+    }
+
+    /// [`layers`](Self::layers) of every probe at once (all along `d`), traced in coherent packets of 8:
+    /// the probes of a disc are parallel and close together, so a packet's rays share most of their way
+    /// through the BVH. For scenes without media (whose invisible boundaries [`layers`](Self::layers)
+    /// steps through one ray at a time). The same ray as there, its origin kept and `tnear` moved on.
+    fn layers_packed(&self, origins: &[Vec3; N_PROBES], d: Vec3, length: f32, n: Vec3, area: &mut [f32; N_PROBES]) {
+        let mut t0 = [0.0f32; N_PROBES];
+        // Probes still crossing the slab: the first `n_open` of `open`, compacted in place each layer.
+        let mut open: [usize; N_PROBES] = std::array::from_fn(|i| i);
+        let mut n_open = N_PROBES;
         let mut rays = [PacketRay { origin: Vec3::ZERO, dir: d, tnear: 0.0, tfar: length }; 8];
         let mut hits = [None; 8];
         for layer in 0..MAX_LAYERS {
-            let mut still = Vec::with_capacity(open.len());
-            for chunk in open.chunks(8) {
-                for (ray, &i) in rays.iter_mut().zip(chunk) {
+            let mut kept = 0;
+            for start in (0..n_open).step_by(8) {
+                let len = (n_open - start).min(8);
+                let mut lanes = [0usize; 8];
+                lanes[..len].copy_from_slice(&open[start..start + len]);
+                for (ray, &i) in rays.iter_mut().zip(&lanes[..len]) {
                     *ray = PacketRay { origin: origins[i], dir: d, tnear: t0[i], tfar: length };
                 }
-                self.0.bvh.intersect8(&rays[..chunk.len()], &mut hits);
-                for (hit, &i) in hits.iter().zip(chunk) {
+                self.0.bvh.intersect8(&rays[..len], &mut hits);
+                for (hit, &i) in hits.iter().zip(&lanes[..len]) {
                     let Some(raw) = *hit else { continue };
-                    let h = geometry.hit(origins[i], d, raw);
-                    if h.ns.dot(n).abs() > MIN_NORMAL_COS && (layer == 0 || h.ng.dot(d) < 0.0) {
-                        area[i] += 1.0 / h.ng.dot(n).abs().max(MIN_FACET_COS);
-                    }
+                    area[i] += self.facet_area(origins[i], d, raw, n, layer);
                     t0[i] = raw.t + 1e-3 * length;
                     if t0[i] < length {
-                        still.push(i);
+                        open[kept] = i;
+                        kept += 1;
                     }
                 }
             }
-            open = still;
-            if open.is_empty() {
+            n_open = kept;
+            if n_open == 0 {
                 break;
             }
         }
@@ -114,12 +124,12 @@ impl photon::Coverage for SceneCoverage<'_> {
         let (t, b) = n.any_orthonormal_pair();
         let key = hash_keys(&[p.x.to_bits() as u64, p.y.to_bits() as u64, p.z.to_bits() as u64]);
         let turn = (key >> 40) as f32 / (1u64 << 24) as f32 * std::f32::consts::TAU;
-        let origins: [Vec3; PROBES as usize] = std::array::from_fn(|i| {
+        let origins: [Vec3; N_PROBES] = std::array::from_fn(|i| {
             let rho = r * ((i as f32 + 0.5) / PROBES as f32).sqrt();
             let phi = turn + i as f32 * GOLDEN_ANGLE;
             p + rho * (phi.cos() * t + phi.sin() * b) + half_thickness * n
         });
-        let mut area = [0.0f32; PROBES as usize];
+        let mut area = [0.0f32; N_PROBES];
         if self.0.media.is_none() {
             self.layers_packed(&origins, -n, 2.0 * half_thickness, n, &mut area);
         } else {
