@@ -130,6 +130,14 @@ fn noise_target_must_be_in_range() {
 }
 
 #[test]
+fn aa_spp_must_be_in_range() {
+    let d = room();
+    fails(&d, &p(d.path(), "scene.toml"), &["--aa-spp", "0"], &["--aa-spp", "1..="]);
+    let d = with_toml(&ROOM_TOML.replace("spp = 2", "spp = 2\naa_spp = -3"));
+    fails(&d, &p(d.path(), "scene.toml"), &[], &["scene.toml:14:", "aa_spp"]);
+}
+
+#[test]
 fn unknown_method() {
     let d = room();
     fails(&d, &p(d.path(), "scene.toml"), &["--method", "magic"], &["--method", "magic"]);
