@@ -42,6 +42,13 @@ pub trait PhotonScene: Sync {
     fn scatter(&self, hit: &SurfaceHit, wo: Vec3, u: [f32; 3]) -> Scatter;
     /// Whether any surface is specular (mirror/glass); if false the caustic map is never built.
     fn has_specular(&self) -> bool;
+    /// Whether the ray from `origin` along `dir` crosses a specular surface anywhere along it (a false
+    /// `true` costs nothing but time; a false `false` would lose caustic photons). A path that only the
+    /// caustic map still wants and whose first ray reaches no specular surface can store nothing, and
+    /// is not traced.
+    fn may_reach_specular(&self, _origin: Vec3, _dir: Vec3) -> bool {
+        true
+    }
     /// Whether photons fly through participating media ([`propagate`](Self::propagate)); without, a
     /// path draws exactly the numbers it always drew.
     fn has_media(&self) -> bool {
@@ -492,6 +499,12 @@ fn trace_path<S: PhotonScene + ?Sized>(scene: &S, s: &mut PathSampler, want: Wan
         return PathEnd::Dropped;
     }
     let media = scene.has_media();
+    // Only the caustic map still filling (and no media): a path whose first hit is not specular stores
+    // nothing. On Sibenik (one glass pane) 2.8 M of 3.2 M paths were such, 0.8 s of the 1.45 s pass.
+    let caustic_only = want.caustic && !want.global && !want.volume && !want.volume_caustic;
+    if caustic_only && !media && !scene.may_reach_specular(ray.origin, ray.dir) {
+        return PathEnd::Done;
+    }
     let (mut origin, mut dir, mut power, mut medium) = (ray.origin, ray.dir, ray.power, ray.medium);
     let mut any_specular = false;
     let mut any_diffuse = false;

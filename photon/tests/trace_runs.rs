@@ -84,3 +84,76 @@ fn a_mirror_the_light_cannot_reach_gives_no_caustic_map() {
     assert_eq!(stats.n_caustic_stored, 0);
     assert_eq!(stats.n_paths_emitted, 100_000);
 }
+
+/// The scene, with `may_reach_specular` answered exactly (whether the ray crosses a mirror anywhere),
+/// counting the rays the tracer casts.
+struct Culled<'a> {
+    scene: &'a PlaneScene,
+    rays: AtomicU64,
+}
+
+impl photon::PhotonScene for Culled<'_> {
+    fn emit(&self, u: [f32; 5]) -> Option<photon::EmittedRay> {
+        self.scene.emit(u)
+    }
+    fn intersect(&self, origin: Vec3, dir: Vec3) -> Option<photon::SurfaceHit> {
+        self.rays.fetch_add(1, Ordering::Relaxed);
+        self.scene.intersect(origin, dir)
+    }
+    fn scatter(&self, hit: &photon::SurfaceHit, wo: Vec3, u: [f32; 3]) -> photon::Scatter {
+        self.scene.scatter(hit, wo, u)
+    }
+    fn has_specular(&self) -> bool {
+        self.scene.has_specular()
+    }
+    fn may_reach_specular(&self, origin: Vec3, dir: Vec3) -> bool {
+        self.scene.planes.iter().filter(|pl| pl.mirror).any(|pl| {
+            let t = (pl.point - origin).dot(pl.normal) / dir.dot(pl.normal);
+            t > 0.0 && (pl.contains)(origin + t * dir)
+        })
+    }
+}
+
+#[test]
+fn caustic_only_paths_that_miss_every_mirror_are_not_traced_and_change_nothing() {
+    let scene = mirror_wall();
+    // The global map fills first; the caustic map's remaining paths are caustic-only.
+    let targets = PhotonTargets {
+        global: 2_000,
+        caustic: 20_000,
+        volume: 0,
+        volume_caustic: 0,
+        max_paths: 10_000_000,
+    };
+    let (all, sa) = trace_photons(&scene, &targets, 5, &|_, _| {}).unwrap();
+    let culled = Culled {
+        scene: &scene,
+        rays: AtomicU64::new(0),
+    };
+    let (some, sb) = trace_photons(&culled, &targets, 5, &|_, _| {}).unwrap();
+    assert_eq!(
+        all.caustic.as_ref().unwrap().photons(),
+        some.caustic.as_ref().unwrap().photons()
+    );
+    assert_eq!(
+        all.global.as_ref().unwrap().photons(),
+        some.global.as_ref().unwrap().photons()
+    );
+    assert_eq!(
+        (sa.n_paths_emitted, sa.n_caustic_paths, sa.n_caustic_stored),
+        (sb.n_paths_emitted, sb.n_caustic_paths, sb.n_caustic_stored)
+    );
+    assert!(
+        sa.n_paths_emitted > 4 * sa.n_global_paths,
+        "caustic-only paths: {} of {}",
+        sa.n_paths_emitted - sa.n_global_paths,
+        sa.n_paths_emitted
+    );
+    // Fewer rays than paths: most caustic-only paths left the light away from the mirror.
+    let rays = culled.rays.load(Ordering::Relaxed);
+    assert!(
+        rays < sb.n_paths_emitted,
+        "{rays} rays for {} paths",
+        sb.n_paths_emitted
+    );
+}

@@ -60,6 +60,10 @@ impl PhotonScene for PhotonView<'_> {
         self.0.has_specular()
     }
 
+    fn may_reach_specular(&self, origin: Vec3, dir: Vec3) -> bool {
+        self.0.specular_bvh.as_ref().is_some_and(|b| b.occluded(origin, dir, f32::INFINITY))
+    }
+
     fn has_media(&self) -> bool {
         self.0.media.is_some()
     }

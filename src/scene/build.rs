@@ -54,8 +54,10 @@ pub fn load(path: &Path) -> Result<Scene> {
     let media = media(&cx, &desc, &geometry, &materials, &mesh_tris, &lights.lights)?;
     let bvh = Bvh::build(&geometry.positions, &geometry.triangles.iter().map(|t| t.v).collect::<Vec<_>>())
         .map_err(runtime)?;
+    let specular: Vec<[u32; 3]> = geometry.triangles.iter().filter(|t| materials[t.material as usize].bsdf.is_specular()).map(|t| t.v).collect();
+    let specular_bvh = if specular.is_empty() { None } else { Some(Bvh::build(&geometry.positions, &specular).map_err(runtime)?) };
     let fingerprint = fingerprint(&geometry, &materials, &lights, media.as_ref());
-    Ok(Scene { path: path.to_path_buf(), camera, geometry, materials, textures, lights, bvh, settings, bounds, fingerprint, media })
+    Ok(Scene { path: path.to_path_buf(), camera, geometry, materials, textures, lights, bvh, specular_bvh, settings, bounds, fingerprint, media })
 }
 
 fn transform(cx: &Ctx, index: usize, m: &file::MeshDesc) -> Result<Mat4> {

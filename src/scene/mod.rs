@@ -102,6 +102,9 @@ pub struct Scene {
     pub textures: Vec<Texture>,
     pub lights: Lights,
     pub bvh: Bvh,
+    /// The specular (mirror, glass) triangles alone, for the photon pass's caustic-only paths; `None`
+    /// without any.
+    pub specular_bvh: Option<Bvh>,
     pub settings: RenderSettings,
     pub bounds: (Vec3, Vec3),
     /// Hash of everything that affects light transport (not the camera), for photon and cache files.
@@ -290,7 +293,7 @@ impl Scene {
 
     /// Whether any triangle is mirror or glass (unused MTL entries do not count).
     pub fn has_specular(&self) -> bool {
-        self.geometry.triangles.iter().any(|t| self.materials[t.material as usize].bsdf.is_specular())
+        self.specular_bvh.is_some()
     }
 
     pub fn dir(&self) -> &Path {
