@@ -207,6 +207,14 @@ fn unknown_cache_fill_or_weighting() {
 }
 
 #[test]
+fn pass_a_stride_must_be_in_range() {
+    for bad in ["0", "65", "-2"] {
+        let d = with_toml(&format!("{ROOM_TOML}\n[render.icache]\npass_a_stride = {bad}\n"));
+        fails(&d, &p(d.path(), "scene.toml"), &["--method", "pm"], &["scene.toml:16:", "render.icache.pass_a_stride", "1..=64"]);
+    }
+}
+
+#[test]
 fn cache_settings_are_checked_whatever_the_method() {
     // `[render.icache]` is checked when the scene is loaded: a bad value is an error under `--method path`
     // too (it was accepted, and ignored, until issue 11).

@@ -103,24 +103,34 @@ pub fn fill_pass_a(
 ) -> FillStats {
     let points = |x, y| shading_points(x, y).into_iter().map(|sp| (sp, ())).collect();
     let gather = |x, y, i, sp: &ShadingPoint, _: &()| (gather(x, y, i, sp), NoStats);
-    fill_pass_a_cancellable(cache, width, height, &points, &gather, progress, &AtomicBool::new(false)).0
+    fill_pass_a_cancellable(cache, width, height, 1, &points, &gather, progress, &AtomicBool::new(false)).0
 }
 
 /// [`fill_pass_a`] with a payload per shading point and statistics per gather (see the module header),
 /// returning early, with the cache partly filled, soon after `cancel` is set: it is read before every
 /// chunk of pixels. (The caller makes its long gathers return early too.) Returns the fill's statistics
 /// and the sum of the gathers'.
+///
+/// Pass A visits the pixels (x, y) with x and y multiples of `stride` (1: every pixel): the first
+/// 1/stride² of the hierarchical order. A point between them that no record reaches is pass B's to
+/// cover (`pm` makes records for the samples that miss, between its rounds).
+#[allow(clippy::too_many_arguments)]
 pub fn fill_pass_a_cancellable<P: Clone + Send + Sync, S: Default + AddAssign + Send>(
     cache: &mut IrradianceCache,
     width: u32,
     height: u32,
+    stride: u32,
     shading_points: &PointsWithFn<P>,
     gather: &GatherWithFn<P, S>,
     progress: &ProgressFn,
     cancel: &AtomicBool,
 ) -> (FillStats, S) {
-    let total = width as u64 * height as u64;
-    fill_in_order(cache, width, height, HierarchicalOrder::new(width, height), total, shading_points, gather, progress, cancel)
+    let stride = stride.max(1);
+    let total = width.div_ceil(stride) as u64 * height.div_ceil(stride) as u64;
+    let order = HierarchicalOrder::new(width, height).filter(move |&(x, y)| x % stride == 0 && y % stride == 0);
+    let (mut fill, s) = fill_in_order(cache, width, height, order, total, shading_points, gather, progress, cancel);
+    fill.pass_a_stride = stride;
+    (fill, s)
 }
 
 /// More records where shading found none: the shading points of `pixels` (in any order; visited in the

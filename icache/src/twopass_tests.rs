@@ -259,3 +259,32 @@ fn one_pass_fill_covers_each_pixel_with_the_records_that_existed_then() {
     let sp = shading_points(W / 2, H / 2)[0];
     assert_eq!(cache.lookup_first(sp.pos, sp.normal, Pass::B, usize::MAX), cache.lookup(sp.pos, sp.normal, Pass::B));
 }
+
+#[test]
+fn a_pass_a_stride_visits_its_lattice_only_and_covers_it() {
+    use crate::twopass::fill_pass_a_cancellable;
+    let visited = std::sync::Mutex::new(Vec::new());
+    let points = |x: u32, y: u32| {
+        visited.lock().unwrap().push((x, y));
+        shading_points(x, y).into_iter().map(|sp| (sp, ())).collect()
+    };
+    let gather_with = |x, y, i, sp: &ShadingPoint, _: &()| (gather(x, y, i, sp), NoStats);
+    let mut cache = IrradianceCache::new(Vec3::new(-3.0, -1.0, -6.0), Vec3::new(3.0, 2.0, 1.0), plain()).unwrap();
+    let (stats, _) = fill_pass_a_cancellable(&mut cache, W, H, 2, &points, &gather_with, &|_, _| {}, &AtomicBool::new(false));
+    let mut visited = visited.into_inner().unwrap();
+    visited.sort_unstable();
+    let lattice: Vec<(u32, u32)> = (0..W).step_by(2).flat_map(|x| (0..H).step_by(2).map(move |y| (x, y))).collect();
+    assert_eq!(visited, lattice, "each lattice pixel once, no other");
+    assert_eq!((stats.pass_a_stride, stats.n_pixels, stats.n_uncovered_after), (2, lattice.len() as u64, 0));
+    for &(x, y) in &lattice {
+        for sp in shading_points(x, y) {
+            assert!(cache.lookup(sp.pos, sp.normal, Pass::A).is_some(), "lattice pixel ({x}, {y}) uncovered");
+        }
+    }
+    // Fewer records than a fill of every pixel, and most of the pixels between are covered in pass B.
+    let (full, _) = fill(2);
+    assert!(cache.len() < full.len(), "{} vs {}", cache.len(), full.len());
+    let between: Vec<ShadingPoint> = (0..W).flat_map(|x| (0..H).map(move |y| (x, y))).filter(|(x, y)| x % 2 == 1 || y % 2 == 1).flat_map(|(x, y)| shading_points(x, y)).collect();
+    let covered = between.iter().filter(|sp| cache.lookup(sp.pos, sp.normal, Pass::B).is_some()).count();
+    assert!(covered as f64 >= 0.99 * between.len() as f64, "{covered} of {}", between.len());
+}

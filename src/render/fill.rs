@@ -40,7 +40,7 @@ pub fn fill_cache(scene: &Scene, plan: &Plan, photons: &PhotonData, progress: &d
     progress.start("cache", w as u64 * h as u64);
     let (fill, counters, one_pass) = match scene.settings.icache.fill {
         FillMode::TwoPass => {
-            let (fill, counters) = icache::fill_pass_a_cancellable(&mut cache, w, h, &points, &gather, &report_progress, cancel);
+            let (fill, counters) = icache::fill_pass_a_cancellable(&mut cache, w, h, plan.pass_a_stride, &points, &gather, &report_progress, cancel);
             cache.end_stage();
             (fill, counters, None)
         }

@@ -33,6 +33,8 @@ pub struct Plan {
     pub photons: PhotonSettings,
     /// `[render.icache]` for the image size (read by `pm`).
     pub cache: CacheParams,
+    /// Pass A visits every n-th pixel in x and y ([`crate::scene::IcacheSettings::pass_a_stride`]).
+    pub pass_a_stride: u32,
     /// Rays per final gather (`pm`'s records and `pm-fg`'s samples).
     pub gather: GatherParams,
 }
@@ -105,6 +107,7 @@ pub fn plan(scene: &Scene, opts: &Options) -> Result<Plan> {
         camera: scene.camera.with_resolution(width, height),
         photons: PhotonSettings::resolve(scene),
         cache: icache.for_image(width, height),
+        pass_a_stride: icache.pass_a_stride(width, height),
         gather: GatherParams { rays: icache.rays },
     })
 }

@@ -277,6 +277,7 @@ fn cache_rows(r: &mut Report, s: &CacheStats, fill: &icache::FillStats, gather_r
     r.count("Irradiance cache", "Shrunk by adaptive caching (halvings)", "icache.shrunk_adaptive", s.shrunk_adaptive);
     r.count("Irradiance cache", "Clamped to min spacing", "icache.clamped_min", s.clamped_min);
     r.count("Irradiance cache", "Clamped to max spacing", "icache.clamped_max", s.clamped_max);
+    r.count("Irradiance cache", "Pass-A pixel lattice (every n-th pixel in x and y)", "icache.pass_a_stride", fill.pass_a_stride as u64);
     r.count("Irradiance cache", "Pass-A waves", "icache.waves", fill.n_waves);
     r.count("Irradiance cache", "Points left uncovered after pass A", "icache.uncovered_after_fill", fill.n_uncovered_after);
     r.bytes("Irradiance cache", "Memory", "icache.memory_bytes", s.memory_bytes);
