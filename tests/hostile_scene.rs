@@ -380,19 +380,21 @@ fn photon_and_cache_files_with_bad_values_are_refused() {
         photon::file::write_maps(&mut bytes, &loaded.info, &loaded.maps, Some(&pre)).unwrap();
         bytes
     };
-    // Photon layout: 112-byte header (max radius at 104), then pos, wi, power, normal, kind (13 f32).
+    // Photon layout (version 5): 160-byte header (max radius at 104), then pos, wi, power, normal, kind
+    // (13 f32) of the global, caustic and volume maps, then the irradiance points.
+    let h = 160;
     let n_global = u64::from_le_bytes(photons[80..88].try_into().unwrap()) as usize;
     let n_caustic = u64::from_le_bytes(photons[88..96].try_into().unwrap()) as usize;
-    let first_point = 112 + 52 * (n_global + n_caustic);
+    let first_point = h + 52 * (n_global + n_caustic);
     let photon_cases = [
-        (112 + 24, f32::NAN, "power"),
-        (112 + 28, -1.0, "power"),
-        (112 + 24, f32::INFINITY, "power"),
-        (112 + 36, f32::NAN, "normal"),
-        (112 + 40, 5.0, "normal"),
-        (112 + 12, f32::NAN, "direction"),
-        (112, f32::NAN, "position"),
-        (112 + 48, 0.5, "kind"),
+        (h + 24, f32::NAN, "power"),
+        (h + 28, -1.0, "power"),
+        (h + 24, f32::INFINITY, "power"),
+        (h + 36, f32::NAN, "normal"),
+        (h + 40, 5.0, "normal"),
+        (h + 12, f32::NAN, "direction"),
+        (h, f32::NAN, "position"),
+        (h + 48, 0.5, "kind"),
         (first_point + 24, f32::NAN, "irradiance"),
         (first_point + 28, -3.0, "irradiance"),
         (first_point + 40, f32::NAN, "indirect irradiance"),

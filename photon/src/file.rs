@@ -4,8 +4,13 @@
 //! Layout (little-endian): magic `PMPHOTON`, version u32, flags u32, then u64s — scene fingerprint,
 //! seed, target global, target caustic, max paths, paths emitted, global paths, caustic paths, number of
 //! global photons, caustic photons, irradiance points — then the precomputed max radius f32 and 4 zero
-//! bytes (112-byte header); then the photons (13 f32 each: pos, wi, power, normal, kind: 0 caustic, 1 indirect, 2 direct) and the irradiance
-//! points (13 f32: pos, normal, e, e_indirect, half_thickness); then an FNV-1a 64 checksum of everything between the magic and it.
+//! bytes, then (version 5) six u64s for participating media — target volume, target volume caustic,
+//! volume paths, volume caustic paths, number of volume photons, volume caustic photons — (160-byte
+//! header; version 4 files, 112 bytes without the media words, are still read); then the photons
+//! (13 f32 each: pos, wi, power, normal, kind: 0 caustic, 1 indirect, 2 direct) of the global, caustic,
+//! volume and volume caustic maps (a volume photon's normal is zero) and the irradiance points (13 f32:
+//! pos, normal, e, e_indirect, half_thickness); then an FNV-1a 64 checksum of everything between the
+//! magic and it.
 //! Loading checks magic, version, that the counts match the file length (before allocating), the
 //! checksum, then the scene fingerprint, then every value: positions finite, directions and normals unit
 //! length, power and irradiance finite and non-negative, the max radius positive (a file edited with its
@@ -25,16 +30,20 @@ use crate::precomputed::{IrradiancePoint, PrecomputedIrradiance};
 use crate::trace::{PhotonMaps, PhotonTargets, TraceStats};
 
 pub const MAGIC: [u8; 8] = *b"PMPHOTON";
-pub const VERSION: u32 = 4;
-const HEADER_BYTES: usize = 112;
+pub const VERSION: u32 = 5;
+/// The header of a version-5 file; a version-4 one is [`HEADER_BYTES_V4`].
+const HEADER_BYTES: usize = 160;
+const HEADER_BYTES_V4: usize = 112;
 const PHOTON_BYTES: u64 = 52;
 const POINT_BYTES: u64 = 52;
 const CHECKSUM_BYTES: u64 = 8;
 const HAS_GLOBAL: u32 = 1;
 const HAS_CAUSTIC: u32 = 2;
 const HAS_PRECOMPUTED: u32 = 4;
+const HAS_VOLUME: u32 = 8;
+const HAS_VOLUME_CAUSTIC: u32 = 16;
 /// Largest photon-map file read: 100 million photons in each map and as many irradiance points.
-pub const MAX_FILE_BYTES: u64 = HEADER_BYTES as u64 + 100_000_000 * (2 * PHOTON_BYTES + POINT_BYTES) + CHECKSUM_BYTES;
+pub const MAX_FILE_BYTES: u64 = HEADER_BYTES as u64 + 100_000_000 * (4 * PHOTON_BYTES + POINT_BYTES) + CHECKSUM_BYTES;
 
 /// What produced the maps: the caller's scene fingerprint and the trace parameters.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -45,6 +54,8 @@ pub struct MapsInfo {
     pub n_paths_emitted: u64,
     pub n_global_paths: u64,
     pub n_caustic_paths: u64,
+    pub n_volume_paths: u64,
+    pub n_volume_caustic_paths: u64,
 }
 
 impl MapsInfo {
@@ -56,6 +67,8 @@ impl MapsInfo {
             n_paths_emitted: stats.n_paths_emitted,
             n_global_paths: stats.n_global_paths,
             n_caustic_paths: stats.n_caustic_paths,
+            n_volume_paths: stats.n_volume_paths,
+            n_volume_caustic_paths: stats.n_volume_caustic_paths,
         }
     }
 }
@@ -104,10 +117,14 @@ pub fn write_maps<W: Write>(
     let mut h = Fnv { inner: w, hash: FNV_OFFSET };
     let global = maps.global.as_ref().map_or(&[][..], |m| m.photons());
     let caustic = maps.caustic.as_ref().map_or(&[][..], |m| m.photons());
+    let volume = maps.volume.as_ref().map_or(&[][..], |m| m.photons());
+    let volume_caustic = maps.volume_caustic.as_ref().map_or(&[][..], |m| m.photons());
     let points = precomputed.map_or(&[][..], |p| p.points());
     let flags = maps.global.as_ref().map_or(0, |_| HAS_GLOBAL)
         | maps.caustic.as_ref().map_or(0, |_| HAS_CAUSTIC)
-        | precomputed.map_or(0, |_| HAS_PRECOMPUTED);
+        | precomputed.map_or(0, |_| HAS_PRECOMPUTED)
+        | maps.volume.as_ref().map_or(0, |_| HAS_VOLUME)
+        | maps.volume_caustic.as_ref().map_or(0, |_| HAS_VOLUME_CAUSTIC);
     h.write_all(&VERSION.to_le_bytes())?;
     h.write_all(&flags.to_le_bytes())?;
     let t = &info.targets;
@@ -128,7 +145,10 @@ pub fn write_maps<W: Write>(
     }
     h.write_all(&precomputed.map_or(0.0f32, |p| p.max_radius()).to_le_bytes())?;
     h.write_all(&[0u8; 4])?;
-    for ph in global.iter().chain(caustic) {
+    for v in [t.volume as u64, t.volume_caustic as u64, info.n_volume_paths, info.n_volume_caustic_paths, volume.len() as u64, volume_caustic.len() as u64] {
+        h.write_all(&v.to_le_bytes())?;
+    }
+    for ph in global.iter().chain(caustic).chain(volume).chain(volume_caustic) {
         write_vecs(&mut h, &[ph.pos, ph.wi, ph.power, ph.normal])?;
         h.write_all(&(if ph.direct { 2.0f32 } else { ph.indirect as u8 as f32 }).to_le_bytes())?;
     }
@@ -192,8 +212,11 @@ pub fn load(path: &Path, expected_fingerprint: u64) -> Result<LoadedMaps> {
 
 struct Header {
     flags: u32,
-    words: [u64; 11],
+    /// The 11 words of version 4, then the 6 media words of version 5 (zero in a version-4 file).
+    words: [u64; 17],
     max_radius: f32,
+    /// Where the photons start: [`HEADER_BYTES`], or [`HEADER_BYTES_V4`].
+    len: usize,
 }
 
 impl Header {
@@ -201,38 +224,47 @@ impl Header {
         if bytes.len() < 8 || bytes[..8] != MAGIC {
             return Err(Error::BadMagic);
         }
-        if bytes.len() < HEADER_BYTES {
-            return Err(Error::BadLength {
-                expected: HEADER_BYTES as u64 + CHECKSUM_BYTES,
-                actual: bytes.len() as u64,
-            });
+        if bytes.len() < 12 {
+            return Err(Error::BadLength { expected: HEADER_BYTES as u64 + CHECKSUM_BYTES, actual: bytes.len() as u64 });
         }
         let u32_at = |i: usize| u32::from_le_bytes(bytes[i..i + 4].try_into().unwrap_or_default());
         let version = u32_at(8);
-        if version != VERSION {
-            return Err(Error::UnsupportedVersion { found: version, expected: VERSION });
+        let len = match version {
+            VERSION => HEADER_BYTES,
+            4 => HEADER_BYTES_V4,
+            _ => return Err(Error::UnsupportedVersion { found: version, expected: VERSION }),
+        };
+        if bytes.len() < len {
+            return Err(Error::BadLength { expected: len as u64 + CHECKSUM_BYTES, actual: bytes.len() as u64 });
         }
-        let mut words = [0u64; 11];
-        for (k, w) in words.iter_mut().enumerate() {
+        let mut words = [0u64; 17];
+        for k in 0..11 {
             let i = 16 + 8 * k;
-            *w = u64::from_le_bytes(bytes[i..i + 8].try_into().unwrap_or_default());
+            words[k] = u64::from_le_bytes(bytes[i..i + 8].try_into().unwrap_or_default());
         }
-        Ok(Header { flags: u32_at(12), words, max_radius: f32::from_bits(u32_at(104)) })
+        if len == HEADER_BYTES {
+            for k in 11..17 {
+                let i = HEADER_BYTES_V4 + 8 * (k - 11);
+                words[k] = u64::from_le_bytes(bytes[i..i + 8].try_into().unwrap_or_default());
+            }
+        }
+        Ok(Header { flags: u32_at(12), words, max_radius: f32::from_bits(u32_at(104)), len })
     }
 
-    fn counts(&self) -> (u64, u64, u64) {
-        (self.words[8], self.words[9], self.words[10])
+    /// Photons of the global, caustic, volume and volume caustic maps, and irradiance points.
+    fn counts(&self) -> (u64, u64, u64, u64, u64) {
+        (self.words[8], self.words[9], self.words[15], self.words[16], self.words[10])
     }
 
     /// The file length the counts imply (overflow is corruption).
     fn file_len(&self) -> Result<u64> {
-        let (g, c, p) = self.counts();
-        let photons = g.checked_add(c).and_then(|n| n.checked_mul(PHOTON_BYTES));
+        let (g, c, v, w, p) = self.counts();
+        let photons = g.checked_add(c).and_then(|n| n.checked_add(v)).and_then(|n| n.checked_add(w)).and_then(|n| n.checked_mul(PHOTON_BYTES));
         let points = p.checked_mul(POINT_BYTES);
         photons
             .zip(points)
             .and_then(|(a, b)| a.checked_add(b))
-            .and_then(|n| n.checked_add(HEADER_BYTES as u64 + CHECKSUM_BYTES))
+            .and_then(|n| n.checked_add(self.len as u64 + CHECKSUM_BYTES))
             .ok_or_else(|| Error::Corrupt("photon counts overflow".into()))
     }
 }
@@ -241,16 +273,19 @@ fn is_unit(v: Vec3) -> bool {
     v.is_finite() && (v.length() - 1.0).abs() < 1e-3
 }
 
-/// Why a photon read from a file cannot be used (the checksum only proves it is what was written).
-fn photon_problem(pos: Vec3, wi: Vec3, power: Vec3, normal: Vec3, flag: f32) -> Option<&'static str> {
+/// Why a photon read from a file cannot be used (the checksum only proves it is what was written). A
+/// volume photon (`in_medium`) has a zero normal, a surface photon a unit one.
+fn photon_problem(pos: Vec3, wi: Vec3, power: Vec3, normal: Vec3, flag: f32, in_medium: bool) -> Option<&'static str> {
     if !pos.is_finite() {
         Some("position is not finite")
     } else if !is_unit(wi) {
         Some("direction is not a unit vector")
     } else if !(power.is_finite() && power.min_element() >= 0.0) {
         Some("power is not finite and non-negative")
-    } else if !is_unit(normal) {
+    } else if !in_medium && !is_unit(normal) {
         Some("normal is not a unit vector")
+    } else if in_medium && normal != Vec3::ZERO {
+        Some("a volume photon's normal is not zero")
     } else if flag != 0.0 && flag != 1.0 && flag != 2.0 {
         Some("kind is not 0 (caustic), 1 (indirect) or 2 (direct)")
     } else {
@@ -291,10 +326,12 @@ pub fn read_maps(bytes: &[u8], expected_fingerprint: u64) -> Result<LoadedMaps> 
     if w[0] != expected_fingerprint {
         return Err(Error::SceneMismatch { found: w[0], expected: expected_fingerprint });
     }
-    let (n_global, n_caustic, n_points) = header.counts();
+    let (n_global, n_caustic, n_volume, n_volume_caustic, n_points) = header.counts();
     let flag = |f: u32| header.flags & f != 0;
     if (!flag(HAS_GLOBAL) && n_global > 0)
         || (!flag(HAS_CAUSTIC) && n_caustic > 0)
+        || (!flag(HAS_VOLUME) && n_volume > 0)
+        || (!flag(HAS_VOLUME_CAUSTIC) && n_volume_caustic > 0)
         || (!flag(HAS_PRECOMPUTED) && n_points > 0)
     {
         return Err(Error::Corrupt("photons present for a map flagged absent".into()));
@@ -302,29 +339,33 @@ pub fn read_maps(bytes: &[u8], expected_fingerprint: u64) -> Result<LoadedMaps> 
     let info = MapsInfo {
         fingerprint: w[0],
         seed: w[1],
-        targets: PhotonTargets { global: w[2] as usize, caustic: w[3] as usize, volume: 0, volume_caustic: 0, max_paths: w[4] },
+        targets: PhotonTargets { global: w[2] as usize, caustic: w[3] as usize, volume: w[11] as usize, volume_caustic: w[12] as usize, max_paths: w[4] },
         n_paths_emitted: w[5],
         n_global_paths: w[6],
         n_caustic_paths: w[7],
+        n_volume_paths: w[13],
+        n_volume_caustic_paths: w[14],
     };
     let mut floats =
-        bytes[HEADER_BYTES..body_end].chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]));
+        bytes[header.len..body_end].chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]));
     let mut next = || floats.next().unwrap_or(f32::NAN);
-    let mut read_photons = |map: &str, n: u64| -> Result<Vec<Photon>> {
+    let mut read_photons = |map: &str, n: u64, in_medium: bool| -> Result<Vec<Photon>> {
         (0..n)
             .map(|index| {
                 let mut v = || Vec3::new(next(), next(), next());
                 let (pos, wi, power, normal) = (v(), v(), v(), v());
                 let flag = next();
-                match photon_problem(pos, wi, power, normal, flag) {
+                match photon_problem(pos, wi, power, normal, flag, in_medium) {
                     Some(why) => Err(Error::Corrupt(format!("{map} photon {index}: {why}"))),
                     None => Ok(Photon { pos, wi, power, normal, indirect: flag == 1.0, direct: flag == 2.0 }),
                 }
             })
             .collect()
     };
-    let global = read_photons("global", n_global)?;
-    let caustic = read_photons("caustic", n_caustic)?;
+    let global = read_photons("global", n_global, false)?;
+    let caustic = read_photons("caustic", n_caustic, false)?;
+    let volume = read_photons("volume", n_volume, true)?;
+    let volume_caustic = read_photons("volume caustic", n_volume_caustic, true)?;
     let points: Vec<IrradiancePoint> = (0..n_points)
         .map(|_| {
             let mut v = || Vec3::new(next(), next(), next());
@@ -346,7 +387,12 @@ pub fn read_maps(bytes: &[u8], expected_fingerprint: u64) -> Result<LoadedMaps> 
             Ok(None)
         }
     };
-    let maps = PhotonMaps { global: map(flag(HAS_GLOBAL), global)?, caustic: map(flag(HAS_CAUSTIC), caustic)?, volume: None, volume_caustic: None };
+    let maps = PhotonMaps {
+        global: map(flag(HAS_GLOBAL), global)?,
+        caustic: map(flag(HAS_CAUSTIC), caustic)?,
+        volume: map(flag(HAS_VOLUME), volume)?,
+        volume_caustic: map(flag(HAS_VOLUME_CAUSTIC), volume_caustic)?,
+    };
     let precomputed = if flag(HAS_PRECOMPUTED) {
         Some(PrecomputedIrradiance::from_points(points, header.max_radius).map_err(corrupt)?)
     } else {

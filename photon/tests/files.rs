@@ -70,3 +70,64 @@ fn damaged_files_give_clear_errors() {
     huge[80..88].copy_from_slice(&u64::MAX.to_le_bytes());
     assert!(matches!(read_maps(&huge, FINGERPRINT), Err(Error::Corrupt(_))));
 }
+
+/// Maps with volume photons (normal zero) in both volume maps.
+fn with_volume_maps() -> (Vec<u8>, MapsInfo, photon::PhotonMaps) {
+    let scene = mirror_wall();
+    let targets = PhotonTargets { global: 2_000, caustic: 300, volume: 0, volume_caustic: 0, max_paths: 1_000_000 };
+    let (mut maps, stats) = trace_photons(&scene, &targets, 7, &|_, _| {}).unwrap();
+    // Volume photons made from the surface ones: positions off the surfaces, no normal.
+    let to_volume = |m: &photon::PhotonMap, lift: f32| -> Vec<photon::Photon> {
+        m.photons().iter().map(|ph| photon::Photon { pos: ph.pos + glam::Vec3::splat(lift), normal: glam::Vec3::ZERO, ..*ph }).collect()
+    };
+    maps.volume = Some(photon::PhotonMap::new(to_volume(maps.global.as_ref().unwrap(), 0.1)).unwrap());
+    maps.volume_caustic = Some(photon::PhotonMap::new(to_volume(maps.caustic.as_ref().unwrap(), 0.2)).unwrap());
+    let targets = PhotonTargets { volume: 2_000, volume_caustic: 300, ..targets };
+    let stats = photon::TraceStats { n_volume_paths: 12_345, n_volume_caustic_paths: 67_890, ..stats };
+    let info = MapsInfo::new(FINGERPRINT, 7, targets, &stats);
+    let mut bytes = Vec::new();
+    write_maps(&mut bytes, &info, &maps, None).unwrap();
+    (bytes, info, maps)
+}
+
+#[test]
+fn volume_maps_round_trip_and_a_volume_photon_with_a_normal_is_refused() {
+    let (bytes, info, maps) = with_volume_maps();
+    let loaded = read_maps(&bytes, FINGERPRINT).unwrap();
+    assert_eq!(loaded.info, info);
+    assert_eq!((loaded.info.n_volume_paths, loaded.info.n_volume_caustic_paths), (12_345, 67_890));
+    for (a, b) in [(&loaded.maps.global, &maps.global), (&loaded.maps.caustic, &maps.caustic), (&loaded.maps.volume, &maps.volume), (&loaded.maps.volume_caustic, &maps.volume_caustic)] {
+        assert_eq!(a.as_ref().unwrap().photons(), b.as_ref().unwrap().photons());
+    }
+    // The first volume photon's normal (pos, wi, power, then normal: 36 bytes in), made unit, checksum
+    // recomputed: refused.
+    let n = maps.global.as_ref().unwrap().len() + maps.caustic.as_ref().unwrap().len();
+    let at = 160 + 52 * n + 36;
+    let mut bad = bytes.clone();
+    bad[at..at + 4].copy_from_slice(&1.0f32.to_le_bytes());
+    let end = bad.len() - 8;
+    let sum = fnv(&bad[8..end]);
+    bad[end..].copy_from_slice(&sum.to_le_bytes());
+    assert!(matches!(read_maps(&bad, FINGERPRINT), Err(Error::Corrupt(m)) if m.contains("volume photon 0")));
+}
+
+fn fnv(bytes: &[u8]) -> u64 {
+    bytes.iter().fold(0xcbf2_9ce4_8422_2325u64, |h, &b| (h ^ b as u64).wrapping_mul(0x0100_0000_01b3))
+}
+
+#[test]
+fn a_version_4_file_is_still_read() {
+    // Version 4 had no media words: the 112-byte header, then the photons.
+    let (v5, info) = encoded();
+    let mut v4 = v5[..112].to_vec();
+    v4[8..12].copy_from_slice(&4u32.to_le_bytes());
+    v4.extend_from_slice(&v5[160..v5.len() - 8]);
+    let sum = fnv(&v4[8..]);
+    v4.extend_from_slice(&sum.to_le_bytes());
+    let (a, b) = (read_maps(&v4, FINGERPRINT).unwrap(), read_maps(&v5, FINGERPRINT).unwrap());
+    assert_eq!(a.info, MapsInfo { n_volume_paths: 0, n_volume_caustic_paths: 0, ..info });
+    assert_eq!(a.maps.global.unwrap().photons(), b.maps.global.unwrap().photons());
+    assert_eq!(a.maps.caustic.unwrap().photons(), b.maps.caustic.unwrap().photons());
+    assert_eq!(a.precomputed.unwrap().points(), b.precomputed.unwrap().points());
+    assert!(a.maps.volume.is_none() && a.maps.volume_caustic.is_none());
+}

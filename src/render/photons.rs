@@ -43,13 +43,24 @@ pub fn load_photons(scene: &Scene, plan: &Plan, path: &Path) -> Result<(Maps, Ph
     let t = Instant::now();
     let loaded = files::load_photons(path, scene.fingerprint)?;
     let time_s = t.elapsed().as_secs_f64();
-    let (global, caustic) = (loaded.maps.global.as_ref(), loaded.maps.caustic.as_ref());
+    let m = &loaded.maps;
+    let (global, caustic, volume, volume_caustic) = (m.global.as_ref(), m.caustic.as_ref(), m.volume.as_ref(), m.volume_caustic.as_ref());
+    let len = |m: Option<&photon::PhotonMap>| m.map_or(0, |m| m.len() as u64);
+    let bytes = |m: Option<&photon::PhotonMap>| m.map_or(0, |m| m.memory_bytes() as u64);
     let trace = photon::TraceStats {
         n_paths_emitted: loaded.info.n_paths_emitted,
-        n_global_stored: global.map_or(0, |m| m.len() as u64),
-        n_caustic_stored: caustic.map_or(0, |m| m.len() as u64),
-        global_memory_bytes: global.map_or(0, |m| m.memory_bytes() as u64),
-        caustic_memory_bytes: caustic.map_or(0, |m| m.memory_bytes() as u64),
+        n_global_paths: loaded.info.n_global_paths,
+        n_caustic_paths: loaded.info.n_caustic_paths,
+        n_volume_paths: loaded.info.n_volume_paths,
+        n_volume_caustic_paths: loaded.info.n_volume_caustic_paths,
+        n_global_stored: len(global),
+        n_caustic_stored: len(caustic),
+        n_volume_stored: len(volume),
+        n_volume_caustic_stored: len(volume_caustic),
+        global_memory_bytes: bytes(global),
+        caustic_memory_bytes: bytes(caustic),
+        volume_memory_bytes: bytes(volume),
+        volume_caustic_memory_bytes: bytes(volume_caustic),
         ..Default::default()
     };
     let precomputed = loaded.precomputed.as_ref().map(|p| (p.points().len() as u64, p.memory_bytes() as u64));

@@ -76,13 +76,6 @@ pub fn plan(scene: &Scene, opts: &Options) -> Result<Plan> {
         Method::Path => 0.0,
         Method::Pm | Method::Photons | Method::PmFg => DEFAULT_NOISE,
     });
-    if scene.media.is_some() && method.uses_photon_maps() {
-        for (opt, given) in [("--save-photons", opts.files.save_photons.is_some()), ("--load-photons", opts.files.load_photons.is_some())] {
-            if given {
-                return Err(option(opt, "photon files do not hold the volume photon map yet: a scene with [[medium]] traces its photons every render"));
-            }
-        }
-    }
     let width = opts.width.unwrap_or(scene.camera.width);
     let height = opts.height.unwrap_or(scene.camera.height);
     let window = match opts.crop {
