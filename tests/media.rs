@@ -471,3 +471,35 @@ fn a_dense_fog_does_not_hang_any_method() {
         assert!(img.pixels.iter().all(|p| p.is_finite()), "{method}: non-finite pixels");
     }
 }
+
+/// Renders `scene` (shipped) at its reference's size with `method` and `extra`; returns the image and
+/// the wall time of the run.
+fn timed_render(scene: &str, method: &str, w: u32, h: u32, dir: &std::path::Path, extra: &[&str]) -> (pmrender::io::output::Image, f64) {
+    let start = std::time::Instant::now();
+    let (img, _) = render_shipped(scene, method, w, h, dir, extra);
+    (img, start.elapsed().as_secs_f64())
+}
+
+/// Issue 13's last condition: `pm` with its defaults is more accurate than `path` in the same wall time
+/// on both shipped fog scenes. `path` is timed at 8 and 24 spp (a fixed cost plus a cost per sample)
+/// and rendered at the count that fits `pm`'s time; both against the Mitsuba references by pixel relMSE.
+/// Measured (chart of 2026-11-24): fog-cornell pm 0.00285 in 3.6 s against path's 0.0074; fog-spot pm
+/// 0.056 (the reference's own noise is 0.048) against path's ~5 at any budget under 10 s (the lamp seen
+/// through the sphere). Slow: `make test-slow`.
+#[test]
+#[ignore = "slow: make test-slow"]
+fn pm_beats_path_at_equal_time_in_both_fog_scenes() {
+    let dir = tempfile::tempdir().unwrap();
+    for (scene, name, w, h) in [("fog-cornell.toml", "fog-cornell", 64, 64), ("fog-spot.toml", "fog-spot", 64, 48)] {
+        let reference = read(&repo().join(format!("tests/reference/{name}-path.exr")));
+        let (pm, t_pm) = timed_render(scene, "pm", w, h, dir.path(), &[]);
+        let (_, t8) = timed_render(scene, "path", w, h, dir.path(), &["--spp", "8"]);
+        let (_, t24) = timed_render(scene, "path", w, h, dir.path(), &["--spp", "24"]);
+        let per_spp = ((t24 - t8) / 16.0).max(1e-6);
+        let spp = (((t_pm - (t8 - 8.0 * per_spp)) / per_spp).round() as u32).clamp(8, 65536).to_string();
+        let (path, t_path) = timed_render(scene, "path", w, h, dir.path(), &["--spp", &spp]);
+        let (e_pm, e_path) = (rel_mse(&pm, &reference), rel_mse(&path, &reference));
+        eprintln!("[{name}] pm {t_pm:.1} s relMSE {e_pm:.5}; path {spp} spp {t_path:.1} s relMSE {e_path:.5}");
+        assert!(e_pm < 0.5 * e_path, "{name}: pm relMSE {e_pm:.5} in {t_pm:.1} s is not half of path's {e_path:.5} at {spp} spp ({t_path:.1} s)");
+    }
+}
