@@ -154,6 +154,21 @@ pub fn fresnel_dielectric(cos_i: f32, eta: f32) -> (f32, f32) {
     (0.5 * (rs * rs + rp * rp), cos_t)
 }
 
+/// Both lobes of smooth glass seen from `wo` for radiance: (mirror direction, F) and, unless light is
+/// totally reflected, (refracted direction, (1 − F) × transmittance / η²); a zero weight where a lobe
+/// does not exist. The weights are the expected contributions of `sample_glass`'s two outcomes.
+pub fn glass_lobes(ior: f32, transmittance: Vec3, n: Vec3, wo: Vec3, front: bool) -> [(Vec3, Vec3); 2] {
+    let eta = if front { ior } else { 1.0 / ior };
+    let cos_i = wo.dot(n).clamp(0.0, 1.0);
+    let (f, cos_t) = fresnel_dielectric(cos_i, eta);
+    let reflected = (reflect(wo, n), Vec3::splat(f));
+    if f >= 1.0 {
+        return [reflected, (Vec3::ZERO, Vec3::ZERO)];
+    }
+    let wi = (-wo / eta + (cos_i / eta - cos_t) * n).normalize();
+    [reflected, (wi, transmittance * ((1.0 - f) / (eta * eta)))]
+}
+
 fn sample_glass(ior: f32, transmittance: Vec3, n: Vec3, wo: Vec3, front: bool, u: f32, mode: Transport) -> Option<BsdfSample> {
     let eta = if front { ior } else { 1.0 / ior };
     let cos_i = wo.dot(n).clamp(0.0, 1.0);
@@ -172,6 +187,35 @@ fn sample_glass(ior: f32, transmittance: Vec3, n: Vec3, wo: Vec3, front: bool, u
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn glass_lobes_are_the_expected_outcomes_of_sampling() {
+        let n = Vec3::Z;
+        let t = Vec3::new(1.0, 0.9, 0.8);
+        for (wo, front) in [(Vec3::new(0.3, 0.1, 0.95).normalize(), true), (Vec3::new(0.8, 0.0, 0.6), false), (Vec3::new(0.2, 0.0, 0.98).normalize(), false)] {
+            let lobes = glass_lobes(1.5, t, n, wo, front);
+            // Sampling's two outcomes over a fine grid of u, weighted by how often each is drawn.
+            let m = 10_000;
+            let (mut refl, mut refr) = (Vec3::ZERO, Vec3::ZERO);
+            for i in 0..m {
+                let u = (i as f32 + 0.5) / m as f32;
+                let s = sample_glass(1.5, t, n, wo, front, u, Transport::Radiance).unwrap();
+                if s.wi.dot(n) > 0.0 {
+                    assert!((s.wi - lobes[0].0).length() < 1e-5);
+                    refl += s.weight / m as f32;
+                } else {
+                    assert!((s.wi - lobes[1].0).length() < 1e-5);
+                    refr += s.weight / m as f32;
+                }
+            }
+            assert!((refl - lobes[0].1).abs().max_element() < 1e-3, "{refl} vs {:?}", lobes[0]);
+            assert!((refr - lobes[1].1).abs().max_element() < 1e-3, "{refr} vs {:?}", lobes[1]);
+        }
+        // Beyond the critical angle inside the glass: reflection only.
+        let lobes = glass_lobes(1.5, t, n, Vec3::new(0.9, 0.0, 0.4359).normalize(), false);
+        assert_eq!(lobes[0].1, Vec3::ONE);
+        assert_eq!(lobes[1].1, Vec3::ZERO);
+    }
 
     #[test]
     fn fresnel_normal_incidence_and_tir() {

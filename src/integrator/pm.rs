@@ -16,7 +16,7 @@ use super::photons::PhotonData;
 use super::terms::Terms;
 use super::{Frame, SampleCounters};
 use crate::geometry::{spawn, Hit};
-use crate::material::{Bsdf, Transport};
+use crate::material::{glass_lobes, Bsdf, Transport};
 use crate::medium::MediumId;
 use crate::scene::{past, Scene};
 use crate::warp::{power_heuristic, reflect, to_world};
@@ -70,20 +70,20 @@ impl PmContext<'_> {
     /// surface when there are some (not for `pm-fg`, whose per-sample gathers are what it averages).
     pub fn shade(&self, origin: Vec3, dir: Vec3, memo: Option<&mut super::PixelMemo>, rng: &mut Rng, c: &mut SampleCounters) -> Terms {
         let memo = if matches!(self.source, IndirectSource::Gather) { None } else { memo };
-        self.shade_ray(origin, dir, 0.0, 0, Via::Delta, memo, self.scene.camera_medium(), rng, c)
+        self.shade_ray(origin, dir, 0.0, 0, 1.0, Via::Delta, memo, self.scene.camera_medium(), rng, c)
     }
 
     /// The terms along one ray travelling in `medium`: in a participating medium, the light it scatters
     /// toward the ray up to the surface, plus the surface's terms times the transmittance; invisible
     /// boundaries are crossed (not a bounce), the ray going on along its line beyond `t0`.
     #[allow(clippy::too_many_arguments)]
-    fn shade_ray(&self, o: Vec3, d: Vec3, t0: f32, depth: u32, via: Via, memo: Option<&mut super::PixelMemo>, medium: MediumId, rng: &mut Rng, c: &mut SampleCounters) -> Terms {
+    fn shade_ray(&self, o: Vec3, d: Vec3, t0: f32, depth: u32, beta: f32, via: Via, memo: Option<&mut super::PixelMemo>, medium: MediumId, rng: &mut Rng, c: &mut SampleCounters) -> Terms {
         c.rays += 1;
         let hit = self.scene.intersect_after(o, d, t0);
-        let Some(m) = self.scene.medium(medium) else { return self.shade_hit(o, hit, d, depth, via, memo, medium, rng, c) };
+        let Some(m) = self.scene.medium(medium) else { return self.shade_hit(o, hit, d, depth, beta, via, memo, medium, rng, c) };
         let t_end = hit.map_or(f32::INFINITY, |h| h.t - t0);
         let (single, multiple) = if t_end.is_finite() { media::in_scattered(self, o + d * t0, d, t_end, medium, m, rng, c) } else { (Vec3::ZERO, Vec3::ZERO) };
-        let mut t = self.shade_hit(o, hit, d, depth, via, memo, medium, rng, c).scaled(m.transmittance(t_end));
+        let mut t = self.shade_hit(o, hit, d, depth, beta, via, memo, medium, rng, c).scaled(m.transmittance(t_end));
         t.media_single += single;
         t.media_multiple += multiple;
         t
@@ -91,12 +91,12 @@ impl PmContext<'_> {
 
     /// The terms at the end of a ray from `o` (`hit`, reached travelling along `d` in `medium`).
     #[allow(clippy::too_many_arguments)]
-    fn shade_hit(&self, o: Vec3, hit: Option<Hit>, d: Vec3, depth: u32, via: Via, memo: Option<&mut super::PixelMemo>, medium: MediumId, rng: &mut Rng, c: &mut SampleCounters) -> Terms {
+    fn shade_hit(&self, o: Vec3, hit: Option<Hit>, d: Vec3, depth: u32, beta: f32, via: Via, memo: Option<&mut super::PixelMemo>, medium: MediumId, rng: &mut Rng, c: &mut SampleCounters) -> Terms {
         let mut t = Terms::default();
         let Some(hit) = hit else { return t };
         if self.scene.material(&hit).bsdf.is_null() {
             let next = self.scene.medium_after(&hit, d, medium);
-            return self.shade_ray(o, d, past(hit.t, o), depth, via, memo, next, rng, c);
+            return self.shade_ray(o, d, past(hit.t, o), depth, beta, via, memo, next, rng, c);
         }
         let wo = -d;
         let le = self.scene.emitted(&hit, wo);
@@ -110,12 +110,27 @@ impl PmContext<'_> {
         let kd = self.scene.albedo(&hit);
         if bsdf.is_specular() {
             if depth + 1 < self.max_depth {
-                c.monte_carlo += matches!(bsdf, Bsdf::Glass { .. }) as u64;
+                // Glass met at the first GLASS_SPLIT_DEPTH bounces of a camera path is followed both
+                // ways, reflected and refracted, weighted by Fresnel: no choice, no noise. Deeper, one
+                // way is chosen (Fresnel's odds), a Monte Carlo estimate where the path still carries
+                // MONTE_CARLO_MIN_THROUGHPUT of the sample.
+                if let (&Bsdf::Glass { ior, transmittance }, true) = (bsdf, depth < GLASS_SPLIT_DEPTH) {
+                    for (wi, weight) in glass_lobes(ior, transmittance, frame.n, wo, frame.front) {
+                        if weight == Vec3::ZERO {
+                            continue;
+                        }
+                        let next = self.scene.medium_after(&hit, wi, medium);
+                        let sub = self.shade_ray(spawn(&hit, wi), wi, 0.0, depth + 1, beta * weight.max_element(), Via::Delta, None, next, rng, c);
+                        t.specular += weight * sub.sum();
+                    }
+                    return t;
+                }
+                c.monte_carlo += (matches!(bsdf, Bsdf::Glass { .. }) && beta >= MONTE_CARLO_MIN_THROUGHPUT) as u64;
                 let u = [rng.uniform(), rng.uniform(), rng.uniform()];
                 match bsdf.sample(kd, frame.n, wo, frame.front, u, Transport::Radiance) {
                     Some(s) => {
                         let next = self.scene.medium_after(&hit, s.wi, medium);
-                        let sub = self.shade_ray(spawn(&hit, s.wi), s.wi, 0.0, depth + 1, Via::Delta, None, next, rng, c);
+                        let sub = self.shade_ray(spawn(&hit, s.wi), s.wi, 0.0, depth + 1, beta * s.weight.max_element(), Via::Delta, None, next, rng, c);
                         t.specular = s.weight * sub.sum();
                     }
                     None => c.zero_pdf += 1,
@@ -146,7 +161,7 @@ impl PmContext<'_> {
         }
         if let Bsdf::Glossy { specular, exponent, .. } = *bsdf {
             if depth + 1 < self.max_depth && specular.max_element() > 0.0 {
-                t.specular = self.glossy_lobe(&hit, &frame, wo, specular, exponent, depth, medium, rng, c);
+                t.specular = self.glossy_lobe(&hit, &frame, wo, specular, exponent, depth, beta, medium, rng, c);
             }
         }
         t
@@ -203,7 +218,7 @@ impl PmContext<'_> {
 
     /// The glossy lobe of modified Phong, sampled exactly; its light is all of the next hit's radiance.
     #[allow(clippy::too_many_arguments)]
-    fn glossy_lobe(&self, hit: &Hit, frame: &Frame, wo: Vec3, ks: Vec3, exponent: f32, depth: u32, medium: MediumId, rng: &mut Rng, c: &mut SampleCounters) -> Vec3 {
+    fn glossy_lobe(&self, hit: &Hit, frame: &Frame, wo: Vec3, ks: Vec3, exponent: f32, depth: u32, beta: f32, medium: MediumId, rng: &mut Rng, c: &mut SampleCounters) -> Vec3 {
         let r = reflect(wo, frame.n);
         c.monte_carlo += 1;
         let (u0, u1) = (rng.uniform(), rng.uniform());
@@ -219,7 +234,7 @@ impl PmContext<'_> {
         let weight = ks * ((exponent + 2.0) / (exponent + 1.0) * cos_i);
         let pdf = phong_pdf(r, wi, exponent);
         let next = self.scene.medium_after(hit, wi, medium);
-        let sub = self.shade_ray(spawn(hit, wi), wi, 0.0, depth + 1, Via::Glossy { from: hit.p, pdf }, None, next, rng, c);
+        let sub = self.shade_ray(spawn(hit, wi), wi, 0.0, depth + 1, beta * weight.max_element(), Via::Glossy { from: hit.p, pdf }, None, next, rng, c);
         weight * sub.sum()
     }
 
@@ -394,6 +409,13 @@ struct GatherEnd {
 impl GatherEnd {
     const MISS: GatherEnd = GatherEnd { p: Vec3::ZERO, tri: 0, front: true, weight: Vec3::ZERO, glossy: Vec3::ZERO, scattered: Vec3::ZERO, distance: f32::INFINITY };
 }
+
+/// Glass at the first this many bounces of a camera path is followed both ways (see `shade_hit`).
+const GLASS_SPLIT_DEPTH: u32 = 2;
+/// A glass's reflect-or-refract choice deeper than [`GLASS_SPLIT_DEPTH`] counts as a Monte Carlo estimate
+/// (letting its pixel take up to `spp` samples) only where the path carries at least this share of the
+/// sample: a pane's light reflected twice inside it (F² ≈ 0.2 %) does not.
+const MONTE_CARLO_MIN_THROUGHPUT: f32 = 0.1;
 
 /// Solid-angle pdf of the normalised Phong lobe about the mirror direction `r`.
 fn phong_pdf(r: Vec3, wi: Vec3, exponent: f32) -> f32 {
