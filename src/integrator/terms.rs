@@ -50,11 +50,38 @@ impl Terms {
         }
     }
 
-    pub fn to_layers(self, media: bool) -> Vec<Vec3> {
-        let mut v = vec![self.emission, self.direct, self.specular, self.caustic, self.indirect];
-        if media {
-            v.extend([self.media_single, self.media_multiple]);
-        }
-        v
+    pub fn to_layers(self, media: bool) -> LayerValues {
+        let values = [self.emission, self.direct, self.specular, self.caustic, self.indirect, self.media_single, self.media_multiple];
+        LayerValues { values, len: if media { 7 } else { 5 } }
+    }
+}
+
+/// One sample's value per image layer, without an allocation: `len` of them (the photon-map methods'
+/// five terms, seven with media; `path`'s one radiance).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LayerValues {
+    values: [Vec3; 7],
+    len: usize,
+}
+
+impl LayerValues {
+    /// A single layer (`path`).
+    pub fn one(v: Vec3) -> LayerValues {
+        let mut values = [Vec3::ZERO; 7];
+        values[0] = v;
+        LayerValues { values, len: 1 }
+    }
+
+    pub fn as_slice(&self) -> &[Vec3] {
+        &self.values[..self.len]
+    }
+}
+
+impl IntoIterator for LayerValues {
+    type Item = Vec3;
+    type IntoIter = std::iter::Take<std::array::IntoIter<Vec3, 7>>;
+
+    fn into_iter(self) -> Self::IntoIter {
+        self.values.into_iter().take(self.len)
     }
 }

@@ -5,7 +5,6 @@
 use std::sync::atomic::AtomicBool;
 use std::time::Instant;
 
-use glam::Vec3;
 use photon::sampling::Rng;
 
 use super::fill::CacheFill;
@@ -18,7 +17,7 @@ use crate::geometry::Hit;
 use crate::integrator::cache_fill::{gather_record, sample_hits};
 use crate::integrator::photons::PhotonData;
 use crate::integrator::pm::{IndirectSource, PmContext};
-use crate::integrator::terms::term_names;
+use crate::integrator::terms::{term_names, LayerValues};
 use crate::integrator::{path, PixelMemo, SampleCounters};
 use crate::io::output::Image;
 use crate::scene::{Method, Scene};
@@ -83,7 +82,7 @@ impl<'a> GrowingCache<'a> {
 }
 
 impl Sampler for GrowingCache<'_> {
-    fn sample(&self, x: u32, y: u32, off: [f32; 2], memo: &mut PixelMemo, rng: &mut Rng, c: &mut SampleCounters, defer_misses: bool) -> Vec<Vec3> {
+    fn sample(&self, x: u32, y: u32, off: [f32; 2], memo: &mut PixelMemo, rng: &mut Rng, c: &mut SampleCounters, defer_misses: bool) -> LayerValues {
         let ctx = PmContext { source: IndirectSource::CacheUpTo(&self.fill.cache, self.view), defer_misses, ..self.ctx };
         camera_sample(&ctx, &self.plan.camera, x, y, off, memo, rng, c)
     }
@@ -128,15 +127,15 @@ impl Sampler for GrowingCache<'_> {
 
 fn path_sample<'a>(scene: &'a Scene, camera: &'a Camera) -> Box<dyn Sampler + 'a> {
     let max_depth = scene.settings.max_depth;
-    Box::new(move |x: u32, y: u32, off: [f32; 2], _: &mut PixelMemo, rng: &mut Rng, c: &mut SampleCounters| -> Vec<Vec3> {
+    Box::new(move |x: u32, y: u32, off: [f32; 2], _: &mut PixelMemo, rng: &mut Rng, c: &mut SampleCounters| -> LayerValues {
         let d = camera.ray(x as f32 + off[0], y as f32 + off[1]);
-        vec![path::radiance(scene, camera.eye, d, scene.camera_medium(), max_depth, rng, c)]
+        LayerValues::one(path::radiance(scene, camera.eye, d, scene.camera_medium(), max_depth, rng, c))
     })
 }
 
 /// With a one-pass cache, each pixel sees only the records made before the fill reached it.
 fn pm_sample<'a>(ctx: PmContext<'a>, camera: &'a Camera, one_pass: Option<(&'a IrradianceCache, &'a icache::OnePassFill)>) -> Box<dyn Sampler + 'a> {
-    Box::new(move |x: u32, y: u32, off: [f32; 2], memo: &mut PixelMemo, rng: &mut Rng, c: &mut SampleCounters| -> Vec<Vec3> {
+    Box::new(move |x: u32, y: u32, off: [f32; 2], memo: &mut PixelMemo, rng: &mut Rng, c: &mut SampleCounters| -> LayerValues {
         let ctx = match one_pass {
             Some((cache, order)) => PmContext { source: IndirectSource::CacheUpTo(cache, order.visible_records(x, y)), ..ctx },
             None => ctx,
@@ -147,7 +146,7 @@ fn pm_sample<'a>(ctx: PmContext<'a>, camera: &'a Camera, one_pass: Option<(&'a I
 
 /// One camera sample of the photon-map methods: the terms of the split along the ray through (x, y) + off.
 #[allow(clippy::too_many_arguments)]
-fn camera_sample(ctx: &PmContext, camera: &Camera, x: u32, y: u32, off: [f32; 2], memo: &mut PixelMemo, rng: &mut Rng, c: &mut SampleCounters) -> Vec<Vec3> {
+fn camera_sample(ctx: &PmContext, camera: &Camera, x: u32, y: u32, off: [f32; 2], memo: &mut PixelMemo, rng: &mut Rng, c: &mut SampleCounters) -> LayerValues {
     let d = camera.ray(x as f32 + off[0], y as f32 + off[1]);
     ctx.shade(camera.eye, d, Some(memo), rng, c).to_layers(ctx.scene.media.is_some())
 }

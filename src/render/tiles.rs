@@ -33,6 +33,7 @@ use photon::sampling::{hash_keys, Rng};
 use rayon::prelude::*;
 
 use crate::error::{Error, Result};
+use crate::integrator::terms::LayerValues;
 use crate::integrator::{sanitize, PixelMemo, SampleCounters};
 use crate::io::output::Image;
 
@@ -60,7 +61,7 @@ impl Window {
 /// What a method computes for one pixel sample at image position (x + offset[0], y + offset[1]): beauty is
 /// the sum of `layers` (or `layers[0]` when the method has a single layer).
 /// `memo` is the pixel's, cleared before each round of its samples.
-pub type SampleFn<'a> = dyn Fn(u32, u32, [f32; 2], &mut PixelMemo, &mut Rng, &mut SampleCounters) -> Vec<Vec3> + Sync + 'a;
+pub type SampleFn<'a> = dyn Fn(u32, u32, [f32; 2], &mut PixelMemo, &mut Rng, &mut SampleCounters) -> LayerValues + Sync + 'a;
 
 /// A sample whose shading found no cache record for a surface it reached (a pass-B miss).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -76,7 +77,7 @@ pub trait Sampler: Sync {
     /// With `defer_misses` (a round's first attempt, when [`Self::adds_records`]), a lookup that finds
     /// no record may answer anything cheap: every pixel with a miss takes the round again.
     #[allow(clippy::too_many_arguments)]
-    fn sample(&self, x: u32, y: u32, offset: [f32; 2], memo: &mut PixelMemo, rng: &mut Rng, c: &mut SampleCounters, defer_misses: bool) -> Vec<Vec3>;
+    fn sample(&self, x: u32, y: u32, offset: [f32; 2], memo: &mut PixelMemo, rng: &mut Rng, c: &mut SampleCounters, defer_misses: bool) -> LayerValues;
 
     /// Whether [`Self::end_round`] can add records (then each round keeps what it needs to take a
     /// pixel's samples again).
@@ -105,8 +106,8 @@ pub struct GrowStats {
     pub counters: SampleCounters,
 }
 
-impl<F: Fn(u32, u32, [f32; 2], &mut PixelMemo, &mut Rng, &mut SampleCounters) -> Vec<Vec3> + Sync + ?Sized> Sampler for F {
-    fn sample(&self, x: u32, y: u32, offset: [f32; 2], memo: &mut PixelMemo, rng: &mut Rng, c: &mut SampleCounters, _: bool) -> Vec<Vec3> {
+impl<F: Fn(u32, u32, [f32; 2], &mut PixelMemo, &mut Rng, &mut SampleCounters) -> LayerValues + Sync + ?Sized> Sampler for F {
+    fn sample(&self, x: u32, y: u32, offset: [f32; 2], memo: &mut PixelMemo, rng: &mut Rng, c: &mut SampleCounters, _: bool) -> LayerValues {
         self(x, y, offset, memo, rng, c)
     }
 }
@@ -544,7 +545,7 @@ mod tests {
         // 0–3 count a Monte Carlo estimate in each sample, pixels 4–7 none.
         let sampler = |x: u32, _y: u32, _off: [f32; 2], _m: &mut PixelMemo, rng: &mut Rng, c: &mut SampleCounters| {
             c.monte_carlo += (x < 4) as u64;
-            vec![Vec3::splat((rng.uniform() < 0.5) as u32 as f32)]
+            LayerValues::one(Vec3::splat((rng.uniform() < 0.5) as u32 as f32))
         };
         let run = |spp, aa_spp| {
             let mut s = sampler;
