@@ -165,6 +165,26 @@ impl IrradianceCache {
         self.lookup_first(p, n, pass, usize::MAX)
     }
 
+    /// [`lookup_first`](Self::lookup_first) over the usable records that `visible` also accepts (the
+    /// caller's occlusion test between the point and the record), called only for those usable.
+    pub fn lookup_first_visible(&self, p: Vec3, n: Vec3, pass: Pass, n_records: usize, visible: impl Fn(&Record) -> bool) -> Option<Lookup> {
+        if !(p.is_finite() && n.is_finite()) {
+            return None;
+        }
+        self.with_candidates(p, pass, n_records, |ids| {
+            let mut acc = Accum::default();
+            for &id in ids {
+                let rec = &self.records[id as usize];
+                if let Some((w, e)) = self.weighted(rec, p, n, pass) {
+                    if visible(rec) {
+                        acc.add(w, e);
+                    }
+                }
+            }
+            self.finish(acc)
+        })
+    }
+
     /// [`lookup`](Self::lookup) over the first `n_records` records only (in insertion order): what the
     /// cache held at that moment of a one-pass fill.
     pub fn lookup_first(&self, p: Vec3, n: Vec3, pass: Pass, n_records: usize) -> Option<Lookup> {

@@ -283,3 +283,21 @@ fn insertion_with_neighbours_found_at_the_wave_start_is_exact() {
         assert_eq!(a.to_bits(), b.to_bits());
     }
 }
+
+#[test]
+fn a_lookup_leaves_out_the_records_its_visibility_test_rejects() {
+    let mut c = cache(CacheParams { neighbor_clamping: false, ..Default::default() });
+    // Two records on z = 5 either side of the query, one bright, one dark.
+    c.insert(new_rec(Vec3::new(4.9, 5.0, 5.0), Vec3::Z, Vec3::splat(2.0), 1.0, 0.01));
+    c.insert(new_rec(Vec3::new(5.1, 5.0, 5.0), Vec3::Z, Vec3::splat(1.0), 1.0, 0.01));
+    let p = Vec3::new(5.0, 5.0, 5.0);
+    let all = c.lookup(p, Vec3::Z, Pass::B).unwrap();
+    assert_eq!(c.lookup_first_visible(p, Vec3::Z, Pass::B, usize::MAX, |_| true), Some(all));
+    assert!((all.e - Vec3::splat(1.5)).abs().max_element() < 1e-5, "{:?}", all.e);
+    // The bright record hidden: the dark one alone.
+    let dark = c.lookup_first_visible(p, Vec3::Z, Pass::B, usize::MAX, |r| r.e.x < 1.5).unwrap();
+    assert!((dark.e - Vec3::ONE).abs().max_element() < 1e-6, "{:?}", dark.e);
+    assert_eq!(dark.n_used, 1);
+    // Both hidden: a miss.
+    assert_eq!(c.lookup_first_visible(p, Vec3::Z, Pass::B, usize::MAX, |_| false), None);
+}

@@ -250,6 +250,17 @@ impl PmContext<'_> {
                 c.photon_estimates += 1;
                 self.photons.global_indirect_irradiance(hit.p, frame.n)
             }
+            IndirectSource::CacheUpTo(cache, n) if self.scene.settings.icache.visibility() => {
+                // A shadow ray to each usable record (just off its surface): those an occluder hides
+                // from the point are left out.
+                let o = spawn(hit, frame.n);
+                let visible = |rec: &icache::Record| {
+                    let d = rec.pos + rec.normal * (1e-3 * rec.r_clamped) - o;
+                    let len = d.length();
+                    !(len > 0.0) || !self.scene.bvh.occluded(o, d / len, len)
+                };
+                self.cached(|pass| cache.lookup_first_visible(hit.p, frame.n, pass, n, visible), hit, frame, rng, c)
+            }
             IndirectSource::CacheUpTo(cache, n) => self.cached(|pass| cache.lookup_first(hit.p, frame.n, pass, n), hit, frame, rng, c),
             IndirectSource::Gather => {
                 c.monte_carlo += 1;

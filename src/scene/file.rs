@@ -135,6 +135,7 @@ pub struct IcacheDesc {
     pub adaptive_threshold: Option<f32>,
     pub media_gradients: Option<bool>,
     pub pass_a_stride: Option<i64>,
+    pub visibility: Option<bool>,
 }
 
 /// Parses the scene file text; errors name the file and line.

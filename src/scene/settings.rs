@@ -64,11 +64,21 @@ pub struct IcacheSettings {
     media_gradients: bool,
     /// `pass_a_stride` as given; see [`Self::pass_a_stride`].
     pass_a_stride: Option<u32>,
+    /// Pass B leaves out the records an occluder hides from the lookup point (`visibility`, default
+    /// false): see [`Self::visibility`].
+    visibility: bool,
 }
 
 impl IcacheSettings {
     pub fn media_gradients(&self) -> bool {
         self.media_gradients
+    }
+
+    /// Whether each pass-B lookup tests, with a shadow ray, that the records it would interpolate are
+    /// in view of the point: records past a column or moulding no longer lend it their more open
+    /// hemisphere (Sibenik 128²: block relMSE 0.000126 → 0.000070, +17 % time).
+    pub fn visibility(&self) -> bool {
+        self.visibility
     }
 
     /// Pass A visits every n-th pixel in x and y: the file's `pass_a_stride`, else the least spacing of
@@ -230,7 +240,8 @@ fn icache(cx: &Ctx, d: &IcacheDesc) -> Result<IcacheSettings> {
     let rays = d.rays.map_or(gather::DEFAULT_RAYS, |r| r as usize);
     let media_gradients = d.media_gradients.unwrap_or(true);
     let pass_a_stride = d.pass_a_stride.map(|s| s as u32);
-    Ok(IcacheSettings { params, min_spacing_given: d.min_spacing_px.is_some(), max_spacing_given: d.max_spacing_px.is_some(), rays, fill, media_gradients, pass_a_stride })
+    let visibility = d.visibility.unwrap_or(false);
+    Ok(IcacheSettings { params, min_spacing_given: d.min_spacing_px.is_some(), max_spacing_given: d.max_spacing_px.is_some(), rays, fill, media_gradients, pass_a_stride, visibility })
 }
 
 /// `[render.icache]` numbers, each blamed on its own key: accuracies and spacings positive and finite,
@@ -277,7 +288,7 @@ mod tests {
     fn icache(min: Option<f32>, max: Option<f32>) -> IcacheSettings {
         let d = CacheParams::default();
         let params = CacheParams { min_spacing_px: min.unwrap_or(d.min_spacing_px), max_spacing_px: max.unwrap_or(d.max_spacing_px), ..d };
-        IcacheSettings { params, min_spacing_given: min.is_some(), max_spacing_given: max.is_some(), rays: 500, fill: FillMode::TwoPass, media_gradients: true, pass_a_stride: None }
+        IcacheSettings { params, min_spacing_given: min.is_some(), max_spacing_given: max.is_some(), rays: 500, fill: FillMode::TwoPass, media_gradients: true, pass_a_stride: None, visibility: false }
     }
 
     #[test]
