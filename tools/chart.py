@@ -9,7 +9,7 @@ Scenes: scenes/NAME.toml or tests/scenes/NAME.toml (the large public scenes) wit
 tests/reference/NAME-path.exr (+ .json); by default every shipped scene with a reference and Sibenik
 (`--scenes sponza` adds Sponza); every render is made at the reference's size. Per scene it runs pmrender with
   pm      several spp at the defaults, then at the default spp: [render.icache] rays, photon counts,
-          accuracy (a temporary copy of the scene with its [render] tables edited);
+          accuracy, visibility (a temporary copy of the scene with its [render] tables edited);
   pm-fg   a few spp;  path  several spp;  photons  two spp;
 and measures the wall time (the subprocess) and `time.total_s` (pmrender's --stats), relMSE =
 mean (x - r)^2 / (r^2 + 0.01) against the reference, HDR-FLIP (`flip-evaluator`, skipped when not
@@ -57,6 +57,7 @@ def plan(quick, media=False):
              for p in photons]
     if not quick:
         runs += [("pm", f"pm accuracy={a}", "pm (accuracy)", PM_DEFAULT_SPP, {"icache.accuracy": a}) for a in (0.25, 1.0)]
+        runs += [("pm", "pm visibility", "pm (visibility)", PM_DEFAULT_SPP, {"icache.visibility": True})]
     runs += [("pm-fg", f"pm-fg spp={s}", "pm-fg", s, {}) for s in ((1,) if quick else (1, 2))]
     runs += [("path", f"path spp={s}", "path", s, {}) for s in ((16, 64, 256) if quick else (16, 64, 256, 1024))]
     runs += [("photons", f"photons spp={s}", "photons", s, {}) for s in ((8,) if quick else (8, 32))]
