@@ -158,25 +158,34 @@ pub fn fresnel_dielectric(cos_i: f32, eta: f32) -> (f32, f32) {
 /// totally reflected, (refracted direction, (1 − F) × transmittance / η²); a zero weight where a lobe
 /// does not exist. The weights are the expected contributions of `sample_glass`'s two outcomes.
 pub fn glass_lobes(ior: f32, transmittance: Vec3, n: Vec3, wo: Vec3, front: bool) -> [(Vec3, Vec3); 2] {
-    let eta = if front { ior } else { 1.0 / ior };
-    let cos_i = wo.dot(n).clamp(0.0, 1.0);
-    let (f, cos_t) = fresnel_dielectric(cos_i, eta);
-    let reflected = (reflect(wo, n), Vec3::splat(f));
-    if f >= 1.0 {
+    let (eta, f) = glass_fresnel(ior, n, wo, front);
+    let reflected = (reflect(wo, n), Vec3::splat(f.0));
+    if f.0 >= 1.0 {
         return [reflected, (Vec3::ZERO, Vec3::ZERO)];
     }
-    let wi = (-wo / eta + (cos_i / eta - cos_t) * n).normalize();
-    [reflected, (wi, transmittance * ((1.0 - f) / (eta * eta)))]
+    [reflected, (refracted(wo, n, eta, f), transmittance * ((1.0 - f.0) / (eta * eta)))]
+}
+
+/// η (transmitted over incident) for the side `wo` is on, and Fresnel's (F, cos θt) there.
+fn glass_fresnel(ior: f32, n: Vec3, wo: Vec3, front: bool) -> (f32, (f32, f32)) {
+    let eta = if front { ior } else { 1.0 / ior };
+    (eta, fresnel_dielectric(wo.dot(n).clamp(0.0, 1.0), eta))
+}
+
+/// The refracted direction of `wo` through a surface of normal `n` (on `wo`'s side), given η and
+/// [`glass_fresnel`]'s (F, cos θt).
+fn refracted(wo: Vec3, n: Vec3, eta: f32, (_, cos_t): (f32, f32)) -> Vec3 {
+    let cos_i = wo.dot(n).clamp(0.0, 1.0);
+    (-wo / eta + (cos_i / eta - cos_t) * n).normalize()
 }
 
 fn sample_glass(ior: f32, transmittance: Vec3, n: Vec3, wo: Vec3, front: bool, u: f32, mode: Transport) -> Option<BsdfSample> {
-    let eta = if front { ior } else { 1.0 / ior };
-    let cos_i = wo.dot(n).clamp(0.0, 1.0);
-    let (f, cos_t) = fresnel_dielectric(cos_i, eta);
+    let (eta, fr) = glass_fresnel(ior, n, wo, front);
+    let f = fr.0;
     if u < f {
         return Some(BsdfSample { wi: reflect(wo, n), weight: Vec3::ONE, pdf: f, delta: true });
     }
-    let wi = (-wo / eta + (cos_i / eta - cos_t) * n).normalize();
+    let wi = refracted(wo, n, eta, fr);
     let scale = match mode {
         Transport::Radiance => 1.0 / (eta * eta),
         Transport::Importance => 1.0,

@@ -188,16 +188,7 @@ impl IrradianceCache {
     /// [`lookup`](Self::lookup) over the first `n_records` records only (in insertion order): what the
     /// cache held at that moment of a one-pass fill.
     pub fn lookup_first(&self, p: Vec3, n: Vec3, pass: Pass, n_records: usize) -> Option<Lookup> {
-        if !(p.is_finite() && n.is_finite()) {
-            return None;
-        }
-        self.with_candidates(p, pass, n_records, |ids| {
-            let mut acc = Accum::default();
-            for &id in ids {
-                self.accumulate(&self.records[id as usize], p, n, pass, &mut acc);
-            }
-            self.finish(acc)
-        })
+        self.lookup_first_visible(p, n, pass, n_records, |_| true)
     }
 
     /// [`lookup`](Self::lookup) over the records from id `since` on, scanned without the index: the
