@@ -374,6 +374,30 @@ fn pm_in_media_does_not_depend_on_the_thread_count() {
     assert_eq!(a.pixels, b.pixels);
 }
 
+/// `pm`'s media radiance cache (Jarosz et al. 2008): pass A places records along the camera rays of a
+/// pixel lattice, adaptively (radii from the surfaces around, the gradient, the mean free path: they
+/// differ several-fold), clamped by their neighbours, covering every pass-A point; pass B makes none and
+/// misses ≤ 0.1 % of its lookups — at the reference size (every pixel) and at 4× the pixels (every
+/// second pixel of the lattice). Measured: fog-spot 64×48 4.6 k records for 72 k points, 0.01 % misses;
+/// fog-cornell 256² 0.03 %.
+#[test]
+fn the_media_cache_covers_what_camera_rays_need() {
+    let dir = tempfile::tempdir().unwrap();
+    for (w, h, stride) in [(64u32, 48u32, 1u64), (128, 96, 1), (160, 144, 2)] {
+        let json = dir.path().join(format!("{w}.json"));
+        render_shipped("fog-spot.toml", "pm", w, h, dir.path(), &["--stats", json.to_str().unwrap(), "--spp", "4", "--noise", "0"]);
+        let stats: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+        let m = &stats["media"];
+        let n = |k: &str| m[k].as_f64().unwrap_or_else(|| panic!("media.{k} missing"));
+        assert_eq!(n("lattice_stride") as u64, stride, "{w}×{h}");
+        assert!(n("records") > 100.0 && n("records") < 0.25 * n("points"), "{w}×{h}: {} records for {} points", n("records"), n("points"));
+        assert_eq!(n("uncovered_after_fill"), 0.0, "{w}×{h}");
+        assert!(n("misses") <= 0.001 * n("lookups") && n("lookups") > 0.0, "{w}×{h}: {} misses of {} lookups", n("misses"), n("lookups"));
+        let r = &m["radius_px"];
+        assert!(r["max"].as_f64().unwrap() > 3.0 * r["min"].as_f64().unwrap(), "{w}×{h}: radii {r}");
+    }
+}
+
 /// Photon files hold the volume and volume caustic maps: a render that loads them is the render that
 /// traced and saved them, bit for bit (fog-spot has all four maps).
 #[test]

@@ -9,6 +9,7 @@ pub mod cache;
 pub mod error;
 pub mod file;
 pub mod index;
+pub mod media;
 mod insert;
 pub mod onepass;
 pub mod order;

@@ -3,6 +3,7 @@ pub mod atlas;
 pub mod cache_fill;
 pub mod coverage;
 pub mod media;
+pub mod media_cache;
 pub mod path;
 pub mod photon_scene;
 pub mod photons;
@@ -138,6 +139,10 @@ pub struct SampleCounters {
     /// differs from sample to sample only by where they fall in it (adaptive sampling caps it at
     /// `aa_spp`).
     pub monte_carlo: u64,
+    /// Media radiance-cache lookups along rays in a medium (`pm`), and those no record reached (each
+    /// then made the estimate itself).
+    pub media_lookups: u64,
+    pub media_misses: u64,
 }
 
 impl SampleCounters {
@@ -158,6 +163,8 @@ impl std::ops::AddAssign for SampleCounters {
         self.gather_rays += o.gather_rays;
         self.photon_estimates += o.photon_estimates;
         self.monte_carlo += o.monte_carlo;
+        self.media_lookups += o.media_lookups;
+        self.media_misses += o.media_misses;
     }
 }
 

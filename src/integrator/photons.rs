@@ -10,6 +10,7 @@ use photon::{Filter, PhotonMap, PhotonMaps, PhotonTargets, PrecomputedIrradiance
 use super::atlas::IrradianceAtlas;
 use super::coverage::SceneCoverage;
 use super::photon_scene::PhotonView;
+use super::volume_grid::Photons;
 use crate::error::Result;
 use crate::geometry::Hit;
 use crate::scene::Scene;
@@ -108,6 +109,12 @@ pub struct PhotonData<'a> {
     pub atlas: Option<IrradianceAtlas>,
     /// The volume map's in-scattered radiance baked lazily over the media, for final-gather rays.
     pub volume_grid: Option<super::volume_grid::VolumeGrid>,
+    /// The media radiance cache camera rays read (`pm`: filled by its pass A before shading; the other
+    /// methods estimate at every step).
+    pub media_cache: Option<icache::media::MediaCache>,
+    /// The photons camera rays' multiple scattering sums: without the L S+ V ones when the volume
+    /// caustic map has them (denser).
+    pub camera_photons: super::volume_grid::Photons,
     /// Where the volume caustic map has a photon within its lookup radius.
     pub volume_caustic_reach: Option<ReachGrid>,
 }
@@ -172,12 +179,21 @@ impl<'a> PhotonData<'a> {
     }
 
     /// Multiply scattered radiance σs·Li at `x` toward a camera ray travelling along `d` (asymmetry
-    /// `g`): the media radiance cache's.
-    pub fn cached_multiple(&self, x: Vec3, d: Vec3, g: f32) -> Vec3 {
-        match (&self.volume_grid, &self.maps.volume) {
-            (Some(grid), Some(map)) => grid.multiple(map, x, d, g),
-            _ => Vec3::ZERO,
-        }
+    /// `g`): the media radiance cache's where it has records there, else the volume map's estimate.
+    pub fn cached_multiple(&self, x: Vec3, d: Vec3, g: f32, c: &mut super::SampleCounters) -> Vec3 {
+        let Some(map) = &self.maps.volume else { return Vec3::ZERO };
+        let cached = self.media_cache.as_ref().and_then(|cache| {
+            c.media_lookups += 1;
+            let found = cache.lookup(x);
+            c.media_misses += found.is_none() as u64;
+            found
+        });
+        let s = cached.unwrap_or_else(|| {
+            c.photon_estimates += 1;
+            let (k, cap) = (self.settings.lookup, self.settings.max_radius_volume);
+            super::volume_grid::estimate(map, x, k, cap, self.camera_photons, false).0.s
+        });
+        super::volume_grid::phase_moments(s, d, g)
     }
 
 
@@ -193,12 +209,12 @@ impl<'a> PhotonData<'a> {
                 settings.lookup,
                 settings.max_radius_volume,
                 scene.settings.icache.media_gradients(),
-                maps.volume_caustic.is_some(),
             )),
             _ => None,
         };
         let volume_caustic_reach = maps.volume_caustic.as_ref().map(|m| ReachGrid::build(m.photons().iter().map(|ph| ph.pos), settings.max_radius_volume_caustic));
-        PhotonData { maps, precomputed, settings, coverage: SceneCoverage(scene), caustic_reach, atlas, volume_grid, volume_caustic_reach }
+        let camera_photons = if maps.volume_caustic.is_some() { Photons::Indirect } else { Photons::NotDirect };
+        PhotonData { maps, precomputed, settings, coverage: SceneCoverage(scene), caustic_reach, atlas, volume_grid, media_cache: None, camera_photons, volume_caustic_reach }
     }
 
     pub fn caustic_irradiance(&self, hit: &Hit, front: bool, n: Vec3, c: &mut super::SampleCounters) -> Vec3 {

@@ -1,17 +1,14 @@
-//! The radiance cache in participating media: records of the light a medium scatters (from the volume
-//! photon map), each with its translational gradient, created lazily at the points of a lattice over
-//! the media and interpolated between the eight around a point with gradient extrapolation (Jarosz,
-//! Donner, Zwicker & Jensen 2008 cache in-scattered radiance with gradients at adaptively placed points;
-//! here the points are fixed, so that a record is a function of its lattice point alone and images do
-//! not depend on the thread count).
+//! The volume photon map's in-scattered light for final-gather rays: records created lazily at the
+//! points of a lattice over the media and interpolated between the eight around a point with gradient
+//! extrapolation (so that a record is a function of its lattice point alone and images do not depend
+//! on the thread count). Camera rays read the adaptive media radiance cache instead (`media_cache`,
+//! Jarosz, Donner, Zwicker & Jensen 2008); both use this module's estimate.
 //!
 //! A record holds, from a smooth-kernel estimate over all volume photons within the k-th neighbour's
 //! distance r (biweight kernel K(u) = (1 − u²)², u = distance / r), the in-scattered power per volume
 //! and its first moment in direction, Σ K·ΔΦ and Σ K·ΔΦ ωi (normalised): the phase function to first
 //! order, p ≈ (1 + 3g cos θ)/(4π). Its gradient is the kernel's derivative at fixed r, exact for the
-//! estimate (checked against finite differences in the tests). Camera rays read it for multiple
-//! scattering (photons straight from a light left out: single scattering is ray-marched); final-gather
-//! rays for all the light the medium scatters toward a surface.
+//! estimate (checked against finite differences in the tests).
 
 use std::sync::OnceLock;
 
@@ -21,7 +18,7 @@ use photon::PhotonMap;
 /// Most records in the lattice (the spacing grows to stay under it).
 pub const MAX_RECORDS: u64 = 1 << 18;
 
-/// One lattice record: `s[m]` are the moments (0: power, 1–3: power × ωi.x, y, z) per unit volume;
+/// One record: `s[m]` are the moments (0: power, 1–3: power × ωi.x, y, z) per unit volume;
 /// `grad[m][axis]` their derivatives.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct MediaRecord {
@@ -29,9 +26,9 @@ pub struct MediaRecord {
     pub grad: [[Vec3; 3]; 4],
 }
 
-/// The two sets of photons a record sums.
+/// The sets of photons an estimate sums.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Photons {
+pub enum Photons {
     /// Every volume photon (what a final-gather ray sees: all light the medium scatters).
     All,
     /// Photons that scattered before (multiple scattering, for camera rays).
@@ -46,24 +43,18 @@ pub struct VolumeGrid {
     cell: f32,
     dims: UVec3,
     all: Vec<OnceLock<MediaRecord>>,
-    multiple: Vec<OnceLock<MediaRecord>>,
     k: usize,
     max_radius: f32,
     /// Extrapolate each record by its gradient (`[render.icache] media_gradients`).
     gradients: bool,
-    /// The photons camera rays' records sum (see [`Photons`]).
-    camera_photons: Photons,
 }
 
 impl VolumeGrid {
     /// A lattice over `bounds` with records about half the estimate's radius cap apart (about the mean
     /// k-NN radius). Twice as far apart, fog-cornell 64² renders in 1.6 s instead of 2.4 s with its mean
     /// still within 0.6 % of Mitsuba's (−1.1 % without gradients), but fog-spot's narrow beam and volume
-    /// caustic come out 11 % too bright: a lattice cannot be coarse where the light is concentrated —
-    /// what adaptive record placement (Jarosz et al. 2008) is for.
-    /// With `caustic_map`, camera rays' records leave out the L S+ V photons (the volume caustic map
-    /// has them, denser).
-    pub fn new(bounds: (Vec3, Vec3), k: usize, max_radius: f32, gradients: bool, caustic_map: bool) -> VolumeGrid {
+    /// caustic come out 11 % too bright: a lattice cannot be coarse where the light is concentrated.
+    pub fn new(bounds: (Vec3, Vec3), k: usize, max_radius: f32, gradients: bool) -> VolumeGrid {
         let extent = (bounds.1 - bounds.0).max(Vec3::splat(1e-6));
         let mut cell = (0.5 * max_radius).max(extent.max_element() * 1e-3);
         let dims = loop {
@@ -74,25 +65,19 @@ impl VolumeGrid {
             cell *= 1.25;
         };
         let n = (dims.x * dims.y * dims.z) as usize;
-        let cells = || (0..n).map(|_| OnceLock::new()).collect();
-        let camera_photons = if caustic_map { Photons::Indirect } else { Photons::NotDirect };
-        VolumeGrid { lo: bounds.0, cell, dims, all: cells(), multiple: cells(), k, max_radius, gradients, camera_photons }
+        let all = (0..n).map(|_| OnceLock::new()).collect();
+        VolumeGrid { lo: bounds.0, cell, dims, all, k, max_radius, gradients }
     }
 
     /// σs·Li toward a ray travelling along `d` at `x` in a medium of asymmetry `g`: all the light the
     /// medium scatters (for final-gather rays).
     pub fn radiance(&self, map: &PhotonMap, x: Vec3, d: Vec3, g: f32) -> Vec3 {
-        phase_moments(self.interpolate(map, x, Photons::All), d, g)
-    }
-
-    /// The same for light scattered more than once (camera rays; single scattering is ray-marched).
-    pub fn multiple(&self, map: &PhotonMap, x: Vec3, d: Vec3, g: f32) -> Vec3 {
-        phase_moments(self.interpolate(map, x, self.camera_photons), d, g)
+        phase_moments(self.interpolate(map, x), d, g)
     }
 
     /// The moments at `x`: the eight records around it, trilinearly weighted, each extrapolated to `x`
     /// by its gradient.
-    fn interpolate(&self, map: &PhotonMap, x: Vec3, which: Photons) -> [Vec3; 4] {
+    fn interpolate(&self, map: &PhotonMap, x: Vec3) -> [Vec3; 4] {
         let f = (x - self.lo) / self.cell - 0.5;
         let max = self.dims.as_ivec3() - IVec3::ONE;
         let base = f.floor().as_ivec3();
@@ -106,7 +91,7 @@ impl VolumeGrid {
                 continue;
             }
             let centre = self.lo + (c.as_vec3() + 0.5) * self.cell;
-            let rec = self.record(map, c.as_uvec3(), centre, which);
+            let rec = self.record(map, c.as_uvec3(), centre);
             let dx = x - centre;
             for m in 0..4 {
                 let mut v = rec.s[m];
@@ -119,30 +104,19 @@ impl VolumeGrid {
         out
     }
 
-    fn record(&self, map: &PhotonMap, c: UVec3, centre: Vec3, which: Photons) -> MediaRecord {
+    fn record(&self, map: &PhotonMap, c: UVec3, centre: Vec3) -> MediaRecord {
         let i = ((c.z * self.dims.y + c.y) * self.dims.x + c.x) as usize;
-        let cells = if which == Photons::All { &self.all } else { &self.multiple };
-        *cells[i].get_or_init(|| estimate(map, centre, self.k, self.max_radius, which))
+        *self.all[i].get_or_init(|| estimate(map, centre, self.k, self.max_radius, Photons::All, true).0)
     }
 
-    /// The lattice points where a record of either kind was made.
-    pub fn record_positions(&self) -> Vec<Vec3> {
-        let (dx, dy) = (self.dims.x as usize, self.dims.y as usize);
-        (0..self.all.len())
-            .filter(|&i| self.all[i].get().is_some() || self.multiple[i].get().is_some())
-            .map(|i| self.lo + (UVec3::new((i % dx) as u32, ((i / dx) % dy) as u32, (i / (dx * dy)) as u32).as_vec3() + 0.5) * self.cell)
-            .collect()
-    }
-
-    /// Records created so far (of both kinds), of all.
+    /// Records created so far, of all.
     pub fn filled(&self) -> (usize, usize) {
-        let n = |v: &Vec<OnceLock<MediaRecord>>| v.iter().filter(|c| c.get().is_some()).count();
-        (n(&self.all) + n(&self.multiple), self.all.len() + self.multiple.len())
+        (self.all.iter().filter(|c| c.get().is_some()).count(), self.all.len())
     }
 }
 
 /// σs·Li toward direction of travel `d` from the moments: (S0 + 3g S1·d) / 4π, never negative.
-fn phase_moments(s: [Vec3; 4], d: Vec3, g: f32) -> Vec3 {
+pub fn phase_moments(s: [Vec3; 4], d: Vec3, g: f32) -> Vec3 {
     ((s[0] + (s[1] * d.x + s[2] * d.y + s[3] * d.z) * (3.0 * g)) / (4.0 * std::f32::consts::PI)).max(Vec3::ZERO)
 }
 
@@ -153,14 +127,141 @@ const GRADIENT_WIDTH: f32 = 2.0;
 
 /// The biweight-kernel estimate at `p` over the k nearest photons (radius r: the k-th distance, or the
 /// cap when fewer are found) and its gradient, the derivative of the same kernel estimate at radius
-/// [`GRADIENT_WIDTH`]·r (at fixed radius). Normalisation: ∫ K over the ball = 32π r³/105.
-fn estimate(map: &PhotonMap, p: Vec3, k: usize, max_radius: f32, which: Photons) -> MediaRecord {
+/// [`GRADIENT_WIDTH`]·r (at fixed radius; left zero without `gradient`), and r. Normalisation: ∫ K over
+/// the ball = 32π r³/105.
+pub fn estimate(map: &PhotonMap, p: Vec3, k: usize, max_radius: f32, which: Photons, gradient: bool) -> (MediaRecord, f32) {
+    estimate_within(map, p, k, max_radius, which, gradient, None)
+}
+
+/// Faces × cells per face of a [`Surroundings`] cube.
+const CUBE_N: usize = 4;
+const CUBE_CELLS: usize = 6 * CUBE_N * CUBE_N;
+
+/// What a point in a medium sees around it: the distance to the first surface (any: medium boundaries,
+/// occluders) in each cell of a small cube map of directions (6 × 4 × 4), with each cell's share of the
+/// sphere. The kernel's part that is visible (inside the medium, in front of occluders) is its integral
+/// over the cells up to each cell's distance. A photon is hidden when it lies beyond an occluder in its
+/// direction (beyond a medium's boundary there are none to hide: a cell's constant distance is too
+/// coarse a test there, it hid photons inside the medium at grazing angles).
+pub struct Surroundings {
+    dist: [f32; CUBE_CELLS],
+    /// The cell's distance is to an occluder (not to a medium's invisible boundary).
+    solid: [bool; CUBE_CELLS],
+    /// How the cell's distance changes as the point moves: −n / (d·n) for a surface of normal n (the
+    /// plane through the hit), |d·n| kept above 0.2.
+    dt_dx: [Vec3; CUBE_CELLS],
+    weight: [f32; CUBE_CELLS],
+    dirs: [Vec3; CUBE_CELLS],
+}
+
+/// ∫₀ᵘ (1 − s²)² s² ds over its value at u = 1 (8/105): the biweight kernel's share of a cone within u·r.
+fn kernel_share(u: f32) -> f32 {
+    let u = u.clamp(0.0, 1.0);
+    let (u2, u3) = (u * u, u * u * u);
+    (u3 / 3.0 - 2.0 * u3 * u2 / 5.0 + u3 * u2 * u2 / 7.0) * (105.0 / 8.0)
+}
+
+/// Its derivative in u.
+fn kernel_share_slope(u: f32) -> f32 {
+    if !(0.0..1.0).contains(&u) {
+        return 0.0;
+    }
+    u * u * (1.0 - u * u) * (1.0 - u * u) * (105.0 / 8.0)
+}
+
+impl Surroundings {
+    /// Measures the distances with `dist(direction)`: the first surface's (infinite where nothing is
+    /// hit), whether it is an occluder, and its normal.
+    pub fn measure(mut dist: impl FnMut(Vec3) -> (f32, bool, Vec3)) -> Surroundings {
+        let mut s = Surroundings { dist: [0.0; CUBE_CELLS], solid: [false; CUBE_CELLS], dt_dx: [Vec3::ZERO; CUBE_CELLS], weight: [0.0; CUBE_CELLS], dirs: [Vec3::ZERO; CUBE_CELLS] };
+        let mut total = 0.0;
+        for c in 0..CUBE_CELLS {
+            let (face, i, j) = (c / (CUBE_N * CUBE_N), (c / CUBE_N) % CUBE_N, c % CUBE_N);
+            let a = 2.0 * (i as f32 + 0.5) / CUBE_N as f32 - 1.0;
+            let b = 2.0 * (j as f32 + 0.5) / CUBE_N as f32 - 1.0;
+            let v = face_vector(face, a, b);
+            // A cell's solid angle on the unit cube face: ∝ 1 / (1 + a² + b²)^(3/2).
+            let w = (1.0 + a * a + b * b).powf(-1.5);
+            s.dirs[c] = v.normalize();
+            s.weight[c] = w;
+            let n;
+            (s.dist[c], s.solid[c], n) = dist(s.dirs[c]);
+            let cos = s.dirs[c].dot(n);
+            s.dt_dx[c] = if cos.abs() > 0.0 { -n / (cos.signum() * cos.abs().max(0.2)) } else { -s.dirs[c] };
+            total += w;
+        }
+        s.weight.iter_mut().for_each(|w| *w /= total);
+        s
+    }
+
+    /// The cell of direction `d` (not normalised).
+    fn cell(d: Vec3) -> usize {
+        let a = d.abs();
+        let (face, u, v, m) = if a.x >= a.y && a.x >= a.z {
+            (if d.x > 0.0 { 0 } else { 1 }, d.y, d.z, a.x)
+        } else if a.y >= a.z {
+            (if d.y > 0.0 { 2 } else { 3 }, d.z, d.x, a.y)
+        } else {
+            (if d.z > 0.0 { 4 } else { 5 }, d.x, d.y, a.z)
+        };
+        let m = m.max(f32::MIN_POSITIVE);
+        let idx = |t: f32| (((t / m + 1.0) * 0.5 * CUBE_N as f32) as usize).min(CUBE_N - 1);
+        face * CUBE_N * CUBE_N + idx(u) * CUBE_N + idx(v)
+    }
+
+    /// Whether a photon at offset `d` from the point is in view.
+    fn sees(&self, d: Vec3) -> bool {
+        let c = Self::cell(d);
+        !self.solid[c] || d.length() < self.dist[c]
+    }
+
+    /// The kernel's visible share within radius `r`, and its gradient as the point moves (each cell's
+    /// surface taken as the plane through its hit).
+    fn share(&self, r: f32) -> (f32, Vec3) {
+        let (mut f, mut g) = (0.0, Vec3::ZERO);
+        for c in 0..CUBE_CELLS {
+            let u = self.dist[c] / r;
+            f += self.weight[c] * kernel_share(u);
+            g += self.dt_dx[c] * (self.weight[c] * kernel_share_slope(u) / r);
+        }
+        (f, g)
+    }
+
+    /// Harmonic mean of the distances, each cut at `cap`.
+    pub fn harmonic_mean(&self, cap: f32) -> f32 {
+        let inv: f32 = self.dist.iter().zip(&self.weight).map(|(d, w)| w / d.min(cap).max(1e-9)).sum();
+        1.0 / inv
+    }
+}
+
+/// The direction of cube face `face` at face coordinates (a, b) in [−1, 1]².
+fn face_vector(face: usize, a: f32, b: f32) -> Vec3 {
+    match face {
+        0 => Vec3::new(1.0, a, b),
+        1 => Vec3::new(-1.0, a, b),
+        2 => Vec3::new(b, 1.0, a),
+        3 => Vec3::new(b, -1.0, a),
+        4 => Vec3::new(a, b, 1.0),
+        _ => Vec3::new(a, b, -1.0),
+    }
+}
+
+/// The kernel's visible share below which an estimate is not corrected further (a point in a tight
+/// corner: the correction's noise would grow as 1/share).
+const MIN_SHARE: f32 = 0.25;
+
+/// [`estimate`] aware of what the point sees (`around`): photons hidden from it (behind an occluder)
+/// are left out, and the sums are divided by the kernel's visible share — near a medium's boundary a
+/// plain kernel estimate counts the empty space beyond it and comes out low (half at the boundary).
+/// The gradient is that of the ratio, the share's own derivative included (the occlusion-aware
+/// gradient of Jarosz, Zwicker & Jensen 2008 in the form a density estimate takes).
+pub fn estimate_within(map: &PhotonMap, p: Vec3, k: usize, max_radius: f32, which: Photons, gradient: bool, around: Option<&Surroundings>) -> (MediaRecord, f32) {
     let mut nb = Vec::new();
     map.tree().knn(p, k, max_radius, &mut nb);
     let r2 = if nb.len() >= k { nb.last().map_or(0.0, |n| n.dist2) } else { max_radius * max_radius };
     let mut rec = MediaRecord::default();
     if nb.is_empty() || r2.is_nan() || r2 <= 0.0 {
-        return rec;
+        return (rec, max_radius);
     }
     let photons = map.photons();
     let moments = |i: u32| {
@@ -169,11 +270,12 @@ fn estimate(map: &PhotonMap, p: Vec3, k: usize, max_radius: f32, which: Photons)
     };
     let kept = |i: u32| {
         let ph = &photons[i as usize];
-        match which {
+        let wanted = match which {
             Photons::All => true,
             Photons::NotDirect => !ph.direct,
             Photons::Indirect => ph.indirect,
-        }
+        };
+        wanted && around.is_none_or(|a| a.sees(ph.pos - p))
     };
     let norm = |r2: f32| 105.0 / (32.0 * std::f32::consts::PI * r2 * r2.sqrt());
     let (n0, rg2) = (norm(r2), r2 * GRADIENT_WIDTH * GRADIENT_WIDTH);
@@ -185,6 +287,12 @@ fn estimate(map: &PhotonMap, p: Vec3, k: usize, max_radius: f32, which: Photons)
                 *s += m * w;
             }
         }
+    }
+    let share = |r: f32| around.map_or((1.0, Vec3::ZERO), |a| a.share(r)).0.max(MIN_SHARE);
+    let f0 = share(r2.sqrt());
+    rec.s.iter_mut().for_each(|s| *s /= f0);
+    if !gradient {
+        return (rec, r2.sqrt());
     }
     let (ng, cap) = (norm(rg2), GRADIENT_WIDTH * r2.sqrt());
     // Eight times the volume holds about eight times the k photons: 12 k leaves a margin.
@@ -201,7 +309,18 @@ fn estimate(map: &PhotonMap, p: Vec3, k: usize, max_radius: f32, which: Photons)
             }
         }
     }
-    rec
+    if let Some(a) = around {
+        // ∇(S/F) = (∇S − (S/F)·∇F) / F at the gradient's radius; S/F there is taken as the value's
+        // (both estimate the same light). Below MIN_SHARE the share is held constant.
+        let (f, df) = a.share(GRADIENT_WIDTH * r2.sqrt());
+        let (f, df) = if f < MIN_SHARE { (MIN_SHARE, Vec3::ZERO) } else { (f, df) };
+        for (g, v) in rec.grad.iter_mut().zip(rec.s) {
+            for ax in 0..3 {
+                g[ax] = (g[ax] - v * df[ax]) / f;
+            }
+        }
+    }
+    (rec, r2.sqrt())
 }
 
 #[cfg(test)]
@@ -235,7 +354,7 @@ mod tests {
         let r = nb.last().unwrap().dist2.sqrt() * GRADIENT_WIDTH;
         // The gradient's own kernel estimate (radius GRADIENT_WIDTH·r, fixed), differentiated numerically.
         let fixed = |q: Vec3| estimate_at_radius(&map, q, r);
-        let rec = estimate(&map, p, 1000, 1.0, Photons::All);
+        let rec = estimate(&map, p, 1000, 1.0, Photons::All, true).0;
         let h = 1e-3;
         for a in 0..3 {
             let mut e = Vec3::ZERO;
@@ -246,6 +365,72 @@ mod tests {
         }
         // The density grows along x: the gradient says so.
         assert!(rec.grad[0][0].x > 0.0 && rec.grad[0][0].x.abs() > 3.0 * rec.grad[0][1].x.abs());
+    }
+
+    /// Distance from `p` inside the box [0, 1]³ (or the half-box left of `wall`) to its faces along `d`.
+    /// An occluder when it is the wall; the face's normal.
+    fn box_distance(p: Vec3, d: Vec3, wall: f32) -> (f32, bool, Vec3) {
+        let hi = Vec3::new(wall, 1.0, 1.0);
+        let t = |a: usize| if d[a] > 0.0 { (hi[a] - p[a]) / d[a] } else if d[a] < 0.0 { -p[a] / d[a] } else { f32::INFINITY };
+        let a = (0..3).min_by(|&i, &j| t(i).total_cmp(&t(j))).unwrap();
+        let mut n = Vec3::ZERO;
+        n[a] = -d[a].signum();
+        (t(a), wall < 1.0 && a == 0 && d.x > 0.0, n)
+    }
+
+    /// Uniform photons (power 1 each) in the unit cube, twice as dense left of x = 0.5.
+    fn two_densities() -> (PhotonMap, f32) {
+        let mut rng = Rng::new(7);
+        let mut photons = Vec::new();
+        while photons.len() < 300_000 {
+            let p = Vec3::new(rng.uniform(), rng.uniform(), rng.uniform());
+            if p.x > 0.5 && rng.uniform() < 0.5 {
+                continue;
+            }
+            photons.push(Photon { pos: p, wi: Vec3::Z, power: Vec3::ONE, normal: Vec3::ZERO, indirect: true, direct: false });
+        }
+        // Photons per unit volume on the left: n = d·(0.5 + 0.5·0.5) ⇒ d = n / 0.75.
+        (PhotonMap::new(photons).unwrap(), 300_000.0 / 0.75)
+    }
+
+    #[test]
+    fn estimates_near_a_boundary_count_only_the_medium_and_what_is_in_view() {
+        let (map, left) = two_densities();
+        // Near the cube's face x = 0: a plain kernel counts the empty space beyond it.
+        let p = Vec3::new(0.01, 0.5, 0.5);
+        let plain = estimate(&map, p, 400, 0.3, Photons::All, true).0;
+        let around = Surroundings::measure(|d| box_distance(p, d, 1.0));
+        let seen = estimate_within(&map, p, 400, 0.3, Photons::All, true, Some(&around)).0;
+        assert!(plain.s[0].x < 0.8 * left, "plain {} vs {left}", plain.s[0].x);
+        assert!((seen.s[0].x / left - 1.0).abs() < 0.05, "boundary-aware {} vs {left}", seen.s[0].x);
+        // Along the face the density is flat; across it, the plain gradient points into the medium.
+        assert!(plain.grad[0][0].x > 0.0);
+        assert!(seen.grad[0][0].x.abs() < 0.5 * plain.grad[0][0].x, "gradient across the face: {} vs plain {}", seen.grad[0][0].x, plain.grad[0][0].x);
+        // Just left of a wall at x = 0.5 (the sparser photons behind it are hidden): the density of
+        // this side, where a plain kernel mixes both.
+        let q = Vec3::new(0.49, 0.5, 0.5);
+        let around = Surroundings::measure(|d| box_distance(q, d, 0.5));
+        let seen = estimate_within(&map, q, 400, 0.3, Photons::All, false, Some(&around)).0.s[0].x;
+        let plain = estimate(&map, q, 400, 0.3, Photons::All, false).0.s[0].x;
+        assert!((seen / left - 1.0).abs() < 0.05 && plain < 0.85 * left, "behind a wall: aware {seen}, plain {plain}, density {left}");
+        // Far from any surface the two agree.
+        let c = Vec3::splat(0.25);
+        let around = Surroundings::measure(|d| box_distance(c, d, 0.5));
+        let (a, b) = (estimate(&map, c, 400, 0.3, Photons::All, true).0, estimate_within(&map, c, 400, 0.3, Photons::All, true, Some(&around)).0);
+        assert!((a.s[0].x - b.s[0].x).abs() < 1e-3 * a.s[0].x);
+    }
+
+    #[test]
+    fn the_kernel_share_is_the_biweight_integral() {
+        assert!((kernel_share(1.0) - 1.0).abs() < 1e-5 && kernel_share(0.0) == 0.0 && (kernel_share(2.0) - 1.0).abs() < 1e-5);
+        let h = 1e-3;
+        for u in [0.2f32, 0.5, 0.8] {
+            let fd = (kernel_share(u + h) - kernel_share(u - h)) / (2.0 * h);
+            assert!((fd - kernel_share_slope(u)).abs() < 1e-2, "slope at {u}: {fd} vs {}", kernel_share_slope(u));
+        }
+        // A point on a plane sees half the sphere: half the kernel.
+        let around = Surroundings::measure(|d| (if d.z < 0.0 { 0.0 } else { f32::INFINITY }, false, Vec3::Z));
+        assert!((around.share(1.0).0 - 0.5).abs() < 1e-3, "{}", around.share(1.0).0);
     }
 
     /// The kernel estimate's power moment at `q` with radius `r` fixed.
@@ -265,16 +450,16 @@ mod tests {
     #[test]
     fn interpolated_records_follow_a_linear_density_and_gradients_help() {
         let map = slanted_map();
-        let with = VolumeGrid::new((Vec3::ZERO, Vec3::ONE), 1000, 0.4, true, false);
-        let without = VolumeGrid::new((Vec3::ZERO, Vec3::ONE), 1000, 0.4, false, false);
+        let with = VolumeGrid::new((Vec3::ZERO, Vec3::ONE), 1000, 0.4, true);
+        let without = VolumeGrid::new((Vec3::ZERO, Vec3::ONE), 1000, 0.4, false);
         // Against the full estimate at points between lattice records, inside (away from the faces).
         let (mut err_with, mut err_without) = (0.0f32, 0.0f32);
         let mut rng = Rng::new(5);
         for _ in 0..200 {
             let x = Vec3::new(0.3 + 0.4 * rng.uniform(), 0.3 + 0.4 * rng.uniform(), 0.3 + 0.4 * rng.uniform());
-            let truth = estimate(&map, x, 1000, 0.4, Photons::All).s[0].x;
-            err_with += (with.interpolate(&map, x, Photons::All)[0].x - truth).abs() / truth;
-            err_without += (without.interpolate(&map, x, Photons::All)[0].x - truth).abs() / truth;
+            let truth = estimate(&map, x, 1000, 0.4, Photons::All, true).0.s[0].x;
+            err_with += (with.interpolate(&map, x)[0].x - truth).abs() / truth;
+            err_without += (without.interpolate(&map, x)[0].x - truth).abs() / truth;
         }
         assert!(err_with / 200.0 < 0.05, "mean relative error with gradients {}", err_with / 200.0);
         assert!(err_with <= err_without * 1.05, "gradients: {err_with} vs none: {err_without}");

@@ -120,8 +120,14 @@ pub fn estimate(scene: &Scene, plan: &Plan, opts: &Options) -> Vec<(String, u64)
         let atlas = crate::integrator::atlas::MAX_TEXEL_SLOTS * slot_bytes + scene.geometry.triangles.len() as u64 * 64;
         items.push(("irradiance atlas".into(), atlas));
         if scene.media.is_some() {
-            // The media records: two lattices of at most MAX_RECORDS (a record and its lock).
-            items.push(("media records".into(), 2 * crate::integrator::volume_grid::MAX_RECORDS * MEDIA_RECORD_BYTES));
+            // The final-gather rays' lattice of at most MAX_RECORDS (a record and its lock), and for `pm`
+            // the media cache's records (each with a few index entries) and pass A's points.
+            items.push(("media records".into(), crate::integrator::volume_grid::MAX_RECORDS * MEDIA_RECORD_BYTES));
+            if plan.method == Method::Pm {
+                let cache = icache::media::MAX_RECORDS as u64 * (std::mem::size_of::<icache::media::VolumeRecord>() as u64 + 64);
+                let points = crate::integrator::media_cache::MAX_POINTS as u64 * std::mem::size_of::<icache::media::MediaPoint>() as u64;
+                items.push(("media radiance cache".into(), cache + points));
+            }
         }
     }
     let memos = pixels.saturating_mul(MEMO_BYTES_PER_PIXEL);

@@ -6,6 +6,7 @@ use std::path::Path;
 use std::sync::atomic::AtomicBool;
 use std::time::Instant;
 
+use icache::media::{MediaCache, MediaFillStats, MediaPoint};
 use icache::{IrradianceCache, OnePassFill, ShadingPoint};
 
 use super::files;
@@ -14,6 +15,7 @@ use super::{Plan, Progress};
 use crate::error::{runtime, Result};
 use crate::geometry::Hit;
 use crate::integrator::cache_fill::{gather_record, shading_hits};
+use crate::integrator::media_cache;
 use crate::integrator::photons::PhotonData;
 use crate::integrator::pm::IndirectSource;
 use crate::scene::{FillMode, Scene};
@@ -59,4 +61,21 @@ pub fn load_cache(scene: &Scene, path: &Path) -> Result<(CacheFill, CacheFillSta
     let cache = files::load_cache(path, scene.fingerprint)?;
     let stats = CacheFillStats { n_loaded: cache.len() as u64, ..Default::default() };
     Ok((CacheFill { cache, one_pass: None }, stats))
+}
+
+/// `pm`'s pass A in participating media (scenes with a volume photon map): the media radiance cache
+/// filled at the points where the camera rays of a pixel lattice cross a medium.
+pub fn fill_media_cache(scene: &Scene, plan: &Plan, photons: &mut PhotonData, progress: &dyn Progress, cancel: &AtomicBool) -> MediaFillStats {
+    let (Some(media), Some(_)) = (&scene.media, &photons.maps.volume) else { return MediaFillStats::default() };
+    let (lo, hi) = media.bounds();
+    let mut cache = MediaCache::new(lo, hi, scene.settings.icache.media_gradients());
+    let stride = media_cache::lattice_stride(plan.width, plan.height);
+    let points = media_cache::media_points(scene, &plan.camera, plan.width, plan.height, stride);
+    progress.start("media cache", points.len() as u64);
+    let data: &PhotonData = photons;
+    let estimate = |p: &MediaPoint| media_cache::media_record(scene, data, p, stride);
+    let stats = icache::media::fill_media(&mut cache, &points, &estimate, &|done, _| progress.set(done), cancel);
+    progress.finish();
+    photons.media_cache = Some(cache);
+    MediaFillStats { stride, ..stats }
 }

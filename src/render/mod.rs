@@ -79,7 +79,7 @@ pub fn render(scene: &Scene, opts: &Options, progress: &dyn Progress, cancel: &A
     budget::check(scene, &plan, opts)?;
     let mut stats = RenderStats::new(scene, &plan);
 
-    let (photons, photon_info) = if plan.method.uses_photon_maps() {
+    let (mut photons, photon_info) = if plan.method.uses_photon_maps() {
         let (traced, s) = match &opts.files.load_photons {
             Some(file) => load_photons(scene, &plan, file)?,
             None => trace_photons(scene, &plan, &opts.files, progress, cancel)?,
@@ -90,6 +90,13 @@ pub fn render(scene: &Scene, opts: &Options, progress: &dyn Progress, cancel: &A
         (None, None)
     };
     interrupted(cancel)?;
+
+    if let (Method::Pm, Some(photons)) = (plan.method, photons.as_mut()) {
+        if photons.maps.volume.is_some() {
+            stats.media_fill = Some(fill::fill_media_cache(scene, &plan, photons, progress, cancel));
+            interrupted(cancel)?;
+        }
+    }
 
     let mut cache = match (plan.method, &photons) {
         (Method::Pm, Some(photons)) => {
@@ -111,7 +118,7 @@ pub fn render(scene: &Scene, opts: &Options, progress: &dyn Progress, cancel: &A
     let (beauty, layers) = beauty(&plan, scene.media.is_some(), layers);
     stats.finish(start, photons.as_ref(), cache.as_ref().map(|c| &c.cache));
 
-    let media_records = photons.as_ref().and_then(|p| p.volume_grid.as_ref()).map_or(Vec::new(), |g| g.record_positions());
+    let media_records = photons.as_ref().and_then(|p| p.media_cache.as_ref()).map_or(Vec::new(), |c| c.records().iter().map(|r| r.pos).collect());
     let photons = photons.zip(photon_info).map(|(p, info)| files::PhotonOutput { info, maps: p.maps, precomputed: p.precomputed });
     Ok((RenderOutput { beauty, layers, cache: cache.map(|c| c.cache), photons, media_records }, stats))
 }

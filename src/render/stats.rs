@@ -26,6 +26,10 @@ pub struct RenderStats {
     pub atlas: Option<AtlasStats>,
     /// The volume grid's (estimated, all) cells after shading, with media.
     pub volume_grid: Option<(usize, usize)>,
+    /// `pm`'s media radiance-cache fill (scenes with media).
+    pub media_fill: Option<icache::media::MediaFillStats>,
+    /// The media cache's (records, memory bytes).
+    pub media_cache: Option<(u64, u64)>,
     /// The cache after shading; records loaded from a file are not counted as made in pass B.
     pub cache: Option<CacheStats>,
     /// Seconds from the plan to the end of shading.
@@ -98,7 +102,7 @@ impl RenderStats {
             n_degenerate: scene.geometry.n_degenerate as u64,
             n_lights: scene.lights.len() as u64,
         };
-        RenderStats { setup, photons: None, fill: None, shade: ShadeStats::default(), atlas: None, volume_grid: None, cache: None, total_s: 0.0, write_outputs_s: None, peak_rss_bytes: 0 }
+        RenderStats { setup, photons: None, fill: None, shade: ShadeStats::default(), atlas: None, volume_grid: None, media_fill: None, media_cache: None, cache: None, total_s: 0.0, write_outputs_s: None, peak_rss_bytes: 0 }
     }
 
     /// What is read once the phases are done: the atlas and the cache as shading left them, the time
@@ -106,6 +110,7 @@ impl RenderStats {
     pub fn finish(&mut self, start: Instant, photons: Option<&PhotonData>, cache: Option<&IrradianceCache>) {
         self.atlas = photons.and_then(|p| p.atlas.as_ref()).map(|a| a.stats());
         self.volume_grid = photons.and_then(|p| p.volume_grid.as_ref()).map(|g| g.filled());
+        self.media_cache = photons.and_then(|p| p.media_cache.as_ref()).map(|c| (c.len() as u64, c.memory_bytes() as u64));
         let fill = self.fill.as_ref();
         self.cache = cache.map(|c| {
             let mut s = CacheStats::collect(c, &fill.map(|f| f.fill).unwrap_or_default(), &self.shade.counters.lookups);
@@ -141,6 +146,9 @@ impl RenderStats {
                 r.seconds("Time", label, "time.fill_cache_s", t);
             }
         }
+        if let Some(m) = &self.media_fill {
+            r.seconds("Time", "Fill media cache (pass A)", "time.fill_media_s", m.time_s);
+        }
         r.seconds("Time", "Shade", "time.shade_s", self.shade.time_s);
         if self.photons.is_some() {
             self.photon_method_rows(&mut r);
@@ -171,8 +179,11 @@ impl RenderStats {
             r.bytes("Photons", "Memory, irradiance atlas", "photons.atlas_memory_bytes", s.memory_bytes);
         }
         if let Some((estimated, cells)) = self.volume_grid {
-            r.count("Photons", "Volume grid cells", "photons.volume_grid_cells", cells as u64);
+            r.count("Photons", "Volume grid cells (for final-gather rays)", "photons.volume_grid_cells", cells as u64);
             r.count("Photons", "Volume grid cells estimated", "photons.volume_grid_estimates", estimated as u64);
+        }
+        if let (Some(f), Some((records, bytes))) = (&self.media_fill, self.media_cache) {
+            media_cache_rows(r, f, records, bytes, shade);
         }
         if let (Some(cs), Some(f)) = (&self.cache, &self.fill) {
             if f.n_loaded > 0 {
@@ -264,14 +275,7 @@ fn cache_rows(r: &mut Report, s: &CacheStats, fill: &icache::FillStats, gather_r
     r.count("Irradiance cache", "Pass-B lookups reused within a pixel", "icache.reused_pass_b", s.reused_pass_b);
     r.number("Irradiance cache", "Mean usable records per lookup", "icache.mean_records_per_lookup", s.mean_records_per_lookup());
     r.count("Irradiance cache", "Gather rays", "icache.gather_rays", gather_rays);
-    let h = &s.radius_px;
-    r.value(
-        "Irradiance cache",
-        "Record radius (px) avg [min–max]",
-        "icache.radius_px",
-        serde_json::json!({"min": h.min_px, "avg": h.mean_px(), "max": h.max_px, "counts": h.counts.to_vec(), "edges": (0..=icache::stats::RADIUS_BINS).map(|i| h.edge(i)).collect::<Vec<_>>()}),
-        format!("{:.1} [{:.1}–{:.1}]", h.mean_px(), h.min_px, h.max_px),
-    );
+    radius_row(r, "Irradiance cache", "icache.radius_px", &s.radius_px);
     r.count("Irradiance cache", "Shrunk by neighbor clamping", "icache.shrunk_by_clamping", s.shrunk_by_clamping);
     r.count("Irradiance cache", "Shrunk by the gradient limit", "icache.shrunk_by_gradient", s.shrunk_by_gradient);
     r.count("Irradiance cache", "Shrunk by adaptive caching (halvings)", "icache.shrunk_adaptive", s.shrunk_adaptive);
@@ -281,4 +285,33 @@ fn cache_rows(r: &mut Report, s: &CacheStats, fill: &icache::FillStats, gather_r
     r.count("Irradiance cache", "Pass-A waves", "icache.waves", fill.n_waves);
     r.count("Irradiance cache", "Points left uncovered after pass A", "icache.uncovered_after_fill", fill.n_uncovered_after);
     r.bytes("Irradiance cache", "Memory", "icache.memory_bytes", s.memory_bytes);
+}
+
+/// A radius histogram as one row: mean [min–max] shown, the bins in the JSON.
+fn radius_row(r: &mut Report, category: &str, key: &str, h: &icache::RadiusHistogram) {
+    r.value(
+        category,
+        "Record radius (px) avg [min–max]",
+        key,
+        serde_json::json!({"min": h.min_px, "avg": h.mean_px(), "max": h.max_px, "counts": h.counts.to_vec(), "edges": (0..=icache::stats::RADIUS_BINS).map(|i| h.edge(i)).collect::<Vec<_>>()}),
+        format!("{:.1} [{:.1}–{:.1}]", h.mean_px(), h.min_px, h.max_px),
+    );
+}
+
+/// The media radiance cache: pass A's work, pass B's lookups and misses, the radii.
+fn media_cache_rows(r: &mut Report, f: &icache::media::MediaFillStats, records: u64, bytes: u64, shade: &SampleCounters) {
+    let c = "Media cache";
+    r.count(c, "Records (pass A; pass B makes none)", "media.records", records);
+    r.count(c, "Pass-A points along camera rays", "media.points", f.n_points);
+    r.count(c, "Pass-A pixel lattice (every n-th pixel in x and y)", "media.lattice_stride", f.stride as u64);
+    r.count(c, "Estimates made in pass A", "media.estimates", f.n_estimates);
+    r.count(c, "Estimates covered by an earlier one of their wave", "media.skipped_covered", f.n_skipped_covered);
+    r.count(c, "Shrunk by neighbour clamping", "media.shrunk_by_clamping", f.n_shrunk_by_neighbours);
+    r.count(c, "Repair sweeps", "media.repair_sweeps", f.n_repair_sweeps as u64);
+    r.count(c, "Points left uncovered after pass A", "media.uncovered_after_fill", f.n_uncovered_after);
+    r.count(c, "Pass-B lookups", "media.lookups", shade.media_lookups);
+    r.count(c, "Pass-B misses (estimated from the volume map)", "media.misses", shade.media_misses);
+    r.percent(c, "Pass-B miss ratio", "media.miss_ratio", shade.media_misses as f64 / shade.media_lookups.max(1) as f64);
+    radius_row(r, c, "media.radius_px", &f.radius_px);
+    r.bytes(c, "Memory", "media.memory_bytes", bytes);
 }

@@ -1,0 +1,139 @@
+//! Pass A of the media radiance cache for `pm` (Jarosz, Donner, Zwicker & Jensen 2008): the points
+//! where camera rays of a pixel lattice cross a medium (through invisible boundaries, glass and
+//! mirrors), and the record made at such a point — the volume photon map's estimate of the light
+//! scattered more than once, its gradient, and its validity radius.
+//!
+//! The estimate sees what the point sees ([`Surroundings`]: 96 distances to the first surface around
+//! it): photons behind occluders are left out and the kernel's visible share divides the sums. The
+//! radius R of a record at x is the smallest of
+//! - the harmonic mean of those distances (boundaries included: the light in a medium changes at its
+//!   walls, at occluders and at the shadows they cast), times [`HARMONIC_SCALE`] — Ward's split
+//!   sphere, each distance cut at the mean free path;
+//! - the distance over which the gradient changes the estimate by [`GRADIENT_CHANGE`] of itself (a
+//!   record's first-order extrapolation is trusted that far);
+//! - the medium's mean free path 1/σt and a quarter of the scene's diagonal,
+//!
+//! but not below half the estimate's own kernel radius (records closer than that hold the same
+//! photons) nor below [`LATTICE_REACH`] lattice spacings of pixels at x (pass B's rays between the
+//! lattice's find it).
+
+use glam::Vec3;
+use icache::media::{MediaPoint, VolumeRecord};
+
+use super::photons::PhotonData;
+use super::volume_grid::{estimate_within, Surroundings};
+use crate::camera::Camera;
+use crate::geometry::spawn;
+use crate::material::{glass_lobes, Bsdf};
+use crate::medium::MediumId;
+use crate::scene::Scene;
+
+/// Camera rays of the lattice, at most (the lattice spacing grows to stay under it).
+const MAX_LATTICE_RAYS: u64 = 16_384;
+/// Points per march step along a ray (the march of `media::in_scattered` takes one per 1/32 of the
+/// scene's diagonal).
+const POINTS_PER_STEP: u32 = 2;
+/// Points in all, at most (40 MiB): rays beyond are left to pass B's misses.
+pub const MAX_POINTS: usize = 1 << 21;
+/// Points per stretch of medium, at most.
+const MAX_POINTS_PER_SEGMENT: u32 = 64;
+/// Glass and mirror bounces followed from the camera.
+const MAX_SPECULAR_DEPTH: u32 = 2;
+/// R from the harmonic mean distance.
+pub const HARMONIC_SCALE: f32 = 0.5;
+/// R from the gradient: R·|∇S| ≤ this fraction of S.
+pub const GRADIENT_CHANGE: f32 = 0.5;
+/// R is at least this many lattice spacings (pixels × stride) at the record's point.
+const LATTICE_REACH: f32 = 1.5;
+
+/// Pixel lattice spacing for a `width` × `height` image.
+pub fn lattice_stride(width: u32, height: u32) -> u32 {
+    let pixels = width as u64 * height as u64;
+    let mut s = 1u32;
+    while pixels / (s as u64 * s as u64) > MAX_LATTICE_RAYS {
+        s += 1;
+    }
+    s
+}
+
+/// The points where camera rays through the centres of every `stride`-th pixel (in hierarchical order)
+/// cross a medium; each point's `max_radius` is the medium's mean free path (capped by a quarter of the
+/// scene's diagonal).
+/// Points are ordered coarse to fine along the rays as across the image: first every ray's point of
+/// index 0 along its path, then those of index 1/2 of the way (bit-reversed index order), and so on —
+/// so that a wave of estimates seldom holds two points one record would cover (in ray order a third
+/// of fog-cornell's estimates were covered by an earlier one of their wave).
+pub fn media_points(scene: &Scene, camera: &Camera, width: u32, height: u32, stride: u32) -> Vec<MediaPoint> {
+    let mut keyed = Vec::new();
+    let mut out = Vec::new();
+    let step = scene.diagonal() / 32.0 / POINTS_PER_STEP as f32;
+    for (x, y) in icache::order::HierarchicalOrder::new(width, height).filter(|&(x, y)| x % stride == 0 && y % stride == 0) {
+        if keyed.len() >= MAX_POINTS {
+            break;
+        }
+        let d = camera.ray(x as f32 + 0.5, y as f32 + 0.5);
+        let pixel = |dist: f32| camera.pixel_world(d, dist, 1.0);
+        follow(scene, camera.eye, d, scene.camera_medium(), 0.0, 0, step, &pixel, &mut out);
+        keyed.extend(out.drain(..).enumerate().map(|(k, p)| ((k as u32).reverse_bits(), p)));
+    }
+    // Stable: equal keys keep the rays' hierarchical order.
+    keyed.sort_by_key(|(key, _)| *key);
+    keyed.into_iter().map(|(_, p)| p).collect()
+}
+
+#[allow(clippy::too_many_arguments)]
+fn follow(scene: &Scene, o: Vec3, d: Vec3, medium: MediumId, dist: f32, depth: u32, step: f32, pixel: &dyn Fn(f32) -> f32, out: &mut Vec<MediaPoint>) {
+    let mut rays = 0;
+    let max_radius = |sigma_t: Vec3| (1.0 / sigma_t.max_element()).min(0.25 * scene.diagonal());
+    let end = scene.intersect_through(o, d, medium, &mut rays, |start, len, m, _| {
+        if !len.is_finite() || len <= 0.0 || m.sigma_t.max_element() <= 0.0 {
+            return;
+        }
+        let n = ((len / step).ceil() as u32).clamp(1, MAX_POINTS_PER_SEGMENT);
+        let along = dist + (start - o).length();
+        for k in 0..n {
+            let t = (k as f32 + 0.5) / n as f32 * len;
+            out.push(MediaPoint { pos: start + d * t, pixel_world: pixel(along + t), max_radius: max_radius(m.sigma_t) });
+        }
+    });
+    let Some((hit, _, medium)) = end else { return };
+    if depth >= MAX_SPECULAR_DEPTH {
+        return;
+    }
+    let frame = super::Frame::new(&hit, -d);
+    let dist = dist + hit.t;
+    match scene.material(&hit).bsdf {
+        Bsdf::Glass { ior, transmittance } => {
+            for (wi, w) in glass_lobes(ior, transmittance, frame.n, -d, frame.front) {
+                if w != Vec3::ZERO {
+                    follow(scene, spawn(&hit, wi), wi, scene.medium_after(&hit, wi, medium), dist, depth + 1, step, pixel, out);
+                }
+            }
+        }
+        Bsdf::Mirror { .. } => {
+            let wi = d - 2.0 * d.dot(frame.n) * frame.n;
+            follow(scene, spawn(&hit, wi), wi, scene.medium_after(&hit, wi, medium), dist, depth + 1, step, pixel, out);
+        }
+        _ => {}
+    }
+}
+
+/// The record for `p`: the estimate over the photons camera rays read (with its gradient) and its
+/// radius (see the module header); `stride` is the pixel lattice's.
+pub fn media_record(scene: &Scene, photons: &PhotonData, p: &MediaPoint, stride: u32) -> VolumeRecord {
+    let Some(map) = &photons.maps.volume else { return VolumeRecord::default() };
+    let around = Surroundings::measure(|dir| match scene.intersect_after(p.pos, dir, 0.0) {
+        Some(h) => (h.t, !scene.material(&h).bsdf.is_null(), h.ng),
+        None => (f32::INFINITY, false, Vec3::ZERO),
+    });
+    let (k, cap) = (photons.settings.lookup, photons.settings.max_radius_volume);
+    let (rec, r_kernel) = estimate_within(map, p.pos, k, cap, photons.camera_photons, true, Some(&around));
+    let mut radius = p.max_radius.min(HARMONIC_SCALE * around.harmonic_mean(p.max_radius));
+    let lum = |v: Vec3| v.dot(Vec3::new(0.2126, 0.7152, 0.0722));
+    let grad = Vec3::new(lum(rec.grad[0][0]), lum(rec.grad[0][1]), lum(rec.grad[0][2])).length();
+    if grad > 0.0 {
+        radius = radius.min(GRADIENT_CHANGE * lum(rec.s[0]) / grad);
+    }
+    radius = radius.max(0.5 * r_kernel).max(LATTICE_REACH * stride as f32 * p.pixel_world);
+    VolumeRecord { pos: p.pos, radius, value: rec.s, grad: rec.grad }
+}
