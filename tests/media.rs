@@ -378,8 +378,8 @@ fn pm_in_media_does_not_depend_on_the_thread_count() {
 /// pixel lattice, adaptively (radii from the surfaces around, the gradient, the mean free path: they
 /// differ several-fold), clamped by their neighbours, covering every pass-A point; pass B makes none and
 /// misses ≤ 0.1 % of its lookups — at the reference size (every pixel) and at 4× the pixels (every
-/// second pixel of the lattice). Measured: fog-spot 64×48 4.6 k records for 72 k points, 0.01 % misses;
-/// fog-cornell 256² 0.03 %.
+/// second pixel of the lattice). Measured: fog-spot 64×48 2.3 k records for 72 k points, 0.005 % misses;
+/// fog-cornell 256² 0.015 %.
 #[test]
 fn the_media_cache_covers_what_camera_rays_need() {
     let dir = tempfile::tempdir().unwrap();

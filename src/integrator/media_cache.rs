@@ -13,8 +13,8 @@
 //!   record's first-order extrapolation is trusted that far);
 //! - the medium's mean free path 1/σt and a quarter of the scene's diagonal,
 //!
-//! but not below half the estimate's own kernel radius (records closer than that hold the same
-//! photons) nor below [`LATTICE_REACH`] lattice spacings of pixels at x (pass B's rays between the
+//! but not below [`KERNEL_REACH`] times the estimate's own kernel radius (records closer than that
+//! hold nearly the same photons) nor below [`LATTICE_REACH`] lattice spacings of pixels at x (pass B's rays between the
 //! lattice's find it).
 
 use glam::Vec3;
@@ -43,6 +43,10 @@ const MAX_SPECULAR_DEPTH: u32 = 2;
 pub const HARMONIC_SCALE: f32 = 0.5;
 /// R from the gradient: R·|∇S| ≤ this fraction of S.
 pub const GRADIENT_CHANGE: f32 = 0.5;
+/// R is at least this many kernel radii: at 1 fog-cornell and fog-spot (64², seeds 1–2, 32 spp)
+/// rendered with the same error as at ½ and ¾ (relMSE within 1 %), from half the records (2.9 k
+/// instead of 5.8 k; pass A 0.36 s instead of 0.58 s).
+const KERNEL_REACH: f32 = 1.0;
 /// R is at least this many lattice spacings (pixels × stride) at the record's point.
 const LATTICE_REACH: f32 = 1.5;
 
@@ -134,6 +138,6 @@ pub fn media_record(scene: &Scene, photons: &PhotonData, p: &MediaPoint, stride:
     if grad > 0.0 {
         radius = radius.min(GRADIENT_CHANGE * lum(rec.s[0]) / grad);
     }
-    radius = radius.max(0.5 * r_kernel).max(LATTICE_REACH * stride as f32 * p.pixel_world);
+    radius = radius.max(KERNEL_REACH * r_kernel).max(LATTICE_REACH * stride as f32 * p.pixel_world);
     VolumeRecord { pos: p.pos, radius, value: rec.s, grad: rec.grad }
 }
