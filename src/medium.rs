@@ -72,24 +72,34 @@ impl Medium {
     }
 
     /// One medium segment (length `t_max`, may be infinite) of a photon's free flight, sampled by
-    /// optical depth: `tau` is what is left of the flight's −ln(1−u), measured with each medium's mean
-    /// extinction σ̄ (a photon carries all three channels), and is used up across segments (exact, as
-    /// the exponential is memoryless). Each channel is weighted by its own transmittance over the pdf:
-    /// exact for grey media; for coloured ones the weights stay near 1 while the channels' σt are alike.
-    pub fn photon_segment(&self, t_max: f32, tau: &mut f32) -> Flight {
-        let mean = (self.sigma_t.x + self.sigma_t.y + self.sigma_t.z) / 3.0;
-        if self.sigma_s == Vec3::ZERO || mean == 0.0 {
+    /// optical depth in the path's `hero` channel: `tau` is what is left of the flight's −ln(1−u),
+    /// measured with each medium's σt[hero], and is used up across segments (exact, as the exponential
+    /// is memoryless). Weights and ratios as [`sample_flight`](Self::sample_flight)'s: the photon path's
+    /// power is its throughput over the mean of its ratios' products (spectral MIS, as `path` does).
+    /// Sampling by the channels' mean extinction instead, a coloured medium's weights multiplied into
+    /// heavy tails (a furnace of σs = (2, 1, 4): green ×e^{1.33 t} per flight; the blue image mean
+    /// spread 0.83–1.04 over four seeds).
+    pub fn photon_segment(&self, t_max: f32, hero: usize, tau: &mut f32) -> Flight {
+        let s = self.sigma_t[hero];
+        if self.sigma_s == Vec3::ZERO {
+            *tau -= s * t_max;
             return Flight::Through { weight: self.transmittance(t_max), ratio: Vec3::ONE };
         }
-        let t = *tau / mean;
+        let t = if s > 0.0 { *tau / s } else { f32::INFINITY };
         if t < t_max {
-            let pdf = mean * (-mean * t).exp();
-            let w = if pdf > 0.0 { self.transmittance(t) * self.sigma_s / pdf } else { Vec3::ZERO };
-            Flight::Scatter { t, weight: w, ratio: Vec3::ONE }
+            let tr = self.transmittance(t);
+            let pdf = self.sigma_t * tr;
+            if !(pdf[hero] > 0.0) {
+                return Flight::Scatter { t, weight: Vec3::ZERO, ratio: Vec3::ONE };
+            }
+            Flight::Scatter { t, weight: tr * self.sigma_s / pdf[hero], ratio: pdf / pdf[hero] }
         } else {
-            *tau -= mean * t_max;
-            let p = (-mean * t_max).exp();
-            Flight::Through { weight: if p > 0.0 { self.transmittance(t_max) / p } else { Vec3::ZERO }, ratio: Vec3::ONE }
+            *tau -= s * t_max;
+            let tr = self.transmittance(t_max);
+            if !(tr[hero] > 0.0) {
+                return Flight::Through { weight: Vec3::ZERO, ratio: Vec3::ONE };
+            }
+            Flight::Through { weight: tr / tr[hero], ratio: tr / tr[hero] }
         }
     }
 
@@ -146,6 +156,37 @@ pub fn sample_phase(g: f32, d: Vec3, u: [f32; 2]) -> (Vec3, f32) {
 mod tests {
     use super::*;
     use photon::sampling::Rng;
+
+    /// Photon flights through a slab of a coloured medium, distances by a uniformly chosen hero
+    /// channel, weighted by spectral MIS: each channel's expected weight of passing is its
+    /// transmittance, of scattering inside 1 − transmittance times the albedo; and no flight's weight
+    /// exceeds 3 (a channel's pdf is one of the three averaged; the mean-extinction sampling before
+    /// grew as e^{1.33 t} in green here).
+    #[test]
+    fn photon_flights_by_hero_channel_are_unbiased_and_bounded() {
+        let m = Medium::new("m".into(), Vec3::new(0.5, 0.0, 0.2), Vec3::new(2.0, 1.0, 4.0), 0.0);
+        let d = 0.7;
+        let mut rng = Rng::new(3);
+        let n = 400_000;
+        let (mut through, mut scattered, mut max) = (Vec3::ZERO, Vec3::ZERO, 0.0f32);
+        for i in 0..n {
+            let hero = i % 3;
+            let mut tau = -(1.0 - rng.uniform()).ln();
+            let (w, r, thru) = match m.photon_segment(d, hero, &mut tau) {
+                Flight::Through { weight, ratio } => (weight, ratio, true),
+                Flight::Scatter { weight, ratio, .. } => (weight, ratio, false),
+            };
+            let v = w / ((r.x + r.y + r.z) / 3.0);
+            max = max.max(v.max_element());
+            if thru { through += v } else { scattered += v }
+        }
+        let (through, scattered) = (through / n as f32, scattered / n as f32);
+        let tr = m.transmittance(d);
+        let expect_scattered = (Vec3::ONE - tr) * m.albedo();
+        assert!((through - tr).abs().max_element() < 0.01, "through {through} vs {tr}");
+        assert!((scattered - expect_scattered).abs().max_element() < 0.01, "scattered {scattered} vs {expect_scattered}");
+        assert!(max <= 3.0 + 1e-3, "largest weight {max}");
+    }
 
     #[test]
     fn hg_integrates_to_one_and_its_samples_have_mean_cosine_g() {

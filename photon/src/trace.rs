@@ -56,10 +56,11 @@ pub trait PhotonScene: Sync {
     }
     /// The next event of a photon leaving `origin` along `dir` in `medium`: a scattering event in the
     /// medium, or the next surface (invisible medium boundaries crossed, the medium updated), with the
-    /// free flight's throughput weight. `u` are 2 numbers in [0,1). Called only when `has_media`.
-    fn propagate(&self, origin: Vec3, dir: Vec3, medium: u16, _u: [f32; 2]) -> Propagation {
+    /// free flight's throughput weight and ratios for distances sampled in channel `hero` (0..3; see
+    /// [`Propagation`]). `u` are 2 numbers in [0,1). Called only when `has_media`.
+    fn propagate(&self, origin: Vec3, dir: Vec3, medium: u16, _hero: usize, _u: [f32; 2]) -> Propagation {
         match self.intersect(origin, dir) {
-            Some(hit) => Propagation::Surface { hit, weight: Vec3::ONE, medium },
+            Some(hit) => Propagation::Surface { hit, weight: Vec3::ONE, ratio: Vec3::ONE, medium },
             None => Propagation::Escaped,
         }
     }
@@ -74,14 +75,18 @@ pub trait PhotonScene: Sync {
     }
 }
 
-/// Where a photon's free flight ended (see [`PhotonScene::propagate`]).
+/// Where a photon's free flight ended (see [`PhotonScene::propagate`]). Distances are sampled in the
+/// path's hero channel: `weight` is each channel's throughput over the hero's pdf, `ratio` each
+/// channel's pdf of the same flight over the hero's (all ones in clear space or grey media). A photon
+/// path's power is its throughput over the mean of its ratios' products (one-sample MIS over the hero
+/// channels, pbrt-v4's spectral MIS).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Propagation {
     Escaped,
     /// At a surface, reached in `medium`.
-    Surface { hit: SurfaceHit, weight: Vec3, medium: u16 },
+    Surface { hit: SurfaceHit, weight: Vec3, ratio: Vec3, medium: u16 },
     /// At a scattering event at `pos` in `medium`; `weight` includes the scattering albedo.
-    Medium { pos: Vec3, weight: Vec3, medium: u16 },
+    Medium { pos: Vec3, weight: Vec3, ratio: Vec3, medium: u16 },
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -507,54 +512,70 @@ fn trace_path<S: PhotonScene + ?Sized>(scene: &S, s: &mut PathSampler, want: Wan
         return PathEnd::Done;
     }
     let (mut origin, mut dir, mut power, mut medium) = (ray.origin, ray.dir, ray.power, ray.medium);
+    // With media: the hero channel distances are sampled in, and the product of the flights' pdf
+    // ratios; the photon's power is `power / mean(ratios)` (see [`Propagation`]).
+    let hero = if media { ((s.next() * 3.0) as usize).min(2) } else { 0 };
+    let mut ratios = Vec3::ONE;
+    let mis = |power: Vec3, ratios: Vec3| {
+        let m = (ratios.x + ratios.y + ratios.z) / 3.0;
+        if m > 0.0 { power / m } else { Vec3::ZERO }
+    };
     let mut any_specular = false;
     let mut any_diffuse = false;
     for _ in 0..MAX_DEPTH {
         let event = if media {
-            scene.propagate(origin, dir, medium, [s.next(), s.next()])
+            scene.propagate(origin, dir, medium, hero, [s.next(), s.next()])
         } else {
             match scene.intersect(origin, dir) {
-                Some(hit) => Propagation::Surface { hit, weight: Vec3::ONE, medium },
+                Some(hit) => Propagation::Surface { hit, weight: Vec3::ONE, ratio: Vec3::ONE, medium },
                 None => Propagation::Escaped,
             }
         };
+        let before = mis(power, ratios);
         let hit = match event {
             Propagation::Escaped => return PathEnd::Done,
-            Propagation::Surface { hit, weight, medium: m } => {
+            Propagation::Surface { hit, weight, ratio, medium: m } => {
                 power *= weight;
+                ratios *= ratio;
                 medium = m;
                 hit
             }
-            Propagation::Medium { pos, weight, medium: m } => {
+            Propagation::Medium { pos, weight, ratio, medium: m } => {
                 // Stored with the power it scatters (× albedo): the volume estimate is then σs·Li.
-                let scattered = power * weight;
-                if !valid_power(scattered) || !pos.is_finite() {
+                let (scattered, r) = (power * weight, ratios * ratio);
+                let stored = mis(scattered, r);
+                if !valid_power(stored) || !pos.is_finite() {
                     return PathEnd::Dropped;
                 }
-                let photon = Photon { pos, wi: -dir, power: scattered, normal: Vec3::ZERO, indirect: any_diffuse, direct: !any_diffuse && !any_specular };
+                let photon = Photon { pos, wi: -dir, power: stored, normal: Vec3::ZERO, indirect: any_diffuse, direct: !any_diffuse && !any_specular };
                 let go_on = store(out, want, photon, any_specular && !any_diffuse, true);
                 any_diffuse = true;
                 if !go_on {
                     return PathEnd::Done;
                 }
                 let (u, u_roulette) = ([s.next(), s.next()], s.next());
-                let survive = weight.max_element().min(1.0);
+                // Roulette on the MIS-weighted power's change (the same whichever the hero channel).
+                let survive = (stored.max_element() / before.max_element()).min(1.0);
                 if survive.is_nan() || survive <= 0.0 || u_roulette >= survive {
                     return PathEnd::Done;
                 }
-                power = scattered / survive;
+                (power, ratios) = (scattered / survive, r);
                 dir = scene.scatter_in_medium(dir, m, u);
                 origin = pos;
                 medium = m;
                 continue;
             }
         };
+        let power_here = mis(power, ratios);
         if !hit.pos.is_finite() || !hit.normal.is_finite() {
             return PathEnd::Dropped;
         }
         let wo = -dir;
         if !hit.specular {
-            let photon = Photon { pos: hit.pos, wi: wo, power, normal: hit.normal, indirect: any_diffuse, direct: !any_diffuse && !any_specular };
+            if !valid_power(power_here) {
+                return PathEnd::Dropped;
+            }
+            let photon = Photon { pos: hit.pos, wi: wo, power: power_here, normal: hit.normal, indirect: any_diffuse, direct: !any_diffuse && !any_specular };
             let go_on = store(out, want, photon, any_specular && !any_diffuse, false);
             any_diffuse = true;
             if !go_on {

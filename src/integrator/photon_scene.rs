@@ -69,16 +69,21 @@ impl PhotonScene for PhotonView<'_> {
     }
 
     /// One optical depth per flight, used up across the media it crosses (`u[1]` is unused).
-    fn propagate(&self, origin: Vec3, dir: Vec3, medium: u16, u: [f32; 2]) -> Propagation {
+    fn propagate(&self, origin: Vec3, dir: Vec3, medium: u16, hero: usize, u: [f32; 2]) -> Propagation {
         let scene = self.0;
-        let (mut t0, mut medium, mut weight) = (0.0f32, medium, Vec3::ONE);
+        let (mut t0, mut medium, mut weight, mut ratio) = (0.0f32, medium, Vec3::ONE, Vec3::ONE);
         let mut tau = -(1.0 - u[0]).ln();
         for _ in 0..MAX_NULL_CROSSINGS {
             let raw = scene.bvh.intersect_range(origin, dir, t0, f32::INFINITY);
             if let Some(m) = scene.medium(medium) {
-                match m.photon_segment(raw.map_or(f32::INFINITY, |r| r.t - t0), &mut tau) {
-                    Flight::Scatter { t, weight: w, .. } => return Propagation::Medium { pos: origin + dir * (t0 + t), weight: weight * w, medium },
-                    Flight::Through { weight: w, .. } => weight *= w,
+                match m.photon_segment(raw.map_or(f32::INFINITY, |r| r.t - t0), hero, &mut tau) {
+                    Flight::Scatter { t, weight: w, ratio: r } => {
+                        return Propagation::Medium { pos: origin + dir * (t0 + t), weight: weight * w, ratio: ratio * r, medium };
+                    }
+                    Flight::Through { weight: w, ratio: r } => {
+                        weight *= w;
+                        ratio *= r;
+                    }
                 }
             }
             let Some(raw) = raw else { return Propagation::Escaped };
@@ -87,7 +92,7 @@ impl PhotonScene for PhotonView<'_> {
                 let frame = Frame::new(&hit, -dir);
                 let bsdf = &scene.material(&hit).bsdf;
                 let hit = SurfaceHit { pos: hit.p, normal: frame.n, specular: bsdf.is_specular(), material: hit.material, prim: hit.tri, uv: hit.uv };
-                return Propagation::Surface { hit, weight, medium };
+                return Propagation::Surface { hit, weight, ratio, medium };
             }
             medium = scene.medium_after(&hit, dir, medium);
             t0 = past(hit.t, origin);
