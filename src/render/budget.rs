@@ -125,7 +125,9 @@ pub fn estimate(scene: &Scene, plan: &Plan, opts: &Options) -> Vec<(String, u64)
             items.push(("media records".into(), crate::integrator::volume_grid::MAX_RECORDS * MEDIA_RECORD_BYTES));
             if plan.method == Method::Pm {
                 let cache = icache::media::MAX_RECORDS as u64 * (std::mem::size_of::<icache::media::VolumeRecord>() as u64 + 64);
-                let points = crate::integrator::media_cache::MAX_POINTS as u64 * std::mem::size_of::<icache::media::MediaPoint>() as u64;
+                // Points are gathered with a sort key, then copied out: both lists at the peak.
+                let point = std::mem::size_of::<icache::media::MediaPoint>() as u64;
+                let points = crate::integrator::media_cache::MAX_POINTS as u64 * (2 * point + 4);
                 items.push(("media radiance cache".into(), cache + points));
             }
         }
