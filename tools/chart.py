@@ -64,6 +64,7 @@ def plan(quick, media=False):
     if media:
         runs += [("pm", f"pm no media gradients spp={s}", "pm (no media gradients)", s,
                   {"icache.media_gradients": False}) for s in ((PM_DEFAULT_SPP,) if quick else (8, PM_DEFAULT_SPP))]
+        runs += [("pm", "pm media visibility", "pm (media visibility)", PM_DEFAULT_SPP, {"icache.media_visibility": True})]
     return runs
 
 

@@ -131,7 +131,7 @@ pub fn media_record(scene: &Scene, photons: &PhotonData, p: &MediaPoint, stride:
         None => (f32::INFINITY, false, Vec3::ZERO),
     });
     let (k, cap) = (photons.settings.lookup, photons.settings.max_radius_volume);
-    let (rec, r_kernel) = estimate_within(map, p.pos, k, cap, photons.camera_photons, true, Some(&around));
+    let (rec, r_kernel) = estimate_within(map, p.pos, k, cap, photons.camera_photons, true, scene.settings.icache.media_visibility().then_some(&around));
     let mut radius = p.max_radius.min(HARMONIC_SCALE * around.harmonic_mean(p.max_radius));
     let lum = |v: Vec3| v.dot(Vec3::new(0.2126, 0.7152, 0.0722));
     let grad = Vec3::new(lum(rec.grad[0][0]), lum(rec.grad[0][1]), lum(rec.grad[0][2])).length();

@@ -134,6 +134,7 @@ pub struct IcacheDesc {
     pub adaptive: Option<bool>,
     pub adaptive_threshold: Option<f32>,
     pub media_gradients: Option<bool>,
+    pub media_visibility: Option<bool>,
     pub pass_a_stride: Option<i64>,
     pub visibility: Option<bool>,
 }
