@@ -531,7 +531,6 @@ fn trace_path<S: PhotonScene + ?Sized>(scene: &S, s: &mut PathSampler, want: Wan
                 None => Propagation::Escaped,
             }
         };
-        let before = mis(power, ratios);
         let hit = match event {
             Propagation::Escaped => return PathEnd::Done,
             Propagation::Surface { hit, weight, ratio, medium: m } => {
@@ -542,6 +541,7 @@ fn trace_path<S: PhotonScene + ?Sized>(scene: &S, s: &mut PathSampler, want: Wan
             }
             Propagation::Medium { pos, weight, ratio, medium: m } => {
                 // Stored with the power it scatters (× albedo): the volume estimate is then σs·Li.
+                let before = mis(power, ratios);
                 let (scattered, r) = (power * weight, ratios * ratio);
                 let stored = mis(scattered, r);
                 if !valid_power(stored) || !pos.is_finite() {

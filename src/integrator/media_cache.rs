@@ -3,9 +3,9 @@
 //! mirrors), and the record made at such a point — the volume photon map's estimate of the light
 //! scattered more than once, its gradient, and its validity radius.
 //!
-//! The estimate sees what the point sees ([`Surroundings`]: 96 distances to the first surface around
-//! it): photons behind occluders are left out and the kernel's visible share divides the sums. The
-//! radius R of a record at x is the smallest of
+//! Around each record 96 rays ([`Surroundings`]) measure the distance to the first surface; with
+//! `[render.icache] media_visibility` the estimate also leaves out photons behind occluders and is
+//! divided by the kernel's visible share. The radius R of a record at x is the smallest of
 //! - the harmonic mean of those distances (boundaries included: the light in a medium changes at its
 //!   walls, at occluders and at the shadows they cast), times [`HARMONIC_SCALE`] — Ward's split
 //!   sphere, each distance cut at the mean free path;
@@ -14,8 +14,8 @@
 //! - the medium's mean free path 1/σt and a quarter of the scene's diagonal,
 //!
 //! but not below [`KERNEL_REACH`] times the estimate's own kernel radius (records closer than that
-//! hold nearly the same photons) nor below [`LATTICE_REACH`] lattice spacings of pixels at x (pass B's rays between the
-//! lattice's find it).
+//! hold nearly the same photons) nor below [`LATTICE_REACH`] lattice spacings of pixels at x (pass B's
+//! rays between the lattice's find it).
 
 use glam::Vec3;
 use icache::media::{MediaPoint, VolumeRecord};
