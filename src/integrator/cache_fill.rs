@@ -91,7 +91,9 @@ fn follow(ctx: &PmContext, camera: &Camera, d0: Vec3, o: Vec3, d: Vec3, dist: f3
 pub fn gather_record(ctx: &PmContext, x: u32, y: u32, i: usize, sp: &ShadingPoint, hit: &Hit) -> (NewRecord, SampleCounters) {
     let mut counters = SampleCounters::default();
     let frame = Frame::new(hit, sp.normal);
-    let seed = photon::sampling::hash_keys(&[x as u64, y as u64, i as u64]);
+    // The render's seed too: another seed must give another set of gathers (and so an independent
+    // estimate: convergence tests over seeds), not the same strata jitter at every pixel.
+    let seed = photon::sampling::hash_keys(&[ctx.seed, x as u64, y as u64, i as u64]);
     let g = ctx.final_gather(hit, &frame, seed, &mut counters);
     let record = NewRecord {
         pos: sp.pos,
