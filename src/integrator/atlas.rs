@@ -32,7 +32,7 @@ use crate::scene::Scene;
 
 /// Texels per triangle side at most, per barycentric axis.
 pub const MAX_TEXELS_PER_AXIS: u32 = 255;
-/// Texel slots at most (28 bytes each, allocated up front, and 20 more with a caustic map); a scene that
+/// Texel slots at most (40 bytes each, allocated up front, and 20 more with a caustic map); a scene that
 /// would need more gets coarser texels.
 pub const MAX_TEXEL_SLOTS: u64 = 4 << 20;
 /// A texel's caustic estimate serves the whole texel when its disc's radius is at least this many texels
@@ -46,6 +46,18 @@ pub const CAUSTIC_TEXEL_REACH: f32 = 2.0;
 pub struct TexelIrradiance {
     pub radiance: Vec3,
     pub e_indirect: Vec3,
+    /// Zero, except on an edge texel — one whose direct light from the point, spot and directional lights
+    /// varies across it by more than [`EDGE_CONTRAST`] (a shadow's edge crosses it, or a light's falloff
+    /// is steep there): its mean albedo / π, and `radiance` leaves that direct light out; the reader
+    /// adds `albedo_pi` × that light at its own point ([`direct_at`]).
+    pub albedo_pi: Vec3,
+}
+
+/// The direct light of the point, spot and directional lights at point `p` of the `front` or back side of
+/// triangle `tri`: what a reader of an edge texel multiplies by its `albedo_pi`.
+pub fn direct_at(scene: &Scene, tri: u32, front: bool, p: Vec3) -> Vec3 {
+    let ng = scene.geometry.triangles[tri as usize].ng;
+    direct_irradiance(scene, tri, p, if front { ng } else { -ng }, 0, true, false)
 }
 
 pub struct IrradianceAtlas {
@@ -56,6 +68,8 @@ pub struct IrradianceAtlas {
     /// texel ([`Self::caustic`]).
     caustic: Vec<OnceLock<(Vec3, bool)>>,
     caustic_estimated: AtomicU64,
+    /// Edge texels among those estimated (see [`TexelIrradiance::albedo_pi`]).
+    edges: AtomicU64,
     k: usize,
     max_radius: f32,
     estimated: AtomicU64,
@@ -172,9 +186,10 @@ fn texel_albedo(scene: &Scene, tri: u32, grid: &Grid, i: u32, j: u32, seed: u64)
 const TEXEL_AREA_SAMPLES: u32 = 16;
 
 /// Irradiance straight from the lights at point `p` of triangle `tri` on the side facing `n`, by shadow
-/// rays: every point, spot and directional light once, area lights by [`TEXEL_AREA_SAMPLES`] samples
-/// from a generator seeded with `seed` (the texel's value stays a function of the texel).
-fn direct_irradiance(scene: &Scene, tri: u32, p: Vec3, n: Vec3, seed: u64) -> Vec3 {
+/// rays: every point, spot and directional light once (`delta`), and area lights by
+/// [`TEXEL_AREA_SAMPLES`] samples from a generator seeded with `seed` (`area`; the texel's value stays a
+/// function of the texel).
+fn direct_irradiance(scene: &Scene, tri: u32, p: Vec3, n: Vec3, seed: u64, delta: bool, area: bool) -> Vec3 {
     let hit = Hit { p, t: 0.0, ng: n, ns: n, uv: Vec2::ZERO, tri, material: scene.geometry.triangles[tri as usize].material };
     // With media: the medium on the texel's side, and shadow rays through it.
     let medium = scene.media.as_ref().map_or(crate::medium::VACUUM, |m| m.medium_at(crate::geometry::spawn(&hit, n)));
@@ -190,8 +205,11 @@ fn direct_irradiance(scene: &Scene, tri: u32, p: Vec3, n: Vec3, seed: u64) -> Ve
         ls.li * cos / ls.pdf * vis
     };
     let lights = &scene.lights;
-    let mut e: Vec3 = lights.delta_samples(&scene.geometry, p).map(|ls| arrive(&ls)).sum();
-    if lights.has_area() {
+    let mut e = Vec3::ZERO;
+    if delta {
+        e += lights.delta_samples(&scene.geometry, p).map(|ls| arrive(&ls)).sum::<Vec3>();
+    }
+    if area && lights.has_area() {
         let mut rng = Rng::new(hash_keys(&[seed, 0x7e7e1]));
         let side = (TEXEL_AREA_SAMPLES as f32).sqrt() as u32;
         for s in 0..TEXEL_AREA_SAMPLES {
@@ -203,6 +221,54 @@ fn direct_irradiance(scene: &Scene, tri: u32, p: Vec3, n: Vec3, seed: u64) -> Ve
         }
     }
     e
+}
+
+/// Points per texel side at which the point, spot and directional lights are tested (2 × 2, stratified
+/// over the texel's part of the triangle).
+const EDGE_PROBE_SIDE: u32 = 2;
+/// A texel whose direct light from those lights differs between its probe points by more than this
+/// fraction of their mean (luminance) is an edge texel (see [`TexelIrradiance::albedo_pi`]).
+const EDGE_CONTRAST: f32 = 0.25;
+
+/// [`EDGE_PROBE_SIDE`]² stratified points of texel (i, j)'s part of the triangle (jittered by a generator
+/// seeded with `seed`); its middle when no stratum meets the triangle.
+fn texel_points(grid: &Grid, i: u32, j: u32, seed: u64) -> Vec<Vec3> {
+    let mut rng = Rng::new(hash_keys(&[seed, 0xed6e]));
+    let side = EDGE_PROBE_SIDE;
+    let mut points = Vec::with_capacity((side * side) as usize);
+    for s in 0..side * side {
+        let (ku, kv) = ((s % side) as f32, (s / side) as f32);
+        let u = (i as f32 + (ku + rng.uniform()) / side as f32) * grid.cell;
+        let v_lo = j as f32 * grid.cell;
+        let v_hi = ((j + 1) as f32 * grid.cell).min(grid.v_max(u.min(grid.long)));
+        if !(u <= grid.long && v_hi > v_lo) {
+            continue;
+        }
+        let v = v_lo + (kv + rng.uniform()) / side as f32 * (v_hi - v_lo);
+        points.push(grid.origin + u * grid.u_dir + v * grid.v_dir);
+    }
+    if points.is_empty() {
+        points.push(grid.middle(i, j));
+    }
+    points
+}
+
+/// Rec. 709 luminance.
+fn luminance(c: Vec3) -> f32 {
+    c.dot(Vec3::new(0.2126, 0.7152, 0.0722))
+}
+
+/// The direct light of the point, spot and directional lights over texel (i, j): the mean over its probe
+/// points, and whether they disagree (an edge texel).
+fn delta_over_texel(scene: &Scene, tri: u32, grid: &Grid, i: u32, j: u32, n: Vec3, seed: u64) -> (Vec3, bool) {
+    if scene.lights.delta_samples(&scene.geometry, grid.middle(i, j)).next().is_none() {
+        return (Vec3::ZERO, false);
+    }
+    let values: Vec<Vec3> = texel_points(grid, i, j, seed).into_iter().map(|q| direct_irradiance(scene, tri, q, n, seed, true, false)).collect();
+    let mean = values.iter().copied().sum::<Vec3>() / values.len() as f32;
+    let lum: Vec<f32> = values.iter().map(|&v| luminance(v)).collect();
+    let (lo, hi) = lum.iter().fold((f32::INFINITY, 0.0f32), |(lo, hi), &l| (lo.min(l), hi.max(l)));
+    (mean, hi - lo > EDGE_CONTRAST * luminance(mean))
 }
 
 /// A texel: its slot, and the triangle side and cell it belongs to.
@@ -223,6 +289,8 @@ pub struct AtlasStats {
     pub estimates: u64,
     /// Caustic estimates made at texel middles ([`IrradianceAtlas::caustic`]).
     pub caustic_estimates: u64,
+    /// Estimated texels whose direct light varies across them: their readers shade it at their own point.
+    pub edges: u64,
     pub memory_bytes: u64,
 }
 
@@ -261,6 +329,7 @@ impl IrradianceAtlas {
                 slots: (0..n_slots).map(|_| OnceLock::new()).collect(),
                 caustic: Vec::new(),
                 caustic_estimated: AtomicU64::new(0),
+                edges: AtomicU64::new(0),
                 k,
                 max_radius,
                 estimated: AtomicU64::new(0),
@@ -293,9 +362,15 @@ impl IrradianceAtlas {
             let middle = grid.middle(i, j);
             let (est, e_indirect) = global.irradiance_not_direct(middle, n, self.k, self.max_radius, cov);
             self.estimated.fetch_add(1, Ordering::Relaxed);
-            let direct = direct_irradiance(scene, tri, middle, n, index as u64);
-            let albedo = texel_albedo(scene, tri, grid, i, j, index as u64);
-            TexelIrradiance { radiance: albedo / std::f32::consts::PI * (direct + est.e), e_indirect }
+            let area = direct_irradiance(scene, tri, middle, n, index as u64, false, true);
+            let (delta, edge) = delta_over_texel(scene, tri, grid, i, j, n, index as u64);
+            let albedo_pi = texel_albedo(scene, tri, grid, i, j, index as u64) / std::f32::consts::PI;
+            if edge {
+                self.edges.fetch_add(1, Ordering::Relaxed);
+                TexelIrradiance { radiance: albedo_pi * (area + est.e), e_indirect, albedo_pi }
+            } else {
+                TexelIrradiance { radiance: albedo_pi * (delta + area + est.e), e_indirect, albedo_pi: Vec3::ZERO }
+            }
         })
     }
 
@@ -304,6 +379,7 @@ impl IrradianceAtlas {
             slots: self.slots.len() as u64,
             estimates: self.estimated.load(Ordering::Relaxed),
             caustic_estimates: self.caustic_estimated.load(Ordering::Relaxed),
+            edges: self.edges.load(Ordering::Relaxed),
             memory_bytes: (self.slots.len() * std::mem::size_of::<OnceLock<TexelIrradiance>>()
                 + self.caustic.len() * std::mem::size_of::<OnceLock<(Vec3, bool)>>()
                 + self.grids.len() * std::mem::size_of::<(Grid, u32)>()) as u64,

@@ -238,7 +238,16 @@ impl<'a> PhotonData<'a> {
     /// Diffuse radiance where a final-gather ray ends (point `p` on the `front` or back side of triangle
     /// `tri`): the atlas texel's mean albedo / π × all of its irradiance.
     pub fn gather_radiance(&self, tri: u32, front: bool, p: Vec3) -> Vec3 {
-        self.texel(tri, front, p).map_or(Vec3::ZERO, |t| t.radiance)
+        self.texel(tri, front, p).map_or(Vec3::ZERO, |t| self.texel_radiance(&t, tri, front, p))
+    }
+
+    /// A texel's radiance at point `p` of it: an edge texel's direct light is `p`'s own.
+    fn texel_radiance(&self, t: &super::atlas::TexelIrradiance, tri: u32, front: bool, p: Vec3) -> Vec3 {
+        if t.albedo_pi == Vec3::ZERO {
+            t.radiance
+        } else {
+            t.radiance + t.albedo_pi * super::atlas::direct_at(self.coverage.0, tri, front, p)
+        }
     }
 
     /// [`gather_radiance`](Self::gather_radiance) at many ends at once, appended to `out` in order: the
@@ -249,7 +258,7 @@ impl<'a> PhotonData<'a> {
             return;
         };
         let texels: Vec<_> = ends.iter().map(|&(tri, front, p)| atlas.texel(tri, front, p)).collect();
-        out.extend(texels.into_iter().map(|t| atlas.read(&self.coverage, global, t).radiance));
+        out.extend(texels.into_iter().zip(ends).map(|(t, &(tri, front, p))| self.texel_radiance(&atlas.read(&self.coverage, global, t), tri, front, p)));
     }
 
     /// Soft indirect irradiance (direct and caustic photons left out) at a point that has its own

@@ -116,7 +116,9 @@ pub fn estimate(scene: &Scene, plan: &Plan, opts: &Options) -> Vec<(String, u64)
         items.push(("photon maps".into(), photons));
         // The irradiance atlas: at most MAX_TEXEL_SLOTS slots (and as many caustic slots with a caustic
         // map), and a grid per triangle.
-        let slot_bytes = if plan.photons.caustic > 0 { 28 + 20 } else { 28 };
+        let slot = std::mem::size_of::<std::sync::OnceLock<crate::integrator::atlas::TexelIrradiance>>() as u64;
+        let caustic_slot = std::mem::size_of::<std::sync::OnceLock<(glam::Vec3, bool)>>() as u64;
+        let slot_bytes = if plan.photons.caustic > 0 { slot + caustic_slot } else { slot };
         let atlas = crate::integrator::atlas::MAX_TEXEL_SLOTS * slot_bytes + scene.geometry.triangles.len() as u64 * 64;
         items.push(("irradiance atlas".into(), atlas));
         if scene.media.is_some() {

@@ -175,6 +175,7 @@ impl RenderStats {
         if let Some(s) = &self.atlas {
             r.count("Photons", "Irradiance atlas texels", "photons.atlas_texels", s.slots);
             r.count("Photons", "Irradiance atlas texels estimated", "photons.atlas_estimates", s.estimates);
+            r.count("Photons", "Edge texels (direct light shaded where each ray lands)", "photons.atlas_edge_texels", s.edges);
             r.count("Photons", "Caustic estimates at texel middles (smooth caustics)", "photons.caustic_texel_estimates", s.caustic_estimates);
             r.bytes("Photons", "Memory, irradiance atlas", "photons.atlas_memory_bytes", s.memory_bytes);
         }
