@@ -162,23 +162,8 @@ fn texel_albedo(scene: &Scene, tri: u32, grid: &Grid, i: u32, j: u32, seed: u64)
         // As at a hit: a mesh without texture coordinates reads its texture at the barycentrics.
         if t.has_uv { ua * (1.0 - b1 - b2) + ub * b1 + uc * b2 } else { Vec2::new(b1, b2) }
     };
-    let mut rng = Rng::new(hash_keys(&[seed, 0xa1bed0]));
-    let mut sum = Vec3::ZERO;
-    let mut n = 0u32;
-    let side = TEXEL_ALBEDO_SIDE;
-    for s in 0..side * side {
-        let (ku, kv) = ((s % side) as f32, (s / side) as f32);
-        let u = (i as f32 + (ku + rng.uniform()) / side as f32) * grid.cell;
-        let v_lo = j as f32 * grid.cell;
-        let v_hi = ((j + 1) as f32 * grid.cell).min(grid.v_max(u.min(grid.long)));
-        if !(u <= grid.long && v_hi > v_lo) {
-            continue;
-        }
-        let v = v_lo + (kv + rng.uniform()) / side as f32 * (v_hi - v_lo);
-        sum += texture.lookup(uv_at(grid.origin + u * grid.u_dir + v * grid.v_dir));
-        n += 1;
-    }
-    let mean = if n > 0 { sum / n as f32 } else { texture.lookup(uv_at(grid.middle(i, j))) };
+    let points = texel_points(grid, i, j, TEXEL_ALBEDO_SIDE, hash_keys(&[seed, 0xa1bed0]));
+    let mean = points.iter().map(|&q| texture.lookup(uv_at(q))).sum::<Vec3>() / points.len() as f32;
     material.diffuse_albedo(mean)
 }
 
@@ -230,11 +215,10 @@ const EDGE_PROBE_SIDE: u32 = 2;
 /// fraction of their mean (luminance) is an edge texel (see [`TexelIrradiance::albedo_pi`]).
 const EDGE_CONTRAST: f32 = 0.25;
 
-/// [`EDGE_PROBE_SIDE`]² stratified points of texel (i, j)'s part of the triangle (jittered by a generator
-/// seeded with `seed`); its middle when no stratum meets the triangle.
-fn texel_points(grid: &Grid, i: u32, j: u32, seed: u64) -> Vec<Vec3> {
-    let mut rng = Rng::new(hash_keys(&[seed, 0xed6e]));
-    let side = EDGE_PROBE_SIDE;
+/// `side`² stratified points of texel (i, j)'s part of the triangle (jittered by a generator seeded with
+/// `seed`); its middle when no stratum meets the triangle.
+fn texel_points(grid: &Grid, i: u32, j: u32, side: u32, seed: u64) -> Vec<Vec3> {
+    let mut rng = Rng::new(seed);
     let mut points = Vec::with_capacity((side * side) as usize);
     for s in 0..side * side {
         let (ku, kv) = ((s % side) as f32, (s / side) as f32);
@@ -264,7 +248,7 @@ fn delta_over_texel(scene: &Scene, tri: u32, grid: &Grid, i: u32, j: u32, n: Vec
     if scene.lights.delta_samples(&scene.geometry, grid.middle(i, j)).next().is_none() {
         return (Vec3::ZERO, false);
     }
-    let values: Vec<Vec3> = texel_points(grid, i, j, seed).into_iter().map(|q| direct_irradiance(scene, tri, q, n, seed, true, false)).collect();
+    let values: Vec<Vec3> = texel_points(grid, i, j, EDGE_PROBE_SIDE, hash_keys(&[seed, 0xed6e])).into_iter().map(|q| direct_irradiance(scene, tri, q, n, seed, true, false)).collect();
     let mean = values.iter().copied().sum::<Vec3>() / values.len() as f32;
     let lum: Vec<f32> = values.iter().map(|&v| luminance(v)).collect();
     let (lo, hi) = lum.iter().fold((f32::INFINITY, 0.0f32), |(lo, hi), &l| (lo.min(l), hi.max(l)));
