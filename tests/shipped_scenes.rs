@@ -39,6 +39,9 @@ fn rare_events_stay_rare_on_every_shipped_scene() {
         assert!(misses <= 1e-3 * lookups, "{name}: {misses} misses of {lookups} lookups");
         assert!(gathered <= 0.002 * lookups, "{name}: {gathered} full gathers in pass B of {lookups} lookups");
         assert_eq!(j["rare"]["nan_or_negative"], 0, "{name}");
+        // The gathers' own noise is reported (a median between 0.5 % and 30 % on every shipped scene).
+        let noise = j["gather"]["rel_err_p50"].as_f64().unwrap_or_else(|| panic!("{name}: gather.rel_err_p50"));
+        assert!((0.005..=0.3).contains(&noise), "{name}: gather noise median {noise}");
         let rays = j["rays"]["total"].as_f64().unwrap();
         let zero_pdf = j["rare"]["zero_pdf"].as_f64().unwrap();
         assert!(zero_pdf <= 1e-3 * rays, "{name}: {zero_pdf} zero-pdf samples in {rays} rays");

@@ -62,6 +62,28 @@ pub struct GatherResult {
     pub dir: Vec3,
     /// Rays traced (M · N).
     pub n_rays: u32,
+    /// Estimated relative standard error of E's luminance, from the gather's own rays: strata paired
+    /// side by side in azimuth, Var(Σ L) ≈ Σ over pairs of (L_a − L_b)² (one sample per stratum;
+    /// conservative where the radiance varies smoothly across a pair). 0 when E is 0.
+    pub rel_err: f32,
+}
+
+/// [`GatherResult::rel_err`] of the luminances of a strata grid's rays (row-major, `n` per row).
+fn paired_rel_err(lum: &[f64], n: usize) -> f32 {
+    let total: f64 = lum.iter().sum();
+    if !(total > 0.0) || n < 2 {
+        return 0.0;
+    }
+    let (mut var, mut paired) = (0.0f64, 0usize);
+    for row in lum.chunks(n) {
+        for pair in row.chunks_exact(2) {
+            var += (pair[0] - pair[1]).powi(2);
+            paired += 2;
+        }
+    }
+    // An odd row's last stratum is unpaired: scale the pairs' variance up to all strata.
+    let var = var * lum.len() as f64 / paired.max(1) as f64;
+    (var.sqrt() / total) as f32
 }
 
 /// Rec. 709 luminance.
@@ -128,6 +150,8 @@ pub fn gather_batch(
         distance.push(ray.distance);
     }
     let n_rays = strata.len() as f64;
+    let lum: Vec<f64> = radiance.iter().map(|&l| luminance(l) as f64).collect();
+    let rel_err = paired_rel_err(&lum, strata.n);
     let grid = Grid {
         strata,
         frame,
@@ -146,5 +170,6 @@ pub fn gather_batch(
         r_min,
         dir: sum_dir.try_normalize().unwrap_or(n),
         n_rays: strata.len() as u32,
+        rel_err,
     }
 }

@@ -143,12 +143,69 @@ pub struct SampleCounters {
     /// then made the estimate itself).
     pub media_lookups: u64,
     pub media_misses: u64,
+    /// The final gathers' own noise estimates ([`gather::GatherResult::rel_err`]).
+    pub gather_noise: GatherNoise,
+}
+
+/// Upper edges of [`GatherNoise`]'s bins (relative standard error of a gather's E); the last bin is open.
+pub const GATHER_NOISE_EDGES: [f32; 12] = [0.005, 0.01, 0.015, 0.02, 0.03, 0.04, 0.05, 0.07, 0.1, 0.15, 0.2, 0.3];
+
+/// How noisy the final gathers were: a histogram of their estimated relative standard errors, and their
+/// sum. Tells whether more gather rays (`[render.icache] rays`) would pay: the cache's records carry this
+/// noise into the image as blotches a few records wide.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct GatherNoise {
+    pub bins: [u32; GATHER_NOISE_EDGES.len() + 1],
+    pub sum: f64,
+    pub n: u64,
+}
+
+impl GatherNoise {
+    pub fn record(&mut self, rel_err: f32) {
+        if !rel_err.is_finite() {
+            return;
+        }
+        let bin = GATHER_NOISE_EDGES.iter().position(|&e| rel_err <= e).unwrap_or(GATHER_NOISE_EDGES.len());
+        self.bins[bin] += 1;
+        self.sum += rel_err as f64;
+        self.n += 1;
+    }
+
+    /// The upper edge of the bin holding the `q` quantile (∞ for the open last bin); `None` without gathers.
+    pub fn quantile(&self, q: f64) -> Option<f32> {
+        let total: u64 = self.bins.iter().map(|&b| b as u64).sum();
+        if total == 0 {
+            return None;
+        }
+        let mut seen = 0u64;
+        for (i, &b) in self.bins.iter().enumerate() {
+            seen += b as u64;
+            if seen as f64 >= q * total as f64 {
+                return Some(GATHER_NOISE_EDGES.get(i).copied().unwrap_or(f32::INFINITY));
+            }
+        }
+        Some(f32::INFINITY)
+    }
+
+    pub fn mean(&self) -> Option<f64> {
+        (self.n > 0).then(|| self.sum / self.n as f64)
+    }
+}
+
+impl std::ops::AddAssign for GatherNoise {
+    fn add_assign(&mut self, o: Self) {
+        for (a, b) in self.bins.iter_mut().zip(o.bins) {
+            *a += b;
+        }
+        self.sum += o.sum;
+        self.n += o.n;
+    }
 }
 
 impl SampleCounters {
     /// The rays and gathers alone (work done, whatever became of its result).
     pub fn work(&self) -> SampleCounters {
-        SampleCounters { rays: self.rays, shadow_rays: self.shadow_rays, gathers: self.gathers, gather_rays: self.gather_rays, ..SampleCounters::default() }
+        SampleCounters { rays: self.rays, shadow_rays: self.shadow_rays, gathers: self.gathers, gather_rays: self.gather_rays, gather_noise: self.gather_noise, ..SampleCounters::default() }
     }
 }
 
@@ -165,6 +222,7 @@ impl std::ops::AddAssign for SampleCounters {
         self.monte_carlo += o.monte_carlo;
         self.media_lookups += o.media_lookups;
         self.media_misses += o.media_misses;
+        self.gather_noise += o.gather_noise;
     }
 }
 

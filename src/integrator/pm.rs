@@ -333,6 +333,7 @@ impl PmContext<'_> {
         c.rays += rays;
         c.gathers += 1;
         c.gather_rays += rays;
+        c.gather_noise.record(result.rel_err);
         result
     }
 
@@ -437,5 +438,5 @@ fn phong_pdf(r: Vec3, wi: Vec3, exponent: f32) -> f32 {
 /// What a final gather returns once the render is interrupted (its result is discarded): skipping the
 /// strata loops and the batched lookups keeps a 1M-ray gather from delaying the stop.
 fn interrupted_gather(frame: &Frame) -> GatherResult {
-    GatherResult { e: Vec3::ZERO, grad_r: [Vec3::ZERO; 3], grad_t: [Vec3::ZERO; 3], r_harmonic: f32::INFINITY, r_min: f32::INFINITY, dir: frame.n, n_rays: 0 }
+    GatherResult { e: Vec3::ZERO, grad_r: [Vec3::ZERO; 3], grad_t: [Vec3::ZERO; 3], r_harmonic: f32::INFINITY, r_min: f32::INFINITY, dir: frame.n, n_rays: 0, rel_err: 0.0 }
 }

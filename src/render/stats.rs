@@ -195,6 +195,13 @@ impl RenderStats {
         r.count("Final gather", "Gathers", "gather.gathers", fill.gathers + shade.gathers);
         r.count("Final gather", "Gather rays", "gather.rays", fill.gather_rays + shade.gather_rays);
         r.count("Final gather", "Gather rays in the cache fill", "gather.rays_fill", fill.gather_rays);
+        let mut noise = fill.gather_noise;
+        noise += shade.gather_noise;
+        if let (Some(mean), Some(p50), Some(p90)) = (noise.mean(), noise.quantile(0.5), noise.quantile(0.9)) {
+            r.number("Final gather", "Gather noise: mean relative std error of E (own rays)", "gather.rel_err_mean", mean);
+            r.number("Final gather", "Gather noise: median, at most", "gather.rel_err_p50", p50 as f64);
+            r.number("Final gather", "Gather noise: 90th percentile, at most", "gather.rel_err_p90", p90 as f64);
+        }
         r.count("Rays", "Rays while shading (camera, bounce, shadow, pass-B gathers)", "rays.shade", shade.rays + shade.shadow_rays);
         r.count("Photons", "k-NN estimates while rendering (caustic, indirect)", "photons.estimates", fill.photon_estimates + shade.photon_estimates);
     }
