@@ -192,7 +192,8 @@ fn deterministic_per_seed() {
 /// The gather's own noise estimate (`rel_err`, from strata paired side by side) is 0 where every ray
 /// sees the same radiance, and close to the true relative standard error of E where a small bright
 /// spot makes the gather noisy: over 400 gathers with different jitter, the mean estimate is within
-/// 0.7–2× the spread of E itself (pairing is conservative where radiance varies smoothly).
+/// 0.7–2× the spread of E itself (measured 0.282 against 0.234; pairing is conservative where radiance
+/// varies smoothly).
 #[test]
 fn own_noise_estimate_matches_the_spread_of_e() {
     let n = Vec3::Z;

@@ -29,6 +29,7 @@ use crate::geometry::{Geometry, Hit};
 use crate::light::LightSample;
 use crate::material::Bsdf;
 use crate::scene::Scene;
+use crate::warp::luminance;
 
 /// Texels per triangle side at most, per barycentric axis.
 pub const MAX_TEXELS_PER_AXIS: u32 = 255;
@@ -235,11 +236,6 @@ fn texel_points(grid: &Grid, i: u32, j: u32, side: u32, seed: u64) -> Vec<Vec3> 
         points.push(grid.middle(i, j));
     }
     points
-}
-
-/// Rec. 709 luminance.
-fn luminance(c: Vec3) -> f32 {
-    c.dot(Vec3::new(0.2126, 0.7152, 0.0722))
 }
 
 /// The direct light of the point, spot and directional lights over texel (i, j): the mean over its probe

@@ -150,14 +150,15 @@ pub struct SampleCounters {
 /// Upper edges of [`GatherNoise`]'s bins (relative standard error of a gather's E); the last bin is open.
 pub const GATHER_NOISE_EDGES: [f32; 12] = [0.005, 0.01, 0.015, 0.02, 0.03, 0.04, 0.05, 0.07, 0.1, 0.15, 0.2, 0.3];
 
-/// How noisy the final gathers were: a histogram of their estimated relative standard errors, and their
-/// sum. Tells whether more gather rays (`[render.icache] rays`) would pay: the cache's records carry this
+/// How noisy the final gathers were: a histogram of their estimated relative standard errors, their sum
+/// and their largest. Tells whether more gather rays (`[render.icache] rays`) would pay: the cache's records carry this
 /// noise into the image as blotches a few records wide.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct GatherNoise {
     pub bins: [u32; GATHER_NOISE_EDGES.len() + 1],
     pub sum: f64,
     pub n: u64,
+    pub max: f32,
 }
 
 impl GatherNoise {
@@ -169,9 +170,11 @@ impl GatherNoise {
         self.bins[bin] += 1;
         self.sum += rel_err as f64;
         self.n += 1;
+        self.max = self.max.max(rel_err);
     }
 
-    /// The upper edge of the bin holding the `q` quantile (∞ for the open last bin); `None` without gathers.
+    /// The upper edge of the bin holding the `q` quantile (the largest value for the open last bin); `None`
+    /// without gathers.
     pub fn quantile(&self, q: f64) -> Option<f32> {
         let total: u64 = self.bins.iter().map(|&b| b as u64).sum();
         if total == 0 {
@@ -181,10 +184,10 @@ impl GatherNoise {
         for (i, &b) in self.bins.iter().enumerate() {
             seen += b as u64;
             if seen as f64 >= q * total as f64 {
-                return Some(GATHER_NOISE_EDGES.get(i).copied().unwrap_or(f32::INFINITY));
+                return Some(GATHER_NOISE_EDGES.get(i).copied().unwrap_or(self.max));
             }
         }
-        Some(f32::INFINITY)
+        Some(self.max)
     }
 
     pub fn mean(&self) -> Option<f64> {
@@ -199,6 +202,7 @@ impl std::ops::AddAssign for GatherNoise {
         }
         self.sum += o.sum;
         self.n += o.n;
+        self.max = self.max.max(o.max);
     }
 }
 
@@ -256,5 +260,28 @@ pub fn sanitize(l: Vec3, counters: &mut SampleCounters) -> Vec3 {
     } else {
         counters.nan_or_negative += 1;
         Vec3::ZERO
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn gather_noise_quantiles_are_bin_edges_and_the_open_bin_its_largest_value() {
+        let mut a = GatherNoise::default();
+        assert_eq!(a.quantile(0.5), None);
+        for x in [0.012, 0.018, 0.025, 0.035] {
+            a.record(x);
+        }
+        a.record(f32::NAN); // not counted
+        let mut b = GatherNoise::default();
+        b.record(0.9);
+        a += b;
+        assert_eq!(a.n, 5);
+        assert_eq!(a.quantile(0.5), Some(0.03)); // 0.025 is the third of five
+        assert_eq!(a.quantile(0.2), Some(0.015));
+        assert_eq!(a.quantile(1.0), Some(0.9)); // the open bin: the largest recorded
+        assert!((a.mean().unwrap() - (0.012 + 0.018 + 0.025 + 0.035 + 0.9) / 5.0).abs() < 1e-6);
     }
 }
