@@ -116,6 +116,50 @@ pub fn gather_batch(
     seed: u64,
     trace: &mut dyn FnMut(&[Vec3], &mut Vec<GatherRay>),
 ) -> GatherResult {
+    gather_batch_round(p, n, params, seed, 0, trace)
+}
+
+/// Point `k` of the two-dimensional Sobol sequence, as 32-bit fractions: its first 2^m points put one
+/// point in each of the 2^m elementary intervals of every shape (a (0, 2)-sequence in base 2).
+fn sobol2(k: u32) -> [u32; 2] {
+    let (mut y, mut v, mut i) = (0u32, 1u32 << 31, k);
+    while i != 0 {
+        if i & 1 != 0 {
+            y ^= v;
+        }
+        i >>= 1;
+        v ^= v >> 1;
+    }
+    [k.reverse_bits(), y]
+}
+
+/// The jitter of round `round` in a stratum whose round-0 jitter is `xi`: Sobol point `round`
+/// scrambled by XOR with `xi`'s bits. Each round's point alone is uniform over the stratum (so each
+/// round is an unbiased gather), and rounds 0..2^m together fill the stratum's 2^m elementary
+/// intervals: 4 rounds of a grid are a 2 × 2 finer stratification, not 4 independent grids. Round 0
+/// is `xi` itself.
+fn round_jitter(xi: [f32; 2], round: u32) -> [f32; 2] {
+    if round == 0 {
+        return xi;
+    }
+    let s = sobol2(round);
+    let scale = 4_294_967_296.0f64;
+    std::array::from_fn(|d| {
+        let bits = ((xi[d] as f64 * scale) as u64).min(u32::MAX as u64) as u32;
+        (((bits ^ s[d]) as f64 / scale) as f32).min(1.0 - f32::EPSILON / 2.0)
+    })
+}
+
+/// [`gather_batch`] as round `round` of gathers from the same `seed`: see [`round_jitter`]. Round 0 is
+/// [`gather_batch`]'s gather.
+pub fn gather_batch_round(
+    p: Vec3,
+    n: Vec3,
+    params: &GatherParams,
+    seed: u64,
+    round: u32,
+    trace: &mut dyn FnMut(&[Vec3], &mut Vec<GatherRay>),
+) -> GatherResult {
     // `p` only identifies the gather to the caller, whose closure knows where to shoot from.
     let _ = p;
     debug_assert!(
@@ -128,7 +172,7 @@ pub fn gather_batch(
     let mut dirs = Vec::with_capacity(strata.len());
     for j in 0..strata.m {
         for k in 0..strata.n {
-            dirs.push(frame.to_world(strata.direction(j, k, rng.uniform2())).normalize());
+            dirs.push(frame.to_world(strata.direction(j, k, round_jitter(rng.uniform2(), round))).normalize());
         }
     }
     let mut rays = Vec::with_capacity(strata.len());

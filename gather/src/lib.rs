@@ -10,5 +10,5 @@ mod gather;
 mod gradient;
 pub mod strata;
 
-pub use gather::{gather, gather_batch, GatherParams, GatherRay, GatherResult};
+pub use gather::{gather, gather_batch, gather_batch_round, GatherParams, GatherRay, GatherResult};
 pub use strata::{strata_for_rays, Frame, Strata, DEFAULT_RAYS};

@@ -306,6 +306,52 @@ impl IrradianceCache {
         Some(Lookup { e: e.max(Vec3::ZERO), n_used: acc.n_used, weight_sum: acc.weight_sum })
     }
 
+    /// The interpolation at (p, n) as [`lookup`](Self::lookup) makes it, and the standard deviation of
+    /// its luminance that the records' own gather noise gives it: √(Σ wᵢ² σᵢ²) / Σ wᵢ with σᵢ each
+    /// record's [`Record::rel_err`] times its luminance (the records' gathers are independent).
+    pub fn lookup_with_noise(&self, p: Vec3, n: Vec3, pass: Pass) -> Option<(Lookup, f32)> {
+        if !(p.is_finite() && n.is_finite()) {
+            return None;
+        }
+        self.with_candidates(p, pass, usize::MAX, |ids| {
+            let (mut acc, mut var) = (Accum::default(), 0.0f64);
+            for &id in ids {
+                let rec = &self.records[id as usize];
+                if let Some((w, e)) = self.weighted(rec, p, n, pass) {
+                    acc.add(w, e);
+                    var += ((w * rec.rel_err * luminance(rec.e)) as f64).powi(2);
+                }
+            }
+            let sum = acc.weight_sum;
+            self.finish(acc).map(|l| (l, (var.sqrt() / sum as f64) as f32))
+        })
+    }
+
+    /// Record `id` with a further gather at its point folded in: `more` (its irradiance, gradients and
+    /// noise; position and radii are kept), weighted `share` of the sum (its share of the rays) against
+    /// the record's `1 − share`. The translational gradient gets the scale the record's own carries
+    /// (R/R' where R < R').
+    pub fn refine(&mut self, id: usize, more: &NewRecord, share: f32) {
+        let Some(rec) = self.records.get_mut(id) else { return };
+        if !(share > 0.0 && share < 1.0) || !more.e.is_finite() {
+            return;
+        }
+        let keep = 1.0 - share;
+        let s = self.params.start_scale() * rec.r_harmonic;
+        let scale = if s < rec.r_clamped { s / rec.r_clamped } else { 1.0 };
+        let old_sd = rec.rel_err * luminance(rec.e);
+        let new_sd = more.rel_err * luminance(more.e);
+        rec.e = (keep * rec.e + share * more.e.max(Vec3::ZERO)).max(Vec3::ZERO);
+        for c in 0..3 {
+            if more.grad_r[c].is_finite() && more.grad_t[c].is_finite() {
+                rec.grad_r[c] = keep * rec.grad_r[c] + share * more.grad_r[c];
+                rec.grad_t[c] = keep * rec.grad_t[c] + share * scale * more.grad_t[c];
+            }
+        }
+        let l = luminance(rec.e);
+        rec.rel_err = if l > 0.0 { ((keep * old_sd).powi(2) + (share * new_sd).powi(2)).sqrt() / l } else { 0.0 };
+    }
+
     /// Lazy caching: the pass-A interpolation at (p, n) if one exists, else run `gather`, insert its record
     /// (with `pixel_world` overriding the one it returns) and interpolate again. Falls back to the gathered
     /// irradiance itself if the record was rejected (non-finite position or normal).

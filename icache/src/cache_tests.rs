@@ -22,6 +22,8 @@ pub(crate) fn new_rec(pos: Vec3, normal: Vec3, e: Vec3, r: f32, pixel_world: f32
         r_min: r,
         dir: normal,
         pixel_world,
+        rel_err: 0.0,
+        at: crate::record::NO_PIXEL,
     }
 }
 

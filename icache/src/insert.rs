@@ -95,7 +95,7 @@ fn prepare(params: &CacheParams, new: &NewRecord, stats: &mut InsertStats) -> Op
     let s = grad_scale(reach, r_clamped);
     grad_t.iter_mut().for_each(|g| *g *= s);
     let (dir, _) = finite_or_zero(new.dir);
-    Some(Record { pos: new.pos, normal, e, grad_r, grad_t, r_harmonic: r, r_clamped, dir, pixel_world: new.pixel_world })
+    Some(Record { pos: new.pos, normal, e, grad_r, grad_t, r_harmonic: r, r_clamped, dir, pixel_world: new.pixel_world, rel_err: new.rel_err, at: new.at })
 }
 
 impl IrradianceCache {

@@ -23,7 +23,15 @@ pub struct NewRecord {
     pub dir: Vec3,
     /// World-space size of one pixel projected on the tangent plane at `pos`.
     pub pixel_world: f32,
+    /// The gather's own estimate of E's relative standard error (luminance; 0 when unknown).
+    pub rel_err: f32,
+    /// Where the gather was made: pixel x, y and the index of the pixel's shading point ([`NO_PIXEL`]
+    /// when the caller does not say), so that it can gather there again ([`crate::IrradianceCache::refine`]).
+    pub at: [u32; 3],
 }
+
+/// [`NewRecord::at`] of a gather made nowhere the caller can find again.
+pub const NO_PIXEL: [u32; 3] = [u32::MAX; 3];
 
 /// A record as stored in the cache.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -40,6 +48,10 @@ pub struct Record {
     pub r_clamped: f32,
     pub dir: Vec3,
     pub pixel_world: f32,
+    /// As [`NewRecord::rel_err`]: lowered by [`crate::IrradianceCache::refine`]; not kept in files (0 there).
+    pub rel_err: f32,
+    /// As [`NewRecord::at`]; not kept in files ([`NO_PIXEL`] there).
+    pub at: [u32; 3],
 }
 
 impl Record {
@@ -90,6 +102,8 @@ impl Record {
             r_harmonic: v[30],
             r_clamped: v[31],
             pixel_world: v[32],
+            rel_err: 0.0,
+            at: NO_PIXEL,
         }
     }
 }
@@ -113,6 +127,8 @@ mod tests {
             r_clamped: 0.25,
             dir: Vec3::Y,
             pixel_world: 0.01,
+            rel_err: 0.0,
+            at: NO_PIXEL,
         };
         assert_eq!(Record::from_floats(&r.to_floats()), r);
     }

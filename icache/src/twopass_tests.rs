@@ -75,7 +75,7 @@ fn gather(x: u32, y: u32, i: usize, sp: &ShadingPoint) -> NewRecord {
     if hash_keys(&[x as u64, y as u64, i as u64]).is_multiple_of(17) {
         r = f32::INFINITY;
     }
-    NewRecord { pos: sp.pos, normal: n, e, grad_r: [Vec3::ZERO; 3], grad_t, r_harmonic: r, r_min: r, dir: n, pixel_world: 0.0 }
+    NewRecord { pos: sp.pos, normal: n, e, grad_r: [Vec3::ZERO; 3], grad_t, r_harmonic: r, r_min: r, dir: n, pixel_world: 0.0, rel_err: 0.0, at: [x, y, i as u32] }
 }
 
 /// The plain cache (the default: no adaptive caching): the tests of Ward's criterion, clamping and

@@ -97,6 +97,8 @@ mod tests {
             r_clamped: r,
             dir: normal,
             pixel_world: r / 10.0,
+            rel_err: 0.0,
+            at: crate::record::NO_PIXEL,
         }
     }
 

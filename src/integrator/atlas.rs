@@ -175,7 +175,7 @@ const TEXEL_AREA_SAMPLES: u32 = 16;
 /// rays: every point, spot and directional light once (`delta`), and area lights by
 /// [`TEXEL_AREA_SAMPLES`] samples from a generator seeded with `seed` (`area`; the texel's value stays a
 /// function of the texel).
-fn direct_irradiance(scene: &Scene, tri: u32, p: Vec3, n: Vec3, seed: u64, delta: bool, area: bool) -> Vec3 {
+pub(crate) fn direct_irradiance(scene: &Scene, tri: u32, p: Vec3, n: Vec3, seed: u64, delta: bool, area: bool) -> Vec3 {
     let hit = Hit { p, t: 0.0, ng: n, ns: n, uv: Vec2::ZERO, tri, material: scene.geometry.triangles[tri as usize].material };
     // With media: the medium on the texel's side, and shadow rays through it.
     let medium = scene.media.as_ref().map_or(crate::medium::VACUUM, |m| m.medium_at(crate::geometry::spawn(&hit, n)));

@@ -89,12 +89,17 @@ fn follow(ctx: &PmContext, camera: &Camera, d0: Vec3, o: Vec3, d: Vec3, dist: f3
 /// The final gather at shading point `i` of pixel (x, y), from the hit [`shading_hits`] traced there, as
 /// a record for the cache, with the gather's rays counted.
 pub fn gather_record(ctx: &PmContext, x: u32, y: u32, i: usize, sp: &ShadingPoint, hit: &Hit) -> (NewRecord, SampleCounters) {
+    gather_record_round(ctx, x, y, i, 0, sp, hit)
+}
+
+/// [`gather_record`]'s gather again, with the jitter of round `round` (0: the first gather's).
+pub fn gather_record_round(ctx: &PmContext, x: u32, y: u32, i: usize, round: u32, sp: &ShadingPoint, hit: &Hit) -> (NewRecord, SampleCounters) {
     let mut counters = SampleCounters::default();
     let frame = Frame::new(hit, sp.normal);
     // The render's seed too: another seed must give another set of gathers (and so an independent
     // estimate: convergence tests over seeds), not the same strata jitter at every pixel.
     let seed = photon::sampling::hash_keys(&[ctx.seed, x as u64, y as u64, i as u64]);
-    let g = ctx.final_gather(hit, &frame, seed, &mut counters);
+    let g = ctx.final_gather_round(hit, &frame, seed, round, &mut counters);
     let record = NewRecord {
         pos: sp.pos,
         normal: sp.normal,
@@ -105,6 +110,8 @@ pub fn gather_record(ctx: &PmContext, x: u32, y: u32, i: usize, sp: &ShadingPoin
         r_min: g.r_min,
         dir: g.dir,
         pixel_world: sp.pixel_world,
+        rel_err: g.rel_err,
+        at: [x, y, i as u32],
     };
     (record, counters)
 }

@@ -2,6 +2,7 @@
 pub mod atlas;
 pub mod cache_fill;
 pub mod coverage;
+pub mod gather_rays;
 pub mod media;
 pub mod media_cache;
 pub mod path;

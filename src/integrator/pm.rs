@@ -299,16 +299,23 @@ impl PmContext<'_> {
     /// texel).
     /// A gather that sees the stop flag traces no more rays and returns at once (its result is never used).
     pub fn final_gather(&self, hit: &Hit, frame: &Frame, seed: u64, c: &mut SampleCounters) -> GatherResult {
+        self.final_gather_round(hit, frame, seed, 0, c)
+    }
+
+    /// [`final_gather`](Self::final_gather) as round `round` of gathers from the same `seed` (see
+    /// `gather::gather_batch_round`); round 0 is that gather.
+    pub fn final_gather_round(&self, hit: &Hit, frame: &Frame, seed: u64, round: u32, c: &mut SampleCounters) -> GatherResult {
         if self.cancel.load(Ordering::Relaxed) {
             return interrupted_gather(frame);
         }
-        let mut rng = Rng::new(hash_keys(&[self.seed, 0x6a7e, seed]));
+        let keys = [self.seed, 0x6a7e, seed, round as u64];
+        let mut rng = Rng::new(hash_keys(if round == 0 { &keys[..3] } else { &keys }));
         let mut rays = 0u64;
         // In a scene with media, the medium on the gather's side of the surface.
         let medium = self.scene.media.as_ref().map(|m| m.medium_at(spawn(hit, frame.n)));
         // Every ray is traced to its end first (in order: specular chains draw from `rng`), then the
         // texels of the diffuse ends are read together.
-        let result = gather::gather_batch(hit.p, frame.n, &self.gather, seed, &mut |dirs: &[Vec3], out: &mut Vec<GatherRay>| {
+        let result = gather::gather_batch_round(hit.p, frame.n, &self.gather, seed, round, &mut |dirs: &[Vec3], out: &mut Vec<GatherRay>| {
             let mut ends = Vec::with_capacity(dirs.len());
             for &dir in dirs {
                 if self.cancel.load(Ordering::Relaxed) {

@@ -15,6 +15,7 @@ use super::{Plan, Progress};
 use crate::error::{runtime, Result};
 use crate::geometry::Hit;
 use crate::integrator::cache_fill::{gather_record, shading_hits};
+use crate::integrator::gather_rays;
 use crate::integrator::media_cache;
 use crate::integrator::photons::PhotonData;
 use crate::integrator::pm::IndirectSource;
@@ -40,10 +41,19 @@ pub fn fill_cache(scene: &Scene, plan: &Plan, photons: &PhotonData, progress: &d
     let report_progress = |done, _| progress.set(done);
     let (w, h) = (plan.width, plan.height);
     progress.start("cache", w as u64 * h as u64);
+    let mut rays_choice = None;
     let (fill, counters, one_pass) = match scene.settings.icache.fill {
         FillMode::TwoPass => {
-            let (fill, counters) = icache::fill_pass_a_cancellable(&mut cache, w, h, plan.pass_a_stride, &points, &gather, &report_progress, cancel);
+            let (fill, mut counters) = icache::fill_pass_a_cancellable(&mut cache, w, h, plan.pass_a_stride, &points, &gather, &report_progress, cancel);
             cache.end_stage();
+            if plan.choose_rays {
+                let noise = gather_rays::predicted_noise(&ctx, &plan.camera, &cache, w, h);
+                let rounds = gather_rays::rounds_for(noise);
+                if rounds > 1 {
+                    counters += gather_rays::refine_records(&ctx, &plan.camera, &mut cache, rounds, progress, cancel);
+                }
+                rays_choice = Some((noise, rounds));
+            }
             (fill, counters, None)
         }
         FillMode::OnePass => {
@@ -52,7 +62,7 @@ pub fn fill_cache(scene: &Scene, plan: &Plan, photons: &PhotonData, progress: &d
         }
     };
     progress.finish();
-    let stats = CacheFillStats { time_s: Some(t.elapsed().as_secs_f64()), one_pass: one_pass.is_some(), fill, counters, n_loaded: 0 };
+    let stats = CacheFillStats { time_s: Some(t.elapsed().as_secs_f64()), one_pass: one_pass.is_some(), fill, counters, n_loaded: 0, rays_choice };
     Ok((CacheFill { cache, one_pass }, stats))
 }
 

@@ -75,7 +75,7 @@ pub struct RenderOutput {
 /// Renders `scene` without writing anything; `Interrupted` soon after `cancel` is set, in any phase.
 pub fn render(scene: &Scene, opts: &Options, progress: &dyn Progress, cancel: &AtomicBool) -> Result<(RenderOutput, RenderStats)> {
     let start = Instant::now();
-    let plan = plan(scene, opts)?;
+    let mut plan = plan(scene, opts)?;
     budget::check(scene, &plan, opts)?;
     let mut stats = RenderStats::new(scene, &plan);
 
@@ -104,6 +104,10 @@ pub fn render(scene: &Scene, opts: &Options, progress: &dyn Progress, cancel: &A
                 Some(file) => load_cache(scene, file)?,
                 None => fill_cache(scene, &plan, photons, progress, cancel)?,
             };
+            // Pass B's gathers take as many rays as pass A's records chose.
+            if let Some((_, rounds)) = s.rays_choice {
+                plan.gather.rays = rounds as usize * crate::integrator::gather_rays::BASE_RAYS;
+            }
             stats.fill = Some(s);
             Some(cache)
         }

@@ -37,6 +37,9 @@ pub struct Plan {
     pub pass_a_stride: u32,
     /// Rays per final gather (`pm`'s records and `pm-fg`'s samples).
     pub gather: GatherParams,
+    /// `pm` chooses its gathers' rays after pass A (the file gives no `rays`; a two-pass fill, not a
+    /// loaded cache): pass A gathers with `gather`'s [`crate::integrator::gather_rays::BASE_RAYS`].
+    pub choose_rays: bool,
 }
 
 /// Default noise target of the photon-map methods (chosen from the speed×accuracy chart; README).
@@ -88,6 +91,7 @@ pub fn plan(scene: &Scene, opts: &Options) -> Result<Plan> {
         }
     };
     let icache = &scene.settings.icache;
+    let choose_rays = method == Method::Pm && !icache.rays_given && icache.fill == crate::scene::FillMode::TwoPass && opts.files.load_cache.is_none();
     Ok(Plan {
         method,
         spp,
@@ -101,6 +105,7 @@ pub fn plan(scene: &Scene, opts: &Options) -> Result<Plan> {
         photons: PhotonSettings::resolve(scene),
         cache: icache.for_image(width, height),
         pass_a_stride: icache.pass_a_stride(width, height),
-        gather: GatherParams { rays: icache.rays },
+        gather: GatherParams { rays: if choose_rays { crate::integrator::gather_rays::BASE_RAYS } else { icache.rays } },
+        choose_rays,
     })
 }

@@ -77,6 +77,9 @@ pub struct CacheFillStats {
     /// The fill's final gathers (their rays).
     pub counters: SampleCounters,
     pub n_loaded: u64,
+    /// With rays chosen by `pm` (`integrator::gather_rays`): the predicted relative variance the pass-A
+    /// gathers' noise gives the pixels (at one round), and the rounds chosen.
+    pub rays_choice: Option<(f64, u32)>,
 }
 
 /// Every pixel's samples.
@@ -195,6 +198,11 @@ impl RenderStats {
         r.count("Final gather", "Gathers", "gather.gathers", fill.gathers + shade.gathers);
         r.count("Final gather", "Gather rays", "gather.rays", fill.gather_rays + shade.gather_rays);
         r.count("Final gather", "Gather rays in the cache fill", "gather.rays_fill", fill.gather_rays);
+        if let Some((noise, rounds)) = self.fill.as_ref().and_then(|f| f.rays_choice) {
+            let base = crate::integrator::gather_rays::BASE_RAYS;
+            r.number("Final gather", &format!("Pixels' relative variance from gather noise, at {base} rays (predicted)"), "gather.predicted_noise", noise);
+            r.count("Final gather", "Rays per gather (chosen from that prediction)", "gather.rays_chosen", rounds as u64 * base as u64);
+        }
         let mut noise = fill.gather_noise;
         noise += shade.gather_noise;
         if let (Some(mean), Some(p50), Some(p90)) = (noise.mean(), noise.quantile(0.5), noise.quantile(0.9)) {

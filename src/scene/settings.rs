@@ -58,7 +58,12 @@ pub struct IcacheSettings {
     params: CacheParams,
     min_spacing_given: bool,
     max_spacing_given: bool,
+    /// Rays per final gather: the file's `rays`, else [`gather::DEFAULT_RAYS`] (`pm-fg`'s gathers; `pm`
+    /// chooses its own then, see [`Self::rays_given`]).
     pub rays: usize,
+    /// Whether the file gives `rays`. If not, `pm` sets its gathers' rays from the noise its pass-A
+    /// gathers show (`integrator::gather_rays`).
+    pub rays_given: bool,
     pub fill: FillMode,
     /// Media radiance-cache records extrapolated by their gradients (`media_gradients`, default true).
     media_gradients: bool,
@@ -254,7 +259,7 @@ fn icache(cx: &Ctx, d: &IcacheDesc) -> Result<IcacheSettings> {
     let media_visibility = d.media_visibility.unwrap_or(false);
     let pass_a_stride = d.pass_a_stride.map(|s| s as u32);
     let visibility = d.visibility.unwrap_or(false);
-    Ok(IcacheSettings { params, min_spacing_given: d.min_spacing_px.is_some(), max_spacing_given: d.max_spacing_px.is_some(), rays, fill, media_gradients, media_visibility, pass_a_stride, visibility })
+    Ok(IcacheSettings { params, min_spacing_given: d.min_spacing_px.is_some(), max_spacing_given: d.max_spacing_px.is_some(), rays, rays_given: d.rays.is_some(), fill, media_gradients, media_visibility, pass_a_stride, visibility })
 }
 
 /// `[render.icache]` numbers, each blamed on its own key: accuracies and spacings positive and finite,
@@ -301,7 +306,7 @@ mod tests {
     fn icache(min: Option<f32>, max: Option<f32>) -> IcacheSettings {
         let d = CacheParams::default();
         let params = CacheParams { min_spacing_px: min.unwrap_or(d.min_spacing_px), max_spacing_px: max.unwrap_or(d.max_spacing_px), ..d };
-        IcacheSettings { params, min_spacing_given: min.is_some(), max_spacing_given: max.is_some(), rays: 500, fill: FillMode::TwoPass, media_gradients: true, media_visibility: false, pass_a_stride: None, visibility: false }
+        IcacheSettings { params, min_spacing_given: min.is_some(), max_spacing_given: max.is_some(), rays: 500, rays_given: false, fill: FillMode::TwoPass, media_gradients: true, media_visibility: false, pass_a_stride: None, visibility: false }
     }
 
     #[test]

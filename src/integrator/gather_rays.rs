@@ -1,0 +1,128 @@
+//! How many rays `pm`'s final gathers take, from what the gathers of the scene see.
+//!
+//! Pass A gathers with [`BASE_RAYS`]. Its records then say how noisy they are (each gather's own
+//! estimate of its relative standard error, `gather::GatherResult::rel_err`), and the cache says how
+//! they are blended: at a lattice of pixels, the interpolation's noise from the records' noise
+//! ([`icache::IrradianceCache::lookup_with_noise`]) is turned into the pixel's radiance next to the
+//! direct light there, and into the relative error the image metric and the adaptive sampling use,
+//! Var / (L² + 0.01). Its mean over the image, [`predicted_noise`], falls as 1/N with the rays N.
+//! Where it exceeds [`NOISE_TARGET`], every pass-A record gathers again ([`refine_records`]) —
+//! another [`BASE_RAYS`] at a time, fresh jitter, folded into the record — and pass B's records gather
+//! with as many rays. The choice is made once for the whole image, from thousands of records: no record's
+//! ray count depends on its own noise (which would bias it: a gather that missed a small bright source
+//! looks calm).
+
+use std::sync::atomic::{AtomicBool, Ordering};
+
+use icache::record::NO_PIXEL;
+use icache::{IrradianceCache, NewRecord, Pass, Record};
+use photon::sampling::hash_keys;
+use rayon::prelude::*;
+
+use super::atlas::direct_irradiance;
+use super::cache_fill::{gather_record_round, shading_hits};
+use super::pm::PmContext;
+use super::SampleCounters;
+use crate::camera::Camera;
+use crate::render::Progress;
+use crate::warp::luminance;
+
+/// Rays of a pass-A gather, and of each further round of [`refine_records`].
+pub const BASE_RAYS: usize = 250;
+/// Most rounds of [`BASE_RAYS`] a gather takes (1000 rays).
+pub const MAX_ROUNDS: u32 = 4;
+/// Largest mean relative variance ([`predicted_noise`]) the records' gather noise may add to a pixel.
+pub const NOISE_TARGET: f64 = 1e-4;
+/// Most pixels [`predicted_noise`] looks at.
+const NOISE_PIXELS: u32 = 4096;
+
+/// The mean over a lattice of pixels of Var / (L² + 0.01): the variance of a pixel's radiance L (as
+/// luminance) that the records' gather noise gives the interpolation, next to the direct light there.
+/// Pixels that see no surface, or no record, add 0.
+pub fn predicted_noise(ctx: &PmContext, camera: &Camera, cache: &IrradianceCache, width: u32, height: u32) -> f64 {
+    let step = ((width as f64 * height as f64 / NOISE_PIXELS as f64).sqrt().ceil() as u32).max(1);
+    let pixels: Vec<(u32, u32)> = (0..height).step_by(step as usize).flat_map(|y| (0..width).step_by(step as usize).map(move |x| (x, y))).collect();
+    // Summed in pixel order: the same total whatever the thread count.
+    let terms: Vec<f64> = pixels
+        .par_iter()
+        .map(|&(x, y)| {
+            let Some((sp, hit)) = shading_hits(ctx, camera, x, y).into_iter().next() else { return 0.0 };
+            let Some((lookup, sd)) = cache.lookup_with_noise(sp.pos, sp.normal, Pass::B) else { return 0.0 };
+            let albedo_pi = ctx.scene.albedo(&hit) / std::f32::consts::PI;
+            let seed = hash_keys(&[ctx.seed, 0x6a75, x as u64, y as u64]);
+            let direct = direct_irradiance(ctx.scene, hit.tri, hit.p, sp.normal, seed, true, true);
+            let l = luminance(albedo_pi * (direct + lookup.e)) as f64;
+            let e = luminance(lookup.e);
+            let sd_l = if e > 0.0 { (sd * luminance(albedo_pi * lookup.e) / e) as f64 } else { 0.0 };
+            sd_l * sd_l / (l * l + 0.01)
+        })
+        .collect();
+    terms.iter().sum::<f64>() / pixels.len().max(1) as f64
+}
+
+/// Rounds of [`BASE_RAYS`] that bring `noise` (measured with one round) within [`NOISE_TARGET`], at most
+/// [`MAX_ROUNDS`].
+pub fn rounds_for(noise: f64) -> u32 {
+    let wanted = (noise / NOISE_TARGET).ceil();
+    if wanted.is_finite() { (wanted as u32).clamp(1, MAX_ROUNDS) } else { MAX_ROUNDS }
+}
+
+/// Records gathered again per batch: progress and Ctrl-C are looked at between batches.
+const REFINE_BATCH: usize = 256;
+
+/// Rounds 2..=`rounds` for every record of `cache` that knows its pixel (pass A's): a gather of
+/// [`BASE_RAYS`] there with that round's jitter, folded in with the share of the rays it brings.
+/// Returns early, leaving records half refined, once `cancel` is set (the render is then interrupted).
+pub fn refine_records(ctx: &PmContext, camera: &Camera, cache: &mut IrradianceCache, rounds: u32, progress: &dyn Progress, cancel: &AtomicBool) -> SampleCounters {
+    let records: Vec<Record> = cache.records().to_vec();
+    let mut total = SampleCounters::default();
+    progress.start("gathers again", records.len() as u64 * rounds.saturating_sub(1) as u64);
+    let mut done = 0u64;
+    for round in 2..=rounds {
+        for (batch, chunk) in records.chunks(REFINE_BATCH).enumerate() {
+            if cancel.load(Ordering::Relaxed) {
+                return total;
+            }
+            let more: Vec<(Option<NewRecord>, SampleCounters)> = chunk.par_iter().map(|rec| gather_again(ctx, camera, rec, round - 1)).collect();
+            for (k, (new, c)) in more.into_iter().enumerate() {
+                if let Some(new) = new {
+                    cache.refine(batch * REFINE_BATCH + k, &new, 1.0 / round as f32);
+                }
+                total += c;
+            }
+            done += chunk.len() as u64;
+            progress.set(done);
+        }
+    }
+    total
+}
+
+/// Round `round` (from 1) of the gather that made `rec`, from the same shading point: `None` for a
+/// record that does not know its pixel, or whose point is not found there again.
+fn gather_again(ctx: &PmContext, camera: &Camera, rec: &Record, round: u32) -> (Option<NewRecord>, SampleCounters) {
+    let [x, y, i] = rec.at;
+    if rec.at == NO_PIXEL {
+        return (None, SampleCounters::default());
+    }
+    match shading_hits(ctx, camera, x, y).get(i as usize) {
+        Some((sp, hit)) if sp.pos == rec.pos => {
+            let (new, c) = gather_record_round(ctx, x, y, i as usize, round, sp, hit);
+            (Some(new), c)
+        }
+        _ => (None, SampleCounters::default()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rounds_grow_with_the_noise_and_stop_at_the_most() {
+        assert_eq!(rounds_for(0.0), 1);
+        assert_eq!(rounds_for(NOISE_TARGET), 1);
+        assert_eq!(rounds_for(1.5 * NOISE_TARGET), 2);
+        assert_eq!(rounds_for(100.0 * NOISE_TARGET), MAX_ROUNDS);
+        assert_eq!(rounds_for(f64::NAN), MAX_ROUNDS);
+    }
+}
