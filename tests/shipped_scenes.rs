@@ -42,6 +42,9 @@ fn rare_events_stay_rare_on_every_shipped_scene() {
         // The gathers' own noise is reported (a median between 0.5 % and 30 % on every shipped scene).
         let noise = j["gather"]["rel_err_p50"].as_f64().unwrap_or_else(|| panic!("{name}: gather.rel_err_p50"));
         assert!((0.005..=0.3).contains(&noise), "{name}: gather noise median {noise}");
+        // The rays were chosen from that noise (no shipped scene gives `rays`): 250 to 1000, in rounds of 250.
+        let chosen = j["gather"]["rays_chosen"].as_u64().unwrap_or_else(|| panic!("{name}: gather.rays_chosen"));
+        assert!((250..=1000).contains(&chosen) && chosen % 250 == 0, "{name}: {chosen} rays chosen");
         let rays = j["rays"]["total"].as_f64().unwrap();
         let zero_pdf = j["rare"]["zero_pdf"].as_f64().unwrap();
         assert!(zero_pdf <= 1e-3 * rays, "{name}: {zero_pdf} zero-pdf samples in {rays} rays");

@@ -303,3 +303,50 @@ fn a_lookup_leaves_out_the_records_its_visibility_test_rejects() {
     // Both hidden: a miss.
     assert_eq!(c.lookup_first_visible(p, Vec3::Z, Pass::B, usize::MAX, |_| false), None);
 }
+
+/// `lookup_with_noise`: one record gives its own σ = rel_err · L(E); two records of equal weight at the
+/// same point give √(σ₁² + σ₂²)/2 (their gathers are independent).
+#[test]
+fn interpolation_noise_from_the_records_noise() {
+    let mut c = cache(CacheParams::default());
+    let p = Vec3::new(5.0, 5.0, 5.0);
+    let e = Vec3::splat(2.0);
+    c.insert(NewRecord { rel_err: 0.1, ..new_rec(p, Vec3::Z, e, 1.0, 0.01) });
+    let (l, sd) = c.lookup_with_noise(p, Vec3::Z, Pass::B).unwrap();
+    assert_eq!(l, c.lookup(p, Vec3::Z, Pass::B).unwrap());
+    assert!((sd - 0.2).abs() < 1e-5, "{sd}");
+    c.insert(NewRecord { rel_err: 0.05, ..new_rec(p, Vec3::Z, e, 1.0, 0.01) });
+    let (_, sd) = c.lookup_with_noise(p, Vec3::Z, Pass::B).unwrap();
+    let want = (0.2f32.powi(2) + 0.1f32.powi(2)).sqrt() / 2.0;
+    assert!((sd - want).abs() < 1e-5, "{sd} against {want}");
+    assert!(c.lookup_with_noise(Vec3::new(9.0, 9.0, 9.0), Vec3::Z, Pass::B).is_none());
+}
+
+/// `refine` folds a further gather in by its share of the rays: E and both gradients are the weighted
+/// means (∇t with the record's own scale R/R'), the noise that of the weighted sum, position and radii
+/// unchanged.
+#[test]
+fn refine_folds_a_further_gather_in() {
+    let mut c = cache(CacheParams::default());
+    let p = Vec3::new(5.0, 5.0, 5.0);
+    // R = 0.01, clamped up to R' = 3 px × 0.01 = 0.03: insertion scales ∇t by R/R' = 1/3.
+    let first = NewRecord { rel_err: 0.2, grad_t: [Vec3::X; 3], grad_r: [Vec3::Y; 3], ..new_rec(p, Vec3::Z, Vec3::splat(1.0), 0.01, 0.01) };
+    c.insert(first);
+    let before = c.records()[0];
+    let scale = before.grad_t[0].x;
+    assert!((scale - 1.0 / 3.0).abs() < 1e-5, "{scale}");
+    let more = NewRecord { rel_err: 0.1, e: Vec3::splat(2.0), grad_t: [Vec3::Y; 3], grad_r: [Vec3::X; 3], ..first };
+    c.refine(0, &more, 0.5);
+    let after = c.records()[0];
+    assert_eq!((after.pos, after.normal, after.r_harmonic, after.r_clamped), (before.pos, before.normal, before.r_harmonic, before.r_clamped));
+    assert!((after.e - Vec3::splat(1.5)).abs().max_element() < 1e-6, "{}", after.e);
+    assert!((after.grad_r[1] - Vec3::new(0.5, 0.5, 0.0)).abs().max_element() < 1e-6);
+    assert!((after.grad_t[2] - Vec3::new(0.5 * scale, 0.5 * scale, 0.0)).abs().max_element() < 1e-6, "{}", after.grad_t[2]);
+    // σ = √((0.5 · 0.2 · 1)² + (0.5 · 0.1 · 2)²) = √0.02 over E = 1.5.
+    assert!((after.rel_err - 0.02f32.sqrt() / 1.5).abs() < 1e-5, "{}", after.rel_err);
+    // Shares outside (0, 1) and non-finite gathers change nothing.
+    for (share, e) in [(0.0, Vec3::ONE), (1.0, Vec3::ONE), (0.5, Vec3::splat(f32::NAN))] {
+        c.refine(0, &NewRecord { e, ..more }, share);
+        assert_eq!(c.records()[0], after);
+    }
+}
