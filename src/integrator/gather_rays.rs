@@ -73,7 +73,7 @@ pub fn rounds_for(noise: f64) -> u32 {
 }
 
 /// Records gathered again per batch: progress and Ctrl-C are looked at between batches.
-const REFINE_BATCH: usize = 256;
+const REFINE_BATCH: usize = 2048;
 
 /// Rounds 2..=`rounds` for every record of `cache` that knows its pixel (pass A's): a gather of
 /// [`BASE_RAYS`] there with that round's jitter, folded in with the share of the rays it brings.
