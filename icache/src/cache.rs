@@ -330,7 +330,8 @@ impl IrradianceCache {
     /// Record `id` with a further gather at its point folded in: `more` (its irradiance, gradients and
     /// noise; position and radii are kept), weighted `share` of the sum (its share of the rays) against
     /// the record's `1 − share`. The translational gradient gets the scale the record's own carries
-    /// (R/R' where R < R').
+    /// (R/R' where R < R'). The noise becomes that of the weighted sum of independent gathers (an upper
+    /// bound for rounds whose jitter stratifies together, `gather::gather_batch_round`).
     pub fn refine(&mut self, id: usize, more: &NewRecord, share: f32) {
         let Some(rec) = self.records.get_mut(id) else { return };
         if !(share > 0.0 && share < 1.0) || !more.e.is_finite() {
