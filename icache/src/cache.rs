@@ -341,7 +341,7 @@ impl IrradianceCache {
         let s = self.params.start_scale() * rec.r_harmonic;
         let scale = if s < rec.r_clamped { s / rec.r_clamped } else { 1.0 };
         let old_sd = rec.rel_err * luminance(rec.e);
-        let new_sd = more.rel_err * luminance(more.e);
+        let new_sd = crate::insert::finite_rel_err(more.rel_err) * luminance(more.e);
         rec.e = (keep * rec.e + share * more.e.max(Vec3::ZERO)).max(Vec3::ZERO);
         for c in 0..3 {
             if more.grad_r[c].is_finite() && more.grad_t[c].is_finite() {

@@ -320,6 +320,13 @@ fn interpolation_noise_from_the_records_noise() {
     let want = (0.2f32.powi(2) + 0.1f32.powi(2)).sqrt() / 2.0;
     assert!((sd - want).abs() < 1e-5, "{sd} against {want}");
     assert!(c.lookup_with_noise(Vec3::new(9.0, 9.0, 9.0), Vec3::Z, Pass::B).is_none());
+    // A gather whose noise estimate is not a number is kept as unknown (0), not spread into lookups.
+    let q = Vec3::new(2.0, 2.0, 5.0);
+    for bad in [f32::NAN, f32::INFINITY, -1.0] {
+        c.insert(NewRecord { rel_err: bad, ..new_rec(q, Vec3::Z, e, 1.0, 0.01) });
+        assert_eq!(c.records().last().unwrap().rel_err, 0.0);
+    }
+    assert_eq!(c.lookup_with_noise(q, Vec3::Z, Pass::B).unwrap().1, 0.0);
 }
 
 /// `refine` folds a further gather in by its share of the rays: E and both gradients are the weighted

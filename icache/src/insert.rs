@@ -49,6 +49,11 @@ fn set_radius(params: &CacheParams, rec: &mut Record, r: f32) {
     }
 }
 
+/// A gather's noise estimate as a record keeps it: 0 (unknown) unless finite and non-negative.
+pub(crate) fn finite_rel_err(x: f32) -> f32 {
+    if x.is_finite() && x >= 0.0 { x } else { 0.0 }
+}
+
 fn finite_or_zero(v: Vec3) -> (Vec3, bool) {
     if v.is_finite() { (v, false) } else { (Vec3::ZERO, true) }
 }
@@ -95,7 +100,7 @@ fn prepare(params: &CacheParams, new: &NewRecord, stats: &mut InsertStats) -> Op
     let s = grad_scale(reach, r_clamped);
     grad_t.iter_mut().for_each(|g| *g *= s);
     let (dir, _) = finite_or_zero(new.dir);
-    Some(Record { pos: new.pos, normal, e, grad_r, grad_t, r_harmonic: r, r_clamped, dir, pixel_world: new.pixel_world, rel_err: new.rel_err, at: new.at })
+    Some(Record { pos: new.pos, normal, e, grad_r, grad_t, r_harmonic: r, r_clamped, dir, pixel_world: new.pixel_world, rel_err: finite_rel_err(new.rel_err), at: new.at })
 }
 
 impl IrradianceCache {

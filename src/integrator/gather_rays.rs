@@ -59,7 +59,8 @@ pub fn predicted_noise(ctx: &PmContext, camera: &Camera, cache: &IrradianceCache
             let l = luminance(albedo_pi * (direct + lookup.e)) as f64;
             let e = luminance(lookup.e);
             let sd_l = if e > 0.0 { (sd * luminance(albedo_pi * lookup.e) / e) as f64 } else { 0.0 };
-            sd_l * sd_l / (l * l + 0.01)
+            let term = sd_l * sd_l / (l * l + 0.01);
+            if term.is_finite() { term } else { 0.0 }
         })
         .collect();
     terms.iter().sum::<f64>() / pixels.len().max(1) as f64
