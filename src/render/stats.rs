@@ -200,7 +200,8 @@ impl RenderStats {
         r.count("Final gather", "Gather rays in the cache fill", "gather.rays_fill", fill.gather_rays);
         if let Some((noise, rounds)) = self.fill.as_ref().and_then(|f| f.rays_choice) {
             let base = crate::integrator::gather_rays::BASE_RAYS;
-            r.number("Final gather", &format!("Pixels' relative variance from gather noise, at {base} rays (predicted)"), "gather.predicted_noise", noise);
+            let title = format!("Pixels' relative variance from gather noise, at {base} rays (predicted; target {:.0e})", crate::integrator::gather_rays::NOISE_TARGET);
+            r.value("Final gather", &title, "gather.predicted_noise", serde_json::Value::from(noise), format!("{noise:.2e}"));
             r.count("Final gather", "Rays per gather (chosen from that prediction)", "gather.rays_chosen", rounds as u64 * base as u64);
         }
         let mut noise = fill.gather_noise;
