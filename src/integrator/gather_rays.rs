@@ -16,7 +16,7 @@
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use icache::record::NO_PIXEL;
-use icache::{IrradianceCache, NewRecord, Pass, Record};
+use icache::{IrradianceCache, NewRecord, Pass, Record, ShadingPoint};
 use photon::sampling::hash_keys;
 use rayon::prelude::*;
 
@@ -25,6 +25,7 @@ use super::cache_fill::{gather_record_round, shading_hits};
 use super::pm::PmContext;
 use super::SampleCounters;
 use crate::camera::Camera;
+use crate::geometry::Hit;
 use crate::render::Progress;
 use crate::warp::luminance;
 
@@ -76,24 +77,31 @@ pub fn rounds_for(noise: f64) -> u32 {
 /// Records gathered again per batch: progress and Ctrl-C are looked at between batches.
 const REFINE_BATCH: usize = 2048;
 
+/// Rays per gather after `rounds` rounds of [`BASE_RAYS`].
+pub fn rays_for_rounds(rounds: u32) -> usize {
+    rounds as usize * BASE_RAYS
+}
+
 /// Rounds 2..=`rounds` for every record of `cache` that knows its pixel (pass A's): a gather of
 /// [`BASE_RAYS`] there with that round's jitter, folded in with the share of the rays it brings.
 /// Returns early, leaving records half refined, once `cancel` is set (the render is then interrupted).
 pub fn refine_records(ctx: &PmContext, camera: &Camera, cache: &mut IrradianceCache, rounds: u32, progress: &dyn Progress, cancel: &AtomicBool) -> SampleCounters {
-    let records: Vec<Record> = cache.records().to_vec();
+    // Each record's shading point, traced again once for all its rounds.
+    let points: Vec<Option<Point>> = cache.records().par_iter().map(|rec| shading_point(ctx, camera, rec)).collect();
     let mut total = SampleCounters::default();
-    progress.start("gathers again", records.len() as u64 * rounds.saturating_sub(1) as u64);
+    progress.start("gathers again", points.len() as u64 * rounds.saturating_sub(1) as u64);
     let mut done = 0u64;
     for round in 2..=rounds {
-        for (batch, chunk) in records.chunks(REFINE_BATCH).enumerate() {
+        for (batch, chunk) in points.chunks(REFINE_BATCH).enumerate() {
             if cancel.load(Ordering::Relaxed) {
                 return total;
             }
-            let more: Vec<(Option<NewRecord>, SampleCounters)> = chunk.par_iter().map(|rec| gather_again(ctx, camera, rec, round - 1)).collect();
-            for (k, (new, c)) in more.into_iter().enumerate() {
-                if let Some(new) = new {
-                    cache.refine(batch * REFINE_BATCH + k, &new, 1.0 / round as f32);
-                }
+            let more: Vec<Option<(NewRecord, SampleCounters)>> = chunk
+                .par_iter()
+                .map(|point| point.as_ref().map(|(at, sp, hit)| gather_record_round(ctx, at[0], at[1], at[2] as usize, round - 1, sp, hit)))
+                .collect();
+            for (k, (new, c)) in more.into_iter().enumerate().filter_map(|(k, m)| m.map(|m| (k, m))) {
+                cache.refine(batch * REFINE_BATCH + k, &new, 1.0 / round as f32);
                 total += c;
             }
             done += chunk.len() as u64;
@@ -103,20 +111,18 @@ pub fn refine_records(ctx: &PmContext, camera: &Camera, cache: &mut IrradianceCa
     total
 }
 
-/// Round `round` (from 1) of the gather that made `rec`, from the same shading point: `None` for a
-/// record that does not know its pixel, or whose point is not found there again.
-fn gather_again(ctx: &PmContext, camera: &Camera, rec: &Record, round: u32) -> (Option<NewRecord>, SampleCounters) {
-    let [x, y, i] = rec.at;
+/// A record's pixel and shading point, with the hit its gathers start from.
+type Point = ([u32; 3], ShadingPoint, Hit);
+
+/// The shading point that made `rec`, traced again: `None` for a record that does not know its pixel,
+/// or whose point is not found there again.
+fn shading_point(ctx: &PmContext, camera: &Camera, rec: &Record) -> Option<Point> {
     if rec.at == NO_PIXEL {
-        return (None, SampleCounters::default());
+        return None;
     }
-    match shading_hits(ctx, camera, x, y).get(i as usize) {
-        Some((sp, hit)) if sp.pos == rec.pos => {
-            let (new, c) = gather_record_round(ctx, x, y, i as usize, round, sp, hit);
-            (Some(new), c)
-        }
-        _ => (None, SampleCounters::default()),
-    }
+    let [x, y, i] = rec.at;
+    let (sp, hit) = shading_hits(ctx, camera, x, y).into_iter().nth(i as usize)?;
+    (sp.pos == rec.pos).then_some((rec.at, sp, hit))
 }
 
 #[cfg(test)]

@@ -106,7 +106,7 @@ pub fn render(scene: &Scene, opts: &Options, progress: &dyn Progress, cancel: &A
             };
             // Pass B's gathers take as many rays as pass A's records chose.
             if let Some((_, rounds)) = s.rays_choice {
-                plan.gather.rays = rounds as usize * crate::integrator::gather_rays::BASE_RAYS;
+                plan.gather.rays = crate::integrator::gather_rays::rays_for_rounds(rounds);
             }
             stats.fill = Some(s);
             Some(cache)

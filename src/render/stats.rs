@@ -202,7 +202,7 @@ impl RenderStats {
             let base = crate::integrator::gather_rays::BASE_RAYS;
             let title = format!("Pixels' relative variance from gather noise, at {base} rays (predicted; target {:.0e})", crate::integrator::gather_rays::NOISE_TARGET);
             r.value("Final gather", &title, "gather.predicted_noise", serde_json::Value::from(noise), format!("{noise:.2e}"));
-            r.count("Final gather", "Rays per gather (chosen from that prediction)", "gather.rays_chosen", rounds as u64 * base as u64);
+            r.count("Final gather", "Rays per gather (chosen from that prediction)", "gather.rays_chosen", crate::integrator::gather_rays::rays_for_rounds(rounds) as u64);
         }
         let mut noise = fill.gather_noise;
         noise += shade.gather_noise;
