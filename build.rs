@@ -1,9 +1,15 @@
 //! Builds the OpenImageIO shim and links Embree 3.
 fn main() {
     println!("cargo:rerun-if-changed=src/io/oiio_shim.cpp");
-    let oiio = pkg_config::Config::new().cargo_metadata(true).probe("OpenImageIO");
+    let oiio = pkg_config::Config::new()
+        .cargo_metadata(true)
+        .probe("OpenImageIO");
     let mut build = cc::Build::new();
-    build.cpp(true).file("src/io/oiio_shim.cpp").flag_if_supported("-std=c++17").warnings(false);
+    build
+        .cpp(true)
+        .file("src/io/oiio_shim.cpp")
+        .flag_if_supported("-std=c++17")
+        .warnings(false);
     if let Ok(lib) = &oiio {
         for p in &lib.include_paths {
             build.include(p);

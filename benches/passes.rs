@@ -21,12 +21,19 @@ fn flann_rates() -> f64 {
     let mut knn100 = 0.0;
     let n = 1_000_000;
     let mut rng = Rng::new(1);
-    let pts: Vec<Vec3> = (0..n).map(|_| Vec3::new(rng.uniform(), rng.uniform(), rng.uniform())).collect();
+    let pts: Vec<Vec3> = (0..n)
+        .map(|_| Vec3::new(rng.uniform(), rng.uniform(), rng.uniform()))
+        .collect();
     let t = Instant::now();
     let tree = KdTree::build(&pts).expect("tree");
     let build_s = t.elapsed().as_secs_f64();
-    let queries: Vec<Vec3> = (0..200_000).map(|_| Vec3::new(rng.uniform(), rng.uniform(), rng.uniform())).collect();
-    println!("FLANN single kd-tree, 1 M uniform points: build {:.2} s", build_s);
+    let queries: Vec<Vec3> = (0..200_000)
+        .map(|_| Vec3::new(rng.uniform(), rng.uniform(), rng.uniform()))
+        .collect();
+    println!(
+        "FLANN single kd-tree, 1 M uniform points: build {:.2} s",
+        build_s
+    );
     let t = Instant::now();
     let found: usize = queries
         .par_chunks(500)
@@ -37,9 +44,16 @@ fn flann_rates() -> f64 {
         })
         .sum();
     std::hint::black_box(found);
-    println!("  1-NN in FLANN batches of 500 (one C call each, as the final gather does): {:>8.2} M/s", queries.len() as f64 / t.elapsed().as_secs_f64() / 1e6);
+    println!(
+        "  1-NN in FLANN batches of 500 (one C call each, as the final gather does): {:>8.2} M/s",
+        queries.len() as f64 / t.elapsed().as_secs_f64() / 1e6
+    );
     for k in [1usize, 8, 100] {
-        let q = if k == 100 { &queries[..40_000] } else { &queries[..] };
+        let q = if k == 100 {
+            &queries[..40_000]
+        } else {
+            &queries[..]
+        };
         let t = Instant::now();
         let found: usize = q
             .par_iter()
@@ -53,7 +67,11 @@ fn flann_rates() -> f64 {
         let batched: usize = tree.knn_batch(q, k, 0.2).iter().map(Vec::len).sum();
         let batch = q.len() as f64 / t.elapsed().as_secs_f64();
         assert_eq!(found, batched);
-        println!("  k = {k:>3}: single queries {:>8.2} M/s, batched {:>8.2} M/s", single / 1e6, batch / 1e6);
+        println!(
+            "  k = {k:>3}: single queries {:>8.2} M/s, batched {:>8.2} M/s",
+            single / 1e6,
+            batch / 1e6
+        );
         if k == 100 {
             knn100 = single;
         }
@@ -67,7 +85,9 @@ fn photon_rates(root: &Path) {
     settings.global = 1_000_000;
     settings.caustic = 200_000;
     let t = Instant::now();
-    let (maps, stats) = PhotonData::trace(&scene, &settings, 0, &|_, _| {}, &AtomicBool::new(false)).expect("photons");
+    let (maps, stats) =
+        PhotonData::trace(&scene, &settings, 0, &|_, _| {}, &AtomicBool::new(false))
+            .expect("photons");
     let s = t.elapsed().as_secs_f64();
     let stored = stats.n_global_stored + stats.n_caustic_stored;
     let mem = stats.global_memory_bytes + stats.caustic_memory_bytes;
@@ -90,7 +110,12 @@ fn pm_scene(name: &str, path: &Path, size: u32, raw_knn: f64) {
         Ok(s) => s,
         Err(e) => return println!("{name}: skipped ({e})"),
     };
-    let opts = Options { method: Some(Method::Pm), width: Some(size), height: Some(size), ..Default::default() };
+    let opts = Options {
+        method: Some(Method::Pm),
+        width: Some(size),
+        height: Some(size),
+        ..Default::default()
+    };
     let t = Instant::now();
     let (_, stats) = render(&scene, &opts, &NoProgress, &AtomicBool::new(false)).expect("render");
     let wall = t.elapsed().as_secs_f64();
@@ -108,7 +133,9 @@ fn pm_scene(name: &str, path: &Path, size: u32, raw_knn: f64) {
             match scene.intersect(cam.eye, d) {
                 Some(h) => {
                     let dir = pmrender::warp::uniform_sphere([rng.uniform(), rng.uniform()]);
-                    scene.intersect(pmrender::geometry::spawn(&h, dir), dir).is_some() as u64
+                    scene
+                        .intersect(pmrender::geometry::spawn(&h, dir), dir)
+                        .is_some() as u64
                 }
                 None => 0,
             }
@@ -157,8 +184,16 @@ fn main() {
     println!("machine: {} threads", rayon::current_num_threads());
     let raw_knn = flann_rates();
     photon_rates(root);
-    pm_scene("cornell-caustics", &root.join("scenes/cornell-caustics.toml"), 512, raw_knn);
-    for (name, path) in [("sibenik", "tests/scenes/sibenik.toml"), ("sponza", "tests/scenes/sponza.toml")] {
+    pm_scene(
+        "cornell-caustics",
+        &root.join("scenes/cornell-caustics.toml"),
+        512,
+        raw_knn,
+    );
+    for (name, path) in [
+        ("sibenik", "tests/scenes/sibenik.toml"),
+        ("sponza", "tests/scenes/sponza.toml"),
+    ] {
         pm_scene(name, &root.join(path), 1000, raw_knn);
     }
     println!("target (issue 11): Sibenik and Sponza 1000² in ≤ 14.3 s wall (the course's GPU figure), then ≤ 5 s");

@@ -18,7 +18,15 @@ fn primary_rays_per_s(scene: &Scene, size: u32) -> f64 {
     let t = Instant::now();
     let hits: u64 = (0..size)
         .into_par_iter()
-        .map(|y| (0..size).filter(|&x| scene.intersect(cam.eye, cam.ray(x as f32 + 0.5, y as f32 + 0.5)).is_some()).count() as u64)
+        .map(|y| {
+            (0..size)
+                .filter(|&x| {
+                    scene
+                        .intersect(cam.eye, cam.ray(x as f32 + 0.5, y as f32 + 0.5))
+                        .is_some()
+                })
+                .count() as u64
+        })
         .sum();
     std::hint::black_box(hits);
     (size as f64 * size as f64) / t.elapsed().as_secs_f64()
@@ -44,7 +52,9 @@ fn incoherent_rays_per_s(scene: &Scene, n: usize) -> f64 {
             let mut rng = Rng::new(hash_keys(&[9, i]));
             let (h, _) = &origins[(i as usize) % origins.len()];
             let dir = uniform_sphere([rng.uniform(), rng.uniform()]);
-            scene.intersect(pmrender::geometry::spawn(h, dir), dir).is_some() as u64
+            scene
+                .intersect(pmrender::geometry::spawn(h, dir), dir)
+                .is_some() as u64
         })
         .sum();
     std::hint::black_box(hits);
@@ -52,11 +62,19 @@ fn incoherent_rays_per_s(scene: &Scene, n: usize) -> f64 {
 }
 
 fn path_samples_per_s(scene: &Scene, size: u32, spp: u32) -> (f64, f64) {
-    let opts = Options { method: Some(Method::Path), spp: Some(spp), width: Some(size), height: Some(size), ..Default::default() };
+    let opts = Options {
+        method: Some(Method::Path),
+        spp: Some(spp),
+        width: Some(size),
+        height: Some(size),
+        ..Default::default()
+    };
     let t = Instant::now();
     let (_, stats) = render(scene, &opts, &NoProgress, &AtomicBool::new(false)).expect("render");
     let s = t.elapsed().as_secs_f64();
-    let rays = stats.report().to_json()["rays"]["per_s"].as_f64().unwrap_or(0.0);
+    let rays = stats.report().to_json()["rays"]["per_s"]
+        .as_f64()
+        .unwrap_or(0.0);
     ((size * size * spp) as f64 / s, rays)
 }
 
@@ -67,15 +85,27 @@ fn pm_vs_path_at_equal_error(root: &Path) {
         Ok(s) => s,
         Err(e) => return println!("pm vs path: skipped ({e})"),
     };
-    let reference = match pmrender::io::output::read_layer(&root.join("tests/reference/cornell-caustics-path.exr"), None) {
+    let reference = match pmrender::io::output::read_layer(
+        &root.join("tests/reference/cornell-caustics-path.exr"),
+        None,
+    ) {
         Ok(r) => r,
         Err(e) => return println!("pm vs path: skipped ({e})"),
     };
     let run = |method: Method, spp: Option<u32>| {
-        let opts = Options { method: Some(method), spp, width: Some(reference.width), height: Some(reference.height), ..Default::default() };
+        let opts = Options {
+            method: Some(method),
+            spp,
+            width: Some(reference.width),
+            height: Some(reference.height),
+            ..Default::default()
+        };
         let t = Instant::now();
         let (out, _) = render(&scene, &opts, &NoProgress, &AtomicBool::new(false)).expect("render");
-        (t.elapsed().as_secs_f64(), pmrender::converge::rel_mse(&out.beauty, &reference))
+        (
+            t.elapsed().as_secs_f64(),
+            pmrender::converge::rel_mse(&out.beauty, &reference),
+        )
     };
     let (t_pm, e_pm) = run(Method::Pm, None);
     let mut spp = 64;
@@ -97,11 +127,23 @@ fn pm_vs_path_at_equal_error(root: &Path) {
 fn main() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let scenes = [
-        ("cornell-caustics", root.join("scenes/cornell-caustics.toml")),
+        (
+            "cornell-caustics",
+            root.join("scenes/cornell-caustics.toml"),
+        ),
         ("sibenik", root.join("tests/scenes/sibenik.toml")),
     ];
     println!("machine: {} threads", rayon::current_num_threads());
-    println!("{:<18} {:>10} {:>14} {:>14} {:>14} {:>14} {:>10}", "scene", "triangles", "primary Mray/s", "incoh. Mray/s", "path kspp/s", "path Mray/s", "path/raw");
+    println!(
+        "{:<18} {:>10} {:>14} {:>14} {:>14} {:>14} {:>10}",
+        "scene",
+        "triangles",
+        "primary Mray/s",
+        "incoh. Mray/s",
+        "path kspp/s",
+        "path Mray/s",
+        "path/raw"
+    );
     for (name, path) in scenes {
         let t = Instant::now();
         let scene = match scene::load(&path) {

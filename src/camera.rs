@@ -20,8 +20,20 @@ impl Camera {
     pub fn new(eye: Vec3, target: Vec3, up: Vec3, fov_deg: f32, width: u32, height: u32) -> Camera {
         let forward = (target.as_dvec3() - eye.as_dvec3()).normalize();
         let right = forward.cross(up.as_dvec3()).normalize();
-        let (up, forward, right) = (right.cross(forward).as_vec3(), forward.as_vec3(), right.as_vec3());
-        Camera { eye, forward, right, up, tan_half: (fov_deg.to_radians() * 0.5).tan(), width, height }
+        let (up, forward, right) = (
+            right.cross(forward).as_vec3(),
+            forward.as_vec3(),
+            right.as_vec3(),
+        );
+        Camera {
+            eye,
+            forward,
+            right,
+            up,
+            tan_half: (fov_deg.to_radians() * 0.5).tan(),
+            width,
+            height,
+        }
     }
 
     /// Unit viewing direction.
@@ -40,7 +52,11 @@ impl Camera {
     }
 
     pub fn with_resolution(&self, width: u32, height: u32) -> Camera {
-        Camera { width, height, ..self.clone() }
+        Camera {
+            width,
+            height,
+            ..self.clone()
+        }
     }
 
     /// Primary ray through image position (x, y) in pixels from the top-left corner (continuous).
@@ -69,6 +85,9 @@ impl Camera {
         let aspect = self.width as f32 / self.height as f32;
         let sx = d.dot(self.right) / (z * self.tan_half * aspect);
         let sy = d.dot(self.up) / (z * self.tan_half);
-        Some(((sx + 1.0) * 0.5 * self.width as f32, (1.0 - sy) * 0.5 * self.height as f32))
+        Some((
+            (sx + 1.0) * 0.5 * self.width as f32,
+            (1.0 - sy) * 0.5 * self.height as f32,
+        ))
     }
 }

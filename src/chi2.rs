@@ -52,7 +52,11 @@ fn chi2_quantile(dof: f64, z_alpha: f64) -> f64 {
 
 /// Draws `n` samples (None = a failed sample, which counts as lost probability mass) and returns
 /// (statistic, threshold) at a 1e-4 significance level (z = 3.72).
-pub fn run(n: usize, sample: &mut dyn FnMut(usize) -> Option<Vec3>, pdf: &dyn Fn(Vec3) -> f64) -> (f64, f64) {
+pub fn run(
+    n: usize,
+    sample: &mut dyn FnMut(usize) -> Option<Vec3>,
+    pdf: &dyn Fn(Vec3) -> f64,
+) -> (f64, f64) {
     let mut observed = vec![0.0f64; THETA_BINS * PHI_BINS];
     for i in 0..n {
         if let Some(d) = sample(i) {

@@ -14,11 +14,15 @@ use pmrender::render::files::FileOptions;
 use pmrender::render::outputs::{check_distinct, check_output, scene_inputs, Output};
 use pmrender::render::write::{write_outputs, OutputPaths};
 use pmrender::render::{self, tiles::Window, Options, Progress};
-use pmrender::scene::{self, Scene, Method, MAX_PHOTONS, METHODS};
+use pmrender::scene::{self, Method, Scene, MAX_PHOTONS, METHODS};
 use pmrender::signal;
 
 #[derive(Parser)]
-#[command(name = "pmrender", version, about = "Two-pass photon-mapping renderer with a cached final gather")]
+#[command(
+    name = "pmrender",
+    version,
+    about = "Two-pass photon-mapping renderer with a cached final gather"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -145,9 +149,11 @@ impl Bar {
             bar.set_draw_target(ProgressDrawTarget::hidden());
         }
         bar.set_style(
-            ProgressStyle::with_template("{msg:>12} [{bar:40}] {percent:>3}% {elapsed_precise} eta {eta}")
-                .unwrap_or_else(|_| ProgressStyle::default_bar())
-                .progress_chars("=> "),
+            ProgressStyle::with_template(
+                "{msg:>12} [{bar:40}] {percent:>3}% {elapsed_precise} eta {eta}",
+            )
+            .unwrap_or_else(|_| ProgressStyle::default_bar())
+            .progress_chars("=> "),
         );
         Bar { bar }
     }
@@ -170,19 +176,34 @@ impl Progress for Bar {
 
 fn in_range(name: &str, v: Option<i64>, max: u32) -> Result<Option<u32>> {
     match v {
-        Some(x) if !(1..=max as i64).contains(&x) => Err(option(name, format!("{x} must be in 1..={max}"))),
+        Some(x) if !(1..=max as i64).contains(&x) => {
+            Err(option(name, format!("{x} must be in 1..={max}")))
+        }
         x => Ok(x.map(|x| x as u32)),
     }
 }
 
 fn options(a: &RenderArgs) -> Result<Options> {
     let method = match &a.method {
-        Some(m) => Some(Method::parse(m).ok_or_else(|| option("--method", format!("unknown method '{m}' ({METHODS})")))?),
+        Some(m) => Some(
+            Method::parse(m)
+                .ok_or_else(|| option("--method", format!("unknown method '{m}' ({METHODS})")))?,
+        ),
         None => None,
     };
-    let crop = a.crop.as_ref().map(|c| Window { x0: c[0], y0: c[1], x1: c[2], y1: c[3] });
+    let crop = a.crop.as_ref().map(|c| Window {
+        x0: c[0],
+        y0: c[1],
+        x1: c[2],
+        y1: c[3],
+    });
     let max_memory = match &a.max_memory {
-        Some(t) => Some(parse_size(t).ok_or_else(|| option("--max-memory", format!("'{t}' is not a size (e.g. 8G, 512M)")))?),
+        Some(t) => Some(parse_size(t).ok_or_else(|| {
+            option(
+                "--max-memory",
+                format!("'{t}' is not a size (e.g. 8G, 512M)"),
+            )
+        })?),
         None => None,
     };
     Ok(Options {
@@ -190,7 +211,9 @@ fn options(a: &RenderArgs) -> Result<Options> {
         spp: in_range("--spp", a.spp, MAX_SPP)?,
         aa_spp: in_range("--aa-spp", a.aa_spp, MAX_SPP)?,
         noise: match a.noise {
-            Some(t) if !(0.0..=1.0).contains(&t) => return Err(option("--noise", format!("{t} must be in 0..=1"))),
+            Some(t) if !(0.0..=1.0).contains(&t) => {
+                return Err(option("--noise", format!("{t} must be in 0..=1")))
+            }
             t => t.map(|t| t as f32),
         },
         width: in_range("--width", a.width, MAX_SIDE)?,
@@ -220,14 +243,21 @@ fn outputs(a: &RenderArgs) -> Vec<Output<'_>> {
         ("--cache-image", &a.cache_image),
     ];
     let mut out: Vec<Output> = vec![("-o", a.output.as_path())];
-    out.extend(optional.into_iter().filter_map(|(opt, p)| p.as_deref().map(|p| (opt, p))));
+    out.extend(
+        optional
+            .into_iter()
+            .filter_map(|(opt, p)| p.as_deref().map(|p| (opt, p))),
+    );
     out
 }
 
 /// Input files named on the command line.
 fn cli_inputs(a: &RenderArgs) -> Vec<(String, PathBuf)> {
     let mut inputs = vec![("scene file".to_string(), a.scene.clone())];
-    for (what, p) in [("photon file", &a.load_photons), ("cache file", &a.load_cache)] {
+    for (what, p) in [
+        ("photon file", &a.load_photons),
+        ("cache file", &a.load_cache),
+    ] {
         if let Some(p) = p {
             inputs.push((what.to_string(), p.clone()));
         }
@@ -236,17 +266,30 @@ fn cli_inputs(a: &RenderArgs) -> Vec<(String, PathBuf)> {
 }
 
 fn check_outputs(a: &RenderArgs) -> Result<()> {
-    let ext_ok = |p: &Path, ext: &str| p.extension().map(|e| e.eq_ignore_ascii_case(ext)).unwrap_or(false);
-    for (opt, p, ext) in [("-o", Some(&a.output), "exr"), ("--png", a.png.as_ref(), "png"), ("--cache-image", a.cache_image.as_ref(), "png")] {
+    let ext_ok = |p: &Path, ext: &str| {
+        p.extension()
+            .map(|e| e.eq_ignore_ascii_case(ext))
+            .unwrap_or(false)
+    };
+    for (opt, p, ext) in [
+        ("-o", Some(&a.output), "exr"),
+        ("--png", a.png.as_ref(), "png"),
+        ("--cache-image", a.cache_image.as_ref(), "png"),
+    ] {
         match p {
-            Some(p) if !ext_ok(p, ext) => return Err(option(opt, format!("'{}' must end in .{ext}", p.display()))),
+            Some(p) if !ext_ok(p, ext) => {
+                return Err(option(opt, format!("'{}' must end in .{ext}", p.display())))
+            }
             _ => {}
         }
     }
     for (opt, p) in outputs(a) {
         check_output(opt, p)?;
     }
-    for (opt, p) in [("--load-photons", &a.load_photons), ("--load-cache", &a.load_cache)] {
+    for (opt, p) in [
+        ("--load-photons", &a.load_photons),
+        ("--load-cache", &a.load_cache),
+    ] {
         if let Some(p) = p {
             if !p.is_file() {
                 return Err(option(opt, format!("'{}' not found", p.display())));
@@ -261,7 +304,9 @@ fn check_outputs(a: &RenderArgs) -> Result<()> {
 fn render_command(a: RenderArgs, cancel: &AtomicBool) -> Result<()> {
     let opts = options(&a)?;
     let threads = match a.threads {
-        Some(t) if !(1..=1024).contains(&t) => return Err(option("--threads", format!("{t} must be in 1..=1024"))),
+        Some(t) if !(1..=1024).contains(&t) => {
+            return Err(option("--threads", format!("{t} must be in 1..=1024")))
+        }
         t => t.map(|t| t as usize).unwrap_or(0),
     };
     check_outputs(&a)?;
@@ -271,7 +316,10 @@ fn render_command(a: RenderArgs, cancel: &AtomicBool) -> Result<()> {
     let mut inputs = scene_inputs(&a.scene);
     inputs.extend(cli_inputs(&a));
     check_distinct(&outputs(&a), &inputs)?;
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().map_err(|e| Error::Runtime(e.to_string()))?;
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .map_err(|e| Error::Runtime(e.to_string()))?;
     let bar = Bar::new(a.quiet);
     let result = pool.install(|| render::render(&scene, &opts, &bar, cancel));
     signal::arm(false);
@@ -303,10 +351,15 @@ fn load_interruptible(path: &Path) -> Result<Scene> {
 
 fn pool(threads: Option<i64>) -> Result<rayon::ThreadPool> {
     let n = match threads {
-        Some(t) if !(1..=1024).contains(&t) => return Err(option("--threads", format!("{t} must be in 1..=1024"))),
+        Some(t) if !(1..=1024).contains(&t) => {
+            return Err(option("--threads", format!("{t} must be in 1..=1024")))
+        }
         t => t.map(|t| t as usize).unwrap_or(0),
     };
-    rayon::ThreadPoolBuilder::new().num_threads(n).build().map_err(|e| Error::Runtime(e.to_string()))
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(n)
+        .build()
+        .map_err(|e| Error::Runtime(e.to_string()))
 }
 
 fn converge_command(a: ConvergeArgs) -> Result<()> {
@@ -315,28 +368,64 @@ fn converge_command(a: ConvergeArgs) -> Result<()> {
         .iter()
         .map(|s| match s.trim().parse::<f64>() {
             Ok(x) if (1.0..=MAX_PHOTONS as f64).contains(&x) => Ok(x.round() as usize),
-            _ => Err(option("--photons", format!("'{s}' is not a photon count in 1..={MAX_PHOTONS}"))),
+            _ => Err(option(
+                "--photons",
+                format!("'{s}' is not a photon count in 1..={MAX_PHOTONS}"),
+            )),
         })
         .collect::<Result<Vec<_>>>()?;
     let method = match Method::parse(&a.method) {
         Some(m @ (Method::Photons | Method::Pm)) => m,
-        _ => return Err(option("--method", format!("'{}' must be photons or pm", a.method))),
+        _ => {
+            return Err(option(
+                "--method",
+                format!("'{}' must be photons or pm", a.method),
+            ))
+        }
     };
     if !a.reference.is_file() {
-        return Err(option("--reference", format!("'{}' not found", a.reference.display())));
+        return Err(option(
+            "--reference",
+            format!("'{}' not found", a.reference.display()),
+        ));
     }
     if !a.output.is_dir() {
-        std::fs::create_dir_all(&a.output).map_err(|e| option("-o", format!("cannot create '{}': {e}", a.output.display())))?;
+        std::fs::create_dir_all(&a.output)
+            .map_err(|e| option("-o", format!("cannot create '{}': {e}", a.output.display())))?;
     }
     let mut scene = load_interruptible(&a.scene)?;
-    let opts = Options { spp: in_range("--spp", a.spp, MAX_SPP)?, seed: a.seed, ..Default::default() };
+    let opts = Options {
+        spp: in_range("--spp", a.spp, MAX_SPP)?,
+        seed: a.seed,
+        ..Default::default()
+    };
     let bar = Bar::new(a.quiet);
-    let rows = pool(a.threads)?.install(|| pmrender::converge::converge(&mut scene, &counts, &a.reference, method, &opts, &a.output, &bar, &signal::CANCEL))?;
-    println!("{:>10} {:>9} {:>14} {:>14} {:>14}", "photons", "time s", "beauty relMSE", "caustic", "indirect");
+    let rows = pool(a.threads)?.install(|| {
+        pmrender::converge::converge(
+            &mut scene,
+            &counts,
+            &a.reference,
+            method,
+            &opts,
+            &a.output,
+            &bar,
+            &signal::CANCEL,
+        )
+    })?;
+    println!(
+        "{:>10} {:>9} {:>14} {:>14} {:>14}",
+        "photons", "time s", "beauty relMSE", "caustic", "indirect"
+    );
     for r in rows {
-        println!("{:>10} {:>9.2} {:>14.5} {:>14.5} {:>14.5}", r.photons, r.time_s, r.beauty, r.caustic, r.indirect);
+        println!(
+            "{:>10} {:>9.2} {:>14.5} {:>14.5} {:>14.5}",
+            r.photons, r.time_s, r.beauty, r.caustic, r.indirect
+        );
     }
-    println!("wrote {}/converge.md, converge.json, converge.png", a.output.display());
+    println!(
+        "wrote {}/converge.md, converge.json, converge.png",
+        a.output.display()
+    );
     Ok(())
 }
 
@@ -352,7 +441,11 @@ pub fn run() -> i32 {
             // required arguments were not provided:") is joined with what it announces.
             let text = e.to_string();
             let mut lines = text.lines().map(str::trim).filter(|l| !l.is_empty());
-            let mut first = lines.next().unwrap_or("invalid arguments").trim_start_matches("error: ").to_string();
+            let mut first = lines
+                .next()
+                .unwrap_or("invalid arguments")
+                .trim_start_matches("error: ")
+                .to_string();
             if first.ends_with(':') {
                 if let Some(next) = lines.next() {
                     first = format!("{first} {next}");
@@ -369,7 +462,8 @@ pub fn run() -> i32 {
     let result = match cli.command {
         Command::Render(a) => render_command(a, &signal::CANCEL),
         Command::Converge(a) => converge_command(a),
-        Command::ExportMitsuba(a) => load_interruptible(&a.scene).and_then(|s| pmrender::export::export_mitsuba(&s, &a.dir, a.spp.max(1))),
+        Command::ExportMitsuba(a) => load_interruptible(&a.scene)
+            .and_then(|s| pmrender::export::export_mitsuba(&s, &a.dir, a.spp.max(1))),
     };
     match result {
         Ok(()) => 0,

@@ -44,7 +44,16 @@ fn layer<'a>(layers: &'a [(&'static str, Image)], name: &str) -> Option<&'a Imag
 /// `converge.json` and `converge.png` into `out_dir`.
 /// `cancel` interrupts the renders (`Interrupted`, nothing written).
 #[allow(clippy::too_many_arguments)]
-pub fn converge(scene: &mut Scene, counts: &[usize], reference: &Path, method: Method, opts: &Options, out_dir: &Path, progress: &dyn Progress, cancel: &AtomicBool) -> Result<Vec<ConvergeRow>> {
+pub fn converge(
+    scene: &mut Scene,
+    counts: &[usize],
+    reference: &Path,
+    method: Method,
+    opts: &Options,
+    out_dir: &Path,
+    progress: &dyn Progress,
+    cancel: &AtomicBool,
+) -> Result<Vec<ConvergeRow>> {
     let reference_img = read_layer(reference, None).map_err(|e| in_file(reference, e))?;
     let ref_terms = ["caustic", "indirect"].map(|n| read_layer(reference, Some(n)).ok());
     let mut opts = opts.clone();
@@ -59,8 +68,13 @@ pub fn converge(scene: &mut Scene, counts: &[usize], reference: &Path, method: M
         let (out, _) = render(scene, &opts, progress, cancel)?;
         renders.push((n, t.elapsed().as_secs_f64(), out));
     }
-    let Some((_, _, last)) = renders.last() else { return Err(option("--photons", "give at least one count")) };
-    let self_terms: Vec<Option<Image>> = ["caustic", "indirect"].iter().map(|n| layer(&last.layers, n).cloned()).collect();
+    let Some((_, _, last)) = renders.last() else {
+        return Err(option("--photons", "give at least one count"));
+    };
+    let self_terms: Vec<Option<Image>> = ["caustic", "indirect"]
+        .iter()
+        .map(|n| layer(&last.layers, n).cloned())
+        .collect();
     let n_renders = renders.len();
     let rows: Vec<ConvergeRow> = renders
         .iter()
@@ -74,7 +88,13 @@ pub fn converge(scene: &mut Scene, counts: &[usize], reference: &Path, method: M
                     _ => f64::NAN,
                 }
             };
-            ConvergeRow { photons: *n, time_s: *t, beauty: rel_mse(&out.beauty, &reference_img), caustic: term_err(0, "caustic"), indirect: term_err(1, "indirect") }
+            ConvergeRow {
+                photons: *n,
+                time_s: *t,
+                beauty: rel_mse(&out.beauty, &reference_img),
+                caustic: term_err(0, "caustic"),
+                indirect: term_err(1, "indirect"),
+            }
         })
         .collect();
     write_outputs(&rows, ref_terms.iter().any(Option::is_some), out_dir)?;
@@ -82,20 +102,49 @@ pub fn converge(scene: &mut Scene, counts: &[usize], reference: &Path, method: M
 }
 
 fn write_outputs(rows: &[ConvergeRow], terms_from_reference: bool, out_dir: &Path) -> Result<()> {
-    let basis = if terms_from_reference { "the reference's layers" } else { "the render at the largest count (self-convergence)" };
+    let basis = if terms_from_reference {
+        "the reference's layers"
+    } else {
+        "the render at the largest count (self-convergence)"
+    };
     let mut md = format!(
         "# Photon-count convergence\n\nrelMSE = mean (x − r)² / (r² + 0.01). Beauty against the reference; caustic and indirect terms against {basis}.\n\n\
          | photons | time (s) | beauty relMSE | caustic relMSE | indirect relMSE |\n|---:|---:|---:|---:|---:|\n"
     );
     for r in rows {
-        let f = |x: f64| if x.is_finite() { format!("{x:.5}") } else { "—".to_string() };
-        md += &format!("| {} | {:.2} | {} | {} | {} |\n", r.photons, r.time_s, f(r.beauty), f(r.caustic), f(r.indirect));
+        let f = |x: f64| {
+            if x.is_finite() {
+                format!("{x:.5}")
+            } else {
+                "—".to_string()
+            }
+        };
+        md += &format!(
+            "| {} | {:.2} | {} | {} | {} |\n",
+            r.photons,
+            r.time_s,
+            f(r.beauty),
+            f(r.caustic),
+            f(r.indirect)
+        );
     }
     md += &format!("\nChart `converge.png`: x = photons, y = relMSE; {} = beauty, {} = caustic, {} = indirect.\n", PALETTE[0].0, PALETTE[1].0, PALETTE[2].0);
     write_bytes(&out_dir.join("converge.md"), md.as_bytes())?;
     let json = serde_json::json!(rows.iter().map(|r| serde_json::json!({"photons": r.photons, "time_s": r.time_s, "beauty": r.beauty, "caustic": r.caustic, "indirect": r.indirect})).collect::<Vec<_>>());
-    write_bytes(&out_dir.join("converge.json"), serde_json::to_string_pretty(&json).unwrap_or_default().as_bytes())?;
-    let mk = |name: &str, f: &dyn Fn(&ConvergeRow) -> f64| Series { name: name.into(), points: rows.iter().map(|r| (r.photons as f64, f(r))).collect() };
-    let series = [mk("beauty", &|r| r.beauty), mk("caustic", &|r| r.caustic), mk("indirect", &|r| r.indirect)];
+    write_bytes(
+        &out_dir.join("converge.json"),
+        serde_json::to_string_pretty(&json)
+            .unwrap_or_default()
+            .as_bytes(),
+    )?;
+    let mk = |name: &str, f: &dyn Fn(&ConvergeRow) -> f64| Series {
+        name: name.into(),
+        points: rows.iter().map(|r| (r.photons as f64, f(r))).collect(),
+    };
+    let series = [
+        mk("beauty", &|r| r.beauty),
+        mk("caustic", &|r| r.caustic),
+        mk("indirect", &|r| r.indirect),
+    ];
     log_log_png(&out_dir.join("converge.png"), &series, &[])
 }

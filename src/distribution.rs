@@ -21,7 +21,10 @@ impl Distribution {
     /// Index and its probability.
     pub fn sample(&self, u: f32) -> (usize, f32) {
         let target = u as f64 * self.total;
-        let i = self.cdf.partition_point(|&c| c <= target).min(self.cdf.len() - 1);
+        let i = self
+            .cdf
+            .partition_point(|&c| c <= target)
+            .min(self.cdf.len() - 1);
         (i, self.prob(i))
     }
 

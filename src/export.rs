@@ -32,8 +32,12 @@ fn bsdf_xml(scene: &Scene, m: usize) -> String {
         Bsdf::Diffuse { albedo, texture } => {
             let refl = match texture {
                 Some(t) => {
-                    let path = std::fs::canonicalize(&scene.textures[*t].path).unwrap_or_else(|_| scene.textures[*t].path.clone());
-                    format!(r#"<texture type="bitmap" name="reflectance"><string name="filename" value="{}"/></texture>"#, path.display())
+                    let path = std::fs::canonicalize(&scene.textures[*t].path)
+                        .unwrap_or_else(|_| scene.textures[*t].path.clone());
+                    format!(
+                        r#"<texture type="bitmap" name="reflectance"><string name="filename" value="{}"/></texture>"#,
+                        path.display()
+                    )
                 }
                 None => rgb("reflectance", *albedo),
             };
@@ -47,7 +51,11 @@ fn bsdf_xml(scene: &Scene, m: usize) -> String {
             r#"<bsdf type="dielectric"><float name="int_ior" value="{ior}"/><float name="ext_ior" value="1"/>{}</bsdf>"#,
             rgb("specular_transmittance", *transmittance)
         ),
-        Bsdf::Glossy { albedo, specular, exponent } => format!(
+        Bsdf::Glossy {
+            albedo,
+            specular,
+            exponent,
+        } => format!(
             r#"<bsdf type="pm_phong">{}{}<float name="exponent" value="{exponent}"/></bsdf>"#,
             rgb("diffuse_reflectance", *albedo),
             rgb("specular_reflectance", *specular)
@@ -58,15 +66,25 @@ fn bsdf_xml(scene: &Scene, m: usize) -> String {
 
 /// Writes DIR/scene.xml and DIR/mesh_<material>_<kind>.obj.
 pub fn export_mitsuba(scene: &Scene, dir: &Path, spp: u32) -> Result<()> {
-    std::fs::create_dir_all(dir).map_err(|e| option("DIR", format!("cannot create '{}': {e}", dir.display())))?;
+    std::fs::create_dir_all(dir)
+        .map_err(|e| option("DIR", format!("cannot create '{}': {e}", dir.display())))?;
     // Group triangles: (material, emissive-flat or smooth-with-normals or flat, the media on the
     // normal's side and behind it for a medium's boundary).
     let mut groups: BTreeMap<(usize, u8, Option<[MediumId; 2]>), Vec<u32>> = BTreeMap::new();
     for (i, t) in scene.geometry.triangles.iter().enumerate() {
         let emissive = scene.materials[t.material as usize].emission.max_element() > 0.0;
-        let kind = if emissive { 0 } else if t.has_normals { 1 } else { 2 };
+        let kind = if emissive {
+            0
+        } else if t.has_normals {
+            1
+        } else {
+            2
+        };
         let sides = scene.media.as_ref().and_then(|m| m.sides(i as u32));
-        groups.entry((t.material as usize, kind, sides)).or_default().push(i as u32);
+        groups
+            .entry((t.material as usize, kind, sides))
+            .or_default()
+            .push(i as u32);
     }
     let medium_id = |m: MediumId| format!("medium{m}");
     let cam = &scene.camera;
@@ -77,12 +95,23 @@ pub fn export_mitsuba(scene: &Scene, dir: &Path, spp: u32) -> Result<()> {
             let _ = writeln!(
                 xml,
                 r#"  <medium type="homogeneous" id="{}">{}{}<phase type="hg"><float name="g" value="{}"/></phase></medium>"#,
-                medium_id(k as MediumId), rgb("albedo", m.albedo()), rgb("sigma_t", m.sigma_t), m.g
+                medium_id(k as MediumId),
+                rgb("albedo", m.albedo()),
+                rgb("sigma_t", m.sigma_t),
+                m.g
             );
         }
     }
-    let integrator = if scene.media.is_some() { "volpath" } else { "path" };
-    let _ = writeln!(xml, r#"  <integrator type="{integrator}"><integer name="max_depth" value="{}"/></integrator>"#, scene.settings.max_depth + 1);
+    let integrator = if scene.media.is_some() {
+        "volpath"
+    } else {
+        "path"
+    };
+    let _ = writeln!(
+        xml,
+        r#"  <integrator type="{integrator}"><integer name="max_depth" value="{}"/></integrator>"#,
+        scene.settings.max_depth + 1
+    );
     let camera_medium = match scene.camera_medium() {
         VACUUM => String::new(),
         m => format!(r#"<ref id="{}"/>"#, medium_id(m)),
@@ -90,10 +119,19 @@ pub fn export_mitsuba(scene: &Scene, dir: &Path, spp: u32) -> Result<()> {
     let _ = writeln!(
         xml,
         r#"  <sensor type="perspective"><string name="fov_axis" value="y"/><float name="fov" value="{}"/><transform name="to_world"><lookat origin="{}" target="{}" up="{}"/></transform><sampler type="independent"><integer name="sample_count" value="{spp}"/></sampler><film type="hdrfilm"><integer name="width" value="{}"/><integer name="height" value="{}"/><rfilter type="box"/><string name="pixel_format" value="rgb"/></film>{camera_medium}</sensor>"#,
-        cam.fov_deg(), v(eye), v(target), v(up), cam.width, cam.height
+        cam.fov_deg(),
+        v(eye),
+        v(target),
+        v(up),
+        cam.width,
+        cam.height
     );
     for (g, ((m, kind, sides), tris)) in groups.iter().enumerate() {
-        let name = if sides.is_some() { format!("mesh_{m}_{kind}_b{g}.obj") } else { format!("mesh_{m}_{kind}.obj") };
+        let name = if sides.is_some() {
+            format!("mesh_{m}_{kind}_b{g}.obj")
+        } else {
+            format!("mesh_{m}_{kind}.obj")
+        };
         // Mitsuba's interior is behind the face normal, which is our winding normal here.
         let interface: String = match sides {
             Some([front, back]) => [("interior", *back), ("exterior", *front)]
@@ -123,25 +161,70 @@ pub fn export_mitsuba(scene: &Scene, dir: &Path, spp: u32) -> Result<()> {
         for i in 0..tris.len() {
             let b = 3 * i + 1;
             let _ = match kind {
-                1 => writeln!(obj, "f {b}/{b}/{b} {}/{}/{} {}/{}/{}", b + 1, b + 1, b + 1, b + 2, b + 2, b + 2),
+                1 => writeln!(
+                    obj,
+                    "f {b}/{b}/{b} {}/{}/{} {}/{}/{}",
+                    b + 1,
+                    b + 1,
+                    b + 1,
+                    b + 2,
+                    b + 2,
+                    b + 2
+                ),
                 _ => writeln!(obj, "f {b}/{b} {}/{} {}/{}", b + 1, b + 1, b + 2, b + 2),
             };
         }
         write_bytes(&dir.join(&name), obj.as_bytes())?;
         let mat = &scene.materials[*m];
-        let emitter = if *kind == 0 { format!(r#"<emitter type="area">{}</emitter>"#, rgb("radiance", mat.emission)) } else { String::new() };
-        let flat = if *kind == 1 { "" } else { r#"<boolean name="face_normals" value="true"/>"# };
-        let _ = writeln!(xml, r#"  <shape type="obj"><string name="filename" value="{name}"/>{flat}{}{emitter}{interface}</shape>"#, bsdf_xml(scene, *m));
+        let emitter = if *kind == 0 {
+            format!(
+                r#"<emitter type="area">{}</emitter>"#,
+                rgb("radiance", mat.emission)
+            )
+        } else {
+            String::new()
+        };
+        let flat = if *kind == 1 {
+            ""
+        } else {
+            r#"<boolean name="face_normals" value="true"/>"#
+        };
+        let _ = writeln!(
+            xml,
+            r#"  <shape type="obj"><string name="filename" value="{name}"/>{flat}{}{emitter}{interface}</shape>"#,
+            bsdf_xml(scene, *m)
+        );
     }
     for l in &scene.lights.lights {
         let line = match *l {
             Light::Area { .. } => continue,
-            Light::Point { pos, intensity } => format!(r#"<emitter type="point"><point name="position" value="{}"/>{}</emitter>"#, v(pos), rgb("intensity", intensity)),
-            Light::Spot { pos, dir, intensity, cone, falloff } => format!(
-                r#"<emitter type="spot"><transform name="to_world"><lookat origin="{}" target="{}" up="{}"/></transform>{}<float name="cutoff_angle" value="{}"/><float name="beam_width" value="{}"/></emitter>"#,
-                v(pos), v(pos + dir), v(if dir.y.abs() > 0.9 { Vec3::X } else { Vec3::Y }), rgb("intensity", intensity), cone.to_degrees(), falloff.to_degrees()
+            Light::Point { pos, intensity } => format!(
+                r#"<emitter type="point"><point name="position" value="{}"/>{}</emitter>"#,
+                v(pos),
+                rgb("intensity", intensity)
             ),
-            Light::Directional { dir, irradiance, .. } => format!(r#"<emitter type="directional"><vector name="direction" value="{}"/>{}</emitter>"#, v(dir), rgb("irradiance", irradiance)),
+            Light::Spot {
+                pos,
+                dir,
+                intensity,
+                cone,
+                falloff,
+            } => format!(
+                r#"<emitter type="spot"><transform name="to_world"><lookat origin="{}" target="{}" up="{}"/></transform>{}<float name="cutoff_angle" value="{}"/><float name="beam_width" value="{}"/></emitter>"#,
+                v(pos),
+                v(pos + dir),
+                v(if dir.y.abs() > 0.9 { Vec3::X } else { Vec3::Y }),
+                rgb("intensity", intensity),
+                cone.to_degrees(),
+                falloff.to_degrees()
+            ),
+            Light::Directional {
+                dir, irradiance, ..
+            } => format!(
+                r#"<emitter type="directional"><vector name="direction" value="{}"/>{}</emitter>"#,
+                v(dir),
+                rgb("irradiance", irradiance)
+            ),
         };
         let _ = writeln!(xml, "  {line}");
     }

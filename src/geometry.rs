@@ -49,7 +49,11 @@ impl Geometry {
         let w = 1.0 - u - v;
         let p_bary = self.positions[a] * w + self.positions[b] * u + self.positions[c] * v;
         // The barycentric point is more accurate than origin + t·dir for long rays.
-        let p = if p_bary.is_finite() { p_bary } else { origin + dir * raw.t };
+        let p = if p_bary.is_finite() {
+            p_bary
+        } else {
+            origin + dir * raw.t
+        };
         let mut ns = tri.ng;
         if tri.has_normals {
             let n = self.normals[a] * w + self.normals[b] * u + self.normals[c] * v;
@@ -60,8 +64,20 @@ impl Geometry {
                 }
             }
         }
-        let uv = if tri.has_uv { self.uvs[a] * w + self.uvs[b] * u + self.uvs[c] * v } else { Vec2::new(u, v) };
-        Hit { p, t: raw.t, ng: tri.ng, ns, uv, tri: raw.prim, material: tri.material }
+        let uv = if tri.has_uv {
+            self.uvs[a] * w + self.uvs[b] * u + self.uvs[c] * v
+        } else {
+            Vec2::new(u, v)
+        };
+        Hit {
+            p,
+            t: raw.t,
+            ng: tri.ng,
+            ns,
+            uv,
+            tri: raw.prim,
+            material: tri.material,
+        }
     }
 
     /// [`hit`](Self::hit) without the shading normal (`ns` = `ng`) and without texture coordinates (`uv`
@@ -71,7 +87,15 @@ impl Geometry {
     pub fn hit_flat(&self, origin: Vec3, dir: Vec3, raw: RawHit) -> Hit {
         let tri = &self.triangles[raw.prim as usize];
         let uv = Vec2::new(raw.u, raw.v);
-        Hit { p: origin + dir * raw.t, t: raw.t, ng: tri.ng, ns: tri.ng, uv, tri: raw.prim, material: tri.material }
+        Hit {
+            p: origin + dir * raw.t,
+            t: raw.t,
+            ng: tri.ng,
+            ns: tri.ng,
+            uv,
+            tri: raw.prim,
+            material: tri.material,
+        }
     }
 
     /// Point on triangle `i` at barycentrics (b1, b2).
@@ -127,13 +151,21 @@ pub fn offset_origin(p: Vec3, n: Vec3) -> Vec3 {
     for k in 0..3 {
         let bits = pa[k].to_bits() as i32;
         let moved = f32::from_bits((bits + if pa[k] < 0.0 { -of_i[k] } else { of_i[k] }) as u32);
-        out[k] = if pa[k].abs() < ORIGIN { pa[k] + float_scale * n.to_array()[k] } else { moved };
+        out[k] = if pa[k].abs() < ORIGIN {
+            pa[k] + float_scale * n.to_array()[k]
+        } else {
+            moved
+        };
     }
     Vec3::from_array(out)
 }
 
 /// Origin for a ray leaving `hit` in direction `dir` (offset to the side `dir` goes to).
 pub fn spawn(hit: &Hit, dir: Vec3) -> Vec3 {
-    let n = if dir.dot(hit.ng) >= 0.0 { hit.ng } else { -hit.ng };
+    let n = if dir.dot(hit.ng) >= 0.0 {
+        hit.ng
+    } else {
+        -hit.ng
+    };
     offset_origin(hit.p, n)
 }

@@ -6,6 +6,7 @@
 pub mod accel;
 pub mod camera;
 pub mod chart;
+mod chi2;
 pub mod converge;
 pub mod distribution;
 pub mod error;
@@ -22,4 +23,3 @@ pub mod signal;
 pub mod stats;
 pub mod texture;
 pub mod warp;
-mod chi2;

@@ -7,17 +7,39 @@ use glam::Vec3;
 
 use crate::distribution::Distribution;
 use crate::geometry::Geometry;
-use crate::warp::{concentric_disk, cosine_hemisphere, onb, to_world, uniform_cone, uniform_sphere, uniform_triangle};
+use crate::warp::{
+    concentric_disk, cosine_hemisphere, onb, to_world, uniform_cone, uniform_sphere,
+    uniform_triangle,
+};
 
 #[derive(Clone, Debug)]
 pub enum Light {
     /// An emissive triangle; `le` is its radiance, emitted toward `n`.
-    Area { tri: u32, le: Vec3, n: Vec3, area: f32 },
-    Point { pos: Vec3, intensity: Vec3 },
+    Area {
+        tri: u32,
+        le: Vec3,
+        n: Vec3,
+        area: f32,
+    },
+    Point {
+        pos: Vec3,
+        intensity: Vec3,
+    },
     /// Full intensity within `cos_falloff`, zero beyond `cos_cone`, linear in angle between (as Mitsuba's spot).
-    Spot { pos: Vec3, dir: Vec3, intensity: Vec3, cone: f32, falloff: f32 },
+    Spot {
+        pos: Vec3,
+        dir: Vec3,
+        intensity: Vec3,
+        cone: f32,
+        falloff: f32,
+    },
     /// `dir` is the way light travels; the scene's bounding sphere (`center`, `radius`) bounds its photons.
-    Directional { dir: Vec3, irradiance: Vec3, center: Vec3, radius: f32 },
+    Directional {
+        dir: Vec3,
+        irradiance: Vec3,
+        center: Vec3,
+        radius: f32,
+    },
 }
 
 /// Light arriving at a shading point from one sampled light position.
@@ -80,7 +102,12 @@ impl Light {
         match *self {
             Light::Area { le, area, .. } => le * PI * area,
             Light::Point { intensity, .. } => intensity * 4.0 * PI,
-            Light::Spot { intensity, cone, falloff, .. } => {
+            Light::Spot {
+                intensity,
+                cone,
+                falloff,
+                ..
+            } => {
                 // ∫ falloff dω over the cone, by the midpoint rule in θ.
                 let steps = 512;
                 let dt = cone / steps as f32;
@@ -92,7 +119,9 @@ impl Light {
                     .sum();
                 intensity * 2.0 * PI * s
             }
-            Light::Directional { irradiance, radius, .. } => irradiance * PI * radius * radius,
+            Light::Directional {
+                irradiance, radius, ..
+            } => irradiance * PI * radius * radius,
         }
     }
 }
@@ -102,7 +131,17 @@ impl Lights {
     pub fn new(lights: Vec<Light>, n_triangles: usize) -> Option<Lights> {
         let weights: Vec<f64> = lights.iter().map(|l| mean(l.power())).collect();
         let select = Distribution::new(&weights)?;
-        let area_weights: Vec<f64> = lights.iter().zip(&weights).map(|(l, w)| if matches!(l, Light::Area { .. }) { *w } else { 0.0 }).collect();
+        let area_weights: Vec<f64> = lights
+            .iter()
+            .zip(&weights)
+            .map(|(l, w)| {
+                if matches!(l, Light::Area { .. }) {
+                    *w
+                } else {
+                    0.0
+                }
+            })
+            .collect();
         let select_area = Distribution::new(&area_weights);
         let mut light_of_tri = vec![u32::MAX; n_triangles];
         for (i, l) in lights.iter().enumerate() {
@@ -110,7 +149,12 @@ impl Lights {
                 light_of_tri[*tri as usize] = i as u32;
             }
         }
-        Some(Lights { lights, select, select_area, light_of_tri })
+        Some(Lights {
+            lights,
+            select,
+            select_area,
+            light_of_tri,
+        })
     }
 
     pub fn total_power(&self) -> Vec3 {
@@ -135,8 +179,14 @@ impl Lights {
     }
 
     /// The incident light from every point, spot and directional light at `p` (no randomness).
-    pub fn delta_samples<'a>(&'a self, geo: &'a Geometry, p: Vec3) -> impl Iterator<Item = LightSample> + 'a {
-        (0..self.lights.len()).filter(|&i| !matches!(self.lights[i], Light::Area { .. })).filter_map(move |i| self.sample_light(i, 1.0, geo, p, [0.5; 3]))
+    pub fn delta_samples<'a>(
+        &'a self,
+        geo: &'a Geometry,
+        p: Vec3,
+    ) -> impl Iterator<Item = LightSample> + 'a {
+        (0..self.lights.len())
+            .filter(|&i| !matches!(self.lights[i], Light::Area { .. }))
+            .filter_map(move |i| self.sample_light(i, 1.0, geo, p, [0.5; 3]))
     }
 
     /// The incident light at `p` from delta light `i` (point, spot, directional; `None` for an area
@@ -156,7 +206,14 @@ impl Lights {
         }
     }
 
-    fn sample_light(&self, i: usize, p_sel: f32, geo: &Geometry, p: Vec3, u: [f32; 3]) -> Option<LightSample> {
+    fn sample_light(
+        &self,
+        i: usize,
+        p_sel: f32,
+        geo: &Geometry,
+        p: Vec3,
+        u: [f32; 3],
+    ) -> Option<LightSample> {
         match self.lights[i] {
             Light::Area { tri, le, n, area } => {
                 let (b1, b2) = uniform_triangle([u[1], u[2]]);
@@ -173,23 +230,55 @@ impl Lights {
                     return None;
                 }
                 let pdf = p_sel * dist2 / (cos_l * area);
-                Some(LightSample { wi, dist, p_light: q, n_light: n, li: le, pdf, delta: false })
+                Some(LightSample {
+                    wi,
+                    dist,
+                    p_light: q,
+                    n_light: n,
+                    li: le,
+                    pdf,
+                    delta: false,
+                })
             }
             Light::Point { pos, intensity } => {
                 let d = pos - p;
                 let dist2 = d.length_squared();
                 let dist = dist2.sqrt();
-                Some(LightSample { wi: d / dist, dist, p_light: pos, n_light: Vec3::ZERO, li: intensity / dist2, pdf: p_sel, delta: true })
+                Some(LightSample {
+                    wi: d / dist,
+                    dist,
+                    p_light: pos,
+                    n_light: Vec3::ZERO,
+                    li: intensity / dist2,
+                    pdf: p_sel,
+                    delta: true,
+                })
             }
-            Light::Spot { pos, dir, intensity, cone, falloff } => {
+            Light::Spot {
+                pos,
+                dir,
+                intensity,
+                cone,
+                falloff,
+            } => {
                 let d = pos - p;
                 let dist2 = d.length_squared();
                 let dist = dist2.sqrt();
                 let wi = d / dist;
                 let f = Light::spot_falloff((-wi).dot(dir), cone, falloff);
-                (f > 0.0).then_some(LightSample { wi, dist, p_light: pos, n_light: Vec3::ZERO, li: intensity * f / dist2, pdf: p_sel, delta: true })
+                (f > 0.0).then_some(LightSample {
+                    wi,
+                    dist,
+                    p_light: pos,
+                    n_light: Vec3::ZERO,
+                    li: intensity * f / dist2,
+                    pdf: p_sel,
+                    delta: true,
+                })
             }
-            Light::Directional { dir, irradiance, .. } => Some(LightSample {
+            Light::Directional {
+                dir, irradiance, ..
+            } => Some(LightSample {
                 wi: -dir,
                 dist: f32::INFINITY,
                 p_light: p - dir * 1e30,
@@ -207,11 +296,15 @@ impl Lights {
     }
 
     fn pdf_hit_with(&self, select: &Distribution, tri: u32, p: Vec3, q: Vec3) -> f32 {
-        let Some(&li) = self.light_of_tri.get(tri as usize) else { return 0.0 };
+        let Some(&li) = self.light_of_tri.get(tri as usize) else {
+            return 0.0;
+        };
         if li == u32::MAX {
             return 0.0;
         }
-        let Light::Area { n, area, .. } = self.lights[li as usize] else { return 0.0 };
+        let Light::Area { n, area, .. } = self.lights[li as usize] else {
+            return 0.0;
+        };
         let d = q - p;
         let dist2 = d.length_squared();
         let cos_l = (-d.normalize()).dot(n);
@@ -231,24 +324,59 @@ impl Lights {
                 let origin = geo.point_on(tri, b1, b2);
                 let dir = to_world(n, cosine_hemisphere([u[3], u[4]]));
                 // Le cos / (pdf_area · pdf_dir) = Le cos · A · π / cos = Le A π.
-                Some(Emission { origin, dir, power: le * area * PI / p_sel, n, light: i })
+                Some(Emission {
+                    origin,
+                    dir,
+                    power: le * area * PI / p_sel,
+                    n,
+                    light: i,
+                })
             }
             Light::Point { pos, intensity } => {
                 let dir = uniform_sphere([u[3], u[4]]);
-                Some(Emission { origin: pos, dir, power: intensity * 4.0 * PI / p_sel, n: Vec3::ZERO, light: i })
+                Some(Emission {
+                    origin: pos,
+                    dir,
+                    power: intensity * 4.0 * PI / p_sel,
+                    n: Vec3::ZERO,
+                    light: i,
+                })
             }
-            Light::Spot { pos, dir: axis, intensity, cone, falloff } => {
+            Light::Spot {
+                pos,
+                dir: axis,
+                intensity,
+                cone,
+                falloff,
+            } => {
                 let cos_max = cone.cos();
                 let dir = to_world(axis, uniform_cone([u[3], u[4]], cos_max));
                 let f = Light::spot_falloff(dir.dot(axis), cone, falloff);
                 let pdf = 1.0 / (2.0 * PI * (1.0 - cos_max)).max(1e-12);
-                Some(Emission { origin: pos, dir, power: intensity * f / (pdf * p_sel), n: Vec3::ZERO, light: i })
+                Some(Emission {
+                    origin: pos,
+                    dir,
+                    power: intensity * f / (pdf * p_sel),
+                    n: Vec3::ZERO,
+                    light: i,
+                })
             }
-            Light::Directional { dir, irradiance, center, radius } => {
+            Light::Directional {
+                dir,
+                irradiance,
+                center,
+                radius,
+            } => {
                 let (t, b) = onb(dir);
                 let d = concentric_disk([u[1], u[2]]) * radius;
                 let origin = center - dir * (2.0 * radius) + t * d.x + b * d.y;
-                Some(Emission { origin, dir, power: irradiance * PI * radius * radius / p_sel, n: Vec3::ZERO, light: i })
+                Some(Emission {
+                    origin,
+                    dir,
+                    power: irradiance * PI * radius * radius / p_sel,
+                    n: Vec3::ZERO,
+                    light: i,
+                })
             }
         }
     }
@@ -270,26 +398,53 @@ mod tests {
     /// Two emissive triangles of different area and radiance above the origin.
     fn two_emitters() -> (Geometry, Lights) {
         let positions = vec![
-            Vec3::new(-1.0, -0.5, 1.0), Vec3::new(0.5, -0.5, 1.0), Vec3::new(-1.0, 1.0, 1.0),
-            Vec3::new(0.5, 0.5, 2.0), Vec3::new(2.0, 0.5, 2.0), Vec3::new(0.5, 1.5, 1.5),
+            Vec3::new(-1.0, -0.5, 1.0),
+            Vec3::new(0.5, -0.5, 1.0),
+            Vec3::new(-1.0, 1.0, 1.0),
+            Vec3::new(0.5, 0.5, 2.0),
+            Vec3::new(2.0, 0.5, 2.0),
+            Vec3::new(0.5, 1.5, 1.5),
         ];
-        let mut geo = Geometry { normals: vec![Vec3::ZERO; 6], uvs: vec![glam::Vec2::ZERO; 6], positions, ..Default::default() };
+        let mut geo = Geometry {
+            normals: vec![Vec3::ZERO; 6],
+            uvs: vec![glam::Vec2::ZERO; 6],
+            positions,
+            ..Default::default()
+        };
         let mut lights = Vec::new();
         for (k, le) in [(0u32, 2.0f32), (1, 5.0)] {
             let v = [3 * k, 3 * k + 1, 3 * k + 2];
             let [a, b, c] = v.map(|i| geo.positions[i as usize]);
             let cr = (b - a).cross(c - a);
             // Face the origin (downward).
-            let (v, ng) = if cr.z > 0.0 { ([v[0], v[2], v[1]], -cr.normalize()) } else { (v, cr.normalize()) };
-            geo.triangles.push(Triangle { v, material: 0, ng, area: 0.5 * cr.length(), has_normals: false, has_uv: false });
-            lights.push(Light::Area { tri: k, le: Vec3::splat(le), n: ng, area: 0.5 * cr.length() });
+            let (v, ng) = if cr.z > 0.0 {
+                ([v[0], v[2], v[1]], -cr.normalize())
+            } else {
+                (v, cr.normalize())
+            };
+            geo.triangles.push(Triangle {
+                v,
+                material: 0,
+                ng,
+                area: 0.5 * cr.length(),
+                has_normals: false,
+                has_uv: false,
+            });
+            lights.push(Light::Area {
+                tri: k,
+                le: Vec3::splat(le),
+                n: ng,
+                area: 0.5 * cr.length(),
+            });
         }
         let n = geo.triangles.len();
         (geo, Lights::new(lights, n).unwrap())
     }
 
     fn ray_triangle(geo: &Geometry, tri: u32, o: Vec3, d: Vec3) -> Option<Vec3> {
-        let [a, b, c] = geo.triangles[tri as usize].v.map(|i| geo.positions[i as usize]);
+        let [a, b, c] = geo.triangles[tri as usize]
+            .v
+            .map(|i| geo.positions[i as usize]);
         let (e1, e2) = (b - a, c - a);
         let pv = d.cross(e2);
         let det = e1.dot(pv);
@@ -309,9 +464,17 @@ mod tests {
         let (geo, lights) = two_emitters();
         let p = Vec3::ZERO;
         let mut rng = photon::sampling::Rng::new(2);
-        let mut sample = |_: usize| lights.sample(&geo, p, [rng.uniform(), rng.uniform(), rng.uniform()]).map(|s| s.wi);
+        let mut sample = |_: usize| {
+            lights
+                .sample(&geo, p, [rng.uniform(), rng.uniform(), rng.uniform()])
+                .map(|s| s.wi)
+        };
         let pdf = |wi: Vec3| -> f64 {
-            (0..2u32).filter_map(|t| ray_triangle(&geo, t, p, wi).map(|q| lights.pdf_hit(t, p, q) as f64)).sum()
+            (0..2u32)
+                .filter_map(|t| {
+                    ray_triangle(&geo, t, p, wi).map(|q| lights.pdf_hit(t, p, q) as f64)
+                })
+                .sum()
         };
         let (stat, limit) = crate::chi2::run(300_000, &mut sample, &pdf);
         assert!(stat < limit, "χ² = {stat} ≥ {limit}");
@@ -336,18 +499,28 @@ mod tests {
         }
         let mean = sum / n as f32;
         let total = lights.total_power();
-        assert!(((mean - total).length() / total.length()) < 1e-3, "{mean} vs {total}");
+        assert!(
+            ((mean - total).length() / total.length()) < 1e-3,
+            "{mean} vs {total}"
+        );
     }
 
     #[test]
     fn spot_power_matches_falloff_integral() {
         // Linear-in-angle falloff between 20° and 30°: compare with a fine numerical integral.
-        let l = Light::Spot { pos: Vec3::ZERO, dir: Vec3::Z, intensity: Vec3::ONE, cone: 30f32.to_radians(), falloff: 20f32.to_radians() };
+        let l = Light::Spot {
+            pos: Vec3::ZERO,
+            dir: Vec3::Z,
+            intensity: Vec3::ONE,
+            cone: 30f32.to_radians(),
+            falloff: 20f32.to_radians(),
+        };
         let steps = 100_000;
         let mut s = 0.0f64;
         for i in 0..steps {
             let t = (i as f64 + 0.5) / steps as f64 * std::f64::consts::PI;
-            let f = Light::spot_falloff(t.cos() as f32, 30f32.to_radians(), 20f32.to_radians()) as f64;
+            let f =
+                Light::spot_falloff(t.cos() as f32, 30f32.to_radians(), 20f32.to_radians()) as f64;
             s += f * t.sin() * std::f64::consts::PI / steps as f64;
         }
         let expected = 2.0 * std::f64::consts::PI * s;

@@ -11,10 +11,22 @@ use crate::warp::{cosine_hemisphere, reflect, to_world};
 
 #[derive(Clone, Debug, PartialEq)]
 pub enum Bsdf {
-    Diffuse { albedo: Vec3, texture: Option<usize> },
-    Mirror { reflectance: Vec3 },
-    Glass { ior: f32, transmittance: Vec3 },
-    Glossy { albedo: Vec3, specular: Vec3, exponent: f32 },
+    Diffuse {
+        albedo: Vec3,
+        texture: Option<usize>,
+    },
+    Mirror {
+        reflectance: Vec3,
+    },
+    Glass {
+        ior: f32,
+        transmittance: Vec3,
+    },
+    Glossy {
+        albedo: Vec3,
+        specular: Vec3,
+        exponent: f32,
+    },
     /// The invisible boundary of a medium (index-matched): light crosses it unchanged.
     Null,
 }
@@ -72,7 +84,9 @@ impl Bsdf {
         }
         match *self {
             Bsdf::Diffuse { .. } => kd / PI,
-            Bsdf::Glossy { specular, exponent, .. } => {
+            Bsdf::Glossy {
+                specular, exponent, ..
+            } => {
                 let cos_a = reflect(wo, n).dot(wi).max(0.0);
                 kd / PI + specular * ((exponent + 2.0) / (2.0 * PI) * cos_a.powf(exponent))
             }
@@ -98,7 +112,9 @@ impl Bsdf {
         }
         match *self {
             Bsdf::Diffuse { .. } => cos_i / PI,
-            Bsdf::Glossy { specular, exponent, .. } => {
+            Bsdf::Glossy {
+                specular, exponent, ..
+            } => {
                 let pd = Self::glossy_diffuse_prob(kd, specular);
                 let cos_a = reflect(wo, n).dot(wi).max(0.0);
                 pd * cos_i / PI + (1.0 - pd) * (exponent + 1.0) / (2.0 * PI) * cos_a.powf(exponent)
@@ -107,14 +123,29 @@ impl Bsdf {
         }
     }
 
-    pub fn sample(&self, kd: Vec3, n: Vec3, wo: Vec3, front: bool, u: [f32; 3], mode: Transport) -> Option<BsdfSample> {
+    pub fn sample(
+        &self,
+        kd: Vec3,
+        n: Vec3,
+        wo: Vec3,
+        front: bool,
+        u: [f32; 3],
+        mode: Transport,
+    ) -> Option<BsdfSample> {
         match *self {
             Bsdf::Diffuse { .. } => {
                 let wi = to_world(n, cosine_hemisphere([u[0], u[1]]));
                 let pdf = wi.dot(n) / PI;
-                (pdf > 0.0).then_some(BsdfSample { wi, weight: kd, pdf, delta: false })
+                (pdf > 0.0).then_some(BsdfSample {
+                    wi,
+                    weight: kd,
+                    pdf,
+                    delta: false,
+                })
             }
-            Bsdf::Glossy { specular, exponent, .. } => {
+            Bsdf::Glossy {
+                specular, exponent, ..
+            } => {
                 let pd = Self::glossy_diffuse_prob(kd, specular);
                 let wi = if u[2] < pd {
                     to_world(n, cosine_hemisphere([u[0], u[1]]))
@@ -130,13 +161,28 @@ impl Bsdf {
                     return None;
                 }
                 let weight = self.eval(kd, n, wo, wi) * wi.dot(n) / pdf;
-                Some(BsdfSample { wi, weight, pdf, delta: false })
+                Some(BsdfSample {
+                    wi,
+                    weight,
+                    pdf,
+                    delta: false,
+                })
             }
-            Bsdf::Mirror { reflectance } => {
-                Some(BsdfSample { wi: reflect(wo, n), weight: reflectance, pdf: 1.0, delta: true })
+            Bsdf::Mirror { reflectance } => Some(BsdfSample {
+                wi: reflect(wo, n),
+                weight: reflectance,
+                pdf: 1.0,
+                delta: true,
+            }),
+            Bsdf::Glass { ior, transmittance } => {
+                sample_glass(ior, transmittance, n, wo, front, u[2], mode)
             }
-            Bsdf::Glass { ior, transmittance } => sample_glass(ior, transmittance, n, wo, front, u[2], mode),
-            Bsdf::Null => Some(BsdfSample { wi: -wo, weight: Vec3::ONE, pdf: 1.0, delta: true }),
+            Bsdf::Null => Some(BsdfSample {
+                wi: -wo,
+                weight: Vec3::ONE,
+                pdf: 1.0,
+                delta: true,
+            }),
         }
     }
 }
@@ -157,13 +203,25 @@ pub fn fresnel_dielectric(cos_i: f32, eta: f32) -> (f32, f32) {
 /// Both lobes of smooth glass seen from `wo` for radiance: (mirror direction, F) and, unless light is
 /// totally reflected, (refracted direction, (1 − F) × transmittance / η²); a zero weight where a lobe
 /// does not exist. The weights are the expected contributions of `sample_glass`'s two outcomes.
-pub fn glass_lobes(ior: f32, transmittance: Vec3, n: Vec3, wo: Vec3, front: bool) -> [(Vec3, Vec3); 2] {
+pub fn glass_lobes(
+    ior: f32,
+    transmittance: Vec3,
+    n: Vec3,
+    wo: Vec3,
+    front: bool,
+) -> [(Vec3, Vec3); 2] {
     let (eta, f) = glass_fresnel(ior, n, wo, front);
     let reflected = (reflect(wo, n), Vec3::splat(f.0));
     if f.0 >= 1.0 {
         return [reflected, (Vec3::ZERO, Vec3::ZERO)];
     }
-    [reflected, (refracted(wo, n, eta, f), transmittance * ((1.0 - f.0) / (eta * eta)))]
+    [
+        reflected,
+        (
+            refracted(wo, n, eta, f),
+            transmittance * ((1.0 - f.0) / (eta * eta)),
+        ),
+    ]
 }
 
 /// η (transmitted over incident) for the side `wo` is on, and Fresnel's (F, cos θt) there.
@@ -179,18 +237,36 @@ fn refracted(wo: Vec3, n: Vec3, eta: f32, (_, cos_t): (f32, f32)) -> Vec3 {
     (-wo / eta + (cos_i / eta - cos_t) * n).normalize()
 }
 
-fn sample_glass(ior: f32, transmittance: Vec3, n: Vec3, wo: Vec3, front: bool, u: f32, mode: Transport) -> Option<BsdfSample> {
+fn sample_glass(
+    ior: f32,
+    transmittance: Vec3,
+    n: Vec3,
+    wo: Vec3,
+    front: bool,
+    u: f32,
+    mode: Transport,
+) -> Option<BsdfSample> {
     let (eta, fr) = glass_fresnel(ior, n, wo, front);
     let f = fr.0;
     if u < f {
-        return Some(BsdfSample { wi: reflect(wo, n), weight: Vec3::ONE, pdf: f, delta: true });
+        return Some(BsdfSample {
+            wi: reflect(wo, n),
+            weight: Vec3::ONE,
+            pdf: f,
+            delta: true,
+        });
     }
     let wi = refracted(wo, n, eta, fr);
     let scale = match mode {
         Transport::Radiance => 1.0 / (eta * eta),
         Transport::Importance => 1.0,
     };
-    Some(BsdfSample { wi, weight: transmittance * scale, pdf: 1.0 - f, delta: true })
+    Some(BsdfSample {
+        wi,
+        weight: transmittance * scale,
+        pdf: 1.0 - f,
+        delta: true,
+    })
 }
 
 #[cfg(test)]
@@ -201,7 +277,11 @@ mod tests {
     fn glass_lobes_are_the_expected_outcomes_of_sampling() {
         let n = Vec3::Z;
         let t = Vec3::new(1.0, 0.9, 0.8);
-        for (wo, front) in [(Vec3::new(0.3, 0.1, 0.95).normalize(), true), (Vec3::new(0.8, 0.0, 0.6), false), (Vec3::new(0.2, 0.0, 0.98).normalize(), false)] {
+        for (wo, front) in [
+            (Vec3::new(0.3, 0.1, 0.95).normalize(), true),
+            (Vec3::new(0.8, 0.0, 0.6), false),
+            (Vec3::new(0.2, 0.0, 0.98).normalize(), false),
+        ] {
             let lobes = glass_lobes(1.5, t, n, wo, front);
             // Sampling's two outcomes over a fine grid of u, weighted by how often each is drawn.
             let m = 10_000;
@@ -217,8 +297,16 @@ mod tests {
                     refr += s.weight / m as f32;
                 }
             }
-            assert!((refl - lobes[0].1).abs().max_element() < 1e-3, "{refl} vs {:?}", lobes[0]);
-            assert!((refr - lobes[1].1).abs().max_element() < 1e-3, "{refr} vs {:?}", lobes[1]);
+            assert!(
+                (refl - lobes[0].1).abs().max_element() < 1e-3,
+                "{refl} vs {:?}",
+                lobes[0]
+            );
+            assert!(
+                (refr - lobes[1].1).abs().max_element() < 1e-3,
+                "{refr} vs {:?}",
+                lobes[1]
+            );
         }
         // Beyond the critical angle inside the glass: reflection only.
         let lobes = glass_lobes(1.5, t, n, Vec3::new(0.9, 0.0, 0.4359).normalize(), false);
@@ -242,13 +330,21 @@ mod tests {
         let s = sample_glass(1.5, Vec3::ONE, n, wo, true, 0.999, Transport::Importance).unwrap();
         let sin_i = 0.6;
         let sin_t = (1.0 - s.wi.z * s.wi.z).sqrt();
-        assert!((sin_i - 1.5 * sin_t).abs() < 1e-5, "{sin_i} vs {}", 1.5 * sin_t);
+        assert!(
+            (sin_i - 1.5 * sin_t).abs() < 1e-5,
+            "{sin_i} vs {}",
+            1.5 * sin_t
+        );
         assert!(s.wi.z < 0.0 && s.wi.x < 0.0);
     }
 
     #[test]
     fn glossy_conserves_energy_at_grazing_and_normal() {
-        let bsdf = Bsdf::Glossy { albedo: Vec3::splat(0.0), specular: Vec3::splat(1.0), exponent: 20.0 };
+        let bsdf = Bsdf::Glossy {
+            albedo: Vec3::splat(0.0),
+            specular: Vec3::splat(1.0),
+            exponent: 20.0,
+        };
         let n = Vec3::Z;
         for wo in [Vec3::Z, Vec3::new(0.8, 0.0, 0.6).normalize()] {
             let mut rng = photon::sampling::Rng::new(3);
@@ -270,7 +366,9 @@ mod tests {
         let mut rng = photon::sampling::Rng::new(11);
         let mut sample = |_: usize| {
             let u = [rng.uniform(), rng.uniform(), rng.uniform()];
-            bsdf.sample(kd, n, wo, true, u, Transport::Radiance).filter(|s| s.wi.z > 0.0).map(|s| s.wi)
+            bsdf.sample(kd, n, wo, true, u, Transport::Radiance)
+                .filter(|s| s.wi.z > 0.0)
+                .map(|s| s.wi)
         };
         let pdf = |wi: Vec3| bsdf.pdf(kd, n, wo, wi) as f64;
         let (stat, limit) = crate::chi2::run(400_000, &mut sample, &pdf);
@@ -279,14 +377,33 @@ mod tests {
 
     #[test]
     fn chi2_diffuse_sampling() {
-        chi2_bsdf(Bsdf::Diffuse { albedo: Vec3::splat(0.5), texture: None }, Vec3::splat(0.5), Vec3::new(0.3, 0.2, 0.9).normalize());
+        chi2_bsdf(
+            Bsdf::Diffuse {
+                albedo: Vec3::splat(0.5),
+                texture: None,
+            },
+            Vec3::splat(0.5),
+            Vec3::new(0.3, 0.2, 0.9).normalize(),
+        );
     }
 
     #[test]
     fn chi2_glossy_sampling() {
-        for (exponent, wo) in [(10.0, Vec3::new(0.5, 0.1, 0.8)), (60.0, Vec3::new(-0.2, 0.4, 0.6)), (3.0, Vec3::Z)] {
+        for (exponent, wo) in [
+            (10.0, Vec3::new(0.5, 0.1, 0.8)),
+            (60.0, Vec3::new(-0.2, 0.4, 0.6)),
+            (3.0, Vec3::Z),
+        ] {
             let kd = Vec3::splat(0.3);
-            chi2_bsdf(Bsdf::Glossy { albedo: kd, specular: Vec3::splat(0.5), exponent }, kd, wo.normalize());
+            chi2_bsdf(
+                Bsdf::Glossy {
+                    albedo: kd,
+                    specular: Vec3::splat(0.5),
+                    exponent,
+                },
+                kd,
+                wo.normalize(),
+            );
         }
     }
 
@@ -294,8 +411,19 @@ mod tests {
     fn chi2_detects_a_wrong_pdf() {
         // The test itself must be able to fail: a cosine sampler checked against a uniform pdf.
         let mut rng = photon::sampling::Rng::new(5);
-        let mut sample = |_: usize| Some(crate::warp::cosine_hemisphere([rng.uniform(), rng.uniform()]));
-        let pdf = |wi: Vec3| if wi.z > 0.0 { 1.0 / (2.0 * std::f64::consts::PI) } else { 0.0 };
+        let mut sample = |_: usize| {
+            Some(crate::warp::cosine_hemisphere([
+                rng.uniform(),
+                rng.uniform(),
+            ]))
+        };
+        let pdf = |wi: Vec3| {
+            if wi.z > 0.0 {
+                1.0 / (2.0 * std::f64::consts::PI)
+            } else {
+                0.0
+            }
+        };
         let (stat, limit) = crate::chi2::run(100_000, &mut sample, &pdf);
         assert!(stat > limit);
     }

@@ -38,12 +38,22 @@ pub enum Flight {
 
 impl Medium {
     pub fn new(name: String, sigma_a: Vec3, sigma_s: Vec3, g: f32) -> Medium {
-        Medium { name, sigma_a, sigma_s, sigma_t: sigma_a + sigma_s, g }
+        Medium {
+            name,
+            sigma_a,
+            sigma_s,
+            sigma_t: sigma_a + sigma_s,
+            g,
+        }
     }
 
     /// exp(−σt·d) per channel (1 for d = 0, 0 for d = ∞ unless σt = 0).
     pub fn transmittance(&self, d: f32) -> Vec3 {
-        Vec3::new(tr(self.sigma_t.x, d), tr(self.sigma_t.y, d), tr(self.sigma_t.z, d))
+        Vec3::new(
+            tr(self.sigma_t.x, d),
+            tr(self.sigma_t.y, d),
+            tr(self.sigma_t.z, d),
+        )
     }
 
     /// Samples a free-flight distance along a segment of length `t_max` (may be infinite) by channel
@@ -65,23 +75,40 @@ impl Medium {
         let s = self.sigma_t[hero];
         if self.sigma_s == Vec3::ZERO {
             *tau -= s * t_max;
-            return Flight::Through { weight: self.transmittance(t_max), ratio: Vec3::ONE };
+            return Flight::Through {
+                weight: self.transmittance(t_max),
+                ratio: Vec3::ONE,
+            };
         }
         let t = if s > 0.0 { *tau / s } else { f32::INFINITY };
         if t < t_max {
             let tr = self.transmittance(t);
             let pdf = self.sigma_t * tr;
             if !(pdf[hero] > 0.0) {
-                return Flight::Scatter { t, weight: Vec3::ZERO, ratio: Vec3::ONE };
+                return Flight::Scatter {
+                    t,
+                    weight: Vec3::ZERO,
+                    ratio: Vec3::ONE,
+                };
             }
-            Flight::Scatter { t, weight: tr * self.sigma_s / pdf[hero], ratio: pdf / pdf[hero] }
+            Flight::Scatter {
+                t,
+                weight: tr * self.sigma_s / pdf[hero],
+                ratio: pdf / pdf[hero],
+            }
         } else {
             *tau -= s * t_max;
             let tr = self.transmittance(t_max);
             if !(tr[hero] > 0.0) {
-                return Flight::Through { weight: Vec3::ZERO, ratio: Vec3::ONE };
+                return Flight::Through {
+                    weight: Vec3::ZERO,
+                    ratio: Vec3::ONE,
+                };
             }
-            Flight::Through { weight: tr / tr[hero], ratio: tr / tr[hero] }
+            Flight::Through {
+                weight: tr / tr[hero],
+                ratio: tr / tr[hero],
+            }
         }
     }
 
@@ -146,8 +173,18 @@ mod tests {
     /// as e^{1.33 t} in σs = (2, 1, 4)).
     #[test]
     fn photon_flights_carry_their_optical_depth_across_media() {
-        let a = Medium::new("a".into(), Vec3::new(0.5, 0.0, 0.2), Vec3::new(2.0, 1.0, 4.0), 0.0);
-        let b = Medium::new("b".into(), Vec3::new(0.0, 0.3, 0.0), Vec3::new(0.5, 1.5, 0.1), 0.0);
+        let a = Medium::new(
+            "a".into(),
+            Vec3::new(0.5, 0.0, 0.2),
+            Vec3::new(2.0, 1.0, 4.0),
+            0.0,
+        );
+        let b = Medium::new(
+            "b".into(),
+            Vec3::new(0.0, 0.3, 0.0),
+            Vec3::new(0.5, 1.5, 0.1),
+            0.0,
+        );
         let (da, db) = (0.4, 0.6);
         let mut rng = Rng::new(5);
         let n = 400_000;
@@ -165,11 +202,17 @@ mod tests {
             };
             match b.photon_segment(db, hero, &mut tau) {
                 Flight::Through { weight, ratio } => through += w * weight / mean(r * ratio),
-                Flight::Scatter { weight, ratio, .. } => max = max.max((w * weight / mean(r * ratio)).max_element()),
+                Flight::Scatter { weight, ratio, .. } => {
+                    max = max.max((w * weight / mean(r * ratio)).max_element())
+                }
             }
         }
         let expect = a.transmittance(da) * b.transmittance(db);
-        assert!((through / n as f32 - expect).abs().max_element() < 0.01, "through {} vs {expect}", through / n as f32);
+        assert!(
+            (through / n as f32 - expect).abs().max_element() < 0.01,
+            "through {} vs {expect}",
+            through / n as f32
+        );
         assert!(max <= 3.0 + 1e-3, "largest weight {max}");
     }
 
@@ -178,7 +221,13 @@ mod tests {
         for g in [-0.7f32, 0.0, 0.3, 0.9] {
             // ∫ p dω = 2π ∫ p(μ) dμ, midpoint rule on a fine grid.
             let n = 200_000;
-            let integral: f64 = (0..n).map(|i| hg(g, -1.0 + 2.0 * (i as f32 + 0.5) / n as f32) as f64).sum::<f64>() * 2.0 / n as f64 * 2.0 * std::f64::consts::PI;
+            let integral: f64 = (0..n)
+                .map(|i| hg(g, -1.0 + 2.0 * (i as f32 + 0.5) / n as f32) as f64)
+                .sum::<f64>()
+                * 2.0
+                / n as f64
+                * 2.0
+                * std::f64::consts::PI;
             assert!((integral - 1.0).abs() < 2e-3, "g {g}: ∫p = {integral}");
             let mut rng = Rng::new(7);
             let d = Vec3::new(0.3, -0.5, 0.8).normalize();
@@ -186,7 +235,11 @@ mod tests {
             let mut mean = 0.0f64;
             for _ in 0..m {
                 let (wi, pdf) = sample_phase(g, d, [rng.uniform(), rng.uniform()]);
-                assert!((pdf - phase(g, d, wi)).abs() <= 1e-3 * pdf.max(1.0), "pdf {pdf} vs {}", phase(g, d, wi));
+                assert!(
+                    (pdf - phase(g, d, wi)).abs() <= 1e-3 * pdf.max(1.0),
+                    "pdf {pdf} vs {}",
+                    phase(g, d, wi)
+                );
                 mean += d.dot(wi) as f64;
             }
             mean /= m as f64;
@@ -198,7 +251,12 @@ mod tests {
     fn free_flights_are_unbiased_for_coloured_media() {
         // With the hero channel uniform, E[weight/mean(ratio) · 1(through)] = Tr and E[weight / σs · 1(scatter at t < T)] = (1 − e^{−σt T})/σt per
         // channel: the estimators a path tracer builds on.
-        let m = Medium::new("m".into(), Vec3::new(0.1, 0.5, 0.0), Vec3::new(0.4, 0.5, 0.2), 0.0);
+        let m = Medium::new(
+            "m".into(),
+            Vec3::new(0.1, 0.5, 0.0),
+            Vec3::new(0.4, 0.5, 0.2),
+            0.0,
+        );
         let t_max = 2.0;
         let mut rng = Rng::new(3);
         let n = 400_000;
@@ -217,9 +275,22 @@ mod tests {
         let expect_t = m.transmittance(t_max);
         for c in 0..3 {
             let s = m.sigma_t[c];
-            let expect_s = if s > 0.0 { (1.0 - (-s * t_max).exp()) / s } else { t_max };
-            assert!((scatter[c] - expect_s).abs() < 0.01 * expect_s.max(0.1), "channel {c}: ∫Tr {} vs {expect_s}", scatter[c]);
-            assert!((through[c] - expect_t[c]).abs() < 0.01, "channel {c}: Tr {} vs {}", through[c], expect_t[c]);
+            let expect_s = if s > 0.0 {
+                (1.0 - (-s * t_max).exp()) / s
+            } else {
+                t_max
+            };
+            assert!(
+                (scatter[c] - expect_s).abs() < 0.01 * expect_s.max(0.1),
+                "channel {c}: ∫Tr {} vs {expect_s}",
+                scatter[c]
+            );
+            assert!(
+                (through[c] - expect_t[c]).abs() < 0.01,
+                "channel {c}: Tr {} vs {}",
+                through[c],
+                expect_t[c]
+            );
         }
     }
 }

@@ -34,7 +34,9 @@ pub fn install() -> std::io::Result<()> {
         // handler only performs atomic stores, which are async-signal-safe.
         let rc = unsafe {
             let mut old: libc::sigaction = std::mem::zeroed();
-            if libc::sigaction(sig, std::ptr::null(), &mut old) == 0 && old.sa_sigaction == libc::SIG_IGN {
+            if libc::sigaction(sig, std::ptr::null(), &mut old) == 0
+                && old.sa_sigaction == libc::SIG_IGN
+            {
                 continue;
             }
             let mut sa: libc::sigaction = std::mem::zeroed();
@@ -47,7 +49,9 @@ pub fn install() -> std::io::Result<()> {
             return Err(std::io::Error::last_os_error());
         }
     }
-    std::thread::Builder::new().name("pmrender-watchdog".into()).spawn(watchdog)?;
+    std::thread::Builder::new()
+        .name("pmrender-watchdog".into())
+        .spawn(watchdog)?;
     Ok(())
 }
 
@@ -78,7 +82,10 @@ fn watchdog() {
         Err(p) => p.into_inner(),
     };
     if *guard {
-        eprintln!("pmrender: interrupted (stopped by the watchdog {} ms after the signal)", GRACE.as_millis());
+        eprintln!(
+            "pmrender: interrupted (stopped by the watchdog {} ms after the signal)",
+            GRACE.as_millis()
+        );
         // SAFETY: `_exit` ends the process without running atexit handlers or destructors, which
         // other threads may still be using; no output file exists while the watchdog is armed.
         unsafe { libc::_exit(exit_code()) };

@@ -33,7 +33,13 @@ pub fn fmt_count(n: f64) -> String {
 
 impl Report {
     fn push(&mut self, category: &str, title: &str, key: &str, value: Value, shown: String) {
-        self.rows.push(Row { category: category.into(), title: title.into(), key: key.into(), value, shown });
+        self.rows.push(Row {
+            category: category.into(),
+            title: title.into(),
+            key: key.into(),
+            value,
+            shown,
+        });
     }
 
     pub fn count(&mut self, category: &str, title: &str, key: &str, n: u64) {
@@ -49,11 +55,23 @@ impl Report {
     }
 
     pub fn bytes(&mut self, category: &str, title: &str, key: &str, b: u64) {
-        self.push(category, title, key, Value::from(b), format!("{:.2} MiB", b as f64 / (1 << 20) as f64));
+        self.push(
+            category,
+            title,
+            key,
+            Value::from(b),
+            format!("{:.2} MiB", b as f64 / (1 << 20) as f64),
+        );
     }
 
     pub fn percent(&mut self, category: &str, title: &str, key: &str, fraction: f64) {
-        self.push(category, title, key, Value::from(fraction), format!("{:.2} %", fraction * 100.0));
+        self.push(
+            category,
+            title,
+            key,
+            Value::from(fraction),
+            format!("{:.2} %", fraction * 100.0),
+        );
     }
 
     pub fn text(&mut self, category: &str, title: &str, key: &str, s: &str) {
@@ -71,7 +89,9 @@ impl Report {
             let parts: Vec<&str> = r.key.split('.').collect();
             let mut node = &mut root;
             for p in &parts[..parts.len() - 1] {
-                let entry = node.entry(p.to_string()).or_insert_with(|| Value::Object(Map::new()));
+                let entry = node
+                    .entry(p.to_string())
+                    .or_insert_with(|| Value::Object(Map::new()));
                 if !entry.is_object() {
                     *entry = Value::Object(Map::new());
                 }
@@ -109,9 +129,11 @@ pub fn peak_rss_bytes() -> u64 {
     std::fs::read_to_string("/proc/self/status")
         .ok()
         .and_then(|s| {
-            s.lines()
-                .find(|l| l.starts_with("VmHWM:"))
-                .and_then(|l| l.split_whitespace().nth(1).and_then(|k| k.parse::<u64>().ok()))
+            s.lines().find(|l| l.starts_with("VmHWM:")).and_then(|l| {
+                l.split_whitespace()
+                    .nth(1)
+                    .and_then(|k| k.parse::<u64>().ok())
+            })
         })
         .map(|kb| kb * 1024)
         .unwrap_or(0)

@@ -39,9 +39,21 @@ pub fn resolve(dir: &Path, name: &str) -> Result<PathBuf, String> {
         _ => PathBuf::from("."),
     };
     let not_found = || format!("not found in '{}'", parent.display());
-    let wanted = direct.file_name().ok_or_else(not_found)?.to_string_lossy().to_lowercase();
-    let same_name = |p: &PathBuf| p.file_name().is_some_and(|f| f.to_string_lossy().to_lowercase() == wanted);
-    let candidates: Vec<PathBuf> = std::fs::read_dir(&parent).map_err(|_| not_found())?.flatten().map(|e| e.path()).filter(same_name).collect();
+    let wanted = direct
+        .file_name()
+        .ok_or_else(not_found)?
+        .to_string_lossy()
+        .to_lowercase();
+    let same_name = |p: &PathBuf| {
+        p.file_name()
+            .is_some_and(|f| f.to_string_lossy().to_lowercase() == wanted)
+    };
+    let candidates: Vec<PathBuf> = std::fs::read_dir(&parent)
+        .map_err(|_| not_found())?
+        .flatten()
+        .map(|e| e.path())
+        .filter(same_name)
+        .collect();
     match candidates.iter().find(|p| p.is_file()) {
         Some(p) => Ok(p.clone()),
         None if direct.exists() || !candidates.is_empty() => Err("is not a regular file".into()),
@@ -65,21 +77,40 @@ impl Texture {
         if img.channels == 0 {
             return Err("image has no channels".into());
         }
-        let is_float = matches!(path.extension().and_then(|e| e.to_str()).map(str::to_lowercase).as_deref(), Some("exr" | "hdr"));
+        let is_float = matches!(
+            path.extension()
+                .and_then(|e| e.to_str())
+                .map(str::to_lowercase)
+                .as_deref(),
+            Some("exr" | "hdr")
+        );
         let nc = img.channels as usize;
         let texels = img
             .data
             .chunks_exact(nc)
             .map(|px| {
-                let v = if nc >= 3 { Vec3::new(px[0], px[1], px[2]) } else { Vec3::splat(px[0]) };
+                let v = if nc >= 3 {
+                    Vec3::new(px[0], px[1], px[2])
+                } else {
+                    Vec3::splat(px[0])
+                };
                 if is_float {
                     v
                 } else {
-                    Vec3::new(srgb_to_linear(v.x), srgb_to_linear(v.y), srgb_to_linear(v.z))
+                    Vec3::new(
+                        srgb_to_linear(v.x),
+                        srgb_to_linear(v.y),
+                        srgb_to_linear(v.z),
+                    )
                 }
             })
             .collect();
-        Ok(Texture { path: path.to_path_buf(), width: img.width, height: img.height, texels })
+        Ok(Texture {
+            path: path.to_path_buf(),
+            width: img.width,
+            height: img.height,
+            texels,
+        })
     }
 
     /// Bilinear lookup; OBJ's v runs upward, image rows downward.
@@ -95,9 +126,15 @@ impl Texture {
         // x + 1 > 0, so truncation is floor.
         let (xi, yi) = ((x + 1.0) as usize, (y + 1.0) as usize);
         let (fx, fy) = (x + 1.0 - xi as f32, y + 1.0 - yi as f32);
-        let (i0, i1, j0, j1) = (wrap(xi, w), wrap(xi + 1, w), wrap(yi, h) * w, wrap(yi + 1, h) * w);
+        let (i0, i1, j0, j1) = (
+            wrap(xi, w),
+            wrap(xi + 1, w),
+            wrap(yi, h) * w,
+            wrap(yi + 1, h) * w,
+        );
         let t = &self.texels;
-        (t[j0 + i0] * (1.0 - fx) + t[j0 + i1] * fx) * (1.0 - fy) + (t[j1 + i0] * (1.0 - fx) + t[j1 + i1] * fx) * fy
+        (t[j0 + i0] * (1.0 - fx) + t[j0 + i1] * fx) * (1.0 - fy)
+            + (t[j1 + i0] * (1.0 - fx) + t[j1 + i1] * fx) * fy
     }
 }
 
@@ -125,20 +162,35 @@ mod tests {
         let (fx, fy) = (x - x0, y - y0);
         let at = |i: i64, j: i64| t.texels[(j.rem_euclid(h) * w + i.rem_euclid(w)) as usize];
         let (i, j) = (x0 as i64, y0 as i64);
-        (at(i, j) * (1.0 - fx) + at(i + 1, j) * fx) * (1.0 - fy) + (at(i, j + 1) * (1.0 - fx) + at(i + 1, j + 1) * fx) * fy
+        (at(i, j) * (1.0 - fx) + at(i + 1, j) * fx) * (1.0 - fy)
+            + (at(i, j + 1) * (1.0 - fx) + at(i + 1, j + 1) * fx) * fy
     }
 
     #[test]
     fn lookup_wraps_like_the_division_form() {
         let mut rng = Rng::new(3);
         for (w, h) in [(1, 1), (1, 3), (2, 2), (3, 7), (16, 5)] {
-            let texels = (0..w * h).map(|i| Vec3::new(i as f32, (i * i) as f32, 1.0)).collect();
-            let t = Texture { path: PathBuf::new(), width: w, height: h, texels };
+            let texels = (0..w * h)
+                .map(|i| Vec3::new(i as f32, (i * i) as f32, 1.0))
+                .collect();
+            let t = Texture {
+                path: PathBuf::new(),
+                width: w,
+                height: h,
+                texels,
+            };
             let edges = [0.0, 1.0, -1e-9, 1.0 - 1e-9, 0.5 / w as f32, -3.0, 7.25];
-            let uvs = edges.iter().flat_map(|&u| edges.iter().map(move |&v| Vec2::new(u, v)));
-            for uv in uvs.chain((0..2000).map(|_| Vec2::new(rng.uniform() * 8.0 - 4.0, rng.uniform() * 8.0 - 4.0))) {
+            let uvs = edges
+                .iter()
+                .flat_map(|&u| edges.iter().map(move |&v| Vec2::new(u, v)));
+            for uv in uvs.chain(
+                (0..2000).map(|_| Vec2::new(rng.uniform() * 8.0 - 4.0, rng.uniform() * 8.0 - 4.0)),
+            ) {
                 let (a, b) = (t.lookup(uv), by_division(&t, uv));
-                assert!((a - b).abs().max_element() <= 1e-3 * (1.0 + b.abs().max_element()), "{w}×{h} at {uv}: {a} vs {b}");
+                assert!(
+                    (a - b).abs().max_element() <= 1e-3 * (1.0 + b.abs().max_element()),
+                    "{w}×{h} at {uv}: {a} vs {b}"
+                );
             }
             assert!(t.lookup(Vec2::new(f32::NAN, 0.5)).is_finite());
         }

@@ -13,7 +13,11 @@ fn fails(dir: &tempfile::TempDir, scene: &str, extra: &[&str], expect: &[&str]) 
     let r = run(&args);
     let stderr = String::from_utf8_lossy(&r.stderr);
     assert_eq!(r.status.code(), Some(2), "stderr: {stderr}");
-    assert_eq!(stderr.trim().lines().count(), 1, "one line expected: {stderr}");
+    assert_eq!(
+        stderr.trim().lines().count(),
+        1,
+        "one line expected: {stderr}"
+    );
     for e in expect {
         assert!(stderr.contains(e), "'{e}' not in: {stderr}");
     }
@@ -22,7 +26,11 @@ fn fails(dir: &tempfile::TempDir, scene: &str, extra: &[&str], expect: &[&str]) 
 }
 
 fn with_toml(toml: &str) -> tempfile::TempDir {
-    scene_dir(&[("room.obj", ROOM_OBJ), ("room.mtl", ROOM_MTL), ("scene.toml", toml)])
+    scene_dir(&[
+        ("room.obj", ROOM_OBJ),
+        ("room.mtl", ROOM_MTL),
+        ("scene.toml", toml),
+    ])
 }
 
 #[test]
@@ -43,7 +51,12 @@ fn malformed_toml_names_the_line() {
 #[test]
 fn unknown_key_is_an_error() {
     let d = with_toml(&ROOM_TOML.replace("fov = 45.0", "fov = 45.0\nfocal = 3"));
-    fails(&d, &p(d.path(), "scene.toml"), &[], &["scene.toml:6:", "focal"]);
+    fails(
+        &d,
+        &p(d.path(), "scene.toml"),
+        &[],
+        &["scene.toml:6:", "focal"],
+    );
 }
 
 #[test]
@@ -55,34 +68,66 @@ fn mistyped_value_is_an_error() {
 #[test]
 fn missing_obj() {
     let d = with_toml(&ROOM_TOML.replace("room.obj", "nothere.obj"));
-    fails(&d, &p(d.path(), "scene.toml"), &[], &["scene.toml:10:", "nothere.obj"]);
+    fails(
+        &d,
+        &p(d.path(), "scene.toml"),
+        &[],
+        &["scene.toml:10:", "nothere.obj"],
+    );
 }
 
 #[test]
 fn missing_mtl() {
     let d = scene_dir(&[("room.obj", ROOM_OBJ), ("scene.toml", ROOM_TOML)]);
-    fails(&d, &p(d.path(), "scene.toml"), &[], &["room.obj:1:", "room.mtl"]);
+    fails(
+        &d,
+        &p(d.path(), "scene.toml"),
+        &[],
+        &["room.obj:1:", "room.mtl"],
+    );
 }
 
 #[test]
 fn missing_texture() {
     let mtl = ROOM_MTL.replace("Kd 0.6 0.6 0.6", "Kd 0.6 0.6 0.6\nmap_Kd bricks.png");
-    let d = scene_dir(&[("room.obj", ROOM_OBJ), ("room.mtl", &mtl), ("scene.toml", ROOM_TOML)]);
-    fails(&d, &p(d.path(), "scene.toml"), &[], &["bricks.png", "not found"]);
+    let d = scene_dir(&[
+        ("room.obj", ROOM_OBJ),
+        ("room.mtl", &mtl),
+        ("scene.toml", ROOM_TOML),
+    ]);
+    fails(
+        &d,
+        &p(d.path(), "scene.toml"),
+        &[],
+        &["bricks.png", "not found"],
+    );
 }
 
 #[test]
 fn face_index_out_of_range() {
     let obj = ROOM_OBJ.replace("f 9 10 11 12", "f 9 10 11 13");
-    let d = scene_dir(&[("room.obj", &obj), ("room.mtl", ROOM_MTL), ("scene.toml", ROOM_TOML)]);
-    fails(&d, &p(d.path(), "scene.toml"), &[], &["room.obj:21:", "out of range"]);
+    let d = scene_dir(&[
+        ("room.obj", &obj),
+        ("room.mtl", ROOM_MTL),
+        ("scene.toml", ROOM_TOML),
+    ]);
+    fails(
+        &d,
+        &p(d.path(), "scene.toml"),
+        &[],
+        &["room.obj:21:", "out of range"],
+    );
 }
 
 #[test]
 fn nan_and_inf_coordinates() {
     for bad in ["nan", "inf", "-inf"] {
         let obj = ROOM_OBJ.replace("v 1 0 1", &format!("v 1 {bad} 1"));
-        let d = scene_dir(&[("room.obj", &obj), ("room.mtl", ROOM_MTL), ("scene.toml", ROOM_TOML)]);
+        let d = scene_dir(&[
+            ("room.obj", &obj),
+            ("room.mtl", ROOM_MTL),
+            ("scene.toml", ROOM_TOML),
+        ]);
         fails(&d, &p(d.path(), "scene.toml"), &[], &["room.obj:3:"]);
     }
 }
@@ -90,68 +135,145 @@ fn nan_and_inf_coordinates() {
 #[test]
 fn no_lights() {
     let mtl = ROOM_MTL.replace("Ke 10 10 10", "");
-    let d = scene_dir(&[("room.obj", ROOM_OBJ), ("room.mtl", &mtl), ("scene.toml", ROOM_TOML)]);
-    fails(&d, &p(d.path(), "scene.toml"), &[], &["scene.toml:1:", "no lights"]);
+    let d = scene_dir(&[
+        ("room.obj", ROOM_OBJ),
+        ("room.mtl", &mtl),
+        ("scene.toml", ROOM_TOML),
+    ]);
+    fails(
+        &d,
+        &p(d.path(), "scene.toml"),
+        &[],
+        &["scene.toml:1:", "no lights"],
+    );
 }
 
 #[test]
 fn zero_area_emitters_only() {
-    let obj = ROOM_OBJ.replace("v 0.25 1.99 -0.25", "v -0.25 1.99 -0.25").replace("v 0.25 1.99 0.25", "v -0.25 1.99 0.25");
-    let d = scene_dir(&[("room.obj", &obj), ("room.mtl", ROOM_MTL), ("scene.toml", ROOM_TOML)]);
+    let obj = ROOM_OBJ
+        .replace("v 0.25 1.99 -0.25", "v -0.25 1.99 -0.25")
+        .replace("v 0.25 1.99 0.25", "v -0.25 1.99 0.25");
+    let d = scene_dir(&[
+        ("room.obj", &obj),
+        ("room.mtl", ROOM_MTL),
+        ("scene.toml", ROOM_TOML),
+    ]);
     fails(&d, &p(d.path(), "scene.toml"), &[], &["zero area"]);
 }
 
 #[test]
 fn resolution_must_be_positive() {
-    for (from, to, line) in [("width = 24", "width = 0", "scene.toml:6:"), ("height = 16", "height = -3", "scene.toml:7:")] {
+    for (from, to, line) in [
+        ("width = 24", "width = 0", "scene.toml:6:"),
+        ("height = 16", "height = -3", "scene.toml:7:"),
+    ] {
         let d = with_toml(&ROOM_TOML.replace(from, to));
         fails(&d, &p(d.path(), "scene.toml"), &[], &[line]);
     }
     let d = room();
-    fails(&d, &p(d.path(), "scene.toml"), &["--width", "0"], &["--width"]);
-    fails(&d, &p(d.path(), "scene.toml"), &["--height", "-1"], &["--height"]);
+    fails(
+        &d,
+        &p(d.path(), "scene.toml"),
+        &["--width", "0"],
+        &["--width"],
+    );
+    fails(
+        &d,
+        &p(d.path(), "scene.toml"),
+        &["--height", "-1"],
+        &["--height"],
+    );
 }
 
 #[test]
 fn fov_must_be_in_open_interval() {
     for fov in ["0.0", "180.0", "-5.0", "400.0"] {
         let d = with_toml(&ROOM_TOML.replace("fov = 45.0", &format!("fov = {fov}")));
-        fails(&d, &p(d.path(), "scene.toml"), &[], &["scene.toml:5:", "fov"]);
+        fails(
+            &d,
+            &p(d.path(), "scene.toml"),
+            &[],
+            &["scene.toml:5:", "fov"],
+        );
     }
 }
 
 #[test]
 fn noise_target_must_be_in_range() {
     let d = room();
-    fails(&d, &p(d.path(), "scene.toml"), &["--noise", "2"], &["--noise", "0..=1"]);
-    fails(&d, &p(d.path(), "scene.toml"), &["--noise", "-0.1"], &["--noise"]);
+    fails(
+        &d,
+        &p(d.path(), "scene.toml"),
+        &["--noise", "2"],
+        &["--noise", "0..=1"],
+    );
+    fails(
+        &d,
+        &p(d.path(), "scene.toml"),
+        &["--noise", "-0.1"],
+        &["--noise"],
+    );
     let d = with_toml(&ROOM_TOML.replace("spp = 2", "spp = 2\nnoise = -1.0"));
-    fails(&d, &p(d.path(), "scene.toml"), &[], &["scene.toml:14:", "noise"]);
+    fails(
+        &d,
+        &p(d.path(), "scene.toml"),
+        &[],
+        &["scene.toml:14:", "noise"],
+    );
 }
 
 #[test]
 fn aa_spp_must_be_in_range() {
     let d = room();
-    fails(&d, &p(d.path(), "scene.toml"), &["--aa-spp", "0"], &["--aa-spp", "1..="]);
+    fails(
+        &d,
+        &p(d.path(), "scene.toml"),
+        &["--aa-spp", "0"],
+        &["--aa-spp", "1..="],
+    );
     let d = with_toml(&ROOM_TOML.replace("spp = 2", "spp = 2\naa_spp = -3"));
-    fails(&d, &p(d.path(), "scene.toml"), &[], &["scene.toml:14:", "aa_spp"]);
+    fails(
+        &d,
+        &p(d.path(), "scene.toml"),
+        &[],
+        &["scene.toml:14:", "aa_spp"],
+    );
 }
 
 #[test]
 fn unknown_method() {
     let d = room();
-    fails(&d, &p(d.path(), "scene.toml"), &["--method", "magic"], &["--method", "magic"]);
+    fails(
+        &d,
+        &p(d.path(), "scene.toml"),
+        &["--method", "magic"],
+        &["--method", "magic"],
+    );
     let d = with_toml(&ROOM_TOML.replace("spp = 2", "spp = 2\nmethod = \"magic\""));
-    fails(&d, &p(d.path(), "scene.toml"), &[], &["scene.toml:14:", "magic"]);
+    fails(
+        &d,
+        &p(d.path(), "scene.toml"),
+        &[],
+        &["scene.toml:14:", "magic"],
+    );
 }
 
 #[test]
 fn unwritable_output_path() {
     let d = room();
-    let r = run(&["render", &p(d.path(), "scene.toml"), "-o", "/nonexistent-dir/x.exr", "--quiet"]);
+    let r = run(&[
+        "render",
+        &p(d.path(), "scene.toml"),
+        "-o",
+        "/nonexistent-dir/x.exr",
+        "--quiet",
+    ]);
     assert_eq!(r.status.code(), Some(2));
     let stderr = String::from_utf8_lossy(&r.stderr);
-    assert!(stderr.contains("-o") && stderr.contains("nonexistent-dir"), "{stderr}");
+    assert!(
+        stderr.contains("-o") && stderr.contains("nonexistent-dir"),
+        "{stderr}"
+    );
 }
 
 #[test]
@@ -178,12 +300,24 @@ fn interrupted_render_leaves_no_output() {
     let d = tempfile::tempdir().unwrap();
     let out = d.path().join("big.exr");
     let mut child = std::process::Command::new(bin())
-        .args(["render", scene.to_str().unwrap(), "-o", out.to_str().unwrap(), "--method", "path", "--spp", "4096", "--quiet"])
+        .args([
+            "render",
+            scene.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "--method",
+            "path",
+            "--spp",
+            "4096",
+            "--quiet",
+        ])
         .spawn()
         .unwrap();
     std::thread::sleep(std::time::Duration::from_millis(1500));
     // SIGINT, as Ctrl-C sends.
-    let _ = std::process::Command::new("kill").args(["-INT", &child.id().to_string()]).status();
+    let _ = std::process::Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status();
     let status = child.wait().unwrap();
     assert!(!status.success());
     assert_eq!(status.code(), Some(130));
@@ -195,22 +329,48 @@ fn interrupted_render_leaves_no_output() {
 #[test]
 fn empty_scene() {
     let d = with_toml("version = 1\n[camera]\neye = [0.0, 1.0, 3.0]\ntarget = [0.0, 1.0, 0.0]\nfov = 45.0\nwidth = 8\nheight = 8\n");
-    fails(&d, &p(d.path(), "scene.toml"), &[], &["scene.toml:1:", "no triangles"]);
+    fails(
+        &d,
+        &p(d.path(), "scene.toml"),
+        &[],
+        &["scene.toml:1:", "no triangles"],
+    );
 }
 
 #[test]
 fn unknown_cache_fill_or_weighting() {
-    let d = with_toml(&format!("{ROOM_TOML}\n[render.icache]\naccuracy = 0.5\nfill = \"three-pass\"\n"));
-    fails(&d, &p(d.path(), "scene.toml"), &["--method", "pm"], &["scene.toml:17:", "render.icache.fill", "three-pass"]);
-    let d = with_toml(&format!("{ROOM_TOML}\n[render.icache]\nweight = \"gauss\"\n"));
-    fails(&d, &p(d.path(), "scene.toml"), &["--method", "pm"], &["scene.toml:16:", "render.icache.weight", "gauss"]);
+    let d = with_toml(&format!(
+        "{ROOM_TOML}\n[render.icache]\naccuracy = 0.5\nfill = \"three-pass\"\n"
+    ));
+    fails(
+        &d,
+        &p(d.path(), "scene.toml"),
+        &["--method", "pm"],
+        &["scene.toml:17:", "render.icache.fill", "three-pass"],
+    );
+    let d = with_toml(&format!(
+        "{ROOM_TOML}\n[render.icache]\nweight = \"gauss\"\n"
+    ));
+    fails(
+        &d,
+        &p(d.path(), "scene.toml"),
+        &["--method", "pm"],
+        &["scene.toml:16:", "render.icache.weight", "gauss"],
+    );
 }
 
 #[test]
 fn pass_a_stride_must_be_in_range() {
     for bad in ["0", "65", "-2"] {
-        let d = with_toml(&format!("{ROOM_TOML}\n[render.icache]\npass_a_stride = {bad}\n"));
-        fails(&d, &p(d.path(), "scene.toml"), &["--method", "pm"], &["scene.toml:16:", "render.icache.pass_a_stride", "1..=64"]);
+        let d = with_toml(&format!(
+            "{ROOM_TOML}\n[render.icache]\npass_a_stride = {bad}\n"
+        ));
+        fails(
+            &d,
+            &p(d.path(), "scene.toml"),
+            &["--method", "pm"],
+            &["scene.toml:16:", "render.icache.pass_a_stride", "1..=64"],
+        );
     }
 }
 
@@ -224,7 +384,15 @@ fn cache_settings_are_checked_whatever_the_method() {
         let key = extra.split(' ').next().unwrap();
         let line = toml.lines().position(|l| l.starts_with(key)).unwrap() + 1;
         for method in ["path", "pm", "photons"] {
-            fails(&d, &p(d.path(), "scene.toml"), &["--method", method], &[&format!("scene.toml:{line}:"), &format!("render.icache.{key}")]);
+            fails(
+                &d,
+                &p(d.path(), "scene.toml"),
+                &["--method", method],
+                &[
+                    &format!("scene.toml:{line}:"),
+                    &format!("render.icache.{key}"),
+                ],
+            );
         }
     }
 }
@@ -236,15 +404,34 @@ fn photon_settings_are_checked_whatever_the_method() {
     let d = with_toml(&toml);
     let line = toml.lines().position(|l| l.starts_with("global")).unwrap() + 1;
     for method in ["path", "pm"] {
-        fails(&d, &p(d.path(), "scene.toml"), &["--method", method], &[&format!("scene.toml:{line}:"), "render.photons.global"]);
+        fails(
+            &d,
+            &p(d.path(), "scene.toml"),
+            &["--method", method],
+            &[&format!("scene.toml:{line}:"), "render.photons.global"],
+        );
     }
 }
 
 #[test]
 fn adaptive_caching_keys_checked() {
     // The Weber threshold must be a positive number, whatever the method; `adaptive` a boolean.
-    let d = with_toml(&format!("{ROOM_TOML}\n[render.icache]\nadaptive_threshold = -0.1\n"));
-    fails(&d, &p(d.path(), "scene.toml"), &["--method", "path"], &["scene.toml:16:", "render.icache.adaptive_threshold", "-0.1"]);
-    let d = with_toml(&format!("{ROOM_TOML}\n[render.icache]\nadaptive = \"yes\"\n"));
-    fails(&d, &p(d.path(), "scene.toml"), &["--method", "pm"], &["scene.toml:16:", "expected a boolean"]);
+    let d = with_toml(&format!(
+        "{ROOM_TOML}\n[render.icache]\nadaptive_threshold = -0.1\n"
+    ));
+    fails(
+        &d,
+        &p(d.path(), "scene.toml"),
+        &["--method", "path"],
+        &["scene.toml:16:", "render.icache.adaptive_threshold", "-0.1"],
+    );
+    let d = with_toml(&format!(
+        "{ROOM_TOML}\n[render.icache]\nadaptive = \"yes\"\n"
+    ));
+    fails(
+        &d,
+        &p(d.path(), "scene.toml"),
+        &["--method", "pm"],
+        &["scene.toml:16:", "expected a boolean"],
+    );
 }

@@ -23,29 +23,80 @@ const SIZE: u32 = 64;
 fn scene(extra: &str) -> tempfile::TempDir {
     let mut o = Obj::new();
     // Floor, back and side walls facing in; no front, no roof but two slabs with a slit between them.
-    o.cuboid("wall", v(-1.0, 0.0, -1.0), v(1.0, 2.0, 1.0), true, &["+z", "+y"]);
+    o.cuboid(
+        "wall",
+        v(-1.0, 0.0, -1.0),
+        v(1.0, 2.0, 1.0),
+        true,
+        &["+z", "+y"],
+    );
     o.cuboid("wall", v(-1.0, 2.0, -1.0), v(-0.25, 2.05, 1.0), false, &[]);
     o.cuboid("wall", v(0.25, 2.0, -1.0), v(1.0, 2.05, 1.0), false, &[]);
     let sun = "[[light]]\ntype = \"directional\"\ndirection = [0.35, -1.0, 0.2]\nirradiance = [8.0, 8.0, 8.0]\n";
-    let settings = format!("{sun}[render.photons]\nglobal = 100000\nprecompute_every = 1000\n{extra}");
-    write(&o, MTL, &toml(v(0.0, 1.0, 3.2), v(0.0, 0.9, 0.0), 50.0, (SIZE, SIZE), &settings))
+    let settings =
+        format!("{sun}[render.photons]\nglobal = 100000\nprecompute_every = 1000\n{extra}");
+    write(
+        &o,
+        MTL,
+        &toml(
+            v(0.0, 1.0, 3.2),
+            v(0.0, 0.9, 0.0),
+            50.0,
+            (SIZE, SIZE),
+            &settings,
+        ),
+    )
 }
 
-fn render(dir: &std::path::Path, method: &str, spp: u32) -> (Image, Option<Image>, serde_json::Value) {
+fn render(
+    dir: &std::path::Path,
+    method: &str,
+    spp: u32,
+) -> (Image, Option<Image>, serde_json::Value) {
     let out = dir.join(format!("{method}.exr"));
     let stats = dir.join(format!("{method}.json"));
     let spp = spp.to_string();
-    let args = ["render", "scene.toml", "-o", out.to_str().unwrap(), "--method", method, "--spp", &spp, "--quiet", "--stats", stats.to_str().unwrap()];
-    let r = std::process::Command::new(common::bin()).args(args).current_dir(dir).output().unwrap();
-    assert!(r.status.success(), "{method}: {}", String::from_utf8_lossy(&r.stderr));
+    let args = [
+        "render",
+        "scene.toml",
+        "-o",
+        out.to_str().unwrap(),
+        "--method",
+        method,
+        "--spp",
+        &spp,
+        "--quiet",
+        "--stats",
+        stats.to_str().unwrap(),
+    ];
+    let r = std::process::Command::new(common::bin())
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .unwrap();
+    assert!(
+        r.status.success(),
+        "{method}: {}",
+        String::from_utf8_lossy(&r.stderr)
+    );
     let json = serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap();
     (read(&out), read_layer(&out, Some("direct")).ok(), json)
 }
 
 /// Mean of `img` over the pixels where `direct` is zero (lit only by the strip's bounce).
 fn shaded_mean(img: &Image, direct: &Image) -> Vec3 {
-    let px: Vec<Vec3> = img.pixels.iter().zip(&direct.pixels).filter(|(_, d)| d.max_element() <= 0.0).map(|(p, _)| *p).collect();
-    assert!(px.len() > (SIZE * SIZE / 2) as usize, "most of the room is out of the sun: {} pixels", px.len());
+    let px: Vec<Vec3> = img
+        .pixels
+        .iter()
+        .zip(&direct.pixels)
+        .filter(|(_, d)| d.max_element() <= 0.0)
+        .map(|(p, _)| *p)
+        .collect();
+    assert!(
+        px.len() > (SIZE * SIZE / 2) as usize,
+        "most of the room is out of the sun: {} pixels",
+        px.len()
+    );
     px.iter().copied().sum::<Vec3>() / px.len() as f32
 }
 
@@ -56,12 +107,24 @@ fn light_bounced_by_a_sharp_sun_strip_is_right_with_coarse_texels() {
     for (method, spp) in [("pm", 32), ("pm-fg", 4)] {
         let (img, direct, stats) = render(dir.path(), method, spp);
         let direct = direct.expect("direct layer");
-        let shaded = shaded_mean(&img, &direct).element_sum() / shaded_mean(&reference, &direct).element_sum();
+        let shaded = shaded_mean(&img, &direct).element_sum()
+            / shaded_mean(&reference, &direct).element_sum();
         let whole = mean(&img).element_sum() / mean(&reference).element_sum();
         let edges = stats["photons"]["atlas_edge_texels"].as_f64().unwrap();
         eprintln!("[edge texels] {method}: shaded pixels {shaded:.4}, image {whole:.4}, edge texels {edges}");
-        assert!(edges > 0.0, "{method}: no edge texel on a floor crossed by a sun strip");
-        assert!((shaded - 1.0).abs() < 0.03, "{method}: shaded pixels off by {:+.1} %", (shaded - 1.0) * 100.0);
-        assert!((whole - 1.0).abs() < 0.02, "{method}: image off by {:+.1} %", (whole - 1.0) * 100.0);
+        assert!(
+            edges > 0.0,
+            "{method}: no edge texel on a floor crossed by a sun strip"
+        );
+        assert!(
+            (shaded - 1.0).abs() < 0.03,
+            "{method}: shaded pixels off by {:+.1} %",
+            (shaded - 1.0) * 100.0
+        );
+        assert!(
+            (whole - 1.0).abs() < 0.02,
+            "{method}: image off by {:+.1} %",
+            (whole - 1.0) * 100.0
+        );
     }
 }

@@ -8,14 +8,36 @@ fn furnace(rho: f32, le: f32, method: &str, spp: u32) -> (glam::Vec3, f32, f32) 
     let mtl = format!("newmtl inside\nKd {rho} {rho} {rho}\nKe {le} {le} {le}\n");
     let toml = "version = 1\n[camera]\neye = [0.1, 0.2, 0.05]\ntarget = [1.0, 0.3, 0.2]\nfov = 120.0\nwidth = 16\nheight = 16\n\n[[mesh]]\nobj = \"furnace.obj\"\n\n[render]\nmax_depth = 200\n";
     let obj = inward_sphere(24, 12);
-    let d = scene_dir(&[("furnace.obj", &obj), ("furnace.mtl", &mtl), ("scene.toml", toml)]);
+    let d = scene_dir(&[
+        ("furnace.obj", &obj),
+        ("furnace.mtl", &mtl),
+        ("scene.toml", toml),
+    ]);
     let out = p(d.path(), "out.exr");
     let spp = spp.to_string();
-    let r = run(&["render", &p(d.path(), "scene.toml"), "-o", &out, "--method", method, "--spp", &spp, "--quiet"]);
+    let r = run(&[
+        "render",
+        &p(d.path(), "scene.toml"),
+        "-o",
+        &out,
+        "--method",
+        method,
+        "--spp",
+        &spp,
+        "--quiet",
+    ]);
     assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
     let img = read(std::path::Path::new(&out));
-    let lo = img.pixels.iter().map(|p| p.min_element()).fold(f32::INFINITY, f32::min);
-    let hi = img.pixels.iter().map(|p| p.max_element()).fold(0.0, f32::max);
+    let lo = img
+        .pixels
+        .iter()
+        .map(|p| p.min_element())
+        .fold(f32::INFINITY, f32::min);
+    let hi = img
+        .pixels
+        .iter()
+        .map(|p| p.max_element())
+        .fold(0.0, f32::max);
     (mean(&img), lo, hi)
 }
 
@@ -26,10 +48,16 @@ fn path_tracer_furnace() {
         let (m, lo, hi) = furnace(rho, 1.0, "path", 256);
         // 256 pixels × 256 samples: the mean's standard error is well under 1 %; 2 % allows for it.
         for c in m.to_array() {
-            assert!((c - expected).abs() < 0.02 * expected, "ρ={rho}: mean {c} vs {expected}");
+            assert!(
+                (c - expected).abs() < 0.02 * expected,
+                "ρ={rho}: mean {c} vs {expected}"
+            );
         }
         // Single pixels (256 samples each) stay within 25 % — catches spatially varying bias.
-        assert!(lo > 0.75 * expected && hi < 1.25 * expected, "ρ={rho}: range [{lo}, {hi}] vs {expected}");
+        assert!(
+            lo > 0.75 * expected && hi < 1.25 * expected,
+            "ρ={rho}: range [{lo}, {hi}] vs {expected}"
+        );
     }
 }
 
@@ -47,9 +75,15 @@ fn photon_map_methods_furnace() {
             let (m, lo, hi) = furnace(rho, 1.0, method, spp);
             eprintln!("[furnace] {method} ρ={rho}: mean {:.4} (expected {expected:.4}), range [{lo:.3}, {hi:.3}]", m.x);
             for c in m.to_array() {
-                assert!((c - expected).abs() < 0.03 * expected, "{method} ρ={rho}: mean {c} vs {expected}");
+                assert!(
+                    (c - expected).abs() < 0.03 * expected,
+                    "{method} ρ={rho}: mean {c} vs {expected}"
+                );
             }
-            assert!(lo > 0.8 * expected && hi < 1.2 * expected, "{method} ρ={rho}: range [{lo}, {hi}] vs {expected}");
+            assert!(
+                lo > 0.8 * expected && hi < 1.2 * expected,
+                "{method} ρ={rho}: range [{lo}, {hi}] vs {expected}"
+            );
         }
     }
 }

@@ -8,19 +8,40 @@ mod common;
 
 use common::{block_means, read, rel_mse, repo, run};
 
-fn render(scene: &str, size: [u32; 2], seed: u32, extra: &[&str], dir: &std::path::Path, tag: &str) -> (std::path::PathBuf, serde_json::Value) {
+fn render(
+    scene: &str,
+    size: [u32; 2],
+    seed: u32,
+    extra: &[&str],
+    dir: &std::path::Path,
+    tag: &str,
+) -> (std::path::PathBuf, serde_json::Value) {
     let out = dir.join(format!("{tag}.exr"));
     let stats = dir.join(format!("{tag}.json"));
     let (w, h, seed) = (size[0].to_string(), size[1].to_string(), seed.to_string());
     let scene = repo().join(scene);
     let mut args = vec![
-        "render", scene.to_str().unwrap(), "-o", out.to_str().unwrap(), "--stats", stats.to_str().unwrap(), "--width", &w,
-        "--height", &h, "--seed", &seed, "--quiet",
+        "render",
+        scene.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--stats",
+        stats.to_str().unwrap(),
+        "--width",
+        &w,
+        "--height",
+        &h,
+        "--seed",
+        &seed,
+        "--quiet",
     ];
     args.extend_from_slice(extra);
     let r = run(&args);
     assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
-    (out, serde_json::from_str(&std::fs::read_to_string(stats).unwrap()).unwrap())
+    (
+        out,
+        serde_json::from_str(&std::fs::read_to_string(stats).unwrap()).unwrap(),
+    )
 }
 
 /// A copy of a shipped scene with `[render.icache] rays` given (the models' paths made absolute).
@@ -39,17 +60,35 @@ fn with_rays(scene: &str, rays: u32, dir: &std::path::Path) -> String {
 #[test]
 fn rays_follow_what_the_gathers_see() {
     let d = tempfile::tempdir().unwrap();
-    let (_, blinds) = render("scenes/blinds-room.toml", [128, 128], 0, &[], d.path(), "blinds");
+    let (_, blinds) = render(
+        "scenes/blinds-room.toml",
+        [128, 128],
+        0,
+        &[],
+        d.path(),
+        "blinds",
+    );
     let g = &blinds["gather"];
     assert_eq!(g["rays_chosen"].as_u64(), Some(1000), "{g}");
     assert!(g["predicted_noise"].as_f64().unwrap() > 4e-4, "{g}");
-    let (_, interior) = render("scenes/interior-diffuse.toml", [160, 120], 0, &[], d.path(), "interior");
+    let (_, interior) = render(
+        "scenes/interior-diffuse.toml",
+        [160, 120],
+        0,
+        &[],
+        d.path(),
+        "interior",
+    );
     let g = &interior["gather"];
     assert_eq!(g["rays_chosen"].as_u64(), Some(250), "{g}");
     assert!(g["predicted_noise"].as_f64().unwrap() < 1e-4, "{g}");
     let given = with_rays("scenes/blinds-room.toml", 300, d.path());
     let (_, fixed) = render(&given, [64, 64], 0, &[], d.path(), "given");
-    assert!(fixed["gather"].get("rays_chosen").is_none(), "{}", fixed["gather"]);
+    assert!(
+        fixed["gather"].get("rays_chosen").is_none(),
+        "{}",
+        fixed["gather"]
+    );
 }
 
 /// The blinds room at 128², seeds 0 and 1, 8×8-block relMSE against the Mitsuba reference: with the
@@ -60,20 +99,45 @@ fn rays_follow_what_the_gathers_see() {
 fn rounds_are_worth_a_gather_of_as_many_rays() {
     let d = tempfile::tempdir().unwrap();
     let reference = read(&repo().join("tests/reference/blinds-room-path.exr"));
-    let block = |p: &std::path::Path| rel_mse(&block_means(&read(p), 8), &block_means(&reference, 8));
+    let block =
+        |p: &std::path::Path| rel_mse(&block_means(&read(p), 8), &block_means(&reference, 8));
     let mut err = [0.0f64; 3];
     for seed in [0, 1] {
-        let (auto, _) = render("scenes/blinds-room.toml", [128, 128], seed, &[], d.path(), &format!("auto{seed}"));
+        let (auto, _) = render(
+            "scenes/blinds-room.toml",
+            [128, 128],
+            seed,
+            &[],
+            d.path(),
+            &format!("auto{seed}"),
+        );
         err[0] += block(&auto);
         for (k, rays) in [(1, 1000), (2, 500)] {
             let scene = with_rays("scenes/blinds-room.toml", rays, d.path());
-            let (out, _) = render(&scene, [128, 128], seed, &[], d.path(), &format!("r{rays}-{seed}"));
+            let (out, _) = render(
+                &scene,
+                [128, 128],
+                seed,
+                &[],
+                d.path(),
+                &format!("r{rays}-{seed}"),
+            );
             err[k] += block(&out);
         }
     }
     eprintln!("[gather rays] blinds room block relMSE (sum of 2 seeds): chosen {:.6}, 1000 rays {:.6}, 500 rays {:.6}", err[0], err[1], err[2]);
-    assert!(err[0] < 1.15 * err[1], "chosen {} against 1000 rays {}", err[0], err[1]);
-    assert!(err[0] < 0.85 * err[2], "chosen {} against 500 rays {}", err[0], err[2]);
+    assert!(
+        err[0] < 1.15 * err[1],
+        "chosen {} against 1000 rays {}",
+        err[0],
+        err[1]
+    );
+    assert!(
+        err[0] < 0.85 * err[2],
+        "chosen {} against 500 rays {}",
+        err[0],
+        err[2]
+    );
 }
 
 /// The choice and the further rounds do not depend on the thread count: the blinds room at 48² (1000 rays
@@ -81,9 +145,26 @@ fn rounds_are_worth_a_gather_of_as_many_rays() {
 #[test]
 fn chosen_rays_are_identical_with_one_and_two_threads() {
     let d = tempfile::tempdir().unwrap();
-    let (one, s1) = render("scenes/blinds-room.toml", [48, 48], 3, &["--threads", "1", "--spp", "8"], d.path(), "t1");
-    let (two, s2) = render("scenes/blinds-room.toml", [48, 48], 3, &["--threads", "2", "--spp", "8"], d.path(), "t2");
+    let (one, s1) = render(
+        "scenes/blinds-room.toml",
+        [48, 48],
+        3,
+        &["--threads", "1", "--spp", "8"],
+        d.path(),
+        "t1",
+    );
+    let (two, s2) = render(
+        "scenes/blinds-room.toml",
+        [48, 48],
+        3,
+        &["--threads", "2", "--spp", "8"],
+        d.path(),
+        "t2",
+    );
     assert!(s1["gather"]["rays_chosen"].as_u64().unwrap() > 250);
-    assert_eq!(s1["gather"]["predicted_noise"], s2["gather"]["predicted_noise"]);
+    assert_eq!(
+        s1["gather"]["predicted_noise"],
+        s2["gather"]["predicted_noise"]
+    );
     assert_eq!(std::fs::read(one).unwrap(), std::fs::read(two).unwrap());
 }

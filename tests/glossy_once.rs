@@ -34,23 +34,88 @@ const SIZE: u32 = 48;
 
 fn scene() -> tempfile::TempDir {
     let mut o = Obj::new();
-    o.cuboid("wall", v(-1.0, 0.0, -1.0), v(1.0, 2.0, 1.0), true, &["-x", "+x", "+z", "-y"]);
-    o.quad("floor", [v(-1.0, 0.0, 1.0), v(1.0, 0.0, 1.0), v(1.0, 0.0, -1.0), v(-1.0, 0.0, -1.0)]);
-    o.quad("red", [v(-1.0, 0.0, 1.0), v(-1.0, 0.0, -1.0), v(-1.0, 2.0, -1.0), v(-1.0, 2.0, 1.0)]);
-    o.quad("green", [v(1.0, 0.0, -1.0), v(1.0, 0.0, 1.0), v(1.0, 2.0, 1.0), v(1.0, 2.0, -1.0)]);
-    o.cuboid("satin", v(-0.7, 0.0, -0.6), v(-0.2, 0.6, -0.1), false, &["-y"]);
+    o.cuboid(
+        "wall",
+        v(-1.0, 0.0, -1.0),
+        v(1.0, 2.0, 1.0),
+        true,
+        &["-x", "+x", "+z", "-y"],
+    );
+    o.quad(
+        "floor",
+        [
+            v(-1.0, 0.0, 1.0),
+            v(1.0, 0.0, 1.0),
+            v(1.0, 0.0, -1.0),
+            v(-1.0, 0.0, -1.0),
+        ],
+    );
+    o.quad(
+        "red",
+        [
+            v(-1.0, 0.0, 1.0),
+            v(-1.0, 0.0, -1.0),
+            v(-1.0, 2.0, -1.0),
+            v(-1.0, 2.0, 1.0),
+        ],
+    );
+    o.quad(
+        "green",
+        [
+            v(1.0, 0.0, -1.0),
+            v(1.0, 0.0, 1.0),
+            v(1.0, 2.0, 1.0),
+            v(1.0, 2.0, -1.0),
+        ],
+    );
+    o.cuboid(
+        "satin",
+        v(-0.7, 0.0, -0.6),
+        v(-0.2, 0.6, -0.1),
+        false,
+        &["-y"],
+    );
     o.sphere("lacquer", v(0.45, 0.35, 0.1), 0.35, 32, 16);
     ceiling_light(&mut o, 0.2);
-    let light = "[[light]]\ntype = \"point\"\nposition = [0.3, 1.7, 0.4]\nintensity = [3.0, 3.0, 3.0]\n";
-    write(&o, &format!("{MTL}{GLOSSY_MTL}"), &toml(v(0.0, 1.0, 3.0), v(0.0, 0.8, 0.0), 45.0, (SIZE, SIZE), light))
+    let light =
+        "[[light]]\ntype = \"point\"\nposition = [0.3, 1.7, 0.4]\nintensity = [3.0, 3.0, 3.0]\n";
+    write(
+        &o,
+        &format!("{MTL}{GLOSSY_MTL}"),
+        &toml(
+            v(0.0, 1.0, 3.0),
+            v(0.0, 0.8, 0.0),
+            45.0,
+            (SIZE, SIZE),
+            light,
+        ),
+    )
 }
 
 fn render(dir: &std::path::Path, method: &str, spp: u32) -> Image {
     let out = dir.join(format!("{method}.exr"));
     let spp = spp.to_string();
-    let args = ["render", "scene.toml", "-o", out.to_str().unwrap(), "--method", method, "--spp", &spp, "--quiet"];
-    let r = std::process::Command::new(common::bin()).args(args).current_dir(dir).output().unwrap();
-    assert!(r.status.success(), "{method}: {}", String::from_utf8_lossy(&r.stderr));
+    let args = [
+        "render",
+        "scene.toml",
+        "-o",
+        out.to_str().unwrap(),
+        "--method",
+        method,
+        "--spp",
+        &spp,
+        "--quiet",
+    ];
+    let r = std::process::Command::new(common::bin())
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .unwrap();
+    assert!(
+        r.status.success(),
+        "{method}: {}",
+        String::from_utf8_lossy(&r.stderr)
+    );
     read(&out)
 }
 
@@ -71,11 +136,22 @@ fn glossy_light_is_counted_once() {
     for method in ["pm", "photons"] {
         let img = render(dir.path(), method, 32);
         let whole = ratio(mean(&img), mean(&reference));
-        let floor = ratio(rows_mean(&img, SIZE * 3 / 4, SIZE), rows_mean(&reference, SIZE * 3 / 4, SIZE));
+        let floor = ratio(
+            rows_mean(&img, SIZE * 3 / 4, SIZE),
+            rows_mean(&reference, SIZE * 3 / 4, SIZE),
+        );
         let block = rel_mse(&block_means(&img, 4), &block_means(&reference, 4));
         eprintln!("[glossy once] {method}: mean ratio {whole:.4}, floor ratio {floor:.4}, 4x4-block relMSE {block:.5}");
-        assert!((whole - 1.0).abs() < 0.02, "{method}: image mean off by {:.1} %", (whole - 1.0) * 100.0);
-        assert!((floor - 1.0).abs() < 0.03, "{method}: floor mean off by {:.1} %", (floor - 1.0) * 100.0);
+        assert!(
+            (whole - 1.0).abs() < 0.02,
+            "{method}: image mean off by {:.1} %",
+            (whole - 1.0) * 100.0
+        );
+        assert!(
+            (floor - 1.0).abs() < 0.03,
+            "{method}: floor mean off by {:.1} %",
+            (floor - 1.0) * 100.0
+        );
         assert!(block < 0.004, "{method}: 4x4-block relMSE {block}");
     }
 }

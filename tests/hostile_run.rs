@@ -22,28 +22,43 @@ fn run_env(args: &[&str], env: &[(&str, &str)]) -> Output {
 
 /// A room with an empty `out/` directory for the outputs.
 fn room_with_out(toml: &str) -> (tempfile::TempDir, PathBuf) {
-    let d = scene_dir(&[("room.obj", ROOM_OBJ), ("room.mtl", ROOM_MTL), ("scene.toml", toml)]);
+    let d = scene_dir(&[
+        ("room.obj", ROOM_OBJ),
+        ("room.mtl", ROOM_MTL),
+        ("scene.toml", toml),
+    ]);
     let out = d.path().join("out");
     std::fs::create_dir(&out).unwrap();
     (d, out)
 }
 
 fn listing(dir: &Path) -> Vec<String> {
-    let mut v: Vec<String> = std::fs::read_dir(dir).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
+    let mut v: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
     v.sort();
     v
 }
 
 /// Contents of every file directly in `dir` (inputs, to check they are unchanged).
 fn snapshot(dir: &Path) -> Vec<(String, Vec<u8>)> {
-    listing(dir).into_iter().filter(|n| dir.join(n).is_file()).map(|n| (n.clone(), std::fs::read(dir.join(&n)).unwrap())).collect()
+    listing(dir)
+        .into_iter()
+        .filter(|n| dir.join(n).is_file())
+        .map(|n| (n.clone(), std::fs::read(dir.join(&n)).unwrap()))
+        .collect()
 }
 
 /// Status `code`, one line on stderr containing every `expect`.
 fn assert_fails(r: &Output, code: i32, expect: &[&str]) {
     let stderr = String::from_utf8_lossy(&r.stderr);
     assert_eq!(r.status.code(), Some(code), "stderr: {stderr}");
-    assert_eq!(stderr.trim().lines().count(), 1, "one line expected: {stderr}");
+    assert_eq!(
+        stderr.trim().lines().count(),
+        1,
+        "one line expected: {stderr}"
+    );
     for e in expect {
         assert!(stderr.contains(e), "'{e}' not in: {stderr}");
     }
@@ -51,12 +66,30 @@ fn assert_fails(r: &Output, code: i32, expect: &[&str]) {
 
 #[test]
 fn requests_that_cannot_fit_are_refused_before_allocating() {
-    let big_toml = ROOM_TOML.replace("width = 24", "width = 65536").replace("height = 16", "height = 65536");
-    let photons_toml = ROOM_TOML.replace("spp = 2", "spp = 2\n[render.photons]\nglobal = 100000000");
+    let big_toml = ROOM_TOML
+        .replace("width = 24", "width = 65536")
+        .replace("height = 16", "height = 65536");
+    let photons_toml =
+        ROOM_TOML.replace("spp = 2", "spp = 2\n[render.photons]\nglobal = 100000000");
     for (toml, extra, expect) in [
-        (ROOM_TOML.to_string(), vec!["--width", "65536", "--height", "65536", "--crop", "0", "0", "1", "1", "--method", "path"], vec!["image 65536×65536", "budget of 16.0 GiB"]),
-        (big_toml, vec!["--method", "pm"], vec!["irradiance cache fill", "budget"]),
-        (photons_toml, vec![], vec!["photon maps: 22.4 GiB", "budget of 16.0 GiB"]),
+        (
+            ROOM_TOML.to_string(),
+            vec![
+                "--width", "65536", "--height", "65536", "--crop", "0", "0", "1", "1", "--method",
+                "path",
+            ],
+            vec!["image 65536×65536", "budget of 16.0 GiB"],
+        ),
+        (
+            big_toml,
+            vec!["--method", "pm"],
+            vec!["irradiance cache fill", "budget"],
+        ),
+        (
+            photons_toml,
+            vec![],
+            vec!["photon maps: 22.4 GiB", "budget of 16.0 GiB"],
+        ),
     ] {
         let (d, out) = room_with_out(&toml);
         let before = snapshot(d.path());
@@ -65,7 +98,10 @@ fn requests_that_cannot_fit_are_refused_before_allocating() {
         args.extend(extra);
         let t = Instant::now();
         let r = run_env(&args, &[("PMRENDER_MAX_MEMORY", "16G")]);
-        assert!(t.elapsed() < Duration::from_secs(10), "refused at once, not after allocating");
+        assert!(
+            t.elapsed() < Duration::from_secs(10),
+            "refused at once, not after allocating"
+        );
         assert_fails(&r, 2, &expect);
         assert!(listing(&out).is_empty());
         assert_eq!(snapshot(d.path()), before);
@@ -76,16 +112,38 @@ fn requests_that_cannot_fit_are_refused_before_allocating() {
 fn the_memory_budget_can_be_set_and_is_named() {
     let (d, out) = room_with_out(ROOM_TOML);
     let (scene, o) = (p(d.path(), "scene.toml"), p(&out, "o.exr"));
-    let r = run_env(&["render", &scene, "-o", &o, "--quiet", "--max-memory", "1M"], &[]);
+    let r = run_env(
+        &["render", &scene, "-o", &o, "--quiet", "--max-memory", "1M"],
+        &[],
+    );
     assert_fails(&r, 2, &["memory", "budget of 1 MiB", "--max-memory"]);
-    let r = run_env(&["render", &scene, "-o", &o, "--quiet"], &[("PMRENDER_MAX_MEMORY", "100k")]);
+    let r = run_env(
+        &["render", &scene, "-o", &o, "--quiet"],
+        &[("PMRENDER_MAX_MEMORY", "100k")],
+    );
     assert_fails(&r, 2, &["budget of 100 KiB", "PMRENDER_MAX_MEMORY"]);
     for bad in ["lots", "-1G", "0", "5Q"] {
-        let r = run_env(&["render", &scene, "-o", &o, "--quiet", "--max-memory", bad], &[]);
+        let r = run_env(
+            &["render", &scene, "-o", &o, "--quiet", "--max-memory", bad],
+            &[],
+        );
         assert_fails(&r, 2, &["--max-memory", bad]);
     }
     assert!(listing(&out).is_empty());
-    let r = run_env(&["render", &scene, "-o", &o, "--quiet", "--max-memory", "2G", "--method", "path"], &[]);
+    let r = run_env(
+        &[
+            "render",
+            &scene,
+            "-o",
+            &o,
+            "--quiet",
+            "--max-memory",
+            "2G",
+            "--method",
+            "path",
+        ],
+        &[],
+    );
     assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
 }
 
@@ -113,7 +171,17 @@ fn outputs_colliding_with_each_other_or_with_inputs_are_refused() {
     let (d, out) = room_with_out(ROOM_TOML);
     let dir = d.path();
     let photon_file = p(dir, "maps.bin");
-    assert!(run(&["render", &p(dir, "scene.toml"), "-o", &p(dir, "first.exr"), "--save-photons", &photon_file, "--quiet"]).status.success());
+    assert!(run(&[
+        "render",
+        &p(dir, "scene.toml"),
+        "-o",
+        &p(dir, "first.exr"),
+        "--save-photons",
+        &photon_file,
+        "--quiet"
+    ])
+    .status
+    .success());
     std::fs::remove_file(dir.join("first.exr")).unwrap();
     let before = snapshot(dir);
     let scene = p(dir, "scene.toml");
@@ -122,12 +190,39 @@ fn outputs_colliding_with_each_other_or_with_inputs_are_refused() {
     let cases: Vec<(Vec<String>, &str)> = vec![
         (vec!["--stats".into(), o.clone()], "--stats"),
         (vec!["--save-cache".into(), same.clone()], "--save-cache"),
-        (vec!["--png".into(), p(&out, "a.png"), "--cache-image".into(), p(&out, "a.png")], "--cache-image"),
+        (
+            vec![
+                "--png".into(),
+                p(&out, "a.png"),
+                "--cache-image".into(),
+                p(&out, "a.png"),
+            ],
+            "--cache-image",
+        ),
         (vec!["--save-photons".into(), scene.clone()], "scene file"),
-        (vec!["--dump-photons".into(), p(dir, "room.obj")], "OBJ file"),
+        (
+            vec!["--dump-photons".into(), p(dir, "room.obj")],
+            "OBJ file",
+        ),
         (vec!["--stats".into(), p(dir, "room.mtl")], "MTL file"),
-        (vec!["--load-photons".into(), photon_file.clone(), "--save-photons".into(), photon_file.clone()], "photon file"),
-        (vec!["--load-photons".into(), photon_file.clone(), "--dump-photons".into(), format!("{}/./maps.bin", dir.display())], "photon file"),
+        (
+            vec![
+                "--load-photons".into(),
+                photon_file.clone(),
+                "--save-photons".into(),
+                photon_file.clone(),
+            ],
+            "photon file",
+        ),
+        (
+            vec![
+                "--load-photons".into(),
+                photon_file.clone(),
+                "--dump-photons".into(),
+                format!("{}/./maps.bin", dir.display()),
+            ],
+            "photon file",
+        ),
     ];
     for (extra, expect) in cases {
         let mut args: Vec<&str> = vec!["render", &scene, "-o", &o, "--quiet", "--method", "pm"];
@@ -139,7 +234,15 @@ fn outputs_colliding_with_each_other_or_with_inputs_are_refused() {
     }
     // A hard link to the scene is the scene.
     std::fs::hard_link(dir.join("scene.toml"), out.join("link.json")).unwrap();
-    let r = run(&["render", &scene, "-o", &o, "--quiet", "--stats", &p(&out, "link.json")]);
+    let r = run(&[
+        "render",
+        &scene,
+        "-o",
+        &o,
+        "--quiet",
+        "--stats",
+        &p(&out, "link.json"),
+    ]);
     assert_fails(&r, 2, &["--stats", "scene file"]);
 }
 
@@ -149,15 +252,43 @@ fn output_paths_that_name_no_writable_file_are_refused() {
     let scene = p(d.path(), "scene.toml");
     let o = p(&out, "o.exr");
     std::fs::write(d.path().join("plain"), b"x").unwrap();
-    let (dir_out, under_file, jpg) = (p(d.path(), "out"), p(d.path(), "plain/c.bin"), p(&out, "c.jpg"));
+    let (dir_out, under_file, jpg) = (
+        p(d.path(), "out"),
+        p(d.path(), "plain/c.bin"),
+        p(&out, "c.jpg"),
+    );
     let cases = [
         (vec!["-o", "x.exr/"], "-o", "does not name a file"),
-        (vec!["-o", &o, "--stats", "/tmp/"], "--stats", "does not name a file"),
-        (vec!["-o", &o, "--stats", &dir_out], "--stats", "is a directory"),
-        (vec!["-o", &o, "--png", "/nonexistent-dir/a.png"], "--png", "does not exist"),
-        (vec!["-o", &o, "--save-cache", &under_file], "--save-cache", "does not exist"),
-        (vec!["-o", &o, "--dump-photons", "/dev/null"], "--dump-photons", "not a regular file"),
-        (vec!["-o", &o, "--cache-image", &jpg], "--cache-image", ".png"),
+        (
+            vec!["-o", &o, "--stats", "/tmp/"],
+            "--stats",
+            "does not name a file",
+        ),
+        (
+            vec!["-o", &o, "--stats", &dir_out],
+            "--stats",
+            "is a directory",
+        ),
+        (
+            vec!["-o", &o, "--png", "/nonexistent-dir/a.png"],
+            "--png",
+            "does not exist",
+        ),
+        (
+            vec!["-o", &o, "--save-cache", &under_file],
+            "--save-cache",
+            "does not exist",
+        ),
+        (
+            vec!["-o", &o, "--dump-photons", "/dev/null"],
+            "--dump-photons",
+            "not a regular file",
+        ),
+        (
+            vec!["-o", &o, "--cache-image", &jpg],
+            "--cache-image",
+            ".png",
+        ),
     ];
     for (args, opt, expect) in cases {
         let mut all = vec!["render", &scene, "--quiet"];
@@ -173,7 +304,15 @@ fn a_long_legal_output_name_works() {
     let (d, out) = room_with_out(ROOM_TOML);
     let exr = out.join(format!("{}.exr", "e".repeat(240)));
     let png = out.join(format!("{}.png", "p".repeat(251)));
-    let r = run(&["render", &p(d.path(), "scene.toml"), "-o", exr.to_str().unwrap(), "--png", png.to_str().unwrap(), "--quiet"]);
+    let r = run(&[
+        "render",
+        &p(d.path(), "scene.toml"),
+        "-o",
+        exr.to_str().unwrap(),
+        "--png",
+        png.to_str().unwrap(),
+        "--quiet",
+    ]);
     assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
     assert_eq!(listing(&out).len(), 2, "both outputs, no temporary file");
 }
@@ -188,9 +327,16 @@ fn a_late_write_failure_leaves_no_output() {
     );
     let r = Command::new("sh").args(["-c", &cmd]).output().unwrap();
     assert_fails(&r, 1, &["maps.bin"]);
-    assert!(listing(&out).is_empty(), "no output and no temporary file: {:?}", listing(&out));
+    assert!(
+        listing(&out).is_empty(),
+        "no output and no temporary file: {:?}",
+        listing(&out)
+    );
     // The same render without the limit writes all four.
-    let r = Command::new("sh").args(["-c", &cmd.replace("ulimit -f 64;", "")]).output().unwrap();
+    let r = Command::new("sh")
+        .args(["-c", &cmd.replace("ulimit -f 64;", "")])
+        .output()
+        .unwrap();
     assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
     assert_eq!(listing(&out).len(), 4);
 }
@@ -203,7 +349,12 @@ fn an_exception_in_the_image_library_is_an_error() {
     let (d, out) = room_with_out(ROOM_TOML);
     std::fs::write(d.path().join("room.mtl"), mtl).unwrap();
     std::fs::write(d.path().join("huge.png"), huge_png_header(23170, 23170)).unwrap();
-    let cmd = format!("ulimit -v 4000000; exec '{}' render '{}' -o '{}' --quiet", bin().display(), p(d.path(), "scene.toml"), p(&out, "o.exr"));
+    let cmd = format!(
+        "ulimit -v 4000000; exec '{}' render '{}' -o '{}' --quiet",
+        bin().display(),
+        p(d.path(), "scene.toml"),
+        p(&out, "o.exr")
+    );
     let r = Command::new("sh").args(["-c", &cmd]).output().unwrap();
     assert_fails(&r, 2, &["huge.png"]);
     assert!(listing(&out).is_empty());
@@ -215,7 +366,11 @@ fn huge_png_header(w: u32, h: u32) -> Vec<u8> {
         for &b in bytes {
             c ^= b as u32;
             for _ in 0..8 {
-                c = if c & 1 != 0 { 0xedb8_8320 ^ (c >> 1) } else { c >> 1 };
+                c = if c & 1 != 0 {
+                    0xedb8_8320 ^ (c >> 1)
+                } else {
+                    c >> 1
+                };
             }
         }
         !c
@@ -232,7 +387,10 @@ fn huge_png_header(w: u32, h: u32) -> Vec<u8> {
     ihdr.extend([8, 6, 0, 0, 0]);
     let mut png = b"\x89PNG\r\n\x1a\n".to_vec();
     png.extend(chunk(b"IHDR", &ihdr));
-    png.extend(chunk(b"IDAT", &[0x78, 0x9c, 0x03, 0x00, 0x00, 0x00, 0x00, 0x01]));
+    png.extend(chunk(
+        b"IDAT",
+        &[0x78, 0x9c, 0x03, 0x00, 0x00, 0x00, 0x00, 0x01],
+    ));
     png.extend(chunk(b"IEND", &[]));
     png
 }
@@ -240,17 +398,32 @@ fn huge_png_header(w: u32, h: u32) -> Vec<u8> {
 /// Starts a render, sends `signal` after `delay`, and returns (exit code, seconds from signal to exit,
 /// stderr); the seconds are −1 when the process had already ended.
 fn interrupt(args: &[&str], signal: &str, delay: Duration) -> (Option<i32>, f64, String) {
-    let mut child = Command::new(bin()).args(args).env("PMRENDER_MAX_MEMORY", "16G").stderr(Stdio::piped()).spawn().unwrap();
+    let mut child = Command::new(bin())
+        .args(args)
+        .env("PMRENDER_MAX_MEMORY", "16G")
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
     wait_for_handler(child.id());
     std::thread::sleep(delay);
     if child.try_wait().unwrap().is_some() {
         let out = child.wait_with_output().unwrap();
-        return (out.status.code(), -1.0, String::from_utf8_lossy(&out.stderr).into_owned());
+        return (
+            out.status.code(),
+            -1.0,
+            String::from_utf8_lossy(&out.stderr).into_owned(),
+        );
     }
     let t = Instant::now();
-    let _ = Command::new("kill").args([&format!("-{signal}"), &child.id().to_string()]).status();
+    let _ = Command::new("kill")
+        .args([&format!("-{signal}"), &child.id().to_string()])
+        .status();
     let out = child.wait_with_output().unwrap();
-    (out.status.code(), t.elapsed().as_secs_f64(), String::from_utf8_lossy(&out.stderr).into_owned())
+    (
+        out.status.code(),
+        t.elapsed().as_secs_f64(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
 }
 
 /// Waits (at most 20 s: a loaded machine may take long to start a process) until the process catches
@@ -260,7 +433,10 @@ fn wait_for_handler(pid: u32) {
     let t = Instant::now();
     while t.elapsed() < Duration::from_secs(20) {
         let status = std::fs::read_to_string(format!("/proc/{pid}/status")).unwrap_or_default();
-        let caught = status.lines().find_map(|l| l.strip_prefix("SigCgt:")).and_then(|m| u64::from_str_radix(m.trim(), 16).ok());
+        let caught = status
+            .lines()
+            .find_map(|l| l.strip_prefix("SigCgt:"))
+            .and_then(|m| u64::from_str_radix(m.trim(), 16).ok());
         match caught {
             Some(mask) if mask & (1 << 1) != 0 && mask & (1 << 14) != 0 => return,
             None if !status.is_empty() => return, // no SigCgt line: nothing to wait for
@@ -272,29 +448,72 @@ fn wait_for_handler(pid: u32) {
 #[test]
 fn sigint_and_sigterm_stop_every_phase_and_leave_nothing() {
     let photons = ROOM_TOML.replace("spp = 2", "spp = 2\n[render.photons]\nglobal = 20000000");
-    let fill = ROOM_TOML.replace("spp = 2", "spp = 2\n[render.photons]\nglobal = 5000\n[render.icache]\nrays = 200000");
+    let fill = ROOM_TOML.replace(
+        "spp = 2",
+        "spp = 2\n[render.photons]\nglobal = 5000\n[render.icache]\nrays = 200000",
+    );
     let phases: [(&str, &str, &[&str]); 4] = [
         ("photon pass", &photons, &["--method", "pm"]),
         ("cache fill", &fill, &["--method", "pm"]),
         ("final gather per sample", &fill, &["--method", "pm-fg"]),
-        ("shading, one tile at 100000 spp", ROOM_TOML, &["--method", "path", "--spp", "100000", "--width", "16", "--height", "16"]),
+        (
+            "shading, one tile at 100000 spp",
+            ROOM_TOML,
+            &[
+                "--method", "path", "--spp", "100000", "--width", "16", "--height", "16",
+            ],
+        ),
     ];
     for (phase, toml, extra) in phases {
         for (signal, code) in [("INT", 130), ("TERM", 143)] {
             let (d, out) = room_with_out(toml);
             let before = snapshot(d.path());
             let o = |n: &str| p(&out, n);
-            let (scene, exr, png, stats, maps, ply, cache) = (p(d.path(), "scene.toml"), o("o.exr"), o("o.png"), o("s.json"), o("m.bin"), o("m.ply"), o("c.bin"));
-            let mut args = vec!["render", &scene, "-o", &exr, "--png", &png, "--stats", &stats, "--save-photons", &maps, "--dump-photons", &ply, "--save-cache", &cache, "--quiet"];
+            let (scene, exr, png, stats, maps, ply, cache) = (
+                p(d.path(), "scene.toml"),
+                o("o.exr"),
+                o("o.png"),
+                o("s.json"),
+                o("m.bin"),
+                o("m.ply"),
+                o("c.bin"),
+            );
+            let mut args = vec![
+                "render",
+                &scene,
+                "-o",
+                &exr,
+                "--png",
+                &png,
+                "--stats",
+                &stats,
+                "--save-photons",
+                &maps,
+                "--dump-photons",
+                &ply,
+                "--save-cache",
+                &cache,
+                "--quiet",
+            ];
             args.extend(extra);
             let (status, seconds, stderr) = interrupt(&args, signal, Duration::from_millis(700));
             assert_eq!(status, Some(code), "{phase}, SIG{signal}: {stderr}");
             assert!(seconds >= 0.0, "{phase}: ended before the signal");
-            assert!(seconds < 3.0, "{phase}, SIG{signal}: stopped after {seconds:.2} s");
+            assert!(
+                seconds < 3.0,
+                "{phase}, SIG{signal}: stopped after {seconds:.2} s"
+            );
             assert!(stderr.contains("interrupted"), "{stderr}");
             // The phase itself saw the flag: the watchdog, the backstop for waits that cannot poll, was not needed.
-            assert!(!stderr.contains("watchdog"), "{phase}, SIG{signal}: {stderr}");
-            assert!(listing(&out).is_empty(), "{phase}, SIG{signal}: left {:?}", listing(&out));
+            assert!(
+                !stderr.contains("watchdog"),
+                "{phase}, SIG{signal}: {stderr}"
+            );
+            assert!(
+                listing(&out).is_empty(),
+                "{phase}, SIG{signal}: left {:?}",
+                listing(&out)
+            );
             assert_eq!(snapshot(d.path()), before);
         }
     }
@@ -304,9 +523,19 @@ fn sigint_and_sigterm_stop_every_phase_and_leave_nothing() {
 fn a_scene_read_blocked_on_a_fifo_is_interrupted() {
     let (d, out) = room_with_out(ROOM_TOML);
     let fifo = d.path().join("fifo.toml");
-    assert!(Command::new("mkfifo").arg(&fifo).status().unwrap().success());
+    assert!(Command::new("mkfifo")
+        .arg(&fifo)
+        .status()
+        .unwrap()
+        .success());
     for (signal, code) in [("INT", 130), ("TERM", 143)] {
-        let args = ["render", fifo.to_str().unwrap(), "-o", &p(&out, "o.exr"), "--quiet"];
+        let args = [
+            "render",
+            fifo.to_str().unwrap(),
+            "-o",
+            &p(&out, "o.exr"),
+            "--quiet",
+        ];
         let (status, seconds, stderr) = interrupt(&args, signal, Duration::from_millis(500));
         if seconds < 0.0 {
             // Refused before waiting (only regular files are inputs): fine, as long as it is a clean refusal.

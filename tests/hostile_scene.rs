@@ -18,7 +18,12 @@ fn snapshot(dir: &Path) -> BTreeMap<String, Vec<u8>> {
         .unwrap()
         .flatten()
         .filter(|e| e.path().is_file())
-        .map(|e| (e.file_name().to_string_lossy().into_owned(), std::fs::read(e.path()).unwrap()))
+        .map(|e| {
+            (
+                e.file_name().to_string_lossy().into_owned(),
+                std::fs::read(e.path()).unwrap(),
+            )
+        })
         .collect()
 }
 
@@ -33,17 +38,28 @@ fn refused(dir: &Path, scene: &str, extra: &[&str], expect: &[&str]) {
     let r = run_bounded(&args, Duration::from_secs(60));
     let stderr = String::from_utf8_lossy(&r.stderr);
     assert_eq!(r.status.code(), Some(2), "{args:?}: {stderr}");
-    assert_eq!(stderr.trim().lines().count(), 1, "one line expected: {stderr}");
+    assert_eq!(
+        stderr.trim().lines().count(),
+        1,
+        "one line expected: {stderr}"
+    );
     for e in expect {
         assert!(stderr.contains(e), "'{e}' not in: {stderr}");
     }
-    assert!(!Path::new(&out).exists() && !Path::new(&png).exists(), "no output on failure");
+    assert!(
+        !Path::new(&out).exists() && !Path::new(&png).exists(),
+        "no output on failure"
+    );
     assert_eq!(snapshot(dir), before, "input files changed");
 }
 
 /// The room with `mtl` and `toml` in place of the defaults (the OBJ is the room's).
 fn room_with(mtl: &str, toml: &str) -> tempfile::TempDir {
-    scene_dir(&[("room.obj", ROOM_OBJ), ("room.mtl", mtl), ("scene.toml", toml)])
+    scene_dir(&[
+        ("room.obj", ROOM_OBJ),
+        ("room.mtl", mtl),
+        ("scene.toml", toml),
+    ])
 }
 
 fn refused_room(mtl: &str, toml: &str, expect: &[&str]) {
@@ -81,15 +97,33 @@ fn reflectances_outside_zero_one_in_mtl() {
 
 #[test]
 fn reflectances_outside_zero_one_in_toml() {
-    for (key, value) in [("albedo", "[10.0, 10.0, 10.0]"), ("albedo", "[-0.1, 0.5, 0.5]"), ("albedo", "[0.5, 0.5, 1e39]")] {
+    for (key, value) in [
+        ("albedo", "[10.0, 10.0, 10.0]"),
+        ("albedo", "[-0.1, 0.5, 0.5]"),
+        ("albedo", "[0.5, 0.5, 1e39]"),
+    ] {
         let toml = format!("{ROOM_TOML}\n[materials.wall]\ntype = \"diffuse\"\n{key} = {value}\n");
-        refused_room(ROOM_MTL, &toml, &["scene.toml:17:", "materials.wall.albedo"]);
+        refused_room(
+            ROOM_MTL,
+            &toml,
+            &["scene.toml:17:", "materials.wall.albedo"],
+        );
     }
-    for (kind, key) in [("mirror", "reflectance"), ("glass", "transmittance"), ("glossy", "specular")] {
-        let toml = format!("{ROOM_TOML}\n[materials.wall]\ntype = \"{kind}\"\n{key} = [2.0, 2.0, 2.0]\n");
+    for (kind, key) in [
+        ("mirror", "reflectance"),
+        ("glass", "transmittance"),
+        ("glossy", "specular"),
+    ] {
+        let toml =
+            format!("{ROOM_TOML}\n[materials.wall]\ntype = \"{kind}\"\n{key} = [2.0, 2.0, 2.0]\n");
         refused_room(ROOM_MTL, &toml, &["scene.toml:17:", key]);
     }
-    for (kind, key, value) in [("glass", "ior", "0.5"), ("glass", "ior", "1e30"), ("glossy", "exponent", "1e30"), ("glossy", "exponent", "-1.0")] {
+    for (kind, key, value) in [
+        ("glass", "ior", "0.5"),
+        ("glass", "ior", "1e30"),
+        ("glossy", "exponent", "1e30"),
+        ("glossy", "exponent", "-1.0"),
+    ] {
         let toml = format!("{ROOM_TOML}\n[materials.wall]\ntype = \"{kind}\"\n{key} = {value}\n");
         refused_room(ROOM_MTL, &toml, &["scene.toml:17:", key]);
     }
@@ -98,7 +132,11 @@ fn reflectances_outside_zero_one_in_toml() {
 #[test]
 fn emission_out_of_range_or_overflowing_power() {
     for ke in ["Ke 3e38 3e38 3e38", "Ke -1 -1 -1", "Ke 1e21 0 0"] {
-        refused_room(&ROOM_MTL.replace("Ke 10 10 10", ke), ROOM_TOML, &["room.mtl:5:", "Ke"]);
+        refused_room(
+            &ROOM_MTL.replace("Ke 10 10 10", ke),
+            ROOM_TOML,
+            &["room.mtl:5:", "Ke"],
+        );
     }
     for intensity in ["[3e38, 3e38, 3e38]", "[-1.0, 1.0, 1.0]", "[1.0, inf, 1.0]"] {
         let toml = format!("{ROOM_TOML}\n[[light]]\ntype = \"point\"\nposition = [0.0, 1.0, 0.0]\nintensity = {intensity}\n");
@@ -106,29 +144,60 @@ fn emission_out_of_range_or_overflowing_power() {
     }
     // Every value in range, but the power (Ke × area) overflows: blamed on the Ke line.
     let toml = ROOM_TOML.replace("obj = \"room.obj\"", "obj = \"room.obj\"\nscale = 1e14");
-    refused_room(&ROOM_MTL.replace("Ke 10 10 10", "Ke 1e20 1e20 1e20"), &toml, &["room.mtl:5:", "power"]);
+    refused_room(
+        &ROOM_MTL.replace("Ke 10 10 10", "Ke 1e20 1e20 1e20"),
+        &toml,
+        &["room.mtl:5:", "power"],
+    );
     let toml = format!("{toml}\n[[light]]\ntype = \"directional\"\ndirection = [0.0, -1.0, 0.0]\nirradiance = [1e20, 1e20, 1e20]\n");
     refused_room(ROOM_MTL, &toml, &["scene.toml:", "power"]);
 }
 
 #[test]
 fn coordinates_beyond_the_limit() {
-    let light = |pos: &str| format!("{ROOM_TOML}\n[[light]]\ntype = \"point\"\nposition = {pos}\nintensity = [1.0, 1.0, 1.0]\n");
+    let light = |pos: &str| {
+        format!("{ROOM_TOML}\n[[light]]\ntype = \"point\"\nposition = {pos}\nintensity = [1.0, 1.0, 1.0]\n")
+    };
     for pos in ["[0.0, 1e19, 0.0]", "[3e38, 0.0, 0.0]", "[0.0, 0.0, -1e16]"] {
-        refused_room(ROOM_MTL, &light(pos), &["scene.toml:17:", "light.position", "coordinate limit"]);
+        refused_room(
+            ROOM_MTL,
+            &light(pos),
+            &["scene.toml:17:", "light.position", "coordinate limit"],
+        );
     }
-    for (eye, target) in [("[0.0, 1.0, 3e38]", "[0.0, 1.0, -3e38]"), ("[1e19, 1.0, 3.0]", "[0.0, 1.0, 0.0]")] {
-        let toml = ROOM_TOML.replace("eye = [0.0, 1.0, 3.0]", &format!("eye = {eye}")).replace("target = [0.0, 1.0, 0.0]", &format!("target = {target}"));
+    for (eye, target) in [
+        ("[0.0, 1.0, 3e38]", "[0.0, 1.0, -3e38]"),
+        ("[1e19, 1.0, 3.0]", "[0.0, 1.0, 0.0]"),
+    ] {
+        let toml = ROOM_TOML
+            .replace("eye = [0.0, 1.0, 3.0]", &format!("eye = {eye}"))
+            .replace("target = [0.0, 1.0, 0.0]", &format!("target = {target}"));
         refused_room(ROOM_MTL, &toml, &["scene.toml:3:", "camera.eye"]);
     }
-    for transform in ["translate = [3e38, 0.0, 0.0]", "scale = 1e30", "scale = [1.0, 1e16, 1.0]"] {
-        let toml = ROOM_TOML.replace("obj = \"room.obj\"", &format!("obj = \"room.obj\"\n{transform}"));
+    for transform in [
+        "translate = [3e38, 0.0, 0.0]",
+        "scale = 1e30",
+        "scale = [1.0, 1e16, 1.0]",
+    ] {
+        let toml = ROOM_TOML.replace(
+            "obj = \"room.obj\"",
+            &format!("obj = \"room.obj\"\n{transform}"),
+        );
         refused_room(ROOM_MTL, &toml, &["scene.toml:1", "coordinate limit"]);
     }
     // Two tiny triangles at x = ±3e38: an extent that overflows f32 (the cache octree once recursed forever).
     let far = format!("{ROOM_OBJ}v 3e38 0 0\nv 3e38 1 0\nv 3e38 0 1\nv -3e38 0 0\nv -3e38 1 0\nv -3e38 0 1\nf 13 14 15\nf 16 17 18\n");
-    let d = scene_dir(&[("room.obj", &far), ("room.mtl", ROOM_MTL), ("scene.toml", ROOM_TOML)]);
-    refused(d.path(), &p(d.path(), "scene.toml"), &["--method", "pm"], &["scene.toml:10:", "coordinate limit"]);
+    let d = scene_dir(&[
+        ("room.obj", &far),
+        ("room.mtl", ROOM_MTL),
+        ("scene.toml", ROOM_TOML),
+    ]);
+    refused(
+        d.path(),
+        &p(d.path(), "scene.toml"),
+        &["--method", "pm"],
+        &["scene.toml:10:", "coordinate limit"],
+    );
 }
 
 #[test]
@@ -140,27 +209,64 @@ fn far_directions_are_normalised_in_double_precision() {
     ];
     let no_ceiling_light = ROOM_MTL.replace("Ke 10 10 10", "");
     for (far, near) in pairs {
-        let a = renders(room_with(&no_ceiling_light, &with_light(far)).path(), &["--method", "path"]);
-        let b = renders(room_with(&no_ceiling_light, &with_light(near)).path(), &["--method", "path"]);
-        assert!(mean(&a).max_element() > 0.0, "the far-aimed light must light the room");
+        let a = renders(
+            room_with(&no_ceiling_light, &with_light(far)).path(),
+            &["--method", "path"],
+        );
+        let b = renders(
+            room_with(&no_ceiling_light, &with_light(near)).path(),
+            &["--method", "path"],
+        );
+        assert!(
+            mean(&a).max_element() > 0.0,
+            "the far-aimed light must light the room"
+        );
         assert_eq!(a.pixels, b.pixels, "{far}");
     }
     let far_target = ROOM_TOML.replace("target = [0.0, 1.0, 0.0]", "target = [0.0, 1.0, -3e38]");
-    let a = renders(room_with(ROOM_MTL, &far_target).path(), &["--method", "path"]);
+    let a = renders(
+        room_with(ROOM_MTL, &far_target).path(),
+        &["--method", "path"],
+    );
     let b = renders(room_with(ROOM_MTL, ROOM_TOML).path(), &["--method", "path"]);
-    assert_eq!(a.pixels, b.pixels, "a far camera target looks the same way as a near one");
+    assert_eq!(
+        a.pixels, b.pixels,
+        "a far camera target looks the same way as a near one"
+    );
 }
 
 #[test]
 fn mirrored_meshes_keep_the_side_their_emitters_light() {
-    let plain = mean(&renders(room().path(), &["--method", "path", "--spp", "16"])).x;
+    let plain = mean(&renders(
+        room().path(),
+        &["--method", "path", "--spp", "16"],
+    ))
+    .x;
     // The room is symmetric in x and z: each mirror gives the same room, lit from the same ceiling light.
     // (Mirroring z and turning half a turn about y is the same room again; a stretched mirror is darker.)
-    for transform in ["scale = [-1.0, 1.0, 1.0]", "scale = [1.0, 1.0, -1.0]\nrotate = [0.0, 180.0, 0.0]", "scale = [-2.0, 1.0, 1.0]"] {
-        let toml = ROOM_TOML.replace("obj = \"room.obj\"", &format!("obj = \"room.obj\"\n{transform}"));
-        let mirrored = mean(&renders(room_with(ROOM_MTL, &toml).path(), &["--method", "path", "--spp", "16"])).x;
-        let expected = if transform.contains("-2") { 0.3 * plain } else { 0.75 * plain };
-        assert!(mirrored > expected, "{transform}: mean {mirrored} against {plain} unmirrored");
+    for transform in [
+        "scale = [-1.0, 1.0, 1.0]",
+        "scale = [1.0, 1.0, -1.0]\nrotate = [0.0, 180.0, 0.0]",
+        "scale = [-2.0, 1.0, 1.0]",
+    ] {
+        let toml = ROOM_TOML.replace(
+            "obj = \"room.obj\"",
+            &format!("obj = \"room.obj\"\n{transform}"),
+        );
+        let mirrored = mean(&renders(
+            room_with(ROOM_MTL, &toml).path(),
+            &["--method", "path", "--spp", "16"],
+        ))
+        .x;
+        let expected = if transform.contains("-2") {
+            0.3 * plain
+        } else {
+            0.75 * plain
+        };
+        assert!(
+            mirrored > expected,
+            "{transform}: mean {mirrored} against {plain} unmirrored"
+        );
     }
 }
 
@@ -171,7 +277,11 @@ fn png(width: u32, height: u32, ct: u8, rows: &[u8]) -> Vec<u8> {
         for &b in bytes {
             c ^= b as u32;
             for _ in 0..8 {
-                c = if c & 1 != 0 { 0xEDB8_8320 ^ (c >> 1) } else { c >> 1 };
+                c = if c & 1 != 0 {
+                    0xEDB8_8320 ^ (c >> 1)
+                } else {
+                    c >> 1
+                };
             }
         }
         !c
@@ -209,7 +319,10 @@ fn png(width: u32, height: u32, ct: u8, rows: &[u8]) -> Vec<u8> {
 }
 
 fn textured(texture: &[u8], map: &str) -> tempfile::TempDir {
-    let d = room_with(&ROOM_MTL.replace("Kd 0.6 0.6 0.6", &format!("Kd 0.6 0.6 0.6\nmap_Kd {map}")), ROOM_TOML);
+    let d = room_with(
+        &ROOM_MTL.replace("Kd 0.6 0.6 0.6", &format!("Kd 0.6 0.6 0.6\nmap_Kd {map}")),
+        ROOM_TOML,
+    );
     std::fs::write(d.path().join("tex.png"), texture).unwrap();
     d
 }
@@ -218,14 +331,24 @@ fn textured(texture: &[u8], map: &str) -> tempfile::TempDir {
 fn grey_alpha_textures_read_as_grey() {
     // 2×2, grey 128, alpha 255: the walls are grey, not cyan (alpha read as green and blue).
     let rows: Vec<u8> = (0..2).flat_map(|_| [0u8, 128, 255, 128, 255]).collect();
-    let img = renders(textured(&png(2, 2, 4, &rows), "tex.png").path(), &["--method", "path"]);
+    let img = renders(
+        textured(&png(2, 2, 4, &rows), "tex.png").path(),
+        &["--method", "path"],
+    );
     let m = mean(&img);
-    assert!(m.x > 0.0 && (m.y - m.x).abs() < 1e-4 * m.x.max(1e-3) && (m.z - m.x).abs() < 1e-4 * m.x.max(1e-3), "mean {m}");
+    assert!(
+        m.x > 0.0
+            && (m.y - m.x).abs() < 1e-4 * m.x.max(1e-3)
+            && (m.z - m.x).abs() < 1e-4 * m.x.max(1e-3),
+        "mean {m}"
+    );
 }
 
 #[test]
 fn corrupt_and_oversized_textures_give_one_line() {
-    let rows: Vec<u8> = (0..2).flat_map(|_| [0u8, 128, 128, 128, 128, 128, 128]).collect();
+    let rows: Vec<u8> = (0..2)
+        .flat_map(|_| [0u8, 128, 128, 128, 128, 128, 128])
+        .collect();
     let good = png(2, 2, 2, &rows);
     let mut crc = good.clone();
     crc[45] ^= 0xFF; // inside IDAT's data: a CRC error
@@ -237,7 +360,12 @@ fn corrupt_and_oversized_textures_give_one_line() {
     // The header claims 23170×23170 RGBA (8.6 GB as float): refused before decoding.
     for (w, h) in [(23170, 23170), (40000, 40000), (8193, 8193)] {
         let d = textured(&png(w, h, 6, &[0, 0, 0, 0, 0]), "tex.png");
-        refused(d.path(), &p(d.path(), "scene.toml"), &[], &["tex.png", &format!("{w}×{h}"), "67108864"]);
+        refused(
+            d.path(),
+            &p(d.path(), "scene.toml"),
+            &[],
+            &["tex.png", &format!("{w}×{h}"), "67108864"],
+        );
     }
 }
 
@@ -251,39 +379,89 @@ fn only_regular_files_are_read() {
     let d = textured(b"", "TEX.PNG");
     std::fs::remove_file(d.path().join("tex.png")).unwrap();
     mkfifo(&d.path().join("tex.png"));
-    refused(d.path(), &p(d.path(), "scene.toml"), &[], &["TEX.PNG", "not a regular file"]);
+    refused(
+        d.path(),
+        &p(d.path(), "scene.toml"),
+        &[],
+        &["TEX.PNG", "not a regular file"],
+    );
     for map in ["/dev/zero", "sub"] {
         let d = textured(b"", map);
         std::fs::create_dir(d.path().join("sub")).unwrap();
-        refused(d.path(), &p(d.path(), "scene.toml"), &[], &[map, "not a regular file"]);
+        refused(
+            d.path(),
+            &p(d.path(), "scene.toml"),
+            &[],
+            &[map, "not a regular file"],
+        );
     }
     // Scene, OBJ and MTL that are not regular files.
     let d = room();
-    refused(d.path(), "/dev/zero", &[], &["/dev/zero", "not a regular file"]);
+    refused(
+        d.path(),
+        "/dev/zero",
+        &[],
+        &["/dev/zero", "not a regular file"],
+    );
     mkfifo(&d.path().join("fifo.toml"));
-    refused(d.path(), &p(d.path(), "fifo.toml"), &[], &["fifo.toml", "not a regular file"]);
+    refused(
+        d.path(),
+        &p(d.path(), "fifo.toml"),
+        &[],
+        &["fifo.toml", "not a regular file"],
+    );
     let d = room();
     std::fs::remove_file(d.path().join("room.mtl")).unwrap();
     mkfifo(&d.path().join("room.mtl"));
-    refused(d.path(), &p(d.path(), "scene.toml"), &[], &["room.obj:1:", "not a regular file"]);
+    refused(
+        d.path(),
+        &p(d.path(), "scene.toml"),
+        &[],
+        &["room.obj:1:", "not a regular file"],
+    );
     let d = room();
     std::fs::remove_file(d.path().join("room.obj")).unwrap();
     std::fs::create_dir(d.path().join("room.obj")).unwrap();
-    refused(d.path(), &p(d.path(), "scene.toml"), &[], &["scene.toml:10:", "not a regular file"]);
+    refused(
+        d.path(),
+        &p(d.path(), "scene.toml"),
+        &[],
+        &["scene.toml:10:", "not a regular file"],
+    );
 }
 
 #[test]
 fn oversized_inputs_are_refused_before_reading() {
     // Sparse files: large on paper, nothing on disk.
-    for (name, len, limit) in [("scene.toml", 16u64 << 20, "16 MiB"), ("room.obj", 1 << 30, "1 GiB"), ("room.mtl", 64 << 20, "64 MiB")] {
+    for (name, len, limit) in [
+        ("scene.toml", 16u64 << 20, "16 MiB"),
+        ("room.obj", 1 << 30, "1 GiB"),
+        ("room.mtl", 64 << 20, "64 MiB"),
+    ] {
         let d = room();
-        let f = std::fs::OpenOptions::new().append(true).open(d.path().join(name)).unwrap();
+        let f = std::fs::OpenOptions::new()
+            .append(true)
+            .open(d.path().join(name))
+            .unwrap();
         f.set_len(len + 1).unwrap();
-        refused(d.path(), &p(d.path(), "scene.toml"), &[], &[name, "larger than the limit", limit]);
+        refused(
+            d.path(),
+            &p(d.path(), "scene.toml"),
+            &[],
+            &[name, "larger than the limit", limit],
+        );
     }
     let d = textured(b"", "tex.png");
-    std::fs::File::create(d.path().join("tex.png")).unwrap().set_len((1 << 30) + 1).unwrap();
-    refused(d.path(), &p(d.path(), "scene.toml"), &[], &["tex.png", "larger than the limit"]);
+    std::fs::File::create(d.path().join("tex.png"))
+        .unwrap()
+        .set_len((1 << 30) + 1)
+        .unwrap();
+    refused(
+        d.path(),
+        &p(d.path(), "scene.toml"),
+        &[],
+        &["tex.png", "larger than the limit"],
+    );
 }
 
 /// The text with every character below U+0100 as one Latin-1 byte (é → 0xE9).
@@ -293,28 +471,60 @@ fn latin1(s: &str) -> Vec<u8> {
 
 #[test]
 fn obj_statements_are_reported_at_their_line() {
-    for bad in ["v 1 0", "v", "v 1 2 3 4 5 6 7", "v 1 0 1 0", "vn 1 0", "usemtl caf\u{e9}"] {
+    for bad in [
+        "v 1 0",
+        "v",
+        "v 1 2 3 4 5 6 7",
+        "v 1 0 1 0",
+        "vn 1 0",
+        "usemtl caf\u{e9}",
+    ] {
         let d = room();
-        std::fs::write(d.path().join("room.obj"), latin1(&ROOM_OBJ.replacen("v 1 0 1", bad, 1))).unwrap();
+        std::fs::write(
+            d.path().join("room.obj"),
+            latin1(&ROOM_OBJ.replacen("v 1 0 1", bad, 1)),
+        )
+        .unwrap();
         refused(d.path(), &p(d.path(), "scene.toml"), &[], &["room.obj:3:"]);
     }
     let d = room();
-    std::fs::write(d.path().join("room.mtl"), latin1(&format!("newmtl caf\u{e9}\n{ROOM_MTL}"))).unwrap();
-    refused(d.path(), &p(d.path(), "scene.toml"), &[], &["room.mtl:1:", "0xE9"]);
+    std::fs::write(
+        d.path().join("room.mtl"),
+        latin1(&format!("newmtl caf\u{e9}\n{ROOM_MTL}")),
+    )
+    .unwrap();
+    refused(
+        d.path(),
+        &p(d.path(), "scene.toml"),
+        &[],
+        &["room.mtl:1:", "0xE9"],
+    );
 }
 
 #[test]
 fn legal_obj_mtl_and_toml_variants_are_accepted() {
     // `vt u`, several libraries on one `mtllib`, Latin-1 in comments, byte-order marks, inline comments.
     const BOM: &[u8] = b"\xEF\xBB\xBF";
-    let obj = format!("# caf\u{e9}\nmtllib room.mtl extra.mtl\nvt 0.5\nvt 0.5 0.5 0\n{}", ROOM_OBJ.replace("mtllib room.mtl\n", "").replace("v -1 0 1", "v -1 0 1 # corner"));
+    let obj = format!(
+        "# caf\u{e9}\nmtllib room.mtl extra.mtl\nvt 0.5\nvt 0.5 0.5 0\n{}",
+        ROOM_OBJ
+            .replace("mtllib room.mtl\n", "")
+            .replace("v -1 0 1", "v -1 0 1 # corner")
+    );
     let mtl = ROOM_MTL.replace("newmtl light", "# lumi\u{e8}re\nnewmtl light");
     let d = scene_dir(&[("extra.mtl", "newmtl unused\nKd 0.5\n")]);
     std::fs::write(d.path().join("room.obj"), [BOM, &latin1(&obj)].concat()).unwrap();
     std::fs::write(d.path().join("room.mtl"), [BOM, &latin1(&mtl)].concat()).unwrap();
-    std::fs::write(d.path().join("scene.toml"), [BOM, ROOM_TOML.as_bytes()].concat()).unwrap();
+    std::fs::write(
+        d.path().join("scene.toml"),
+        [BOM, ROOM_TOML.as_bytes()].concat(),
+    )
+    .unwrap();
     let img = renders(d.path(), &["--method", "path"]);
-    assert!(mean(&img).x > 0.0, "the room is lit: the BOM did not drop the mtllib line");
+    assert!(
+        mean(&img).x > 0.0,
+        "the room is lit: the BOM did not drop the mtllib line"
+    );
 }
 
 #[test]
@@ -325,14 +535,36 @@ fn toml_range_errors_name_the_right_line() {
     refused_room(ROOM_MTL, inline, &["scene.toml:4:", "camera.fov"]);
     let mesh_inline = "version = 1\ncamera = { eye = [0.0, 1.0, 3.0], target = [0.0, 1.0, 0.0], fov = 40.0, width = 24, height = 16 }\nmesh = [\n  { obj = \"room.obj\" },\n  { obj = \"room.obj\", translate = [1e20, 0.0, 0.0] },\n]\n";
     refused_room(ROOM_MTL, mesh_inline, &["scene.toml:5:", "mesh.translate"]);
-    let quoted = format!("{ROOM_TOML}\n[materials.\"wall\"]\ntype = \"diffuse\"\n\nalbedo = [2.0, 0.5, 0.5]\n");
-    refused_room(ROOM_MTL, &quoted, &["scene.toml:18:", "materials.wall.albedo"]);
+    let quoted = format!(
+        "{ROOM_TOML}\n[materials.\"wall\"]\ntype = \"diffuse\"\n\nalbedo = [2.0, 0.5, 0.5]\n"
+    );
+    refused_room(
+        ROOM_MTL,
+        &quoted,
+        &["scene.toml:18:", "materials.wall.albedo"],
+    );
     let spacing = format!("{ROOM_TOML}\n[render.icache]\naccuracy = 0.5\nmin_spacing_px = 30.0\nmax_spacing_px = 20.0\n");
-    refused_room(ROOM_MTL, &spacing, &["scene.toml:17:", "min_spacing_px", "max_spacing_px"]);
+    refused_room(
+        ROOM_MTL,
+        &spacing,
+        &["scene.toml:17:", "min_spacing_px", "max_spacing_px"],
+    );
     let pass_b = format!("{ROOM_TOML}\n[render.icache]\naccuracy = 0.5\npass_b_accuracy = 0.25\n");
-    refused_room(ROOM_MTL, &pass_b, &["scene.toml:17:", "render.icache.pass_b_accuracy"]);
-    for (from, to, expect) in [("spp = 2", "spp = 2000000", "1..=1048576"), ("spp = 2", "spp = 0", "1..=1048576"), ("spp = 2", "max_depth = 5000", "1..=1024")] {
-        refused_room(ROOM_MTL, &ROOM_TOML.replace(from, to), &["scene.toml:13:", expect]);
+    refused_room(
+        ROOM_MTL,
+        &pass_b,
+        &["scene.toml:17:", "render.icache.pass_b_accuracy"],
+    );
+    for (from, to, expect) in [
+        ("spp = 2", "spp = 2000000", "1..=1048576"),
+        ("spp = 2", "spp = 0", "1..=1048576"),
+        ("spp = 2", "max_depth = 5000", "1..=1024"),
+    ] {
+        refused_room(
+            ROOM_MTL,
+            &ROOM_TOML.replace(from, to),
+            &["scene.toml:13:", expect],
+        );
     }
 }
 
@@ -341,12 +573,23 @@ fn saved_files() -> (tempfile::TempDir, Vec<u8>, Vec<u8>, u64) {
     let d = room();
     let (ph, ic) = (d.path().join("m.phot"), d.path().join("c.ic"));
     let r = run(&[
-        "render", &p(d.path(), "scene.toml"), "-o", &p(d.path(), "o.exr"), "--method", "pm", "--quiet",
-        "--save-photons", ph.to_str().unwrap(), "--save-cache", ic.to_str().unwrap(),
+        "render",
+        &p(d.path(), "scene.toml"),
+        "-o",
+        &p(d.path(), "o.exr"),
+        "--method",
+        "pm",
+        "--quiet",
+        "--save-photons",
+        ph.to_str().unwrap(),
+        "--save-cache",
+        ic.to_str().unwrap(),
     ]);
     assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
     std::fs::remove_file(d.path().join("o.exr")).unwrap();
-    let fp = pmrender::scene::load(&d.path().join("scene.toml")).unwrap().fingerprint;
+    let fp = pmrender::scene::load(&d.path().join("scene.toml"))
+        .unwrap()
+        .fingerprint;
     let (a, b) = (std::fs::read(&ph).unwrap(), std::fs::read(&ic).unwrap());
     std::fs::remove_file(ph).unwrap();
     std::fs::remove_file(ic).unwrap();
@@ -369,13 +612,18 @@ fn patched(bytes: &[u8], edits: &[(usize, f32)], hash_from: usize) -> Vec<u8> {
 #[test]
 fn photon_and_cache_files_with_bad_values_are_refused() {
     let (d, photons, cache, fp) = saved_files();
-    assert!(photon::file::read_maps(&photons, fp).is_ok() && icache::IrradianceCache::from_bytes(&cache, fp).is_ok());
+    assert!(
+        photon::file::read_maps(&photons, fp).is_ok()
+            && icache::IrradianceCache::from_bytes(&cache, fp).is_ok()
+    );
     // Files written now hold no precomputed irradiance points (the render bakes an atlas instead), but
     // files of earlier versions do: the same maps with points added, as those wrote them.
     let photons = {
         let loaded = photon::file::read_maps(&photons, fp).unwrap();
         let global = loaded.maps.global.as_ref().unwrap();
-        let (pre, _) = photon::PrecomputedIrradiance::build(global, 4, 50, 0.5, &photon::map::FullDisc).unwrap();
+        let (pre, _) =
+            photon::PrecomputedIrradiance::build(global, 4, 50, 0.5, &photon::map::FullDisc)
+                .unwrap();
         let mut bytes = Vec::new();
         photon::file::write_maps(&mut bytes, &loaded.info, &loaded.maps, Some(&pre)).unwrap();
         bytes
@@ -403,9 +651,17 @@ fn photon_and_cache_files_with_bad_values_are_refused() {
     ];
     for (at, value, expect) in photon_cases {
         let bad = patched(&photons, &[(at, value)], 8);
-        assert!(photon::file::read_maps(&bad, fp).is_err(), "{expect} = {value} accepted");
+        assert!(
+            photon::file::read_maps(&bad, fp).is_err(),
+            "{expect} = {value} accepted"
+        );
         std::fs::write(d.path().join("bad.phot"), &bad).unwrap();
-        refused(d.path(), &p(d.path(), "scene.toml"), &["--method", "pm", "--load-photons", &p(d.path(), "bad.phot")], &["--load-photons", expect]);
+        refused(
+            d.path(),
+            &p(d.path(), "scene.toml"),
+            &["--method", "pm", "--load-photons", &p(d.path(), "bad.phot")],
+            &["--load-photons", expect],
+        );
         std::fs::remove_file(d.path().join("bad.phot")).unwrap();
     }
     // Cache layout (version 3): 44-byte prefix, bounds min and max (6 f32) at 44, stage count u32 at 68,
@@ -421,14 +677,31 @@ fn photon_and_cache_files_with_bad_values_are_refused() {
     ];
     for (edits, expect) in cache_cases {
         let bad = patched(&cache, edits, 0);
-        assert!(icache::IrradianceCache::from_bytes(&bad, fp).is_err(), "{expect}: {edits:?} accepted");
+        assert!(
+            icache::IrradianceCache::from_bytes(&bad, fp).is_err(),
+            "{expect}: {edits:?} accepted"
+        );
         std::fs::write(d.path().join("bad.ic"), &bad).unwrap();
-        refused(d.path(), &p(d.path(), "scene.toml"), &["--method", "pm", "--load-cache", &p(d.path(), "bad.ic")], &["--load-cache", expect]);
+        refused(
+            d.path(),
+            &p(d.path(), "scene.toml"),
+            &["--method", "pm", "--load-cache", &p(d.path(), "bad.ic")],
+            &["--load-cache", expect],
+        );
         std::fs::remove_file(d.path().join("bad.ic")).unwrap();
     }
     for name in ["fifo.phot", "dir.phot"] {
         let path = d.path().join(name);
-        if name.starts_with("fifo") { mkfifo(&path) } else { std::fs::create_dir(&path).unwrap() }
-        refused(d.path(), &p(d.path(), "scene.toml"), &["--method", "pm", "--load-photons", path.to_str().unwrap()], &["--load-photons"]);
+        if name.starts_with("fifo") {
+            mkfifo(&path)
+        } else {
+            std::fs::create_dir(&path).unwrap()
+        }
+        refused(
+            d.path(),
+            &p(d.path(), "scene.toml"),
+            &["--method", "pm", "--load-photons", path.to_str().unwrap()],
+            &["--load-photons"],
+        );
     }
 }

@@ -40,12 +40,27 @@ fn render_with(scene: &Path, method: &str, spp: u32, out: &Path, extra: &[&str])
     let size = SIZE.to_string();
     let start = Instant::now();
     let mut args = vec![
-        "render", scene.to_str().unwrap(), "-o", out.to_str().unwrap(), "--method", method, "--spp", &spp,
-        "--width", &size, "--height", &size, "--quiet",
+        "render",
+        scene.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--method",
+        method,
+        "--spp",
+        &spp,
+        "--width",
+        &size,
+        "--height",
+        &size,
+        "--quiet",
     ];
     args.extend_from_slice(extra);
     let r = run(&args);
-    assert!(r.status.success(), "{method}: {}", String::from_utf8_lossy(&r.stderr));
+    assert!(
+        r.status.success(),
+        "{method}: {}",
+        String::from_utf8_lossy(&r.stderr)
+    );
     start.elapsed().as_secs_f64()
 }
 
@@ -69,7 +84,13 @@ fn check_scene(scene: &str, name: &str, regions: &[Region], max_block_ratio: f64
     let reference = read(&repo().join(format!("tests/reference/{name}-path.exr")));
     let d = tempfile::tempdir().unwrap();
     let (pm_out, pm_stats) = (d.path().join("pm.exr"), d.path().join("pm.json"));
-    let t_pm = render_with(&scene, "pm", 32, &pm_out, &["--stats", pm_stats.to_str().unwrap()]);
+    let t_pm = render_with(
+        &scene,
+        "pm",
+        32,
+        &pm_out,
+        &["--stats", pm_stats.to_str().unwrap()],
+    );
     let pm = read(&pm_out);
     // More seeds, for the region means (the first render is seed 0, the default).
     let mut renders = vec![pm.clone()];
@@ -79,13 +100,20 @@ fn check_scene(scene: &str, name: &str, regions: &[Region], max_block_ratio: f64
         renders.push(read(&out));
     }
     // Pass-B misses: samples that shaded with no record of their own surface (issue 10: ≤ 0.1 %).
-    let stats: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&pm_stats).unwrap()).unwrap();
-    let (misses, lookups) = (stats["icache"]["misses_pass_b"].as_f64().unwrap(), stats["icache"]["lookups_pass_b"].as_f64().unwrap());
+    let stats: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&pm_stats).unwrap()).unwrap();
+    let (misses, lookups) = (
+        stats["icache"]["misses_pass_b"].as_f64().unwrap(),
+        stats["icache"]["lookups_pass_b"].as_f64().unwrap(),
+    );
 
     // Path tracing at equal time: time 8 and 24 spp (a fixed cost — loading, writing — plus a cost per
     // sample), then render the count that fits in pm's time.
     let calib = d.path().join("calib.exr");
-    let (t8, t24) = (render(&scene, "path", 8, &calib), render(&scene, "path", 24, &calib));
+    let (t8, t24) = (
+        render(&scene, "path", 8, &calib),
+        render(&scene, "path", 24, &calib),
+    );
     let per_spp = ((t24 - t8) / 16.0).max(1e-6);
     let spp_path = (((t_pm - (t8 - 8.0 * per_spp)) / per_spp).round() as u32).clamp(8, 65536);
     let path_out = d.path().join("path.exr");
@@ -102,17 +130,26 @@ fn check_scene(scene: &str, name: &str, regions: &[Region], max_block_ratio: f64
     }
     report += &format!("; region means / reference over seeds {SEEDS:?} (each seed)");
     for r in std::iter::once(&whole).chain(regions) {
-        let each: Vec<f32> = renders.iter().map(|img| region_mean(img, r) / region_mean(&reference, r)).collect();
+        let each: Vec<f32> = renders
+            .iter()
+            .map(|img| region_mean(img, r) / region_mean(&reference, r))
+            .collect();
         let ratio = each.iter().sum::<f32>() / each.len() as f32;
         let each: Vec<String> = each.iter().map(|x| format!("{x:.4}")).collect();
         report += &format!("; {} {ratio:.4} ({})", r.0, each.join(" "));
         if (ratio - 1.0).abs() > r.5 {
-            failures.push(format!("{} mean off by {:+.2} %", r.0, (ratio - 1.0) * 100.0));
+            failures.push(format!(
+                "{} mean off by {:+.2} %",
+                r.0,
+                (ratio - 1.0) * 100.0
+            ));
         }
     }
     eprintln!("{report}");
     if e_pm > max_block_ratio * e_path {
-        failures.push(format!("block relMSE {e_pm:.5} > {max_block_ratio} × path's {e_path:.5}"));
+        failures.push(format!(
+            "block relMSE {e_pm:.5} > {max_block_ratio} × path's {e_path:.5}"
+        ));
     }
     assert!(failures.is_empty(), "{name}: {}", failures.join("; "));
 }
@@ -208,19 +245,44 @@ fn pass_b_misses_at_1000() {
     let d = tempfile::tempdir().unwrap();
     let mut failures = Vec::new();
     for scene in [
-        "scenes/blinds-room.toml", "scenes/cornell-caustics.toml", "scenes/fog-cornell.toml", "scenes/fog-spot.toml",
-        "scenes/interior-diffuse.toml", "scenes/spot-point.toml", "scenes/water-caustics.toml", "tests/scenes/sibenik.toml",
+        "scenes/blinds-room.toml",
+        "scenes/cornell-caustics.toml",
+        "scenes/fog-cornell.toml",
+        "scenes/fog-spot.toml",
+        "scenes/interior-diffuse.toml",
+        "scenes/spot-point.toml",
+        "scenes/water-caustics.toml",
+        "tests/scenes/sibenik.toml",
         "tests/scenes/sponza.toml",
     ] {
         let (out, stats) = (d.path().join("m.exr"), d.path().join("m.json"));
         let path = repo().join(scene);
         let r = run(&[
-            "render", path.to_str().unwrap(), "-o", out.to_str().unwrap(), "--stats", stats.to_str().unwrap(), "--width", "1000",
-            "--height", "1000", "--spp", "4", "--quiet",
+            "render",
+            path.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "--stats",
+            stats.to_str().unwrap(),
+            "--width",
+            "1000",
+            "--height",
+            "1000",
+            "--spp",
+            "4",
+            "--quiet",
         ]);
-        assert!(r.status.success(), "{scene}: {}", String::from_utf8_lossy(&r.stderr));
-        let j: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap();
-        let (misses, lookups) = (j["icache"]["misses_pass_b"].as_f64().unwrap(), j["icache"]["lookups_pass_b"].as_f64().unwrap());
+        assert!(
+            r.status.success(),
+            "{scene}: {}",
+            String::from_utf8_lossy(&r.stderr)
+        );
+        let j: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap();
+        let (misses, lookups) = (
+            j["icache"]["misses_pass_b"].as_f64().unwrap(),
+            j["icache"]["lookups_pass_b"].as_f64().unwrap(),
+        );
         eprintln!("[misses 1000²] {scene}: {misses} of {lookups} pass-B lookups");
         if !(lookups > 0.0 && misses <= 1e-3 * lookups) {
             failures.push(format!("{scene}: {misses} misses of {lookups} lookups"));

@@ -17,14 +17,31 @@ use glam::Vec3;
 fn box_obj(lo: [f32; 3], hi: [f32; 3], mtl: &str, base: usize, inward: bool) -> String {
     let mut s = format!("usemtl {mtl}\n");
     for k in 0..8 {
-        let c = |axis: usize| if k >> axis & 1 == 1 { hi[axis] } else { lo[axis] };
+        let c = |axis: usize| {
+            if k >> axis & 1 == 1 {
+                hi[axis]
+            } else {
+                lo[axis]
+            }
+        };
         s += &format!("v {} {} {}\n", c(0), c(1), c(2));
     }
     // Corner k has x = bit 0, y = bit 1, z = bit 2; each face listed counter-clockwise seen from outside.
-    let faces = [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]];
+    let faces = [
+        [0, 2, 3, 1],
+        [4, 5, 7, 6],
+        [0, 1, 5, 4],
+        [2, 6, 7, 3],
+        [0, 4, 6, 2],
+        [1, 3, 7, 5],
+    ];
     for f in faces {
         let [a, b, c, d] = f.map(|i| i + base + 1);
-        s += &if inward { format!("f {a} {c} {b}\nf {a} {d} {c}\n") } else { format!("f {a} {b} {c}\nf {a} {c} {d}\n") };
+        s += &if inward {
+            format!("f {a} {c} {b}\nf {a} {d} {c}\n")
+        } else {
+            format!("f {a} {b} {c}\nf {a} {c} {d}\n")
+        };
     }
     s
 }
@@ -42,7 +59,13 @@ fn quad_facing_z(z: f32, half: f32, mtl: &str, base: usize) -> String {
 fn render(dir: &std::path::Path, extra: &[&str]) -> pmrender::io::output::Image {
     let out = dir.join("out.exr");
     let scene = p(dir, "scene.toml");
-    let mut args = vec!["render", scene.as_str(), "-o", out.to_str().unwrap(), "--quiet"];
+    let mut args = vec![
+        "render",
+        scene.as_str(),
+        "-o",
+        out.to_str().unwrap(),
+        "--quiet",
+    ];
     args.extend_from_slice(extra);
     let r = run(&args);
     assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
@@ -62,7 +85,8 @@ fn center(img: &pmrender::io::output::Image) -> Vec3 {
     s / 4.0
 }
 
-const SLAB_MTL: &str = "newmtl boundary\nKd 0 0 0\nnewmtl inner\nKd 0 0 0\nnewmtl lamp\nKd 0 0 0\nKe 1 1 1\n";
+const SLAB_MTL: &str =
+    "newmtl boundary\nKd 0 0 0\nnewmtl inner\nKd 0 0 0\nnewmtl lamp\nKd 0 0 0\nKe 1 1 1\n";
 
 /// An emitter of radiance 1 at z = −2 seen along −z through an absorbing slab (z ∈ [0, 1]) holding a
 /// second, more absorbing one (z ∈ [0.25, 0.5]); both boundaries are null.
@@ -109,9 +133,27 @@ spp = 4
     let obj = |body: String| format!("mtllib scene.mtl\n{body}");
     scene_dir(&[
         ("scene.mtl", SLAB_MTL),
-        ("outer.obj", &obj(box_obj([-5.0, -5.0, 0.0], [5.0, 5.0, 1.0], "boundary", 0, false))),
+        (
+            "outer.obj",
+            &obj(box_obj(
+                [-5.0, -5.0, 0.0],
+                [5.0, 5.0, 1.0],
+                "boundary",
+                0,
+                false,
+            )),
+        ),
         // Wound inward: the inside is found from the mesh's volume, whatever its winding.
-        ("inner.obj", &obj(box_obj([-4.0, -4.0, 0.25], [4.0, 4.0, 0.5], "inner", 0, true))),
+        (
+            "inner.obj",
+            &obj(box_obj(
+                [-4.0, -4.0, 0.25],
+                [4.0, 4.0, 0.5],
+                "inner",
+                0,
+                true,
+            )),
+        ),
         ("lamp.obj", &obj(quad_facing_z(-2.0, 8.0, "lamp", 0))),
         ("scene.toml", toml),
     ])
@@ -124,12 +166,18 @@ fn beer_lambert_through_nested_absorbing_slabs_is_exact() {
     // Through 0.75 of ink and 0.25 of dye (the rays are within 0.1° of the axis: cos = 1 − 2e-6).
     let expect = (-(Vec3::new(0.5, 1.0, 2.0) * 0.75 + Vec3::new(3.0, 0.0, 1.0) * 0.25)).exp();
     let got = center(&img);
-    assert!((got - expect).abs().max_element() < 1e-4 * expect.max_element(), "got {got}, expected {expect}");
+    assert!(
+        (got - expect).abs().max_element() < 1e-4 * expect.max_element(),
+        "got {got}, expected {expect}"
+    );
     // The slab's edge is outside the view: every pixel sees the same (to the cosine of its ray).
     for y in 0..img.height {
         for x in 0..img.width {
             let v = img.pixels[(y * img.width + x) as usize];
-            assert!((v - expect).abs().max_element() < 2e-3 * expect.max_element(), "pixel {x},{y}: {v} vs {expect}");
+            assert!(
+                (v - expect).abs().max_element() < 2e-3 * expect.max_element(),
+                "pixel {x},{y}: {v} vs {expect}"
+            );
         }
     }
 }
@@ -139,9 +187,22 @@ fn beer_lambert_through_nested_absorbing_slabs_is_exact() {
 /// (σt (1 + 1/μ)), μ = cos θ, p the phase function at the angle between the view ray and the light.
 #[test]
 fn single_scattering_in_a_slab_matches_its_closed_form() {
-    let (sa, ss, g, d, e) = (Vec3::new(0.1, 0.2, 0.4), Vec3::new(0.6, 0.3, 0.1), 0.4f32, 1.0f32, 2.0f32);
+    let (sa, ss, g, d, e) = (
+        Vec3::new(0.1, 0.2, 0.4),
+        Vec3::new(0.6, 0.3, 0.1),
+        0.4f32,
+        1.0f32,
+        2.0f32,
+    );
     let theta = 40f32.to_radians();
-    let obj = String::from("mtllib scene.mtl\n") + &box_obj([-60.0, -60.0, -1.0], [60.0, 60.0, 0.0], "boundary", 0, false);
+    let obj = String::from("mtllib scene.mtl\n")
+        + &box_obj(
+            [-60.0, -60.0, -1.0],
+            [60.0, 60.0, 0.0],
+            "boundary",
+            0,
+            false,
+        );
     let light_dir = Vec3::new(theta.sin(), 0.0, -theta.cos()); // travels down into the slab
     let toml = format!(
         r#"version = 1
@@ -178,7 +239,11 @@ max_depth = 1
 "#,
         sa.x, sa.y, sa.z, ss.x, ss.y, ss.z, light_dir.x, light_dir.y, light_dir.z
     );
-    let dir = scene_dir(&[("scene.mtl", "newmtl boundary\nKd 0 0 0\n"), ("slab.obj", &obj), ("scene.toml", &toml)]);
+    let dir = scene_dir(&[
+        ("scene.mtl", "newmtl boundary\nKd 0 0 0\n"),
+        ("slab.obj", &obj),
+        ("scene.toml", &toml),
+    ]);
     let img = render(dir.path(), &[]);
     let st = sa + ss;
     let mu = theta.cos();
@@ -188,7 +253,11 @@ max_depth = 1
     let expect = ss * p * e * (Vec3::ONE - (-st * d * k).exp()) / (st * k);
     let got = mean(&img);
     let rel = ((got - expect) / expect).abs().max_element();
-    assert!(rel < 0.01, "mean {got}, closed form {expect} ({:.2} % off)", rel * 100.0);
+    assert!(
+        rel < 0.01,
+        "mean {got}, closed form {expect} ({:.2} % off)",
+        rel * 100.0
+    );
 }
 
 /// A black sphere whose inside emits 1, filled with a medium that scatters all it meets (albedo 1,
@@ -219,17 +288,28 @@ method = "path"
 spp = 64
 max_depth = 1000
 "#;
-    let dir = scene_dir(&[("furnace.mtl", "newmtl inside\nKd 0 0 0\nKe 1 1 1\n"), ("sphere.obj", &sphere), ("scene.toml", toml)]);
+    let dir = scene_dir(&[
+        ("furnace.mtl", "newmtl inside\nKd 0 0 0\nKe 1 1 1\n"),
+        ("sphere.obj", &sphere),
+        ("scene.toml", toml),
+    ]);
     let img = render(dir.path(), &[]);
     let m = mean(&img);
-    assert!((m - Vec3::ONE).abs().max_element() < 0.01, "mean {m}, expected 1");
+    assert!(
+        (m - Vec3::ONE).abs().max_element() < 0.01,
+        "mean {m}, expected 1"
+    );
 }
 
 #[test]
 fn media_images_do_not_depend_on_the_thread_count() {
     let sphere = inward_sphere(16, 8);
     let toml = "version = 1\n[camera]\neye = [0.1, 0.2, 0.05]\ntarget = [1.0, 0.3, 0.2]\nfov = 100.0\nwidth = 12\nheight = 10\n\n[[medium]]\nname = \"fog\"\nsigma_a = [0.3, 0.2, 0.1]\nsigma_s = [1.0, 1.5, 2.0]\ng = -0.3\n\n[[mesh]]\nobj = \"sphere.obj\"\ninterior = \"fog\"\n\n[[light]]\ntype = \"point\"\nposition = [0.0, 0.5, 0.0]\nintensity = [1.0, 1.0, 1.0]\n\n[render]\nmethod = \"path\"\nspp = 8\n";
-    let dir = scene_dir(&[("furnace.mtl", "newmtl inside\nKd 0.5 0.5 0.5\n"), ("sphere.obj", &sphere), ("scene.toml", toml)]);
+    let dir = scene_dir(&[
+        ("furnace.mtl", "newmtl inside\nKd 0.5 0.5 0.5\n"),
+        ("sphere.obj", &sphere),
+        ("scene.toml", toml),
+    ]);
     let a = render(dir.path(), &["--threads", "1"]);
     let b = render(dir.path(), &["--threads", "2"]);
     assert_eq!(a.pixels, b.pixels);
@@ -239,7 +319,8 @@ fn media_images_do_not_depend_on_the_thread_count() {
 /// Bad media input: exit status 2, one line naming the file and line of the key at fault, no output.
 #[test]
 fn bad_media_keys_are_refused_with_their_line() {
-    let base_obj = String::from("mtllib scene.mtl\n") + &box_obj([-1.0, -1.0, -1.0], [1.0, 1.0, 1.0], "boundary", 0, false);
+    let base_obj = String::from("mtllib scene.mtl\n")
+        + &box_obj([-1.0, -1.0, -1.0], [1.0, 1.0, 1.0], "boundary", 0, false);
     let lamp_obj = String::from("mtllib scene.mtl\n") + &quad_facing_z(-3.0, 4.0, "lamp", 0);
     let base = r#"version = 1
 [camera]
@@ -269,7 +350,12 @@ method = "path"
 obj = "lamp.obj"
 "#;
     // Sanity: the base scene renders.
-    let ok = scene_dir(&[("scene.mtl", SLAB_MTL), ("scene.obj", &base_obj), ("lamp.obj", &lamp_obj), ("scene.toml", base)]);
+    let ok = scene_dir(&[
+        ("scene.mtl", SLAB_MTL),
+        ("scene.obj", &base_obj),
+        ("lamp.obj", &lamp_obj),
+        ("scene.toml", base),
+    ]);
     render(ok.path(), &["--spp", "1"]);
     let open_obj = base_obj.replacen("f 1 3 4\nf 1 4 2\n", "", 1);
     let flipped_obj = base_obj.replacen("f 1 3 4\n", "f 1 4 3\n", 1);
@@ -288,7 +374,12 @@ obj = "lamp.obj"
         (base.replace("[[mesh]]", "[[medium]]\nname = \"fog\"\nsigma_a = [0.0, 0.0, 0.0]\nsigma_s = [0.0, 0.0, 0.0]\n\n[[mesh]]"), base_obj.clone(), &["scene.toml:16:", "medium.name", "'fog'"]),
     ];
     for (toml, obj, expect) in cases {
-        let d = scene_dir(&[("scene.mtl", SLAB_MTL), ("scene.obj", &obj), ("lamp.obj", &lamp_obj), ("scene.toml", &toml)]);
+        let d = scene_dir(&[
+            ("scene.mtl", SLAB_MTL),
+            ("scene.obj", &obj),
+            ("lamp.obj", &lamp_obj),
+            ("scene.toml", &toml),
+        ]);
         let out = d.path().join("out.exr");
         let scene = p(d.path(), "scene.toml");
         let r = run(&["render", &scene, "-o", out.to_str().unwrap(), "--quiet"]);
@@ -304,18 +395,39 @@ obj = "lamp.obj"
 
 /// Renders a shipped scene with `method` at `w`×`h` into `dir`; returns the beauty and, for the photon
 /// methods, the two media layers.
-fn render_shipped(scene: &str, method: &str, w: u32, h: u32, dir: &std::path::Path, extra: &[&str]) -> (pmrender::io::output::Image, Option<(Vec3, Vec3)>) {
+fn render_shipped(
+    scene: &str,
+    method: &str,
+    w: u32,
+    h: u32,
+    dir: &std::path::Path,
+    extra: &[&str],
+) -> (pmrender::io::output::Image, Option<(Vec3, Vec3)>) {
     let scene = repo().join("scenes").join(scene);
     let out = dir.join(format!("{method}.exr"));
     let (w, h) = (w.to_string(), h.to_string());
-    let mut args = vec!["render", scene.to_str().unwrap(), "-o", out.to_str().unwrap(), "--method", method, "--width", &w, "--height", &h, "--quiet"];
+    let mut args = vec![
+        "render",
+        scene.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--method",
+        method,
+        "--width",
+        &w,
+        "--height",
+        &h,
+        "--quiet",
+    ];
     args.extend_from_slice(extra);
     let r = run(&args);
     assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
     let beauty = read(&out);
     let layers = (method != "path").then(|| {
-        let single = pmrender::io::output::read_layer(&out, Some("media_single")).expect("media_single layer");
-        let multiple = pmrender::io::output::read_layer(&out, Some("media_multiple")).expect("media_multiple layer");
+        let single = pmrender::io::output::read_layer(&out, Some("media_single"))
+            .expect("media_single layer");
+        let multiple = pmrender::io::output::read_layer(&out, Some("media_multiple"))
+            .expect("media_multiple layer");
         (mean(&single), mean(&multiple))
     });
     (beauty, layers)
@@ -332,14 +444,27 @@ fn every_method_agrees_with_mitsuba_in_the_fogged_cornell_box() {
     let dir = tempfile::tempdir().unwrap();
     let reference = read(&repo().join("tests/reference/fog-cornell-path.exr"));
     let r = mean(&reference);
-    for (method, extra, bound) in [("path", &["--spp", "512"][..], 0.015), ("pm", &[][..], 0.025), ("pm-fg", &[][..], 0.03), ("photons", &[][..], 0.025)] {
+    for (method, extra, bound) in [
+        ("path", &["--spp", "512"][..], 0.015),
+        ("pm", &[][..], 0.025),
+        ("pm-fg", &[][..], 0.03),
+        ("photons", &[][..], 0.025),
+    ] {
         let (img, layers) = render_shipped("fog-cornell.toml", method, 64, 64, dir.path(), extra);
         let m = mean(&img);
         let off = ((m - r) / r).abs().max_element();
-        assert!(off < bound, "{method}: mean {m} vs Mitsuba {r} ({:.1} % off, bound {:.1} %)", off * 100.0, bound * 100.0);
+        assert!(
+            off < bound,
+            "{method}: mean {m} vs Mitsuba {r} ({:.1} % off, bound {:.1} %)",
+            off * 100.0,
+            bound * 100.0
+        );
         if let Some((single, multiple)) = layers {
             // The fog glows: both media terms carry light (several % of the image each).
-            assert!(single.x > 0.03 * m.x && multiple.x > 0.03 * m.x, "{method}: media layers {single} {multiple} of {m}");
+            assert!(
+                single.x > 0.03 * m.x && multiple.x > 0.03 * m.x,
+                "{method}: media layers {single} {multiple} of {m}"
+            );
         }
     }
 }
@@ -356,21 +481,49 @@ fn photon_methods_agree_with_mitsuba_on_the_volume_caustic() {
     let dir = tempfile::tempdir().unwrap();
     let r = mean(&read(&repo().join("tests/reference/fog-spot-path.exr")));
     for method in ["pm", "pm-fg"] {
-        let (img, layers) = render_shipped("fog-spot.toml", method, 64, 48, dir.path(), &["--spp", "64", "--noise", "0"]);
+        let (img, layers) = render_shipped(
+            "fog-spot.toml",
+            method,
+            64,
+            48,
+            dir.path(),
+            &["--spp", "64", "--noise", "0"],
+        );
         let m = mean(&img);
         let off = ((m - r) / r).abs().max_element();
-        assert!(off < 0.05, "{method}: mean {m} vs Mitsuba {r} ({:.1} % off)", off * 100.0);
+        assert!(
+            off < 0.05,
+            "{method}: mean {m} vs Mitsuba {r} ({:.1} % off)",
+            off * 100.0
+        );
         // The beam and the volume caustic are multiple scattering here (through glass): most of the fog's light.
         let (single, multiple) = layers.unwrap();
-        assert!(multiple.x > 3.0 * single.x && multiple.x > 0.15 * m.x, "{method}: media layers {single} {multiple} of {m}");
+        assert!(
+            multiple.x > 3.0 * single.x && multiple.x > 0.15 * m.x,
+            "{method}: media layers {single} {multiple} of {m}"
+        );
     }
 }
 
 #[test]
 fn pm_in_media_does_not_depend_on_the_thread_count() {
     let dir = tempfile::tempdir().unwrap();
-    let (a, _) = render_shipped("fog-spot.toml", "pm", 24, 18, dir.path(), &["--threads", "1"]);
-    let (b, _) = render_shipped("fog-spot.toml", "pm", 24, 18, dir.path(), &["--threads", "2"]);
+    let (a, _) = render_shipped(
+        "fog-spot.toml",
+        "pm",
+        24,
+        18,
+        dir.path(),
+        &["--threads", "1"],
+    );
+    let (b, _) = render_shipped(
+        "fog-spot.toml",
+        "pm",
+        24,
+        18,
+        dir.path(),
+        &["--threads", "2"],
+    );
     assert_eq!(a.pixels, b.pixels);
 }
 
@@ -385,16 +538,44 @@ fn the_media_cache_covers_what_camera_rays_need() {
     let dir = tempfile::tempdir().unwrap();
     for (w, h, stride) in [(64u32, 48u32, 1u64), (128, 96, 1), (160, 144, 2)] {
         let json = dir.path().join(format!("{w}.json"));
-        render_shipped("fog-spot.toml", "pm", w, h, dir.path(), &["--stats", json.to_str().unwrap(), "--spp", "4", "--noise", "0"]);
-        let stats: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+        render_shipped(
+            "fog-spot.toml",
+            "pm",
+            w,
+            h,
+            dir.path(),
+            &[
+                "--stats",
+                json.to_str().unwrap(),
+                "--spp",
+                "4",
+                "--noise",
+                "0",
+            ],
+        );
+        let stats: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
         let m = &stats["media"];
         let n = |k: &str| m[k].as_f64().unwrap_or_else(|| panic!("media.{k} missing"));
         assert_eq!(n("lattice_stride") as u64, stride, "{w}×{h}");
-        assert!(n("records") > 100.0 && n("records") < 0.25 * n("points"), "{w}×{h}: {} records for {} points", n("records"), n("points"));
+        assert!(
+            n("records") > 100.0 && n("records") < 0.25 * n("points"),
+            "{w}×{h}: {} records for {} points",
+            n("records"),
+            n("points")
+        );
         assert_eq!(n("uncovered_after_fill"), 0.0, "{w}×{h}");
-        assert!(n("misses") <= 0.001 * n("lookups") && n("lookups") > 0.0, "{w}×{h}: {} misses of {} lookups", n("misses"), n("lookups"));
+        assert!(
+            n("misses") <= 0.001 * n("lookups") && n("lookups") > 0.0,
+            "{w}×{h}: {} misses of {} lookups",
+            n("misses"),
+            n("lookups")
+        );
         let r = &m["radius_px"];
-        assert!(r["max"].as_f64().unwrap() > 3.0 * r["min"].as_f64().unwrap(), "{w}×{h}: radii {r}");
+        assert!(
+            r["max"].as_f64().unwrap() > 3.0 * r["min"].as_f64().unwrap(),
+            "{w}×{h}: radii {r}"
+        );
     }
 }
 
@@ -405,14 +586,34 @@ fn photon_files_hold_the_volume_maps() {
     let dir = tempfile::tempdir().unwrap();
     let ph = dir.path().join("p.bin");
     let ph_arg = ph.to_str().unwrap();
-    let (saved, _) = render_shipped("fog-spot.toml", "pm", 24, 18, dir.path(), &["--save-photons", ph_arg, "--seed", "5"]);
+    let (saved, _) = render_shipped(
+        "fog-spot.toml",
+        "pm",
+        24,
+        18,
+        dir.path(),
+        &["--save-photons", ph_arg, "--seed", "5"],
+    );
     assert!(ph.exists());
-    let (loaded, _) = render_shipped("fog-spot.toml", "pm", 24, 18, dir.path(), &["--load-photons", ph_arg, "--seed", "5"]);
-    assert!(saved.pixels == loaded.pixels, "the render from the file differs from the one that saved it");
+    let (loaded, _) = render_shipped(
+        "fog-spot.toml",
+        "pm",
+        24,
+        18,
+        dir.path(),
+        &["--load-photons", ph_arg, "--seed", "5"],
+    );
+    assert!(
+        saved.pixels == loaded.pixels,
+        "the render from the file differs from the one that saved it"
+    );
     let bytes = std::fs::read(&ph).unwrap();
     let volume = u64::from_le_bytes(bytes[144..152].try_into().unwrap());
     let volume_caustic = u64::from_le_bytes(bytes[152..160].try_into().unwrap());
-    assert!(volume > 0 && volume_caustic > 0, "volume photons {volume}, volume caustic {volume_caustic}");
+    assert!(
+        volume > 0 && volume_caustic > 0,
+        "volume photons {volume}, volume caustic {volume_caustic}"
+    );
 }
 
 /// Single scattering of a point light in a fogged black room, against a numerical integral of
@@ -427,16 +628,28 @@ fn single_scattering_of_a_point_light_matches_a_numerical_integral() {
     // The light is out of view: a point light seen in fog is a singularity of the image (the glow ∝ 1/h
     // at distance h from it: infinite variance in its pixel, for every sampler).
     let (eye, light) = (Vec3::new(0.0, 1.0, 0.95), Vec3::new(0.7, 1.8, 0.8));
-    let room = String::from("mtllib s.mtl\n") + &box_obj([-1.0, 0.0, -1.0], [1.0, 2.0, 1.0], "wall", 0, true);
-    let fog = String::from("mtllib s.mtl\n") + &box_obj(lo.to_array(), hi.to_array(), "boundary", 0, false);
+    let room = String::from("mtllib s.mtl\n")
+        + &box_obj([-1.0, 0.0, -1.0], [1.0, 2.0, 1.0], "wall", 0, true);
+    let fog = String::from("mtllib s.mtl\n")
+        + &box_obj(lo.to_array(), hi.to_array(), "boundary", 0, false);
     let toml = |depth: &str| {
         format!(
             "version = 1\n[camera]\neye = [0.0, 1.0, 0.95]\ntarget = [0.0, 1.0, -1.0]\nfov = 80.0\nwidth = 16\nheight = 16\n\n[[medium]]\nname = \"fog\"\nsigma_a = [{sa}, {sa}, {sa}]\nsigma_s = [{ss}, {ss}, {ss}]\ng = {g}\n\n[[mesh]]\nobj = \"room.obj\"\n\n[[mesh]]\nobj = \"fog.obj\"\ninterior = \"fog\"\n\n[materials.boundary]\ntype = \"null\"\n\n[[light]]\ntype = \"point\"\nposition = [0.7, 1.8, 0.8]\nintensity = [1.0, 1.0, 1.0]\n{depth}"
         )
     };
     let mtl = "newmtl wall\nKd 0 0 0\nnewmtl boundary\nKd 0 0 0\n";
-    let dir = scene_dir(&[("s.mtl", mtl), ("room.obj", &room), ("fog.obj", &fog), ("scene.toml", &toml(""))]);
-    let once = scene_dir(&[("s.mtl", mtl), ("room.obj", &room), ("fog.obj", &fog), ("scene.toml", &toml("\n[render]\nmax_depth = 1\n"))]);
+    let dir = scene_dir(&[
+        ("s.mtl", mtl),
+        ("room.obj", &room),
+        ("fog.obj", &fog),
+        ("scene.toml", &toml("")),
+    ]);
+    let once = scene_dir(&[
+        ("s.mtl", mtl),
+        ("room.obj", &room),
+        ("fog.obj", &fog),
+        ("scene.toml", &toml("\n[render]\nmax_depth = 1\n")),
+    ]);
     // The integral, with the renderer's camera (vertical fov, square image).
     let st = ss + sa;
     let tan_half = 40f32.to_radians().tan();
@@ -447,15 +660,32 @@ fn single_scattering_of_a_point_light_matches_a_numerical_integral() {
             for s in 0..sub * sub {
                 let x = px as f32 + ((s % sub) as f32 + 0.5) / sub as f32;
                 let y = py as f32 + ((s / sub) as f32 + 0.5) / sub as f32;
-                let d = Vec3::new((2.0 * x / n_px as f32 - 1.0) * tan_half, (1.0 - 2.0 * y / n_px as f32) * tan_half, -1.0).normalize();
-                let exit = (0..3).map(|a| if d[a] > 0.0 { (hi[a] - eye[a]) / d[a] } else if d[a] < 0.0 { (lo[a] - eye[a]) / d[a] } else { f32::INFINITY }).fold(f32::INFINITY, f32::min);
+                let d = Vec3::new(
+                    (2.0 * x / n_px as f32 - 1.0) * tan_half,
+                    (1.0 - 2.0 * y / n_px as f32) * tan_half,
+                    -1.0,
+                )
+                .normalize();
+                let exit = (0..3)
+                    .map(|a| {
+                        if d[a] > 0.0 {
+                            (hi[a] - eye[a]) / d[a]
+                        } else if d[a] < 0.0 {
+                            (lo[a] - eye[a]) / d[a]
+                        } else {
+                            f32::INFINITY
+                        }
+                    })
+                    .fold(f32::INFINITY, f32::min);
                 let dt = exit / steps as f32;
                 for k in 0..steps {
                     let t = (k as f32 + 0.5) * dt;
                     let p = eye + d * t;
                     let to = light - p;
                     let dist = to.length();
-                    let f = ss * (-st * t).exp() * pmrender::medium::phase(g, d, to / dist) / (dist * dist) * (-st * dist).exp();
+                    let f = ss * (-st * t).exp() * pmrender::medium::phase(g, d, to / dist)
+                        / (dist * dist)
+                        * (-st * dist).exp();
                     total += (f * dt) as f64;
                 }
             }
@@ -465,16 +695,36 @@ fn single_scattering_of_a_point_light_matches_a_numerical_integral() {
     let (pm, layers) = {
         let out = dir.path().join("pm.exr");
         let scene = p(dir.path(), "scene.toml");
-        let r = run(&["render", &scene, "-o", out.to_str().unwrap(), "--method", "pm", "--quiet"]);
+        let r = run(&[
+            "render",
+            &scene,
+            "-o",
+            out.to_str().unwrap(),
+            "--method",
+            "pm",
+            "--quiet",
+        ]);
         assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
-        (read(&out), pmrender::io::output::read_layer(&out, Some("media_single")).unwrap())
+        (
+            read(&out),
+            pmrender::io::output::read_layer(&out, Some("media_single")).unwrap(),
+        )
     };
     let single = mean(&layers).x as f64;
-    assert!((single / exact - 1.0).abs() < 0.015, "pm media_single {single} vs integral {exact}");
-    assert!(mean(&pm).x as f64 > single, "the multiply scattered light adds to it");
+    assert!(
+        (single / exact - 1.0).abs() < 0.015,
+        "pm media_single {single} vs integral {exact}"
+    );
+    assert!(
+        mean(&pm).x as f64 > single,
+        "the multiply scattered light adds to it"
+    );
     let path = render(once.path(), &["--method", "path", "--spp", "1024"]);
     let m = mean(&path).x as f64;
-    assert!((m / exact - 1.0).abs() < 0.015, "path (max_depth 1) {m} vs integral {exact}");
+    assert!(
+        (m / exact - 1.0).abs() < 0.015,
+        "path (max_depth 1) {m} vs integral {exact}"
+    );
 }
 
 /// A fog so dense (σs = 1e9 per unit, albedo ≈ 1, g near 1) that photons never leave it and nothing
@@ -484,21 +734,52 @@ fn single_scattering_of_a_point_light_matches_a_numerical_integral() {
 #[test]
 fn a_dense_fog_does_not_hang_any_method() {
     let scene = std::fs::read_to_string(repo().join("scenes/fog-cornell.toml")).unwrap();
-    let scene = scene.replace("sigma_s = [0.25, 0.25, 0.25]", "sigma_s = [1e9, 1e9, 1e9]").replace("g = 0.3", "g = 0.99999").replace("models/", &format!("{}/scenes/models/", repo().display()));
+    let scene = scene
+        .replace("sigma_s = [0.25, 0.25, 0.25]", "sigma_s = [1e9, 1e9, 1e9]")
+        .replace("g = 0.3", "g = 0.99999")
+        .replace("models/", &format!("{}/scenes/models/", repo().display()));
     let dir = scene_dir(&[("scene.toml", &scene)]);
     let (scene, out) = (p(dir.path(), "scene.toml"), dir.path().join("out.exr"));
     for method in ["path", "pm", "pm-fg", "photons"] {
-        let args = ["render", &scene, "-o", out.to_str().unwrap(), "--method", method, "--width", "16", "--height", "16", "--spp", "4", "--quiet"];
+        let args = [
+            "render",
+            &scene,
+            "-o",
+            out.to_str().unwrap(),
+            "--method",
+            method,
+            "--width",
+            "16",
+            "--height",
+            "16",
+            "--spp",
+            "4",
+            "--quiet",
+        ];
         let r = run_bounded(&args, std::time::Duration::from_secs(120));
-        assert!(r.status.success(), "{method}: {}", String::from_utf8_lossy(&r.stderr));
+        assert!(
+            r.status.success(),
+            "{method}: {}",
+            String::from_utf8_lossy(&r.stderr)
+        );
         let img = read(&out);
-        assert!(img.pixels.iter().all(|p| p.is_finite()), "{method}: non-finite pixels");
+        assert!(
+            img.pixels.iter().all(|p| p.is_finite()),
+            "{method}: non-finite pixels"
+        );
     }
 }
 
 /// Renders `scene` (shipped) at its reference's size with `method` and `extra`; returns the image and
 /// the wall time of the run.
-fn timed_render(scene: &str, method: &str, w: u32, h: u32, dir: &std::path::Path, extra: &[&str]) -> (pmrender::io::output::Image, f64) {
+fn timed_render(
+    scene: &str,
+    method: &str,
+    w: u32,
+    h: u32,
+    dir: &std::path::Path,
+    extra: &[&str],
+) -> (pmrender::io::output::Image, f64) {
     let start = std::time::Instant::now();
     let (img, _) = render_shipped(scene, method, w, h, dir, extra);
     (img, start.elapsed().as_secs_f64())
@@ -514,13 +795,18 @@ fn timed_render(scene: &str, method: &str, w: u32, h: u32, dir: &std::path::Path
 #[ignore = "slow: make test-slow"]
 fn pm_beats_path_at_equal_time_in_both_fog_scenes() {
     let dir = tempfile::tempdir().unwrap();
-    for (scene, name, w, h) in [("fog-cornell.toml", "fog-cornell", 64, 64), ("fog-spot.toml", "fog-spot", 64, 48)] {
+    for (scene, name, w, h) in [
+        ("fog-cornell.toml", "fog-cornell", 64, 64),
+        ("fog-spot.toml", "fog-spot", 64, 48),
+    ] {
         let reference = read(&repo().join(format!("tests/reference/{name}-path.exr")));
         let (pm, t_pm) = timed_render(scene, "pm", w, h, dir.path(), &[]);
         let (_, t8) = timed_render(scene, "path", w, h, dir.path(), &["--spp", "8"]);
         let (_, t24) = timed_render(scene, "path", w, h, dir.path(), &["--spp", "24"]);
         let per_spp = ((t24 - t8) / 16.0).max(1e-6);
-        let spp = (((t_pm - (t8 - 8.0 * per_spp)) / per_spp).round() as u32).clamp(8, 65536).to_string();
+        let spp = (((t_pm - (t8 - 8.0 * per_spp)) / per_spp).round() as u32)
+            .clamp(8, 65536)
+            .to_string();
         let (path, t_path) = timed_render(scene, "path", w, h, dir.path(), &["--spp", &spp]);
         let (e_pm, e_path) = (rel_mse(&pm, &reference), rel_mse(&path, &reference));
         eprintln!("[{name}] pm {t_pm:.1} s relMSE {e_pm:.5}; path {spp} spp {t_path:.1} s relMSE {e_path:.5}");

@@ -8,7 +8,19 @@ use std::path::Path;
 fn render(dir: &Path, name: &str, extra: &[&str]) -> std::process::Output {
     let scene = repo().join("scenes/cornell-caustics.toml");
     let out = dir.join(name);
-    let mut args = vec!["render", scene.to_str().unwrap(), "-o", out.to_str().unwrap(), "--width", "64", "--height", "64", "--spp", "2", "--quiet"];
+    let mut args = vec![
+        "render",
+        scene.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--width",
+        "64",
+        "--height",
+        "64",
+        "--spp",
+        "2",
+        "--quiet",
+    ];
     args.extend_from_slice(extra);
     run(&args)
 }
@@ -18,9 +30,17 @@ fn saved_maps_and_cache_reproduce_the_render() {
     let d = tempfile::tempdir().unwrap();
     let ph = p(d.path(), "maps.phot");
     let cache = p(d.path(), "cache.ic");
-    let r = render(d.path(), "full.exr", &["--save-photons", &ph, "--save-cache", &cache]);
+    let r = render(
+        d.path(),
+        "full.exr",
+        &["--save-photons", &ph, "--save-cache", &cache],
+    );
     assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
-    let r = render(d.path(), "again.exr", &["--load-photons", &ph, "--load-cache", &cache]);
+    let r = render(
+        d.path(),
+        "again.exr",
+        &["--load-photons", &ph, "--load-cache", &cache],
+    );
     assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
     let full = std::fs::read(d.path().join("full.exr")).unwrap();
     assert_eq!(full, std::fs::read(d.path().join("again.exr")).unwrap());
@@ -28,11 +48,31 @@ fn saved_maps_and_cache_reproduce_the_render() {
     // each photon's kind (direct, caustic, indirect) must survive the file.
     let r = render(d.path(), "photons_only.exr", &["--load-photons", &ph]);
     assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
-    assert_eq!(full, std::fs::read(d.path().join("photons_only.exr")).unwrap());
+    assert_eq!(
+        full,
+        std::fs::read(d.path().join("photons_only.exr")).unwrap()
+    );
 
-    let r = render(d.path(), "crop.exr", &["--load-photons", &ph, "--load-cache", &cache, "--crop", "10", "20", "40", "50"]);
+    let r = render(
+        d.path(),
+        "crop.exr",
+        &[
+            "--load-photons",
+            &ph,
+            "--load-cache",
+            &cache,
+            "--crop",
+            "10",
+            "20",
+            "40",
+            "50",
+        ],
+    );
     assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
-    let (a, b) = (read(&d.path().join("full.exr")), read(&d.path().join("crop.exr")));
+    let (a, b) = (
+        read(&d.path().join("full.exr")),
+        read(&d.path().join("crop.exr")),
+    );
     for y in 20..50 {
         for x in 10..40 {
             let i = (y * 64 + x) as usize;
@@ -46,7 +86,13 @@ fn damaged_and_mismatched_files_are_input_errors() {
     let d = tempfile::tempdir().unwrap();
     let ph = p(d.path(), "maps.phot");
     let cache = p(d.path(), "cache.ic");
-    assert!(render(d.path(), "full.exr", &["--save-photons", &ph, "--save-cache", &cache]).status.success());
+    assert!(render(
+        d.path(),
+        "full.exr",
+        &["--save-photons", &ph, "--save-cache", &cache]
+    )
+    .status
+    .success());
     let bytes = std::fs::read(&ph).unwrap();
     let truncated = p(d.path(), "trunc.phot");
     std::fs::write(&truncated, &bytes[..bytes.len() / 2]).unwrap();
@@ -77,7 +123,15 @@ fn damaged_and_mismatched_files_are_input_errors() {
         assert!(!d.path().join("bad.exr").exists());
     }
     // Maps of one scene loaded into another.
-    let r = run(&["render", &p(room.path(), "scene.toml"), "-o", &room_out, "--load-photons", &ph, "--quiet"]);
+    let r = run(&[
+        "render",
+        &p(room.path(), "scene.toml"),
+        "-o",
+        &room_out,
+        "--load-photons",
+        &ph,
+        "--quiet",
+    ]);
     let stderr = String::from_utf8_lossy(&r.stderr);
     assert_eq!(r.status.code(), Some(2), "{stderr}");
     assert!(stderr.contains("--load-photons"), "{stderr}");
@@ -94,24 +148,83 @@ fn a_cache_with_pass_b_records_reproduces_the_render() {
     let scene = repo().join("scenes/blinds-room.toml");
     let (ph, cache) = (p(d.path(), "maps.phot"), p(d.path(), "cache.ic"));
     let render = |name: &str, extra: &[&str]| {
-        let (out, stats) = (d.path().join(format!("{name}.exr")), d.path().join(format!("{name}.json")));
-        let mut args = vec!["render", scene.to_str().unwrap(), "-o", out.to_str().unwrap(), "--stats", stats.to_str().unwrap(), "--width", "64", "--height", "48", "--quiet"];
+        let (out, stats) = (
+            d.path().join(format!("{name}.exr")),
+            d.path().join(format!("{name}.json")),
+        );
+        let mut args = vec![
+            "render",
+            scene.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "--stats",
+            stats.to_str().unwrap(),
+            "--width",
+            "64",
+            "--height",
+            "48",
+            "--quiet",
+        ];
         args.extend_from_slice(extra);
         let r = run(&args);
-        assert!(r.status.success(), "{name}: {}", String::from_utf8_lossy(&r.stderr));
-        let j: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap();
-        (std::fs::read(&out).unwrap(), j["icache"]["records_pass_b"].as_u64().unwrap())
+        assert!(
+            r.status.success(),
+            "{name}: {}",
+            String::from_utf8_lossy(&r.stderr)
+        );
+        let j: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap();
+        (
+            std::fs::read(&out).unwrap(),
+            j["icache"]["records_pass_b"].as_u64().unwrap(),
+        )
     };
     for spp in [&["--spp", "8", "--noise", "0"][..], &["--spp", "16"][..]] {
-        let (full, records) = render("full", &[spp, &["--save-photons", &ph, "--save-cache", &cache]].concat());
+        let (full, records) = render(
+            "full",
+            &[spp, &["--save-photons", &ph, "--save-cache", &cache]].concat(),
+        );
         assert!(records > 0, "the test needs pass-B records");
-        let (again, _) = render("again", &[spp, &["--load-photons", &ph, "--load-cache", &cache]].concat());
-        assert!(full == again, "{spp:?}: the render with the loaded cache differs");
+        let (again, _) = render(
+            "again",
+            &[spp, &["--load-photons", &ph, "--load-cache", &cache]].concat(),
+        );
+        assert!(
+            full == again,
+            "{spp:?}: the render with the loaded cache differs"
+        );
     }
-    let fixed = ["--spp", "8", "--noise", "0", "--load-photons", &ph, "--load-cache", &cache];
-    render("full", &["--spp", "8", "--noise", "0", "--save-photons", &ph, "--save-cache", &cache]);
-    render("crop", &[&fixed[..], &["--crop", "10", "12", "50", "40"]].concat());
-    let (a, b) = (read(&d.path().join("full.exr")), read(&d.path().join("crop.exr")));
+    let fixed = [
+        "--spp",
+        "8",
+        "--noise",
+        "0",
+        "--load-photons",
+        &ph,
+        "--load-cache",
+        &cache,
+    ];
+    render(
+        "full",
+        &[
+            "--spp",
+            "8",
+            "--noise",
+            "0",
+            "--save-photons",
+            &ph,
+            "--save-cache",
+            &cache,
+        ],
+    );
+    render(
+        "crop",
+        &[&fixed[..], &["--crop", "10", "12", "50", "40"]].concat(),
+    );
+    let (a, b) = (
+        read(&d.path().join("full.exr")),
+        read(&d.path().join("crop.exr")),
+    );
     for y in 12..40 {
         for x in 10..50 {
             let i = (y * 64 + x) as usize;

@@ -31,14 +31,23 @@ fn pm_matches_mitsuba_and_beats_uncached_final_gather() {
     eprintln!("pm: relMSE {e_pm}, 8×8 block relMSE {eb}");
     assert!(eb < 0.002, "pm block relMSE {eb}");
     // What pass B risks: samples that no record reaches and gather for themselves (measured below).
-    let (lookups, gathered) = (pm_stats["icache"]["lookups_pass_b"].as_f64().unwrap(), pm_stats["icache"]["gathered_pass_b"].as_f64().unwrap());
+    let (lookups, gathered) = (
+        pm_stats["icache"]["lookups_pass_b"].as_f64().unwrap(),
+        pm_stats["icache"]["gathered_pass_b"].as_f64().unwrap(),
+    );
     eprintln!("pm: {gathered} pass-B gathers of {lookups} lookups");
-    assert!(lookups > 0.0 && gathered <= 0.001 * lookups, "pm: {gathered} pass-B gathers of {lookups} lookups");
+    assert!(
+        lookups > 0.0 && gathered <= 0.001 * lookups,
+        "pm: {gathered} pass-B gathers of {lookups} lookups"
+    );
 
     // pm-fg at 1 spp traces several times more rays than pm at 16 spp and is still less accurate.
     let (fg, fg_stats) = render_cornell("pm-fg", 1, d.path(), &[]);
     let e_fg = rel_mse(&fg, &reference);
-    let (rays_pm, rays_fg) = (pm_stats["rays"]["total"].as_f64().unwrap(), fg_stats["rays"]["total"].as_f64().unwrap());
+    let (rays_pm, rays_fg) = (
+        pm_stats["rays"]["total"].as_f64().unwrap(),
+        fg_stats["rays"]["total"].as_f64().unwrap(),
+    );
     assert!(rays_fg > rays_pm, "pm-fg rays {rays_fg} vs pm {rays_pm}");
     assert!(e_pm < e_fg, "pm {e_pm} vs pm-fg {e_fg}");
 }

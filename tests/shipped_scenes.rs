@@ -25,43 +25,124 @@ fn rare_events_stay_rare_on_every_shipped_scene() {
         let out = d.path().join("o.exr");
         let stats = d.path().join("s.json");
         let r = run(&[
-            "render", path.to_str().unwrap(), "-o", out.to_str().unwrap(), "--stats", stats.to_str().unwrap(),
-            "--method", "pm", "--width", "96", "--height", "72", "--spp", "2", "--quiet",
+            "render",
+            path.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "--stats",
+            stats.to_str().unwrap(),
+            "--method",
+            "pm",
+            "--width",
+            "96",
+            "--height",
+            "72",
+            "--spp",
+            "2",
+            "--quiet",
         ]);
-        assert!(r.status.success(), "{}: {}", path.display(), String::from_utf8_lossy(&r.stderr));
-        let j: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap();
+        assert!(
+            r.status.success(),
+            "{}: {}",
+            path.display(),
+            String::from_utf8_lossy(&r.stderr)
+        );
+        let j: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap();
         let name = path.display();
-        let ic = |key: &str| j["icache"][key].as_f64().unwrap_or_else(|| panic!("{name}: icache.{key}"));
-        let (lookups, misses, gathered) = (ic("lookups_pass_b"), ic("misses_pass_b"), ic("gathered_pass_b"));
+        let ic = |key: &str| {
+            j["icache"][key]
+                .as_f64()
+                .unwrap_or_else(|| panic!("{name}: icache.{key}"))
+        };
+        let (lookups, misses, gathered) = (
+            ic("lookups_pass_b"),
+            ic("misses_pass_b"),
+            ic("gathered_pass_b"),
+        );
         eprintln!("[shipped] {name}: pass-B lookups {lookups}, misses {misses}, gathered {gathered}, one-record {}", ic("single_record_pass_b"));
         assert!(lookups > 0.0, "{name}: no pass-B lookups");
         // Issue 10: ≤ 0.1 % (pass B makes records for the samples that miss, between its rounds).
-        assert!(misses <= 1e-3 * lookups, "{name}: {misses} misses of {lookups} lookups");
-        assert!(gathered <= 0.002 * lookups, "{name}: {gathered} full gathers in pass B of {lookups} lookups");
+        assert!(
+            misses <= 1e-3 * lookups,
+            "{name}: {misses} misses of {lookups} lookups"
+        );
+        assert!(
+            gathered <= 0.002 * lookups,
+            "{name}: {gathered} full gathers in pass B of {lookups} lookups"
+        );
         assert_eq!(j["rare"]["nan_or_negative"], 0, "{name}");
         // The gathers' own noise is reported (a median between 0.5 % and 30 % on every shipped scene).
-        let noise = j["gather"]["rel_err_p50"].as_f64().unwrap_or_else(|| panic!("{name}: gather.rel_err_p50"));
-        assert!((0.005..=0.3).contains(&noise), "{name}: gather noise median {noise}");
+        let noise = j["gather"]["rel_err_p50"]
+            .as_f64()
+            .unwrap_or_else(|| panic!("{name}: gather.rel_err_p50"));
+        assert!(
+            (0.005..=0.3).contains(&noise),
+            "{name}: gather noise median {noise}"
+        );
         // The rays were chosen from that noise (no shipped scene gives `rays`): 250 to 1000, in rounds of 250.
-        let chosen = j["gather"]["rays_chosen"].as_u64().unwrap_or_else(|| panic!("{name}: gather.rays_chosen"));
-        assert!((250..=1000).contains(&chosen) && chosen % 250 == 0, "{name}: {chosen} rays chosen");
+        let chosen = j["gather"]["rays_chosen"]
+            .as_u64()
+            .unwrap_or_else(|| panic!("{name}: gather.rays_chosen"));
+        assert!(
+            (250..=1000).contains(&chosen) && chosen % 250 == 0,
+            "{name}: {chosen} rays chosen"
+        );
         let rays = j["rays"]["total"].as_f64().unwrap();
         let zero_pdf = j["rare"]["zero_pdf"].as_f64().unwrap();
-        assert!(zero_pdf <= 1e-3 * rays, "{name}: {zero_pdf} zero-pdf samples in {rays} rays");
-        let (dropped, paths) = (j["rare"]["photon_paths_dropped"].as_f64().unwrap(), j["photons"]["paths_emitted"].as_f64().unwrap());
-        assert!(dropped <= 1e-5 * paths, "{name}: {dropped} photon paths dropped of {paths}");
+        assert!(
+            zero_pdf <= 1e-3 * rays,
+            "{name}: {zero_pdf} zero-pdf samples in {rays} rays"
+        );
+        let (dropped, paths) = (
+            j["rare"]["photon_paths_dropped"].as_f64().unwrap(),
+            j["photons"]["paths_emitted"].as_f64().unwrap(),
+        );
+        assert!(
+            dropped <= 1e-5 * paths,
+            "{name}: {dropped} photon paths dropped of {paths}"
+        );
         let img = read(&out);
-        assert!(img.pixels.iter().all(|p| p.is_finite() && p.min_element() >= 0.0), "{name}");
+        assert!(
+            img.pixels
+                .iter()
+                .all(|p| p.is_finite() && p.min_element() >= 0.0),
+            "{name}"
+        );
 
         let r = run(&[
-            "render", path.to_str().unwrap(), "-o", out.to_str().unwrap(), "--stats", stats.to_str().unwrap(),
-            "--method", "path", "--width", "96", "--height", "72", "--spp", "4", "--quiet",
+            "render",
+            path.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "--stats",
+            stats.to_str().unwrap(),
+            "--method",
+            "path",
+            "--width",
+            "96",
+            "--height",
+            "72",
+            "--spp",
+            "4",
+            "--quiet",
         ]);
-        assert!(r.status.success(), "{name} path: {}", String::from_utf8_lossy(&r.stderr));
-        let j: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap();
+        assert!(
+            r.status.success(),
+            "{name} path: {}",
+            String::from_utf8_lossy(&r.stderr)
+        );
+        let j: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap();
         assert_eq!(j["rare"]["nan_or_negative"], 0, "{name} path");
-        let (zero_pdf, rays) = (j["rare"]["zero_pdf"].as_f64().unwrap(), j["rays"]["total"].as_f64().unwrap());
-        assert!(zero_pdf <= 1e-3 * rays, "{name} path: {zero_pdf} zero-pdf samples in {rays} rays");
+        let (zero_pdf, rays) = (
+            j["rare"]["zero_pdf"].as_f64().unwrap(),
+            j["rays"]["total"].as_f64().unwrap(),
+        );
+        assert!(
+            zero_pdf <= 1e-3 * rays,
+            "{name} path: {zero_pdf} zero-pdf samples in {rays} rays"
+        );
     }
     assert!(n_scenes >= 1);
 }

@@ -30,10 +30,20 @@ struct Render {
 /// Renders `dir/scene.toml` with `method` at `spp` (plus `extra` options) under the hang guard.
 fn render(dir: &Path, method: &str, spp: u32, extra: &[&str]) -> Render {
     let tag = format!("{method}-{spp}-{}", extra.join("_").replace(['/', ' '], ""));
-    let (out, stats, log) =
-        (dir.join(format!("{tag}.exr")), dir.join(format!("{tag}.json")), dir.join(format!("{tag}.log")));
+    let (out, stats, log) = (
+        dir.join(format!("{tag}.exr")),
+        dir.join(format!("{tag}.json")),
+        dir.join(format!("{tag}.log")),
+    );
     let spp_s = spp.to_string();
-    let mut args = vec!["render", "scene.toml", "-o", out.to_str().unwrap(), "--stats", stats.to_str().unwrap()];
+    let mut args = vec![
+        "render",
+        "scene.toml",
+        "-o",
+        out.to_str().unwrap(),
+        "--stats",
+        stats.to_str().unwrap(),
+    ];
     args.extend_from_slice(&["--method", method, "--spp", &spp_s, "--quiet"]);
     args.extend_from_slice(extra);
     let mut child = Command::new(bin())
@@ -51,13 +61,20 @@ fn render(dir: &Path, method: &str, spp: u32, extra: &[&str]) -> Render {
         if start.elapsed() > Duration::from_secs(HANG_S) {
             child.kill().ok();
             child.wait().ok();
-            panic!("{method} render of {} still running after {HANG_S} s: hung", dir.display());
+            panic!(
+                "{method} render of {} still running after {HANG_S} s: hung",
+                dir.display()
+            );
         }
         std::thread::sleep(Duration::from_millis(20));
     };
     let stderr = std::fs::read_to_string(&log).unwrap_or_default();
-    assert!(status.success(), "{method} {extra:?} failed ({status}): {stderr}");
-    let stats: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap();
+    assert!(
+        status.success(),
+        "{method} {extra:?} failed ({status}): {stderr}"
+    );
+    let stats: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap();
     keep(dir);
     let img = read(&out);
     sane(&img, &stats, &format!("{method} {extra:?}"));
@@ -78,9 +95,16 @@ fn keep(dir: &Path) {
 /// No NaN, Inf or negative pixel; the NaN-or-negative counter is zero.
 fn sane(img: &Image, stats: &serde_json::Value, what: &str) {
     for (i, p) in img.pixels.iter().enumerate() {
-        assert!(p.is_finite() && p.min_element() >= 0.0, "{what}: pixel {i} = {p}");
+        assert!(
+            p.is_finite() && p.min_element() >= 0.0,
+            "{what}: pixel {i} = {p}"
+        );
     }
-    assert_eq!(stats["rare"]["nan_or_negative"].as_u64(), Some(0), "{what}: rare.nan_or_negative");
+    assert_eq!(
+        stats["rare"]["nan_or_negative"].as_u64(),
+        Some(0),
+        "{what}: rare.nan_or_negative"
+    );
 }
 
 /// relMSE of 2×2 block means.
@@ -89,7 +113,10 @@ fn err(img: &Image, reference: &Image) -> f64 {
 }
 
 fn max_value(img: &Image) -> f32 {
-    img.pixels.iter().map(|p| p.max_element()).fold(0.0, f32::max)
+    img.pixels
+        .iter()
+        .map(|p| p.max_element())
+        .fold(0.0, f32::max)
 }
 
 fn report(case: &str, rows: &[(&str, f64)]) {
@@ -105,11 +132,17 @@ const PHOTONS: &str = "[render.photons]\nglobal = 20000\n";
 const NO_CLAMP: &str = "[render.icache]\nneighbor_clamping = false\n";
 
 fn stat(r: &Render, group: &str, key: &str) -> f64 {
-    r.stats[group][key].as_f64().unwrap_or_else(|| panic!("stats {group}.{key} missing"))
+    r.stats[group][key]
+        .as_f64()
+        .unwrap_or_else(|| panic!("stats {group}.{key} missing"))
 }
 
 fn black(w: u32, h: u32) -> Image {
-    Image { width: w, height: h, pixels: vec![glam::Vec3::ZERO; (w * h) as usize] }
+    Image {
+        width: w,
+        height: h,
+        pixels: vec![glam::Vec3::ZERO; (w * h) as usize],
+    }
 }
 
 /// a. A closed room whose walls stop 1 mm above the floor; the floor runs on outside, where a point light
@@ -119,23 +152,54 @@ fn black(w: u32, h: u32) -> Image {
 #[test]
 fn a_light_leaking_through_a_crack() {
     let mut o = Obj::new();
-    o.quad("wall", [v(-3.0, 0.0, 3.0), v(3.0, 0.0, 3.0), v(3.0, 0.0, -3.0), v(-3.0, 0.0, -3.0)]);
-    o.cuboid("wall", v(-1.0, 0.001, -1.0), v(1.0, 2.0, 1.0), true, &["-y"]);
+    o.quad(
+        "wall",
+        [
+            v(-3.0, 0.0, 3.0),
+            v(3.0, 0.0, 3.0),
+            v(3.0, 0.0, -3.0),
+            v(-3.0, 0.0, -3.0),
+        ],
+    );
+    o.cuboid(
+        "wall",
+        v(-1.0, 0.001, -1.0),
+        v(1.0, 2.0, 1.0),
+        true,
+        &["-y"],
+    );
     let lights = "[[light]]\ntype = \"point\"\nposition = [0.0, 1.0, -2.0]\nintensity = [100.0, 100.0, 100.0]\n\n\
                   [[light]]\ntype = \"point\"\nposition = [0.0, 1.8, 0.0]\nintensity = [10.0, 10.0, 10.0]\n\n";
-    let scene =
-        |extra: &str| toml(v(0.0, 1.2, 0.95), v(0.0, 0.3, -1.0), 70.0, (32, 32), &format!("{lights}{PHOTONS}{extra}"));
+    let scene = |extra: &str| {
+        toml(
+            v(0.0, 1.2, 0.95),
+            v(0.0, 0.3, -1.0),
+            70.0,
+            (32, 32),
+            &format!("{lights}{PHOTONS}{extra}"),
+        )
+    };
     let d = write(&o, MTL, &scene(""));
     let dn = write(&o, MTL, &scene(NO_CLAMP));
     let reference = render(d.path(), "path", 1024, &[]);
     let pm = render(d.path(), "pm", 64, &[]);
     let ph = render(d.path(), "photons", 64, &[]);
     let pm_nc = render(dn.path(), "pm", 64, &[]);
-    let (e, e_ph, e_nc) = (err(&pm.img, &reference.img), err(&ph.img, &reference.img), err(&pm_nc.img, &reference.img));
-    report("a", &[("pm", e), ("photons", e_ph), ("pm no clamping", e_nc)]);
+    let (e, e_ph, e_nc) = (
+        err(&pm.img, &reference.img),
+        err(&ph.img, &reference.img),
+        err(&pm_nc.img, &reference.img),
+    );
+    report(
+        "a",
+        &[("pm", e), ("photons", e_ph), ("pm no clamping", e_nc)],
+    );
     check("a", "pm", e, 0.014); // measured 0.0071 (no clamping 0.0086)
     check("a", "photons", e_ph, 0.064); // measured 0.032
-    assert!(e < e_ph, "a: gathering must reduce the leak: pm {e} vs photons {e_ph}");
+    assert!(
+        e < e_ph,
+        "a: gathering must reduce the leak: pm {e} vs photons {e_ph}"
+    );
 }
 
 /// b. A thin pillar (4 cm square) 3 cm in front of the back wall: gather rays from the wall behind it mostly
@@ -144,17 +208,29 @@ fn a_light_leaking_through_a_crack() {
 fn b_thin_pillar_near_a_wall() {
     let mut o = Obj::new();
     open_room(&mut o);
-    o.cuboid("wall", v(-0.02, 0.0, -0.97), v(0.02, 1.98, -0.93), false, &[]);
+    o.cuboid(
+        "wall",
+        v(-0.02, 0.0, -0.97),
+        v(0.02, 1.98, -0.93),
+        false,
+        &[],
+    );
     let d = write(&o, MTL, &room_toml(PHOTONS));
     let dn = write(&o, MTL, &room_toml(&format!("{PHOTONS}{NO_CLAMP}")));
     let reference = render(d.path(), "path", 1024, &[]);
     let pm = render(d.path(), "pm", 32, &[]);
     let pm_nc = render(dn.path(), "pm", 32, &[]);
-    let (e, e_nc) = (err(&pm.img, &reference.img), err(&pm_nc.img, &reference.img));
+    let (e, e_nc) = (
+        err(&pm.img, &reference.img),
+        err(&pm_nc.img, &reference.img),
+    );
     report("b", &[("pm", e), ("pm no clamping", e_nc)]);
     check("b", "pm", e, 0.0016); // measured 0.00088
     check("b", "pm without clamping", e_nc, 0.004); // measured 0.0020
-    assert!(e < e_nc, "b: neighbor clamping must help: {e} vs {e_nc} without");
+    assert!(
+        e < e_nc,
+        "b: neighbor clamping must help: {e} vs {e_nc} without"
+    );
     assert!(stat(&pm, "icache", "shrunk_by_clamping") > 0.0);
 }
 
@@ -165,8 +241,24 @@ fn b_thin_pillar_near_a_wall() {
 fn c_inside_corners_and_creases() {
     let mut o = Obj::new();
     open_room(&mut o);
-    o.quad("wall", [v(-1.0, 0.0, 0.5), v(1.0, 0.0, 0.5), v(1.0, 0.3, -1.0), v(-1.0, 0.3, -1.0)]);
-    let cam = |extra: &str| toml(v(0.0, 1.3, 2.5), v(0.0, 0.3, -0.6), 45.0, (32, 32), &format!("{PHOTONS}{extra}"));
+    o.quad(
+        "wall",
+        [
+            v(-1.0, 0.0, 0.5),
+            v(1.0, 0.0, 0.5),
+            v(1.0, 0.3, -1.0),
+            v(-1.0, 0.3, -1.0),
+        ],
+    );
+    let cam = |extra: &str| {
+        toml(
+            v(0.0, 1.3, 2.5),
+            v(0.0, 0.3, -0.6),
+            45.0,
+            (32, 32),
+            &format!("{PHOTONS}{extra}"),
+        )
+    };
     let d = write(&o, MTL, &cam(""));
     let dn = write(&o, MTL, &cam(NO_CLAMP));
     let dg = write(&o, MTL, &cam("[render.icache]\ngradients = false\n"));
@@ -174,12 +266,25 @@ fn c_inside_corners_and_creases() {
     let pm = render(d.path(), "pm", 32, &[]);
     let pm_nc = render(dn.path(), "pm", 32, &[]);
     let pm_ng = render(dg.path(), "pm", 32, &[]);
-    let (e, e_nc, e_ng) =
-        (err(&pm.img, &reference.img), err(&pm_nc.img, &reference.img), err(&pm_ng.img, &reference.img));
-    report("c", &[("pm", e), ("pm no clamping", e_nc), ("pm no gradients", e_ng)]);
+    let (e, e_nc, e_ng) = (
+        err(&pm.img, &reference.img),
+        err(&pm_nc.img, &reference.img),
+        err(&pm_ng.img, &reference.img),
+    );
+    report(
+        "c",
+        &[
+            ("pm", e),
+            ("pm no clamping", e_nc),
+            ("pm no gradients", e_ng),
+        ],
+    );
     check("c", "pm", e, 0.0003); // measured 0.00015
     check("c", "pm without clamping", e_nc, 0.0003); // measured 0.00015 (clamping makes no difference here)
-    assert!(e < e_ng, "c: gradients (with their limit) must help in the crease: {e} vs {e_ng} without");
+    assert!(
+        e < e_ng,
+        "c: gradients (with their limit) must help in the crease: {e} vs {e_ng} without"
+    );
     assert!(stat(&pm, "icache", "shrunk_by_gradient") > 0.0);
 }
 
@@ -197,15 +302,25 @@ fn d_scanline_order() {
     o.cuboid("wall", v(-0.5, 0.0, -0.5), v(-0.1, 0.8, -0.1), false, &[]);
     o.cuboid("wall", v(0.2, 0.0, -0.2), v(0.6, 0.4, 0.2), false, &[]);
     let scene = |extra: &str| {
-        let t = toml(v(0.0, 1.0, 3.0), v(0.0, 1.0, 0.0), 45.0, (64, 64), &format!("{PHOTONS}[render.icache]\n{extra}"));
+        let t = toml(
+            v(0.0, 1.0, 3.0),
+            v(0.0, 1.0, 0.0),
+            45.0,
+            (64, 64),
+            &format!("{PHOTONS}[render.icache]\n{extra}"),
+        );
         write(&o, MTL, &t)
     };
     let (two, one) = (scene(""), scene("fill = \"one-pass\"\n"));
     let reference = render(two.path(), "path", 1024, &[]);
     render(two.path(), "pm-fg", 16, &[]); // read below as a layer: pm-fg-16-.exr
-    let (pm, pm1) = (render(two.path(), "pm", 32, &[]), render(one.path(), "pm", 32, &[]));
+    let (pm, pm1) = (
+        render(two.path(), "pm", 32, &[]),
+        render(one.path(), "pm", 32, &[]),
+    );
     let indirect = |d: &tempfile::TempDir, tag: &str| {
-        pmrender::io::output::read_layer(&d.path().join(format!("{tag}.exr")), Some("indirect")).expect("indirect layer")
+        pmrender::io::output::read_layer(&d.path().join(format!("{tag}.exr")), Some("indirect"))
+            .expect("indirect layer")
     };
     let i_ref = indirect(&two, "pm-fg-16-");
     let (i2, i1) = (indirect(&two, "pm-32-"), indirect(&one, "pm-32-"));
@@ -213,7 +328,10 @@ fn d_scanline_order() {
     let (steps2, steps1) = (step_error(&i2, &i_ref), step_error(&i1, &i_ref));
     let (cache_e2, cache_e1) = (rel_mse(&i2, &i_ref), rel_mse(&i1, &i_ref));
     let (e, e1) = (err(&pm.img, &reference.img), err(&pm1.img, &reference.img));
-    let (misses, lookups) = (stat(&pm, "icache", "misses_pass_b"), stat(&pm, "icache", "lookups_pass_b"));
+    let (misses, lookups) = (
+        stat(&pm, "icache", "misses_pass_b"),
+        stat(&pm, "icache", "lookups_pass_b"),
+    );
     report(
         "d",
         &[
@@ -234,13 +352,30 @@ fn d_scanline_order() {
     // are the records' gather noise and the photons' (the same in both fills), not the fill order:
     // indirect 5.6e-4 vs 6.1e-4, beauty 6.3e-4 vs 5.7e-4 — and 4.0e-4 vs 5.8e-4, 4.8e-4 vs 5.5e-4 while
     // every seed gathered with the same jitter (before 2026-11-24), so they are only bounded here.
-    assert!(records(&pm) < records(&pm1), "d: two-pass {} records vs one-pass {}", records(&pm), records(&pm1));
-    assert!(steps2 < 0.75 * steps1, "d: steps two-pass {steps2} vs one-pass {steps1}");
-    assert!(cache_e2 < 1.25 * cache_e1, "d: indirect relMSE two-pass {cache_e2} vs one-pass {cache_e1}");
-    assert!(e < 1.25 * e1, "d: error vs path two-pass {e} vs one-pass {e1}");
+    assert!(
+        records(&pm) < records(&pm1),
+        "d: two-pass {} records vs one-pass {}",
+        records(&pm),
+        records(&pm1)
+    );
+    assert!(
+        steps2 < 0.75 * steps1,
+        "d: steps two-pass {steps2} vs one-pass {steps1}"
+    );
+    assert!(
+        cache_e2 < 1.25 * cache_e1,
+        "d: indirect relMSE two-pass {cache_e2} vs one-pass {cache_e1}"
+    );
+    assert!(
+        e < 1.25 * e1,
+        "d: error vs path two-pass {e} vs one-pass {e1}"
+    );
     check("d", "two-pass", e, 0.0016); // measured 0.00083
-    // Measured 177 misses in 149 900 lookups (0.12 %).
-    assert!(misses <= 0.005 * lookups, "d: {misses} pass-B misses in {lookups} lookups");
+                                       // Measured 177 misses in 149 900 lookups (0.12 %).
+    assert!(
+        misses <= 0.005 * lookups,
+        "d: {misses} pass-B misses in {lookups} lookups"
+    );
     assert!(stat(&pm, "icache", "uncovered_after_fill") <= 10.0);
 }
 
@@ -253,8 +388,12 @@ fn step_error(img: &Image, reference: &Image) -> f64 {
     for y in 0..h {
         for x in 0..w {
             let i = y * w + x;
-            for j in [(x + 1 < w).then_some(i + 1), (y + 1 < h).then_some(i + w)].into_iter().flatten() {
-                let d = (img.pixels[j] - img.pixels[i]) - (reference.pixels[j] - reference.pixels[i]);
+            for j in [(x + 1 < w).then_some(i + 1), (y + 1 < h).then_some(i + w)]
+                .into_iter()
+                .flatten()
+            {
+                let d =
+                    (img.pixels[j] - img.pixels[i]) - (reference.pixels[j] - reference.pixels[i]);
                 let m = 0.5 * (reference.pixels[j] + reference.pixels[i]);
                 for c in 0..3 {
                     sum += (d[c] as f64).powi(2) / ((m[c] as f64).powi(2) + 0.01);
@@ -280,8 +419,11 @@ fn e_photons_versus_pm() {
     report("e", &[("pm", e), ("photons", e_ph)]);
     check("e", "pm", e, 0.0015); // measured 0.00088
     check("e", "photons", e_ph, 0.0045); // measured 0.0016 (0.0022 before samples were stratified)
-    // Measured 0.55 (0.34 before stratified samples took the aliasing out of both errors).
-    assert!(e < 0.65 * e_ph, "e: the splotches must go: pm {e} vs photons {e_ph}");
+                                         // Measured 0.55 (0.34 before stratified samples took the aliasing out of both errors).
+    assert!(
+        e < 0.65 * e_ph,
+        "e: the splotches must go: pm {e} vs photons {e_ph}"
+    );
 }
 
 /// f. A glass-sphere caustic with too few caustic photons (500) and with a huge lookup radius: the error
@@ -299,13 +441,26 @@ fn f_caustics_with_too_few_photons_or_too_large_a_radius() {
     let pm = render(d.path(), "pm", 32, &[]);
     let pm_few = render(few.path(), "pm", 32, &[]);
     let pm_wide = render(wide.path(), "pm", 32, &[]);
-    let (e, e_few, e_wide) =
-        (err(&pm.img, &reference.img), err(&pm_few.img, &reference.img), err(&pm_wide.img, &reference.img));
-    report("f", &[("pm defaults", e), ("caustic 500", e_few), ("caustic 500, max_radius 100", e_wide)]);
+    let (e, e_few, e_wide) = (
+        err(&pm.img, &reference.img),
+        err(&pm_few.img, &reference.img),
+        err(&pm_wide.img, &reference.img),
+    );
+    report(
+        "f",
+        &[
+            ("pm defaults", e),
+            ("caustic 500", e_few),
+            ("caustic 500, max_radius 100", e_wide),
+        ],
+    );
     check("f", "pm defaults", e, 0.006); // measured 0.0031
     check("f", "caustic 500", e_few, 0.0066); // measured 0.0033
     check("f", "caustic 500, max_radius 100", e_wide, 0.0104); // measured 0.0052
-    assert!(e < e_few && e < e_wide, "f: defaults must do better: {e} vs {e_few}, {e_wide}");
+    assert!(
+        e < e_few && e < e_wide,
+        "f: defaults must do better: {e} vs {e_few}, {e_wide}"
+    );
     assert_eq!(stat(&pm_few, "photons", "caustic_stored"), 500.0);
 }
 
@@ -318,15 +473,36 @@ fn g_only_specular_surfaces() {
     let mut o = Obj::new();
     o.cuboid("mirror", v(-1.0, 0.0, -1.0), v(1.0, 2.0, 1.0), true, &[]);
     let point = "[[light]]\ntype = \"point\"\nposition = [0.0, 1.0, 0.0]\nintensity = [10.0, 10.0, 10.0]\n\n";
-    let cam = |extra: &str| toml(v(0.3, 0.8, 0.9), v(-0.2, 1.2, -1.0), 60.0, (32, 32), &format!("{extra}{PHOTONS}"));
+    let cam = |extra: &str| {
+        toml(
+            v(0.3, 0.8, 0.9),
+            v(-0.2, 1.2, -1.0),
+            60.0,
+            (32, 32),
+            &format!("{extra}{PHOTONS}"),
+        )
+    };
     let d = write(&o, MTL, &cam(point));
     let pm = render(d.path(), "pm", 8, &[]);
     let emitted = stat(&pm, "photons", "paths_emitted");
-    report("g point light", &[("pm max", max_value(&pm.img) as f64), ("paths emitted", emitted)]);
-    assert_eq!(max_value(&pm.img), 0.0, "g: a point light in a mirror box is invisible");
+    report(
+        "g point light",
+        &[
+            ("pm max", max_value(&pm.img) as f64),
+            ("paths emitted", emitted),
+        ],
+    );
+    assert_eq!(
+        max_value(&pm.img),
+        0.0,
+        "g: a point light in a mirror box is invisible"
+    );
     assert_eq!(stat(&pm, "photons", "global_stored"), 0.0);
     // Measured 212 992 paths: emission stops after 200k paths that stored nothing.
-    assert!(emitted <= 500_000.0, "g: {emitted} photon paths for nothing");
+    assert!(
+        emitted <= 500_000.0,
+        "g: {emitted} photon paths for nothing"
+    );
 
     let mut o2 = Obj::new();
     o2.cuboid("mirror", v(-1.0, 0.0, -1.0), v(1.0, 2.0, 1.0), true, &[]);
@@ -349,26 +525,55 @@ fn g_only_specular_surfaces() {
 #[test]
 fn h_no_light_reaches_a_diffuse_surface() {
     let mut o = Obj::new();
-    o.quad("wall", [v(-2.0, 0.0, 2.0), v(2.0, 0.0, 2.0), v(2.0, 0.0, -2.0), v(-2.0, 0.0, -2.0)]);
+    o.quad(
+        "wall",
+        [
+            v(-2.0, 0.0, 2.0),
+            v(2.0, 0.0, 2.0),
+            v(2.0, 0.0, -2.0),
+            v(-2.0, 0.0, -2.0),
+        ],
+    );
     let spot = "[[light]]\ntype = \"spot\"\nposition = [0.0, 1.0, 0.0]\ntarget = [0.0, 5.0, 0.0]\n\
                 intensity = [50.0, 50.0, 50.0]\ncone_angle = 30.0\n\n";
-    let d = write(&o, MTL, &toml(v(0.0, 2.0, 3.0), v(0.0, 0.0, 0.0), 45.0, (32, 32), &format!("{spot}{PHOTONS}")));
+    let d = write(
+        &o,
+        MTL,
+        &toml(
+            v(0.0, 2.0, 3.0),
+            v(0.0, 0.0, 0.0),
+            45.0,
+            (32, 32),
+            &format!("{spot}{PHOTONS}"),
+        ),
+    );
     let pm = render(d.path(), "pm", 8, &[]);
     let path = render(d.path(), "path", 8, &[]);
     let emitted = stat(&pm, "photons", "paths_emitted");
     report(
         "h",
-        &[("pm max", max_value(&pm.img) as f64), ("path max", max_value(&path.img) as f64), ("paths emitted", emitted)],
+        &[
+            ("pm max", max_value(&pm.img) as f64),
+            ("path max", max_value(&path.img) as f64),
+            ("paths emitted", emitted),
+        ],
     );
     assert_eq!(max_value(&pm.img), 0.0);
     assert_eq!(max_value(&path.img), 0.0);
-    assert!(emitted <= 500_000.0, "h: {emitted} photon paths for nothing"); // measured 212 992
+    assert!(
+        emitted <= 500_000.0,
+        "h: {emitted} photon paths for nothing"
+    ); // measured 212 992
 }
 
 /// Renders [`sealed_box_scene`] with pm, photons and path at 8 spp.
 fn sealed_box(y0: f32) -> (Render, Render, Render) {
     let d = sealed_box_scene(y0, PHOTONS);
-    (render(d.path(), "pm", 8, &[]), render(d.path(), "photons", 8, &[]), render(d.path(), "path", 8, &[]))
+    (
+        render(d.path(), "pm", 8, &[]),
+        render(d.path(), "photons", 8, &[]),
+        render(d.path(), "path", 8, &[]),
+    )
 }
 
 /// i. A point light sealed inside a closed diffuse box; the camera outside must see a black box (the walls
@@ -385,14 +590,34 @@ fn sealed_box(y0: f32) -> (Render, Render, Render) {
 fn i_light_sealed_in_a_box() {
     let zero = black(32, 32);
     let (pm, ph, path) = sealed_box(0.3);
-    report("i floating", &[("pm max", max_value(&pm.img) as f64), ("photons max", max_value(&ph.img) as f64)]);
-    assert!(stat(&pm, "photons", "global_stored") > 0.0, "i: the photons are inside the box");
+    report(
+        "i floating",
+        &[
+            ("pm max", max_value(&pm.img) as f64),
+            ("photons max", max_value(&ph.img) as f64),
+        ],
+    );
+    assert!(
+        stat(&pm, "photons", "global_stored") > 0.0,
+        "i: the photons are inside the box"
+    );
     assert_eq!(max_value(&path.img), 0.0);
     assert_eq!(max_value(&ph.img), 0.0, "i: photons seen through a wall");
-    assert_eq!(max_value(&pm.img), 0.0, "i: light leaks out of a sealed floating box");
+    assert_eq!(
+        max_value(&pm.img),
+        0.0,
+        "i: light leaks out of a sealed floating box"
+    );
     let (pm, ph, path) = sealed_box(0.0);
     let (e, e_ph) = (err(&pm.img, &zero), err(&ph.img, &zero));
-    report("i on the floor", &[("pm", e), ("photons", e_ph), ("pm max", max_value(&pm.img) as f64)]);
+    report(
+        "i on the floor",
+        &[
+            ("pm", e),
+            ("photons", e_ph),
+            ("pm max", max_value(&pm.img) as f64),
+        ],
+    );
     assert_eq!(max_value(&path.img), 0.0);
     check("i on the floor", "pm", e, 100.0); // measured 51 (max pixel 5.3)
     check("i on the floor", "photons", e_ph, 180.0); // measured 89 (max pixel 10.3)
@@ -414,15 +639,26 @@ fn j_broken_meshes() {
     let path = render(d.path(), "path", 1024, &[]);
     let pm = render(d.path(), "pm", 32, &[]);
     let pm_clean = render(dc.path(), "pm", 32, &[]);
-    let (e, e_path, e_clean) =
-        (err(&pm.img, &reference.img), err(&path.img, &reference.img), err(&pm_clean.img, &reference.img));
+    let (e, e_path, e_clean) = (
+        err(&pm.img, &reference.img),
+        err(&path.img, &reference.img),
+        err(&pm_clean.img, &reference.img),
+    );
     report(
         "j",
-        &[("pm broken vs path clean", e), ("path broken vs path clean", e_path), ("pm clean vs path clean", e_clean)],
+        &[
+            ("pm broken vs path clean", e),
+            ("path broken vs path clean", e_path),
+            ("pm clean vs path clean", e_clean),
+        ],
     );
     check("j", "pm broken", e, 0.003); // measured 0.0015 (the clean room's pm: 0.00075)
     check("j", "path broken", e_path, 1e-4); // measured 2e-6
-    assert_eq!(stat(&pm, "scene", "degenerate_triangles"), 3.0, "j: the three zero-area floor triangles");
+    assert_eq!(
+        stat(&pm, "scene", "degenerate_triangles"),
+        3.0,
+        "j: the three zero-area floor triangles"
+    );
 }
 
 /// k. The open room at scale 1e-3 and 1e4 (mesh `scale`, camera scaled with it): radiance does not depend
@@ -465,4 +701,3 @@ fn k_scale_1e_minus_3_matches_scale_1() {
     let e = err(&small.img, &reference.img);
     check("k", "path scale 1e-3 vs path scale 1", e, 1e-4);
 }
-

@@ -102,7 +102,9 @@ pub fn gather(
     seed: u64,
     trace: &mut dyn FnMut(Vec3) -> GatherRay,
 ) -> GatherResult {
-    gather_batch(p, n, params, seed, &mut |dirs, out| out.extend(dirs.iter().map(|&d| trace(d))))
+    gather_batch(p, n, params, seed, &mut |dirs, out| {
+        out.extend(dirs.iter().map(|&d| trace(d)))
+    })
 }
 
 /// [`gather`] with every direction handed to `trace` at once: it appends one answer per direction, in
@@ -172,7 +174,11 @@ pub fn gather_batch_round(
     let mut dirs = Vec::with_capacity(strata.len());
     for j in 0..strata.m {
         for k in 0..strata.n {
-            dirs.push(frame.to_world(strata.direction(j, k, round_jitter(rng.uniform2(), round))).normalize());
+            dirs.push(
+                frame
+                    .to_world(strata.direction(j, k, round_jitter(rng.uniform2(), round)))
+                    .normalize(),
+            );
         }
     }
     let mut rays = Vec::with_capacity(strata.len());

@@ -197,11 +197,21 @@ fn deterministic_per_seed() {
 #[test]
 fn own_noise_estimate_matches_the_spread_of_e() {
     let n = Vec3::Z;
-    let flat = run(n, 500, 3, &mut |_| GatherRay { radiance: Vec3::splat(0.4), distance: 1.0 });
+    let flat = run(n, 500, 3, &mut |_| GatherRay {
+        radiance: Vec3::splat(0.4),
+        distance: 1.0,
+    });
     assert_eq!(flat.rel_err, 0.0);
     // A dim sky with a spot 8° wide, 200× brighter, 40° off the normal.
     let spot = Vec3::new(40f32.to_radians().sin(), 0.0, 40f32.to_radians().cos());
-    let mut sky = |d: Vec3| GatherRay { radiance: Vec3::splat(if d.dot(spot) > 4f32.to_radians().cos() { 20.0 } else { 0.1 }), distance: 1.0 };
+    let mut sky = |d: Vec3| GatherRay {
+        radiance: Vec3::splat(if d.dot(spot) > 4f32.to_radians().cos() {
+            20.0
+        } else {
+            0.1
+        }),
+        distance: 1.0,
+    };
     let results: Vec<GatherResult> = (0..400).map(|seed| run(n, 500, seed, &mut sky)).collect();
     let es: Vec<f64> = results.iter().map(|g| g.e.x as f64).collect();
     let mean = es.iter().sum::<f64>() / es.len() as f64;
@@ -209,8 +219,14 @@ fn own_noise_estimate_matches_the_spread_of_e() {
     let true_rel = sd / mean;
     let est = results.iter().map(|g| g.rel_err as f64).sum::<f64>() / results.len() as f64;
     eprintln!("[gather noise] estimated {est:.4}, spread of E {true_rel:.4}");
-    assert!(true_rel > 0.005, "the spot must make the gather noisy: {true_rel}");
-    assert!(est > 0.7 * true_rel && est < 2.0 * true_rel, "estimated {est:.4} against the spread's {true_rel:.4}");
+    assert!(
+        true_rel > 0.005,
+        "the spot must make the gather noisy: {true_rel}"
+    );
+    assert!(
+        est > 0.7 * true_rel && est < 2.0 * true_rel,
+        "estimated {est:.4} against the spread's {true_rel:.4}"
+    );
 }
 
 /// Rounds of a gather from one seed (`gather_batch_round`, how `pm` adds rays to its records): each
@@ -222,28 +238,90 @@ fn own_noise_estimate_matches_the_spread_of_e() {
 fn rounds_of_one_gather_stratify_together() {
     let n = Vec3::Z;
     let spot = Vec3::new(30f32.to_radians().sin(), 0.0, 30f32.to_radians().cos());
-    let mut sky = |d: Vec3| GatherRay { radiance: Vec3::splat(if d.dot(spot) > 6f32.to_radians().cos() { 20.0 } else { 0.1 }), distance: 1.0 };
-    let round = |rays: usize, seed: u64, k: u32, sky: &mut dyn FnMut(Vec3) -> GatherRay| {
-        gather_batch_round(Vec3::ZERO, n, &GatherParams { rays }, seed, k, &mut |dirs: &[Vec3], out: &mut Vec<GatherRay>| out.extend(dirs.iter().map(|&d| sky(d)))).e.x as f64
+    let mut sky = |d: Vec3| GatherRay {
+        radiance: Vec3::splat(if d.dot(spot) > 6f32.to_radians().cos() {
+            20.0
+        } else {
+            0.1
+        }),
+        distance: 1.0,
     };
-    assert_eq!(round(250, 5, 0, &mut sky), run(n, 250, 5, &mut sky).e.x as f64, "round 0 is the plain gather");
+    let round = |rays: usize, seed: u64, k: u32, sky: &mut dyn FnMut(Vec3) -> GatherRay| {
+        gather_batch_round(
+            Vec3::ZERO,
+            n,
+            &GatherParams { rays },
+            seed,
+            k,
+            &mut |dirs: &[Vec3], out: &mut Vec<GatherRay>| out.extend(dirs.iter().map(|&d| sky(d))),
+        )
+        .e
+        .x as f64
+    };
+    assert_eq!(
+        round(250, 5, 0, &mut sky),
+        run(n, 250, 5, &mut sky).e.x as f64,
+        "round 0 is the plain gather"
+    );
     let spread = |xs: &[f64]| {
         let m = xs.iter().sum::<f64>() / xs.len() as f64;
-        (m, (xs.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (xs.len() - 1) as f64).sqrt())
+        (
+            m,
+            (xs.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (xs.len() - 1) as f64).sqrt(),
+        )
     };
     // E of the sky: π·0.1 plus the spot's (20 − 0.1)·cos 30°·solid angle (6° cap) — from 4000-ray gathers.
-    let truth = spread(&(0..200).map(|s| run(n, 4000, 10_000 + s, &mut sky).e.x as f64).collect::<Vec<_>>()).0;
+    let truth = spread(
+        &(0..200)
+            .map(|s| run(n, 4000, 10_000 + s, &mut sky).e.x as f64)
+            .collect::<Vec<_>>(),
+    )
+    .0;
     let seeds = 0..600u64;
-    let rounds: Vec<[f64; 4]> = seeds.clone().map(|s| std::array::from_fn(|k| round(250, s, k as u32, &mut sky))).collect();
+    let rounds: Vec<[f64; 4]> = seeds
+        .clone()
+        .map(|s| std::array::from_fn(|k| round(250, s, k as u32, &mut sky)))
+        .collect();
     for k in 0..4 {
         let (m, sd) = spread(&rounds.iter().map(|r| r[k]).collect::<Vec<_>>());
         let se = sd / (rounds.len() as f64).sqrt();
-        assert!((m - truth).abs() < 4.0 * se + 1e-3 * truth, "round {k}: mean {m} against {truth} (se {se})");
+        assert!(
+            (m - truth).abs() < 4.0 * se + 1e-3 * truth,
+            "round {k}: mean {m} against {truth} (se {se})"
+        );
     }
-    let together = spread(&rounds.iter().map(|r| r.iter().sum::<f64>() / 4.0).collect::<Vec<_>>()).1;
-    let one_grid = spread(&seeds.clone().map(|s| run(n, 1000, 50_000 + s, &mut sky).e.x as f64).collect::<Vec<_>>()).1;
-    let independent = spread(&seeds.map(|s| (0..4).map(|k| run(n, 250, 90_000 + 4 * s + k, &mut sky).e.x as f64).sum::<f64>() / 4.0).collect::<Vec<_>>()).1;
+    let together = spread(
+        &rounds
+            .iter()
+            .map(|r| r.iter().sum::<f64>() / 4.0)
+            .collect::<Vec<_>>(),
+    )
+    .1;
+    let one_grid = spread(
+        &seeds
+            .clone()
+            .map(|s| run(n, 1000, 50_000 + s, &mut sky).e.x as f64)
+            .collect::<Vec<_>>(),
+    )
+    .1;
+    let independent = spread(
+        &seeds
+            .map(|s| {
+                (0..4)
+                    .map(|k| run(n, 250, 90_000 + 4 * s + k, &mut sky).e.x as f64)
+                    .sum::<f64>()
+                    / 4.0
+            })
+            .collect::<Vec<_>>(),
+    )
+    .1;
     eprintln!("[gather rounds] sd of E: 4 rounds {together:.5}, one 1000-ray grid {one_grid:.5}, 4 independent gathers {independent:.5}");
-    assert!(together < 1.25 * one_grid, "4 rounds {together} against one grid {one_grid}");
-    assert!(together < 0.8 * independent, "4 rounds {together} against 4 independent gathers {independent}");
+    assert!(
+        together < 1.25 * one_grid,
+        "4 rounds {together} against one grid {one_grid}"
+    );
+    assert!(
+        together < 0.8 * independent,
+        "4 rounds {together} against 4 independent gathers {independent}"
+    );
 }

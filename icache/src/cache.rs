@@ -79,7 +79,11 @@ pub(crate) struct Shrink {
 
 impl Shrink {
     pub fn of(id: u32, rec: &Record) -> Shrink {
-        Shrink { id, r_harmonic: rec.r_harmonic, r_clamped: rec.r_clamped }
+        Shrink {
+            id,
+            r_harmonic: rec.r_harmonic,
+            r_clamped: rec.r_clamped,
+        }
     }
 }
 
@@ -89,8 +93,14 @@ impl IrradianceCache {
         params.validate()?;
         // The extent must be finite too: octree cells halve it, and an infinite cell never shrinks.
         let extent = (bounds_max - bounds_min).max_element() * 1.02;
-        if !(bounds_min.is_finite() && bounds_max.is_finite() && bounds_min.cmple(bounds_max).all() && extent.is_finite()) {
-            return Err(Error::InvalidBounds(format!("[{bounds_min}, {bounds_max}] (its extent must be finite)")));
+        if !(bounds_min.is_finite()
+            && bounds_max.is_finite()
+            && bounds_min.cmple(bounds_max).all()
+            && extent.is_finite())
+        {
+            return Err(Error::InvalidBounds(format!(
+                "[{bounds_min}, {bounds_max}] (its extent must be finite)"
+            )));
         }
         Ok(IrradianceCache {
             params,
@@ -167,7 +177,14 @@ impl IrradianceCache {
 
     /// [`lookup_first`](Self::lookup_first) over the usable records that `visible` also accepts (the
     /// caller's occlusion test between the point and the record), called only for those usable.
-    pub fn lookup_first_visible(&self, p: Vec3, n: Vec3, pass: Pass, n_records: usize, visible: impl Fn(&Record) -> bool) -> Option<Lookup> {
+    pub fn lookup_first_visible(
+        &self,
+        p: Vec3,
+        n: Vec3,
+        pass: Pass,
+        n_records: usize,
+        visible: impl Fn(&Record) -> bool,
+    ) -> Option<Lookup> {
         if !(p.is_finite() && n.is_finite()) {
             return None;
         }
@@ -194,7 +211,13 @@ impl IrradianceCache {
     /// [`lookup`](Self::lookup) over the records from id `since` on, scanned without the index: the
     /// lookup of a point that no record before `since` could interpolate (records only narrow), which
     /// gives the same answer as the full one.
-    pub(crate) fn lookup_since(&self, p: Vec3, n: Vec3, pass: Pass, since: usize) -> Option<Lookup> {
+    pub(crate) fn lookup_since(
+        &self,
+        p: Vec3,
+        n: Vec3,
+        pass: Pass,
+        since: usize,
+    ) -> Option<Lookup> {
         if !(p.is_finite() && n.is_finite()) {
             return None;
         }
@@ -211,7 +234,9 @@ impl IrradianceCache {
     /// interpolation (the point is uncovered) and that record's id, to be shrunk by the caller.
     /// Without adaptive caching, [`lookup`](Self::lookup) with `Pass::A`.
     pub fn lookup_adaptive(&self, p: Vec3, n: Vec3) -> (Option<Lookup>, Option<u32>) {
-        let Some(tau) = self.params.adaptive else { return (self.lookup(p, n, Pass::A), None) };
+        let Some(tau) = self.params.adaptive else {
+            return (self.lookup(p, n, Pass::A), None);
+        };
         if !(p.is_finite() && n.is_finite()) {
             return (None, None);
         }
@@ -232,7 +257,12 @@ impl IrradianceCache {
                 .iter()
                 .filter(|(_, li)| (li - mean).abs() > tau * mean)
                 .filter(|(id, _)| self.can_shrink_adaptive(*id))
-                .max_by(|a, b| (a.1 - mean).abs().total_cmp(&(b.1 - mean).abs()).then(b.0.cmp(&a.0)));
+                .max_by(|a, b| {
+                    (a.1 - mean)
+                        .abs()
+                        .total_cmp(&(b.1 - mean).abs())
+                        .then(b.0.cmp(&a.0))
+                });
             match deviant {
                 Some(&(id, _)) if used.len() > 1 => (None, Some(id)),
                 _ => (lookup, None),
@@ -243,7 +273,13 @@ impl IrradianceCache {
     /// `f` over the ids of the index's candidate records at `p` for `pass` below `n_records`, sorted and
     /// unique. Sums run in record order, not in index order: the index of a cache loaded from a file can
     /// hold the same records in other nodes, and the image must not change in the last bit.
-    fn with_candidates<T>(&self, p: Vec3, pass: Pass, n_records: usize, f: impl FnOnce(&[u32]) -> T) -> T {
+    fn with_candidates<T>(
+        &self,
+        p: Vec3,
+        pass: Pass,
+        n_records: usize,
+        f: impl FnOnce(&[u32]) -> T,
+    ) -> T {
         // A record is usable only within a·R' (both weightings; see `params`), and the index holds it
         // with the loosest pass's reach.
         let scale = (self.params.a(pass) / self.params.index_factor()).min(1.0);
@@ -303,7 +339,11 @@ impl IrradianceCache {
         if !e.is_finite() {
             return None;
         }
-        Some(Lookup { e: e.max(Vec3::ZERO), n_used: acc.n_used, weight_sum: acc.weight_sum })
+        Some(Lookup {
+            e: e.max(Vec3::ZERO),
+            n_used: acc.n_used,
+            weight_sum: acc.weight_sum,
+        })
     }
 
     /// The interpolation at (p, n) as [`lookup`](Self::lookup) makes it, and the standard deviation of
@@ -323,7 +363,8 @@ impl IrradianceCache {
                 }
             }
             let sum = acc.weight_sum;
-            self.finish(acc).map(|l| (l, (var.sqrt() / sum as f64) as f32))
+            self.finish(acc)
+                .map(|l| (l, (var.sqrt() / sum as f64) as f32))
         })
     }
 
@@ -333,13 +374,19 @@ impl IrradianceCache {
     /// (R/R' where R < R'). The noise becomes that of the weighted sum of independent gathers (an upper
     /// bound for rounds whose jitter stratifies together, `gather::gather_batch_round`).
     pub fn refine(&mut self, id: usize, more: &NewRecord, share: f32) {
-        let Some(rec) = self.records.get_mut(id) else { return };
+        let Some(rec) = self.records.get_mut(id) else {
+            return;
+        };
         if !(share > 0.0 && share < 1.0) || !more.e.is_finite() {
             return;
         }
         let keep = 1.0 - share;
         let s = self.params.start_scale() * rec.r_harmonic;
-        let scale = if s < rec.r_clamped { s / rec.r_clamped } else { 1.0 };
+        let scale = if s < rec.r_clamped {
+            s / rec.r_clamped
+        } else {
+            1.0
+        };
         let old_sd = rec.rel_err * luminance(rec.e);
         let new_sd = crate::insert::finite_rel_err(more.rel_err) * luminance(more.e);
         rec.e = (keep * rec.e + share * more.e.max(Vec3::ZERO)).max(Vec3::ZERO);
@@ -350,17 +397,30 @@ impl IrradianceCache {
             }
         }
         let l = luminance(rec.e);
-        rec.rel_err = if l > 0.0 { ((keep * old_sd).powi(2) + (share * new_sd).powi(2)).sqrt() / l } else { 0.0 };
+        rec.rel_err = if l > 0.0 {
+            ((keep * old_sd).powi(2) + (share * new_sd).powi(2)).sqrt() / l
+        } else {
+            0.0
+        };
     }
 
     /// Lazy caching: the pass-A interpolation at (p, n) if one exists, else run `gather`, insert its record
     /// (with `pixel_world` overriding the one it returns) and interpolate again. Falls back to the gathered
     /// irradiance itself if the record was rejected (non-finite position or normal).
-    pub fn get_or_insert_with(&mut self, p: Vec3, n: Vec3, pixel_world: f32, gather: impl FnOnce() -> NewRecord) -> Vec3 {
+    pub fn get_or_insert_with(
+        &mut self,
+        p: Vec3,
+        n: Vec3,
+        pixel_world: f32,
+        gather: impl FnOnce() -> NewRecord,
+    ) -> Vec3 {
         if let Some(hit) = self.lookup(p, n, Pass::A) {
             return hit.e;
         }
-        let rec = NewRecord { pixel_world, ..gather() };
+        let rec = NewRecord {
+            pixel_world,
+            ..gather()
+        };
         let fallback = rec.e;
         self.insert(rec);
         match self.lookup(p, n, Pass::A) {
@@ -385,17 +445,28 @@ impl IrradianceCache {
     /// Tell the index that record `id`'s R' has shrunk.
     pub(crate) fn reindex(&mut self, id: u32) {
         let rec = &self.records[id as usize];
-        self.indexed[id as usize] = self.index.shrink(id, rec.pos, self.indexed[id as usize], rec.r_clamped * self.params.index_factor());
+        self.indexed[id as usize] = self.index.shrink(
+            id,
+            rec.pos,
+            self.indexed[id as usize],
+            rec.r_clamped * self.params.index_factor(),
+        );
     }
 
     /// The shrinks logged since the last call.
     pub(crate) fn take_shrink_log(&mut self) -> Vec<Shrink> {
-        self.shrink_log.as_mut().map(std::mem::take).unwrap_or_default()
+        self.shrink_log
+            .as_mut()
+            .map(std::mem::take)
+            .unwrap_or_default()
     }
 
     /// Where the record of `shrink` reaches in pass A before the shrink: its position and radius.
     pub(crate) fn reach_before(&self, shrink: &Shrink) -> (Vec3, f32) {
-        (self.records[shrink.id as usize].pos, shrink.r_clamped * self.params.a(Pass::A))
+        (
+            self.records[shrink.id as usize].pos,
+            shrink.r_clamped * self.params.a(Pass::A),
+        )
     }
 
     /// True when the record of `shrink` could interpolate at (p, n) in pass A before the shrink and
@@ -403,8 +474,13 @@ impl IrradianceCache {
     /// at every logged shrink has lost no record.
     pub(crate) fn lost_cover(&self, shrink: &Shrink, p: Vec3, n: Vec3) -> bool {
         let now = &self.records[shrink.id as usize];
-        let before = Record { r_harmonic: shrink.r_harmonic, r_clamped: shrink.r_clamped, ..*now };
-        usable_weight(&self.params, Pass::A, &before, p, n).is_some() && usable_weight(&self.params, Pass::A, now, p, n).is_none()
+        let before = Record {
+            r_harmonic: shrink.r_harmonic,
+            r_clamped: shrink.r_clamped,
+            ..*now
+        };
+        usable_weight(&self.params, Pass::A, &before, p, n).is_some()
+            && usable_weight(&self.params, Pass::A, now, p, n).is_none()
     }
 
     /// Put a finished record back (file loading): no gradient limit, clamping or neighbor clamping.

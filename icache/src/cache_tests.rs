@@ -33,14 +33,21 @@ fn cache(params: CacheParams) -> IrradianceCache {
 
 /// Records on the plane z = 5 with random spacing radii; queries on the same plane.
 fn plane_points(rng: &mut Rng, n: usize) -> Vec<Vec3> {
-    (0..n).map(|_| Vec3::new(10.0 * rng.uniform(), 10.0 * rng.uniform(), 5.0)).collect()
+    (0..n)
+        .map(|_| Vec3::new(10.0 * rng.uniform(), 10.0 * rng.uniform(), 5.0))
+        .collect()
 }
 
 #[test]
 fn constant_field_reproduced() {
     for weight in [Weighting::TabellionLamorlette, Weighting::Ward] {
         let mut rng = Rng::new(11);
-        let mut c = cache(CacheParams { weight, accuracy: 0.3, pass_b_accuracy: Some(0.6), ..Default::default() });
+        let mut c = cache(CacheParams {
+            weight,
+            accuracy: 0.3,
+            pass_b_accuracy: Some(0.6),
+            ..Default::default()
+        });
         let e0 = Vec3::new(0.7, 1.3, 2.9);
         for p in plane_points(&mut rng, 3000) {
             c.insert(new_rec(p, Vec3::Z, e0, 0.05 + rng.uniform(), 0.02));
@@ -51,7 +58,11 @@ fn constant_field_reproduced() {
                 if let Some(hit) = c.lookup(p, Vec3::Z, pass) {
                     n_hits += 1;
                     // Tolerance: a weighted mean of identical f32 values, a few ulps of rounding.
-                    assert!(((hit.e - e0) / e0).abs().max_element() < 1e-6, "{:?} vs {e0}", hit.e);
+                    assert!(
+                        ((hit.e - e0) / e0).abs().max_element() < 1e-6,
+                        "{:?} vs {e0}",
+                        hit.e
+                    );
                 }
             }
         }
@@ -66,7 +77,11 @@ fn linear_field_reproduced_with_gradients() {
     // E_c(p) = e0_c + g_c · p, gradients in the plane. E ≥ 90 and |g| ≤ 1.5 make the gradient limit
     // (E/|g| ≥ 60) larger than R' (≤ 20 px × 0.01), so insertion leaves the gradients untouched.
     let e0 = Vec3::new(100.0, 120.0, 140.0);
-    let g = [Vec3::new(1.0, 0.5, 0.0), Vec3::new(-0.7, 0.2, 0.0), Vec3::new(0.0, -1.0, 0.0)];
+    let g = [
+        Vec3::new(1.0, 0.5, 0.0),
+        Vec3::new(-0.7, 0.2, 0.0),
+        Vec3::new(0.0, -1.0, 0.0),
+    ];
     let field = |p: Vec3| Vec3::new(e0.x + g[0].dot(p), e0.y + g[1].dot(p), e0.z + g[2].dot(p));
     for p in plane_points(&mut rng, 4000) {
         let mut r = new_rec(p, Vec3::Z, field(p), 1000.0, 0.01);
@@ -107,7 +122,10 @@ fn rotational_gradient_applied() {
 #[test]
 fn neighbor_clamping_keeps_triangle_inequality() {
     let mut rng = Rng::new(13);
-    let params = CacheParams { adaptive: None, ..Default::default() };
+    let params = CacheParams {
+        adaptive: None,
+        ..Default::default()
+    };
     let mut c = cache(params);
     for step in 0..600 {
         let p = rand01(&mut rng) * 10.0;
@@ -124,17 +142,37 @@ fn neighbor_clamping_keeps_triangle_inequality() {
         let recs = c.records();
         for (j, a) in recs.iter().enumerate() {
             // R' is R clamped to this record's bounds; ∇t carries the factor min(1, R/R').
-            let (lo, hi) = (params.min_spacing_px * a.pixel_world, params.max_spacing_px * a.pixel_world);
+            let (lo, hi) = (
+                params.min_spacing_px * a.pixel_world,
+                params.max_spacing_px * a.pixel_world,
+            );
             assert_eq!(a.r_clamped, a.r_harmonic.clamp(lo, hi));
-            let scale = if a.r_harmonic < a.r_clamped { a.r_harmonic / a.r_clamped } else { 1.0 };
+            let scale = if a.r_harmonic < a.r_clamped {
+                a.r_harmonic / a.r_clamped
+            } else {
+                1.0
+            };
             // Tolerance: the scale is applied as a product of ratios, each adding a few f32 roundings.
-            assert!((a.grad_t[0].x - 0.1 * scale).abs() <= 1e-5 * 0.1, "record {j}");
+            assert!(
+                (a.grad_t[0].x - 0.1 * scale).abs() <= 1e-5 * 0.1,
+                "record {j}"
+            );
             for b in &recs[j + 1..] {
                 let d = (a.pos - b.pos).length();
                 if d < a.r_clamped + b.r_clamped {
                     // Exact in f32: clamping stores R_k + d computed with the same d.
-                    assert!(a.r_harmonic <= b.r_harmonic + d, "step {step}: {} > {} + {d}", a.r_harmonic, b.r_harmonic);
-                    assert!(b.r_harmonic <= a.r_harmonic + d, "step {step}: {} > {} + {d}", b.r_harmonic, a.r_harmonic);
+                    assert!(
+                        a.r_harmonic <= b.r_harmonic + d,
+                        "step {step}: {} > {} + {d}",
+                        a.r_harmonic,
+                        b.r_harmonic
+                    );
+                    assert!(
+                        b.r_harmonic <= a.r_harmonic + d,
+                        "step {step}: {} > {} + {d}",
+                        b.r_harmonic,
+                        a.r_harmonic
+                    );
                 }
             }
         }
@@ -146,21 +184,38 @@ fn neighbor_clamping_keeps_triangle_inequality() {
 fn octree_lookup_matches_brute_force() {
     for weight in [Weighting::TabellionLamorlette, Weighting::Ward] {
         let mut rng = Rng::new(14);
-        let params = CacheParams { weight, accuracy: 0.4, pass_b_accuracy: Some(0.9), ..Default::default() };
+        let params = CacheParams {
+            weight,
+            accuracy: 0.4,
+            pass_b_accuracy: Some(0.9),
+            ..Default::default()
+        };
         let mut c = IrradianceCache::new(Vec3::splat(1.0), Vec3::splat(9.0), params).unwrap();
         // Records on a few tilted planes, some outside the index bounds.
-        let normals = [Vec3::Z, Vec3::new(0.3, 0.0, 1.0).normalize(), Vec3::X, -Vec3::Y];
+        let normals = [
+            Vec3::Z,
+            Vec3::new(0.3, 0.0, 1.0).normalize(),
+            Vec3::X,
+            -Vec3::Y,
+        ];
         for i in 0..3000 {
             let n = normals[i % normals.len()];
             let p = rand01(&mut rng) * 10.0;
-            let mut rec = new_rec(p, n, rand01(&mut rng) + Vec3::splat(0.1), 0.02 + rng.uniform(), 0.01 + 0.02 * rng.uniform());
+            let mut rec = new_rec(
+                p,
+                n,
+                rand01(&mut rng) + Vec3::splat(0.1),
+                0.02 + rng.uniform(),
+                0.01 + 0.02 * rng.uniform(),
+            );
             rec.grad_t = [n.any_orthonormal_vector() * 0.05; 3];
             rec.grad_r = [n.any_orthonormal_vector() * 0.02; 3];
             c.insert(rec);
         }
         let mut n_hits = 0;
         for i in 0..5000 {
-            let n = (normals[i % normals.len()] + 0.05 * (rand01(&mut rng) - Vec3::splat(0.5))).normalize();
+            let n = (normals[i % normals.len()] + 0.05 * (rand01(&mut rng) - Vec3::splat(0.5)))
+                .normalize();
             let p = rand01(&mut rng) * 10.0;
             for pass in [Pass::A, Pass::B] {
                 let fast = c.lookup(p, n, pass);
@@ -172,7 +227,9 @@ fn octree_lookup_matches_brute_force() {
                     (Some(f), Some(s)) => {
                         n_hits += 1;
                         // Tolerance: same terms summed in another order (f32), ~n_used ulps.
-                        assert!((f.e - s.e).abs().max_element() <= 1e-5 * s.e.max_element().max(1.0));
+                        assert!(
+                            (f.e - s.e).abs().max_element() <= 1e-5 * s.e.max_element().max(1.0)
+                        );
                     }
                     (f, s) => panic!("octree {f:?} vs brute {s:?}"),
                 }
@@ -184,35 +241,63 @@ fn octree_lookup_matches_brute_force() {
 
 #[test]
 fn gradient_limit_and_min_clamp() {
-    let mut c = cache(CacheParams { adaptive: None, ..Default::default() });
-    let mut r = new_rec(Vec3::splat(5.0), Vec3::Z, Vec3::new(1.0, 2.0, 2.0), 5.0, 0.1);
+    let mut c = cache(CacheParams {
+        adaptive: None,
+        ..Default::default()
+    });
+    let mut r = new_rec(
+        Vec3::splat(5.0),
+        Vec3::Z,
+        Vec3::new(1.0, 2.0, 2.0),
+        5.0,
+        0.1,
+    );
     r.grad_t = [Vec3::X * 10.0, Vec3::X, Vec3::ZERO];
     let s = c.insert(r);
     // R = min(5, 1/10, 2/1) = 0.1 < R_min = 3 px × 0.1 = 0.3, so R' = 0.3 and ∇t scales by 1/3.
-    assert_eq!((s.n_shrunk_by_gradient, s.n_clamped_min, s.n_clamped_max), (1, 1, 0));
+    assert_eq!(
+        (s.n_shrunk_by_gradient, s.n_clamped_min, s.n_clamped_max),
+        (1, 1, 0)
+    );
     let rec = c.records()[0];
     assert_eq!(rec.r_harmonic, 0.1);
     assert!((rec.r_clamped - 0.3).abs() < 1e-6);
     assert!((rec.grad_t[0].x - 10.0 / 3.0).abs() < 1e-5);
     // First-order extrapolation to the border of the record's reach stays non-negative.
-    let hit = c.lookup(Vec3::new(5.0 - 0.149, 5.0, 5.0), Vec3::Z, Pass::A).unwrap();
+    let hit = c
+        .lookup(Vec3::new(5.0 - 0.149, 5.0, 5.0), Vec3::Z, Pass::A)
+        .unwrap();
     assert!(hit.e.x >= 0.0 && hit.e.x < 1.0);
 }
 
 #[test]
 fn bad_gathers_are_rejected_or_repaired() {
     let mut c = cache(CacheParams::default());
-    let s = c.insert(new_rec(Vec3::splat(f32::NAN), Vec3::Z, Vec3::ONE, 1.0, 0.01));
+    let s = c.insert(new_rec(
+        Vec3::splat(f32::NAN),
+        Vec3::Z,
+        Vec3::ONE,
+        1.0,
+        0.01,
+    ));
     assert_eq!((s.n_rejected, s.n_inserted), (1, 0));
     let s = c.insert(new_rec(Vec3::ONE, Vec3::ZERO, Vec3::ONE, 1.0, 0.01));
     assert_eq!(s.n_rejected, 1);
     let s = c.insert(new_rec(Vec3::ONE, Vec3::Z, Vec3::ONE, 1.0, 0.0));
     assert_eq!(s.n_rejected, 1);
-    let s = c.insert(new_rec(Vec3::ONE, Vec3::Z * 2.0, Vec3::new(f32::NAN, -1.0, 1.0), f32::NAN, 0.01));
+    let s = c.insert(new_rec(
+        Vec3::ONE,
+        Vec3::Z * 2.0,
+        Vec3::new(f32::NAN, -1.0, 1.0),
+        f32::NAN,
+        0.01,
+    ));
     assert_eq!((s.n_inserted, s.n_sanitized), (1, 1));
     let hit = c.lookup(Vec3::ONE, Vec3::Z, Pass::A).unwrap();
     assert_eq!(hit.e, Vec3::new(0.0, 0.0, 1.0));
-    assert!(c.lookup(Vec3::ONE, Vec3::splat(f32::NAN), Pass::A).is_none());
+    assert!(c
+        .lookup(Vec3::ONE, Vec3::splat(f32::NAN), Pass::A)
+        .is_none());
 }
 
 #[test]
@@ -249,15 +334,28 @@ fn shrink_log_names_the_points_a_record_lost() {
     let log = c.take_shrink_log();
     assert_eq!(log.len(), 1, "{log:?}");
     assert_eq!(log[0].id, 0);
-    assert!((c.records()[0].r_clamped - 0.18).abs() < 1e-5, "{}", c.records()[0].r_clamped);
+    assert!(
+        (c.records()[0].r_clamped - 0.18).abs() < 1e-5,
+        "{}",
+        c.records()[0].r_clamped
+    );
     let (pos, reach) = c.reach_before(&log[0]);
     assert_eq!(pos, a);
     assert!((reach - 0.1).abs() < 1e-5, "{reach}");
     let at = |d: f32| a - Vec3::new(d, 0.0, 0.0);
-    assert!(c.lost_cover(&log[0], at(0.095), n), "between the new and the old reach");
-    assert!(!c.lost_cover(&log[0], at(0.05), n), "still inside the new reach");
+    assert!(
+        c.lost_cover(&log[0], at(0.095), n),
+        "between the new and the old reach"
+    );
+    assert!(
+        !c.lost_cover(&log[0], at(0.05), n),
+        "still inside the new reach"
+    );
     assert!(!c.lost_cover(&log[0], at(0.12), n), "never inside");
-    assert!(!c.lost_cover(&log[0], at(0.095), -n), "facing away: never usable");
+    assert!(
+        !c.lost_cover(&log[0], at(0.095), -n),
+        "facing away: never usable"
+    );
 }
 
 /// A wave's insertions with the neighbours searched at the wave's start (`insert_near`, as the two-pass
@@ -267,19 +365,32 @@ fn insertion_with_neighbours_found_at_the_wave_start_is_exact() {
     let mut rng = Rng::new(23);
     let news: Vec<NewRecord> = plane_points(&mut rng, 400)
         .into_iter()
-        .map(|p| new_rec(p, Vec3::Z, Vec3::ONE, 0.05 + 2.0 * rng.uniform() * rng.uniform(), 0.01))
+        .map(|p| {
+            new_rec(
+                p,
+                Vec3::Z,
+                Vec3::ONE,
+                0.05 + 2.0 * rng.uniform() * rng.uniform(),
+                0.01,
+            )
+        })
         .collect();
     let mut plain = cache(CacheParams::default());
     let mut near = cache(CacheParams::default());
     for wave in news.chunks(16) {
         let since = near.len();
-        let found: Vec<Option<Vec<u32>>> = wave.iter().map(|r| near.neighbor_candidates(r)).collect();
+        let found: Vec<Option<Vec<u32>>> =
+            wave.iter().map(|r| near.neighbor_candidates(r)).collect();
         for (r, ids) in wave.iter().zip(&found) {
             plain.insert(*r);
             near.insert_near(*r, ids.as_deref().map(|ids| (ids, since)));
         }
     }
-    assert!(plain.insert_totals().n_shrunk_by_neighbors > 100, "{:?}", plain.insert_totals());
+    assert!(
+        plain.insert_totals().n_shrunk_by_neighbors > 100,
+        "{:?}",
+        plain.insert_totals()
+    );
     assert_eq!(plain.insert_totals(), near.insert_totals());
     for (a, b) in plain.records().iter().zip(near.records()) {
         assert_eq!(a.to_bits(), b.to_bits());
@@ -288,20 +399,51 @@ fn insertion_with_neighbours_found_at_the_wave_start_is_exact() {
 
 #[test]
 fn a_lookup_leaves_out_the_records_its_visibility_test_rejects() {
-    let mut c = cache(CacheParams { neighbor_clamping: false, ..Default::default() });
+    let mut c = cache(CacheParams {
+        neighbor_clamping: false,
+        ..Default::default()
+    });
     // Two records on z = 5 either side of the query, one bright, one dark.
-    c.insert(new_rec(Vec3::new(4.9, 5.0, 5.0), Vec3::Z, Vec3::splat(2.0), 1.0, 0.01));
-    c.insert(new_rec(Vec3::new(5.1, 5.0, 5.0), Vec3::Z, Vec3::splat(1.0), 1.0, 0.01));
+    c.insert(new_rec(
+        Vec3::new(4.9, 5.0, 5.0),
+        Vec3::Z,
+        Vec3::splat(2.0),
+        1.0,
+        0.01,
+    ));
+    c.insert(new_rec(
+        Vec3::new(5.1, 5.0, 5.0),
+        Vec3::Z,
+        Vec3::splat(1.0),
+        1.0,
+        0.01,
+    ));
     let p = Vec3::new(5.0, 5.0, 5.0);
     let all = c.lookup(p, Vec3::Z, Pass::B).unwrap();
-    assert_eq!(c.lookup_first_visible(p, Vec3::Z, Pass::B, usize::MAX, |_| true), Some(all));
-    assert!((all.e - Vec3::splat(1.5)).abs().max_element() < 1e-5, "{:?}", all.e);
+    assert_eq!(
+        c.lookup_first_visible(p, Vec3::Z, Pass::B, usize::MAX, |_| true),
+        Some(all)
+    );
+    assert!(
+        (all.e - Vec3::splat(1.5)).abs().max_element() < 1e-5,
+        "{:?}",
+        all.e
+    );
     // The bright record hidden: the dark one alone.
-    let dark = c.lookup_first_visible(p, Vec3::Z, Pass::B, usize::MAX, |r| r.e.x < 1.5).unwrap();
-    assert!((dark.e - Vec3::ONE).abs().max_element() < 1e-6, "{:?}", dark.e);
+    let dark = c
+        .lookup_first_visible(p, Vec3::Z, Pass::B, usize::MAX, |r| r.e.x < 1.5)
+        .unwrap();
+    assert!(
+        (dark.e - Vec3::ONE).abs().max_element() < 1e-6,
+        "{:?}",
+        dark.e
+    );
     assert_eq!(dark.n_used, 1);
     // Both hidden: a miss.
-    assert_eq!(c.lookup_first_visible(p, Vec3::Z, Pass::B, usize::MAX, |_| false), None);
+    assert_eq!(
+        c.lookup_first_visible(p, Vec3::Z, Pass::B, usize::MAX, |_| false),
+        None
+    );
 }
 
 /// `lookup_with_noise`: one record gives its own σ = rel_err · L(E); two records of equal weight at the
@@ -311,19 +453,30 @@ fn interpolation_noise_from_the_records_noise() {
     let mut c = cache(CacheParams::default());
     let p = Vec3::new(5.0, 5.0, 5.0);
     let e = Vec3::splat(2.0);
-    c.insert(NewRecord { rel_err: 0.1, ..new_rec(p, Vec3::Z, e, 1.0, 0.01) });
+    c.insert(NewRecord {
+        rel_err: 0.1,
+        ..new_rec(p, Vec3::Z, e, 1.0, 0.01)
+    });
     let (l, sd) = c.lookup_with_noise(p, Vec3::Z, Pass::B).unwrap();
     assert_eq!(l, c.lookup(p, Vec3::Z, Pass::B).unwrap());
     assert!((sd - 0.2).abs() < 1e-5, "{sd}");
-    c.insert(NewRecord { rel_err: 0.05, ..new_rec(p, Vec3::Z, e, 1.0, 0.01) });
+    c.insert(NewRecord {
+        rel_err: 0.05,
+        ..new_rec(p, Vec3::Z, e, 1.0, 0.01)
+    });
     let (_, sd) = c.lookup_with_noise(p, Vec3::Z, Pass::B).unwrap();
     let want = (0.2f32.powi(2) + 0.1f32.powi(2)).sqrt() / 2.0;
     assert!((sd - want).abs() < 1e-5, "{sd} against {want}");
-    assert!(c.lookup_with_noise(Vec3::new(9.0, 9.0, 9.0), Vec3::Z, Pass::B).is_none());
+    assert!(c
+        .lookup_with_noise(Vec3::new(9.0, 9.0, 9.0), Vec3::Z, Pass::B)
+        .is_none());
     // A gather whose noise estimate is not a number is kept as unknown (0), not spread into lookups.
     let q = Vec3::new(2.0, 2.0, 5.0);
     for bad in [f32::NAN, f32::INFINITY, -1.0] {
-        c.insert(NewRecord { rel_err: bad, ..new_rec(q, Vec3::Z, e, 1.0, 0.01) });
+        c.insert(NewRecord {
+            rel_err: bad,
+            ..new_rec(q, Vec3::Z, e, 1.0, 0.01)
+        });
         assert_eq!(c.records().last().unwrap().rel_err, 0.0);
     }
     assert_eq!(c.lookup_with_noise(q, Vec3::Z, Pass::B).unwrap().1, 0.0);
@@ -337,22 +490,65 @@ fn refine_folds_a_further_gather_in() {
     let mut c = cache(CacheParams::default());
     let p = Vec3::new(5.0, 5.0, 5.0);
     // R = 0.01, clamped up to R' = 3 px × 0.01 = 0.03: insertion scales ∇t by R/R' = 1/3.
-    let first = NewRecord { rel_err: 0.2, grad_t: [Vec3::X; 3], grad_r: [Vec3::Y; 3], ..new_rec(p, Vec3::Z, Vec3::splat(1.0), 0.01, 0.01) };
+    let first = NewRecord {
+        rel_err: 0.2,
+        grad_t: [Vec3::X; 3],
+        grad_r: [Vec3::Y; 3],
+        ..new_rec(p, Vec3::Z, Vec3::splat(1.0), 0.01, 0.01)
+    };
     c.insert(first);
     let before = c.records()[0];
     let scale = before.grad_t[0].x;
     assert!((scale - 1.0 / 3.0).abs() < 1e-5, "{scale}");
-    let more = NewRecord { rel_err: 0.1, e: Vec3::splat(2.0), grad_t: [Vec3::Y; 3], grad_r: [Vec3::X; 3], ..first };
+    let more = NewRecord {
+        rel_err: 0.1,
+        e: Vec3::splat(2.0),
+        grad_t: [Vec3::Y; 3],
+        grad_r: [Vec3::X; 3],
+        ..first
+    };
     c.refine(0, &more, 0.5);
     let after = c.records()[0];
-    assert_eq!((after.pos, after.normal, after.r_harmonic, after.r_clamped), (before.pos, before.normal, before.r_harmonic, before.r_clamped));
-    assert!((after.e - Vec3::splat(1.5)).abs().max_element() < 1e-6, "{}", after.e);
-    assert!((after.grad_r[1] - Vec3::new(0.5, 0.5, 0.0)).abs().max_element() < 1e-6);
-    assert!((after.grad_t[2] - Vec3::new(0.5 * scale, 0.5 * scale, 0.0)).abs().max_element() < 1e-6, "{}", after.grad_t[2]);
+    assert_eq!(
+        (after.pos, after.normal, after.r_harmonic, after.r_clamped),
+        (
+            before.pos,
+            before.normal,
+            before.r_harmonic,
+            before.r_clamped
+        )
+    );
+    assert!(
+        (after.e - Vec3::splat(1.5)).abs().max_element() < 1e-6,
+        "{}",
+        after.e
+    );
+    assert!(
+        (after.grad_r[1] - Vec3::new(0.5, 0.5, 0.0))
+            .abs()
+            .max_element()
+            < 1e-6
+    );
+    assert!(
+        (after.grad_t[2] - Vec3::new(0.5 * scale, 0.5 * scale, 0.0))
+            .abs()
+            .max_element()
+            < 1e-6,
+        "{}",
+        after.grad_t[2]
+    );
     // σ = √((0.5 · 0.2 · 1)² + (0.5 · 0.1 · 2)²) = √0.02 over E = 1.5.
-    assert!((after.rel_err - 0.02f32.sqrt() / 1.5).abs() < 1e-5, "{}", after.rel_err);
+    assert!(
+        (after.rel_err - 0.02f32.sqrt() / 1.5).abs() < 1e-5,
+        "{}",
+        after.rel_err
+    );
     // Shares outside (0, 1) and non-finite gathers change nothing.
-    for (share, e) in [(0.0, Vec3::ONE), (1.0, Vec3::ONE), (0.5, Vec3::splat(f32::NAN))] {
+    for (share, e) in [
+        (0.0, Vec3::ONE),
+        (1.0, Vec3::ONE),
+        (0.5, Vec3::splat(f32::NAN)),
+    ] {
         c.refine(0, &NewRecord { e, ..more }, share);
         assert_eq!(c.records()[0], after);
     }

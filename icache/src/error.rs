@@ -21,7 +21,11 @@ pub enum Error {
     #[error("cache file was made for another scene (fingerprint {found:#018x}, expected {expected:#018x})")]
     FingerprintMismatch { expected: u64, found: u64 },
     #[error("cache file truncated or padded: {what} needs {needed} bytes, file has {available}")]
-    Truncated { what: &'static str, needed: u64, available: u64 },
+    Truncated {
+        what: &'static str,
+        needed: u64,
+        available: u64,
+    },
     #[error("cache file checksum mismatch (stored {stored:#018x}, computed {computed:#018x})")]
     ChecksumMismatch { stored: u64, computed: u64 },
     #[error("cache file record {index} is invalid: {reason}")]

@@ -25,11 +25,16 @@ pub const MAX_STAGES: usize = 64;
 const RECORD_BYTES: usize = RECORD_FLOATS * 4;
 const CHECKSUM_BYTES: usize = 8;
 /// Largest cache file read: 32 million records (a cache holds thousands to a few million).
-pub const MAX_FILE_BYTES: u64 = HEADER_BYTES as u64 + 4 * MAX_STAGES as u64 + (32 << 20) * RECORD_BYTES as u64 + CHECKSUM_BYTES as u64;
+pub const MAX_FILE_BYTES: u64 = HEADER_BYTES as u64
+    + 4 * MAX_STAGES as u64
+    + (32 << 20) * RECORD_BYTES as u64
+    + CHECKSUM_BYTES as u64;
 
 /// FNV-1a, 64 bit.
 pub fn fnv1a64(bytes: &[u8]) -> u64 {
-    bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, &b| (h ^ b as u64).wrapping_mul(0x0000_0100_0000_01b3))
+    bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, &b| {
+        (h ^ b as u64).wrapping_mul(0x0000_0100_0000_01b3)
+    })
 }
 
 /// Little-endian reader over a slice whose total length was checked beforehand.
@@ -83,12 +88,18 @@ fn read_params(c: &mut Cursor) -> Result<CacheParams> {
     let weight = match c.u8() {
         0 => Weighting::TabellionLamorlette,
         1 => Weighting::Ward,
-        w => return Err(Error::InvalidParams(format!("unknown weighting {w} in cache file"))),
+        w => {
+            return Err(Error::InvalidParams(format!(
+                "unknown weighting {w} in cache file"
+            )))
+        }
     };
     let flag = |v: u8, name: &str| match v {
         0 => Ok(false),
         1 => Ok(true),
-        _ => Err(Error::InvalidParams(format!("flag {name} = {v} in cache file"))),
+        _ => Err(Error::InvalidParams(format!(
+            "flag {name} = {v} in cache file"
+        ))),
     };
     let neighbor_clamping = flag(c.u8(), "neighbor_clamping")?;
     let gradients = flag(c.u8(), "gradients")?;
@@ -110,7 +121,11 @@ fn read_params(c: &mut Cursor) -> Result<CacheParams> {
 
 /// Why a record read from a file cannot be used, if it cannot.
 fn record_problem(r: &Record) -> Option<&'static str> {
-    let vecs_finite = [r.pos, r.normal, r.e, r.dir].iter().chain(&r.grad_r).chain(&r.grad_t).all(|v| v.is_finite());
+    let vecs_finite = [r.pos, r.normal, r.e, r.dir]
+        .iter()
+        .chain(&r.grad_r)
+        .chain(&r.grad_t)
+        .all(|v| v.is_finite());
     if !vecs_finite {
         return Some("non-finite vector");
     }
@@ -123,7 +138,11 @@ fn record_problem(r: &Record) -> Option<&'static str> {
     if r.r_harmonic.is_nan() || r.r_harmonic < 0.0 {
         return Some("invalid harmonic distance");
     }
-    if !(r.r_clamped.is_finite() && r.r_clamped > 0.0 && r.pixel_world.is_finite() && r.pixel_world > 0.0) {
+    if !(r.r_clamped.is_finite()
+        && r.r_clamped > 0.0
+        && r.pixel_world.is_finite()
+        && r.pixel_world > 0.0)
+    {
         return Some("invalid radius or pixel footprint");
     }
     None
@@ -132,20 +151,28 @@ fn record_problem(r: &Record) -> Option<&'static str> {
 impl IrradianceCache {
     /// Serialise the cache; `fingerprint` identifies the scene the records belong to.
     pub fn to_bytes(&self, fingerprint: u64) -> Vec<u8> {
-        let mut out = Vec::with_capacity(HEADER_BYTES + 4 * MAX_STAGES + self.records.len() * RECORD_BYTES + CHECKSUM_BYTES);
+        let mut out = Vec::with_capacity(
+            HEADER_BYTES + 4 * MAX_STAGES + self.records.len() * RECORD_BYTES + CHECKSUM_BYTES,
+        );
         out.extend_from_slice(MAGIC);
         out.extend_from_slice(&FILE_VERSION.to_le_bytes());
         out.extend_from_slice(&fingerprint.to_le_bytes());
         write_params(&mut out, &self.params);
         for v in [self.bounds.0, self.bounds.1] {
-            v.to_array().iter().for_each(|f| out.extend_from_slice(&f.to_le_bytes()));
+            v.to_array()
+                .iter()
+                .for_each(|f| out.extend_from_slice(&f.to_le_bytes()));
         }
         let stages = &self.stages[..self.stages.len().min(MAX_STAGES)];
         out.extend_from_slice(&(stages.len() as u32).to_le_bytes());
         out.extend_from_slice(&(self.records.len() as u64).to_le_bytes());
-        stages.iter().for_each(|n| out.extend_from_slice(&n.to_le_bytes()));
+        stages
+            .iter()
+            .for_each(|n| out.extend_from_slice(&n.to_le_bytes()));
         for r in &self.records {
-            r.to_floats().iter().for_each(|f| out.extend_from_slice(&f.to_le_bytes()));
+            r.to_floats()
+                .iter()
+                .for_each(|f| out.extend_from_slice(&f.to_le_bytes()));
         }
         let sum = fnv1a64(&out);
         out.extend_from_slice(&sum.to_le_bytes());
@@ -155,7 +182,11 @@ impl IrradianceCache {
     /// Read a cache written by [`to_bytes`](Self::to_bytes) for the scene with `fingerprint`.
     pub fn from_bytes(bytes: &[u8], fingerprint: u64) -> Result<Self> {
         let available = bytes.len() as u64;
-        let truncated = |what, needed: u64| Error::Truncated { what, needed, available };
+        let truncated = |what, needed: u64| Error::Truncated {
+            what,
+            needed,
+            available,
+        };
         if bytes.len() < MAGIC.len() + 4 {
             return Err(if bytes.len() >= MAGIC.len() && &bytes[..8] != MAGIC {
                 Error::BadMagic
@@ -169,17 +200,31 @@ impl IrradianceCache {
         }
         let version = c.u32();
         if version != FILE_VERSION {
-            return Err(Error::UnsupportedVersion { found: version, supported: FILE_VERSION });
+            return Err(Error::UnsupportedVersion {
+                found: version,
+                supported: FILE_VERSION,
+            });
         }
         if bytes.len() < HEADER_BYTES + CHECKSUM_BYTES {
             return Err(truncated("header", (HEADER_BYTES + CHECKSUM_BYTES) as u64));
         }
-        let n_stages = u32::from_le_bytes(bytes[HEADER_BYTES - 12..HEADER_BYTES - 8].try_into().expect("4 bytes")) as usize;
+        let n_stages = u32::from_le_bytes(
+            bytes[HEADER_BYTES - 12..HEADER_BYTES - 8]
+                .try_into()
+                .expect("4 bytes"),
+        ) as usize;
         if n_stages > MAX_STAGES {
-            return Err(Error::InvalidParams(format!("{n_stages} stages in cache file (at most {MAX_STAGES})")));
+            return Err(Error::InvalidParams(format!(
+                "{n_stages} stages in cache file (at most {MAX_STAGES})"
+            )));
         }
-        let count = u64::from_le_bytes(bytes[HEADER_BYTES - 8..HEADER_BYTES].try_into().expect("8 bytes"));
-        let needed = (count as u128) * RECORD_BYTES as u128 + (HEADER_BYTES + 4 * n_stages + CHECKSUM_BYTES) as u128;
+        let count = u64::from_le_bytes(
+            bytes[HEADER_BYTES - 8..HEADER_BYTES]
+                .try_into()
+                .expect("8 bytes"),
+        );
+        let needed = (count as u128) * RECORD_BYTES as u128
+            + (HEADER_BYTES + 4 * n_stages + CHECKSUM_BYTES) as u128;
         if needed != available as u128 {
             return Err(truncated("records", needed.min(u64::MAX as u128) as u64));
         }
@@ -191,7 +236,10 @@ impl IrradianceCache {
         }
         let found = c.u64();
         if found != fingerprint {
-            return Err(Error::FingerprintMismatch { expected: fingerprint, found });
+            return Err(Error::FingerprintMismatch {
+                expected: fingerprint,
+                found,
+            });
         }
         let params = read_params(&mut c)?;
         let (lo, hi) = (c.vec3(), c.vec3());
@@ -199,8 +247,12 @@ impl IrradianceCache {
         c.u32(); // stage count, read above
         c.u64(); // record count, read above
         let stages: Vec<u32> = (0..n_stages).map(|_| c.u32()).collect();
-        if stages.windows(2).any(|w| w[0] > w[1]) || stages.last().is_some_and(|&n| n as u64 > count) {
-            return Err(Error::InvalidParams(format!("cache file stages {stages:?} are not record counts in order (of {count})")));
+        if stages.windows(2).any(|w| w[0] > w[1])
+            || stages.last().is_some_and(|&n| n as u64 > count)
+        {
+            return Err(Error::InvalidParams(format!(
+                "cache file stages {stages:?} are not record counts in order (of {count})"
+            )));
         }
         cache.records.reserve_exact(count as usize);
         for index in 0..count {
@@ -232,12 +284,20 @@ impl IrradianceCache {
             return Err(Error::NotRegularFile);
         }
         if meta.len() > MAX_FILE_BYTES {
-            return Err(Error::TooLarge { bytes: meta.len(), limit: MAX_FILE_BYTES });
+            return Err(Error::TooLarge {
+                bytes: meta.len(),
+                limit: MAX_FILE_BYTES,
+            });
         }
         let mut bytes = Vec::with_capacity(meta.len() as usize);
-        std::fs::File::open(path)?.take(MAX_FILE_BYTES + 1).read_to_end(&mut bytes)?;
+        std::fs::File::open(path)?
+            .take(MAX_FILE_BYTES + 1)
+            .read_to_end(&mut bytes)?;
         if bytes.len() as u64 > MAX_FILE_BYTES {
-            return Err(Error::TooLarge { bytes: bytes.len() as u64, limit: MAX_FILE_BYTES });
+            return Err(Error::TooLarge {
+                bytes: bytes.len() as u64,
+                limit: MAX_FILE_BYTES,
+            });
         }
         Self::from_bytes(&bytes, fingerprint)
     }

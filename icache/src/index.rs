@@ -63,8 +63,15 @@ impl Octree {
     /// An empty octree whose root cube encloses [min, max] with a small margin. Non-finite or inverted
     /// bounds, or an extent that overflows, give a unit cube at the origin: records outside the cube still work, via the outside list.
     pub fn new(min: Vec3, max: Vec3) -> Self {
-        let ok = min.is_finite() && max.is_finite() && min.cmple(max).all() && ((max - min).max_element() * 1.02).is_finite();
-        let (min, max) = if ok { (min, max) } else { (Vec3::ZERO, Vec3::ONE) };
+        let ok = min.is_finite()
+            && max.is_finite()
+            && min.cmple(max).all()
+            && ((max - min).max_element() * 1.02).is_finite();
+        let (min, max) = if ok {
+            (min, max)
+        } else {
+            (Vec3::ZERO, Vec3::ONE)
+        };
         let extent = (max - min).max_element().max(1e-6);
         let margin = 0.01 * extent;
         Octree {
@@ -95,7 +102,11 @@ impl Octree {
 
     /// Reference record `id` with sphere (`center`, `radius`) from every overlapping cell at its level.
     pub fn insert(&mut self, id: u32, center: Vec3, radius: f32) {
-        let r = if radius.is_nan() { f32::INFINITY } else { radius.max(0.0) };
+        let r = if radius.is_nan() {
+            f32::INFINITY
+        } else {
+            radius.max(0.0)
+        };
         let contained = center.is_finite()
             && r.is_finite()
             && self.in_root(center - Vec3::splat(r))
@@ -111,12 +122,26 @@ impl Octree {
     }
 
     #[allow(clippy::too_many_arguments)]
-    fn insert_rec(&mut self, node: usize, lo: Vec3, size: f32, depth: u32, target: u32, c: Vec3, r: f32, id: u32) {
+    fn insert_rec(
+        &mut self,
+        node: usize,
+        lo: Vec3,
+        size: f32,
+        depth: u32,
+        target: u32,
+        c: Vec3,
+        r: f32,
+        id: u32,
+    ) {
         if dist2_to_box(c, lo, size) > r * r {
             return;
         }
         if depth == target {
-            self.nodes[node].spheres.push(Sphere { center: c, radius: r, id });
+            self.nodes[node].spheres.push(Sphere {
+                center: c,
+                radius: r,
+                id,
+            });
             return;
         }
         if self.nodes[node].first_child == 0 {
@@ -127,7 +152,16 @@ impl Octree {
         let first = self.nodes[node].first_child as usize;
         let half = 0.5 * size;
         for i in 0..8 {
-            self.insert_rec(first + i, lo + child_offset(i) * half, half, depth + 1, target, c, r, id);
+            self.insert_rec(
+                first + i,
+                lo + child_offset(i) * half,
+                half,
+                depth + 1,
+                target,
+                c,
+                r,
+                id,
+            );
         }
     }
 
@@ -138,13 +172,27 @@ impl Octree {
     /// Sibenik neighbor clamping shrinks most records after insertion: with the entries left in their
     /// first cells a pass-A lookup scanned 111 spheres to find 11 containing the point.
     pub fn shrink(&mut self, id: u32, center: Vec3, old_radius: f32, new_radius: f32) -> f32 {
-        let r = if old_radius.is_nan() { f32::INFINITY } else { old_radius.max(0.0) };
+        let r = if old_radius.is_nan() {
+            f32::INFINITY
+        } else {
+            old_radius.max(0.0)
+        };
         if !(center.is_finite() && new_radius >= 0.0 && new_radius < r) {
             return old_radius;
         }
         let (from, to) = (self.level_for(r), self.level_for(new_radius));
         if to == from || !r.is_finite() {
-            self.shrink_rec(0, self.origin, self.size, 0, from, center, r, id, Some(new_radius));
+            self.shrink_rec(
+                0,
+                self.origin,
+                self.size,
+                0,
+                from,
+                center,
+                r,
+                id,
+                Some(new_radius),
+            );
             return old_radius;
         }
         self.shrink_rec(0, self.origin, self.size, 0, from, center, r, id, None);
@@ -155,7 +203,18 @@ impl Octree {
     /// At level `target`, in every cell the sphere (`c`, `r`) overlaps: record `id`'s entry takes radius
     /// `new_radius`, or leaves the cell when that is `None`.
     #[allow(clippy::too_many_arguments)]
-    fn shrink_rec(&mut self, node: usize, lo: Vec3, size: f32, depth: u32, target: u32, c: Vec3, r: f32, id: u32, new_radius: Option<f32>) {
+    fn shrink_rec(
+        &mut self,
+        node: usize,
+        lo: Vec3,
+        size: f32,
+        depth: u32,
+        target: u32,
+        c: Vec3,
+        r: f32,
+        id: u32,
+        new_radius: Option<f32>,
+    ) {
         if dist2_to_box(c, lo, size) > r * r {
             return;
         }
@@ -177,7 +236,17 @@ impl Octree {
         }
         let half = 0.5 * size;
         for i in 0..8 {
-            self.shrink_rec(first + i, lo + child_offset(i) * half, half, depth + 1, target, c, r, id, new_radius);
+            self.shrink_rec(
+                first + i,
+                lo + child_offset(i) * half,
+                half,
+                depth + 1,
+                target,
+                c,
+                r,
+                id,
+                new_radius,
+            );
         }
     }
 
@@ -198,14 +267,20 @@ impl Octree {
         let scale2 = scale * scale;
         let (mut node, mut lo, mut size) = (0usize, self.origin, self.size);
         loop {
-            self.nodes[node].spheres.iter().filter(|s| s.contains_scaled(p, scale2)).for_each(|s| f(s.id));
+            self.nodes[node]
+                .spheres
+                .iter()
+                .filter(|s| s.contains_scaled(p, scale2))
+                .for_each(|s| f(s.id));
             let first = self.nodes[node].first_child as usize;
             if first == 0 {
                 return;
             }
             size *= 0.5;
             let mid = lo + Vec3::splat(size);
-            let i = (p.x >= mid.x) as usize | ((p.y >= mid.y) as usize) << 1 | ((p.z >= mid.z) as usize) << 2;
+            let i = (p.x >= mid.x) as usize
+                | ((p.y >= mid.y) as usize) << 1
+                | ((p.z >= mid.z) as usize) << 2;
             lo += child_offset(i) * size;
             node = first + i;
         }
@@ -226,7 +301,13 @@ impl Octree {
         if dist2_to_box(c, lo, size) > r * r {
             return;
         }
-        out.extend(self.nodes[node].spheres.iter().filter(|s| (c - s.center).length() <= (s.radius + r) * (1.0 + 1e-5)).map(|s| s.id));
+        out.extend(
+            self.nodes[node]
+                .spheres
+                .iter()
+                .filter(|s| (c - s.center).length() <= (s.radius + r) * (1.0 + 1e-5))
+                .map(|s| s.id),
+        );
         let first = self.nodes[node].first_child as usize;
         if first != 0 {
             let half = 0.5 * size;
@@ -239,7 +320,9 @@ impl Octree {
     /// Heap bytes held by the index.
     pub fn memory_bytes(&self) -> usize {
         let spheres: usize = self.nodes.iter().map(|n| n.spheres.capacity()).sum();
-        self.nodes.capacity() * std::mem::size_of::<Node>() + spheres * std::mem::size_of::<Sphere>() + self.outside.capacity() * 4
+        self.nodes.capacity() * std::mem::size_of::<Node>()
+            + spheres * std::mem::size_of::<Sphere>()
+            + self.outside.capacity() * 4
     }
 
     pub fn n_nodes(&self) -> usize {
@@ -263,7 +346,12 @@ mod tests {
         let mut rng = Rng::new(7);
         let mut tree = Octree::new(Vec3::ZERO, Vec3::splat(10.0));
         let spheres: Vec<(Vec3, f32)> = (0..2000)
-            .map(|_| (rand_vec(&mut rng, -1.0, 11.0), 0.01 + 2.0 * rng.uniform().powi(3)))
+            .map(|_| {
+                (
+                    rand_vec(&mut rng, -1.0, 11.0),
+                    0.01 + 2.0 * rng.uniform().powi(3),
+                )
+            })
             .collect();
         for (i, &(c, r)) in spheres.iter().enumerate() {
             tree.insert(i as u32, c, r);
@@ -288,7 +376,10 @@ mod tests {
             out.dedup();
             for (i, &(c, r)) in spheres.iter().enumerate() {
                 if (p - c).length() < r + qr {
-                    assert!(out.binary_search(&(i as u32)).is_ok(), "query missed sphere {i}");
+                    assert!(
+                        out.binary_search(&(i as u32)).is_ok(),
+                        "query missed sphere {i}"
+                    );
                 }
             }
         }

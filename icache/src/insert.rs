@@ -19,12 +19,19 @@ use crate::stats::InsertStats;
 
 /// [R_min, R_max] in world units at a record with the given pixel footprint.
 fn spacing_bounds(params: &CacheParams, pixel_world: f32) -> (f32, f32) {
-    (params.min_spacing_px * pixel_world, params.max_spacing_px * pixel_world)
+    (
+        params.min_spacing_px * pixel_world,
+        params.max_spacing_px * pixel_world,
+    )
 }
 
 /// The factor step 3 applies to ∇t: R/R' where R < R', else 1.
 fn grad_scale(r: f32, r_clamped: f32) -> f32 {
-    if r < r_clamped { r / r_clamped } else { 1.0 }
+    if r < r_clamped {
+        r / r_clamped
+    } else {
+        1.0
+    }
 }
 
 /// A record's R' for its unclamped R: s·R clamped to s times the pixel spacing bounds, where s is the
@@ -41,7 +48,9 @@ fn set_radius(params: &CacheParams, rec: &mut Record, r: f32) {
     let s = params.start_scale();
     let old_scale = grad_scale(s * rec.r_harmonic, rec.r_clamped);
     rec.r_harmonic = r;
-    rec.r_clamped = rec.r_clamped.min(clamped_reach(params, r, rec.pixel_world).1);
+    rec.r_clamped = rec
+        .r_clamped
+        .min(clamped_reach(params, r, rec.pixel_world).1);
     let new_scale = grad_scale(s * rec.r_harmonic, rec.r_clamped);
     if old_scale > 0.0 && new_scale != old_scale {
         let f = new_scale / old_scale;
@@ -51,11 +60,19 @@ fn set_radius(params: &CacheParams, rec: &mut Record, r: f32) {
 
 /// A gather's noise estimate as a record keeps it: 0 (unknown) unless finite and non-negative.
 pub(crate) fn finite_rel_err(x: f32) -> f32 {
-    if x.is_finite() && x >= 0.0 { x } else { 0.0 }
+    if x.is_finite() && x >= 0.0 {
+        x
+    } else {
+        0.0
+    }
 }
 
 fn finite_or_zero(v: Vec3) -> (Vec3, bool) {
-    if v.is_finite() { (v, false) } else { (Vec3::ZERO, true) }
+    if v.is_finite() {
+        (v, false)
+    } else {
+        (Vec3::ZERO, true)
+    }
 }
 
 /// Steps 1–3 on a gather result; `None` when the record cannot be placed at all.
@@ -66,7 +83,12 @@ fn prepare(params: &CacheParams, new: &NewRecord, stats: &mut InsertStats) -> Op
     }
     let mut repaired = false;
     // Per channel: a NaN in one channel should not erase the others.
-    let e = Vec3::from_array(new.e.to_array().map(|x| if x.is_finite() { x.max(0.0) } else { f32::NAN }));
+    let e =
+        Vec3::from_array(
+            new.e
+                .to_array()
+                .map(|x| if x.is_finite() { x.max(0.0) } else { f32::NAN }),
+        );
     repaired |= e != new.e;
     let e = Vec3::from_array(e.to_array().map(|x| if x.is_nan() { 0.0 } else { x }));
     let mut grad_r = new.grad_r;
@@ -100,7 +122,19 @@ fn prepare(params: &CacheParams, new: &NewRecord, stats: &mut InsertStats) -> Op
     let s = grad_scale(reach, r_clamped);
     grad_t.iter_mut().for_each(|g| *g *= s);
     let (dir, _) = finite_or_zero(new.dir);
-    Some(Record { pos: new.pos, normal, e, grad_r, grad_t, r_harmonic: r, r_clamped, dir, pixel_world: new.pixel_world, rel_err: finite_rel_err(new.rel_err), at: new.at })
+    Some(Record {
+        pos: new.pos,
+        normal,
+        e,
+        grad_r,
+        grad_t,
+        r_harmonic: r,
+        r_clamped,
+        dir,
+        pixel_world: new.pixel_world,
+        rel_err: finite_rel_err(new.rel_err),
+        at: new.at,
+    })
 }
 
 impl IrradianceCache {
@@ -129,7 +163,8 @@ impl IrradianceCache {
     /// Whether record `id` can still be shrunk by adaptive caching.
     pub(crate) fn can_shrink_adaptive(&self, id: u32) -> bool {
         let rec = &self.records[id as usize];
-        id as usize >= self.frozen && rec.r_clamped > 1.001 * spacing_bounds(&self.params, rec.pixel_world).0
+        id as usize >= self.frozen
+            && rec.r_clamped > 1.001 * spacing_bounds(&self.params, rec.pixel_world).0
     }
 
     /// Add a gather result as a new record (see the module header for the steps).
@@ -150,7 +185,11 @@ impl IrradianceCache {
     /// [`insert`](Self::insert), given `near = (ids, since)`: the [`neighbor_candidates`] of `new` when
     /// the cache held `since` records (those inserted after are checked too). The same record and the
     /// same clampings as `insert`, without searching the index for the new record's neighbours.
-    pub(crate) fn insert_near(&mut self, new: NewRecord, near: Option<(&[u32], usize)>) -> InsertStats {
+    pub(crate) fn insert_near(
+        &mut self,
+        new: NewRecord,
+        near: Option<(&[u32], usize)>,
+    ) -> InsertStats {
         let mut stats = InsertStats::default();
         let Some(rec) = prepare(&self.params, &new, &mut stats) else {
             stats.n_rejected += 1;
@@ -188,7 +227,9 @@ impl IrradianceCache {
                 ids.extend_from_slice(candidates);
                 ids.extend(since as u32..j as u32);
             }
-            None => self.index.query_sphere(rec_j.pos, rec_j.r_clamped, &mut ids),
+            None => self
+                .index
+                .query_sphere(rec_j.pos, rec_j.r_clamped, &mut ids),
         }
         let mut r_j = rec_j.r_harmonic;
         for &k in &ids {
@@ -218,7 +259,8 @@ impl IrradianceCache {
             if rec_k.r_harmonic.to_bits() != bits {
                 continue; // stale entry: k shrank again after being pushed
             }
-            self.index.query_sphere(rec_k.pos, rec_k.r_clamped, &mut ids);
+            self.index
+                .query_sphere(rec_k.pos, rec_k.r_clamped, &mut ids);
             for &m in &ids {
                 if m == k || (m as usize) < self.frozen {
                     continue;

@@ -105,7 +105,12 @@ impl Default for MediaFillStats {
 impl MediaCache {
     /// An empty cache over the media's bounds (records outside still work, more slowly).
     pub fn new(lo: Vec3, hi: Vec3, gradients: bool) -> MediaCache {
-        MediaCache { records: Vec::new(), index: Octree::new(lo, hi), gradients, neighbours: Vec::new() }
+        MediaCache {
+            records: Vec::new(),
+            index: Octree::new(lo, hi),
+            gradients,
+            neighbours: Vec::new(),
+        }
     }
 
     pub fn records(&self) -> &[VolumeRecord] {
@@ -165,7 +170,9 @@ impl MediaCache {
     /// Inserts a record with neighbour clamping both ways; returns whether any radius was lowered.
     /// A record with a non-finite position or value, or no positive radius, is not inserted.
     pub fn insert(&mut self, mut rec: VolumeRecord) -> bool {
-        let finite = rec.pos.is_finite() && rec.value.iter().all(|v| v.is_finite()) && rec.grad.iter().flatten().all(|g| g.is_finite());
+        let finite = rec.pos.is_finite()
+            && rec.value.iter().all(|v| v.is_finite())
+            && rec.grad.iter().flatten().all(|g| g.is_finite());
         if !(finite && rec.radius > 0.0 && rec.radius.is_finite()) {
             return false;
         }
@@ -212,7 +219,10 @@ pub fn fill_media(
     cancel: &AtomicBool,
 ) -> MediaFillStats {
     let t = std::time::Instant::now();
-    let mut stats = MediaFillStats { n_points: points.len() as u64, ..Default::default() };
+    let mut stats = MediaFillStats {
+        n_points: points.len() as u64,
+        ..Default::default()
+    };
     let mut pixel_world = Vec::new();
     let mut sweep: Vec<usize> = (0..points.len()).collect();
     for round in 0..=MAX_REPAIR_SWEEPS {
@@ -226,11 +236,21 @@ pub fn fill_media(
                 stats.time_s = t.elapsed().as_secs_f64();
                 return stats;
             }
-            let covered: Vec<bool> = chunk.par_iter().map(|&i| cache.covers(points[i].pos, PASS_A_REACH)).collect();
-            wave.extend(chunk.iter().zip(covered).filter(|(_, c)| !c).map(|(&i, _)| i));
+            let covered: Vec<bool> = chunk
+                .par_iter()
+                .map(|&i| cache.covers(points[i].pos, PASS_A_REACH))
+                .collect();
+            wave.extend(
+                chunk
+                    .iter()
+                    .zip(covered)
+                    .filter(|(_, c)| !c)
+                    .map(|(&i, _)| i),
+            );
             let last = (c + 1) * CHUNK_POINTS >= sweep.len();
             if wave.len() >= WAVE_ESTIMATES || last {
-                let recs: Vec<VolumeRecord> = wave.par_iter().map(|&i| estimate(&points[i])).collect();
+                let recs: Vec<VolumeRecord> =
+                    wave.par_iter().map(|&i| estimate(&points[i])).collect();
                 stats.n_estimates += recs.len() as u64;
                 for (&i, rec) in wave.iter().zip(recs) {
                     if cache.len() >= MAX_RECORDS {
@@ -252,20 +272,34 @@ pub fn fill_media(
                 wave.clear();
             }
             if round == 0 {
-                progress(((c + 1) * CHUNK_POINTS).min(sweep.len()) as u64, points.len() as u64);
+                progress(
+                    ((c + 1) * CHUNK_POINTS).min(sweep.len()) as u64,
+                    points.len() as u64,
+                );
             }
         }
         if !shrunk {
             break;
         }
         // A shrink can uncover any point its record covered, in this sweep or not.
-        let still: Vec<bool> = points.par_iter().map(|p| !cache.covers(p.pos, PASS_A_REACH)).collect();
-        sweep = still.iter().enumerate().filter(|(_, s)| **s).map(|(i, _)| i).collect();
+        let still: Vec<bool> = points
+            .par_iter()
+            .map(|p| !cache.covers(p.pos, PASS_A_REACH))
+            .collect();
+        sweep = still
+            .iter()
+            .enumerate()
+            .filter(|(_, s)| **s)
+            .map(|(i, _)| i)
+            .collect();
         if sweep.is_empty() {
             break;
         }
     }
-    stats.n_uncovered_after = points.par_iter().filter(|p| !cache.covers(p.pos, PASS_A_REACH)).count() as u64;
+    stats.n_uncovered_after = points
+        .par_iter()
+        .filter(|p| !cache.covers(p.pos, PASS_A_REACH))
+        .count() as u64;
     for (r, px) in cache.records.iter().zip(&pixel_world) {
         stats.radius_px.add(r.radius / px.max(f32::MIN_POSITIVE));
     }
@@ -279,7 +313,12 @@ mod tests {
     use photon::sampling::Rng;
 
     fn record(pos: Vec3, radius: f32, value: f32) -> VolumeRecord {
-        VolumeRecord { pos, radius, value: [Vec3::splat(value), Vec3::ZERO, Vec3::ZERO, Vec3::ZERO], ..Default::default() }
+        VolumeRecord {
+            pos,
+            radius,
+            value: [Vec3::splat(value), Vec3::ZERO, Vec3::ZERO, Vec3::ZERO],
+            ..Default::default()
+        }
     }
 
     /// Points along lines through a unit cube.
@@ -287,9 +326,16 @@ mod tests {
         let mut rng = Rng::new(3);
         let mut out = Vec::new();
         for _ in 0..200 {
-            let (o, d) = (Vec3::new(rng.uniform(), rng.uniform(), 0.0), Vec3::new(0.2 * rng.uniform() - 0.1, 0.2 * rng.uniform() - 0.1, 1.0).normalize());
+            let (o, d) = (
+                Vec3::new(rng.uniform(), rng.uniform(), 0.0),
+                Vec3::new(0.2 * rng.uniform() - 0.1, 0.2 * rng.uniform() - 0.1, 1.0).normalize(),
+            );
             for k in 0..40 {
-                out.push(MediaPoint { pos: o + d * (k as f32 / 40.0), pixel_world: 0.005, max_radius: 1.0 });
+                out.push(MediaPoint {
+                    pos: o + d * (k as f32 / 40.0),
+                    pixel_world: 0.005,
+                    max_radius: 1.0,
+                });
             }
         }
         out
@@ -306,16 +352,31 @@ mod tests {
     fn fill() -> (MediaCache, MediaFillStats, Vec<MediaPoint>) {
         let pts = points();
         let mut cache = MediaCache::new(Vec3::ZERO, Vec3::ONE, true);
-        let stats = fill_media(&mut cache, &pts, &estimate, &|_, _| {}, &AtomicBool::new(false));
+        let stats = fill_media(
+            &mut cache,
+            &pts,
+            &estimate,
+            &|_, _| {},
+            &AtomicBool::new(false),
+        );
         (cache, stats, pts)
     }
 
     #[test]
     fn every_point_is_covered_and_radii_are_clamped_by_their_neighbours() {
         let (cache, stats, pts) = fill();
-        assert_eq!(stats.n_uncovered_after, 0, "after {} sweeps", stats.n_repair_sweeps);
+        assert_eq!(
+            stats.n_uncovered_after, 0,
+            "after {} sweeps",
+            stats.n_repair_sweeps
+        );
         assert!(pts.iter().all(|p| cache.covers(p.pos, PASS_A_REACH)));
-        assert!(cache.len() < pts.len() / 3, "{} records for {} points", cache.len(), pts.len());
+        assert!(
+            cache.len() < pts.len() / 3,
+            "{} records for {} points",
+            cache.len(),
+            pts.len()
+        );
         let rs = cache.records();
         for (i, a) in rs.iter().enumerate() {
             for b in &rs[i + 1..] {
@@ -328,21 +389,40 @@ mod tests {
 
     #[test]
     fn the_fill_does_not_depend_on_the_thread_count() {
-        let run = |threads| rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap().install(fill).0.records().to_vec();
+        let run = |threads| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap()
+                .install(fill)
+                .0
+                .records()
+                .to_vec()
+        };
         assert_eq!(run(1), run(2));
     }
 
     #[test]
     fn lookups_interpolate_a_linear_field_exactly_with_gradients() {
         let mut cache = MediaCache::new(Vec3::ZERO, Vec3::ONE, true);
-        for (i, p) in [Vec3::new(0.4, 0.5, 0.5), Vec3::new(0.6, 0.5, 0.5), Vec3::new(0.5, 0.6, 0.45)].into_iter().enumerate() {
+        for (i, p) in [
+            Vec3::new(0.4, 0.5, 0.5),
+            Vec3::new(0.6, 0.5, 0.5),
+            Vec3::new(0.5, 0.6, 0.45),
+        ]
+        .into_iter()
+        .enumerate()
+        {
             let mut rec = record(p, 0.3 + 0.01 * i as f32, 2.0 + 3.0 * p.x);
             rec.grad[0][0] = Vec3::splat(3.0);
             cache.insert(rec);
         }
         let p = Vec3::new(0.52, 0.55, 0.5);
         let v = cache.lookup(p).unwrap()[0];
-        assert!((v - Vec3::splat(2.0 + 3.0 * p.x)).abs().max_element() < 1e-5, "{v}");
+        assert!(
+            (v - Vec3::splat(2.0 + 3.0 * p.x)).abs().max_element() < 1e-5,
+            "{v}"
+        );
         assert!(cache.lookup(Vec3::new(0.5, 0.5, 0.95)).is_none());
         let mut flat = MediaCache::new(Vec3::ZERO, Vec3::ONE, false);
         flat.insert(record(Vec3::splat(0.5), 0.2, 1.0));

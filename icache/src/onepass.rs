@@ -16,7 +16,9 @@ use crate::cache::IrradianceCache;
 use crate::params::Pass;
 use crate::record::NewRecord;
 use crate::stats::FillStats;
-use crate::twopass::{GatherFn, GatherWithFn, NoStats, PointsWithFn, ProgressFn, ShadingPoint, ShadingPointsFn};
+use crate::twopass::{
+    GatherFn, GatherWithFn, NoStats, PointsWithFn, ProgressFn, ShadingPoint, ShadingPointsFn,
+};
 
 /// The outcome of a one-pass fill: for each pixel, the record count after it was visited.
 pub struct OnePassFill {
@@ -28,7 +30,9 @@ impl OnePassFill {
     /// Records (a prefix in insertion order) that pixel (x, y) may use; every record outside the image.
     pub fn visible_records(&self, x: u32, y: u32) -> usize {
         let k = y as usize * self.width as usize + x as usize;
-        self.records_after.get(k).map_or(usize::MAX, |&n| n as usize)
+        self.records_after
+            .get(k)
+            .map_or(usize::MAX, |&n| n as usize)
     }
 }
 
@@ -42,9 +46,22 @@ pub fn fill_one_pass(
     gather: &GatherFn,
     progress: &ProgressFn,
 ) -> (FillStats, OnePassFill) {
-    let points = |x, y| shading_points(x, y).into_iter().map(|sp| (sp, ())).collect();
+    let points = |x, y| {
+        shading_points(x, y)
+            .into_iter()
+            .map(|sp| (sp, ()))
+            .collect()
+    };
     let gather = |x, y, i, sp: &ShadingPoint, _: &()| (gather(x, y, i, sp), NoStats);
-    let (stats, _, order) = fill_one_pass_cancellable(cache, width, height, &points, &gather, progress, &AtomicBool::new(false));
+    let (stats, _, order) = fill_one_pass_cancellable(
+        cache,
+        width,
+        height,
+        &points,
+        &gather,
+        progress,
+        &AtomicBool::new(false),
+    );
     (stats, order)
 }
 
@@ -60,7 +77,10 @@ pub fn fill_one_pass_cancellable<P, S: Default + AddAssign>(
     progress: &ProgressFn,
     cancel: &AtomicBool,
 ) -> (FillStats, S, OnePassFill) {
-    let mut stats = FillStats { n_pixels: width as u64 * height as u64, ..FillStats::default() };
+    let mut stats = FillStats {
+        n_pixels: width as u64 * height as u64,
+        ..FillStats::default()
+    };
     let mut gathers = S::default();
     let mut records_after = Vec::with_capacity(stats.n_pixels as usize);
     for y in 0..height {
@@ -76,12 +96,22 @@ pub fn fill_one_pass_cancellable<P, S: Default + AddAssign>(
                     stats.n_gathers += 1;
                     let (rec, s) = gather(x, y, i, &sp, &payload);
                     gathers += s;
-                    stats.insert += cache.insert(NewRecord { pixel_world: sp.pixel_world, ..rec });
+                    stats.insert += cache.insert(NewRecord {
+                        pixel_world: sp.pixel_world,
+                        ..rec
+                    });
                 }
             }
             records_after.push(cache.len().min(u32::MAX as usize) as u32);
         }
         progress((y as u64 + 1) * width as u64, stats.n_pixels);
     }
-    (stats, gathers, OnePassFill { width, records_after })
+    (
+        stats,
+        gathers,
+        OnePassFill {
+            width,
+            records_after,
+        },
+    )
 }

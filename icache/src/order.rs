@@ -19,7 +19,13 @@ impl HierarchicalOrder {
     pub fn new(width: u32, height: u32) -> Self {
         let side = width.max(height).max(1).next_power_of_two() as u64;
         let bits = side.trailing_zeros();
-        HierarchicalOrder { width, height, bits, next: 0, end: side * side }
+        HierarchicalOrder {
+            width,
+            height,
+            bits,
+            next: 0,
+            end: side * side,
+        }
     }
 }
 
@@ -41,7 +47,11 @@ impl Iterator for HierarchicalOrder {
         while self.next < self.end {
             let i = self.next;
             self.next += 1;
-            let code = if self.bits == 0 { 0 } else { i.reverse_bits() >> (64 - 2 * self.bits) };
+            let code = if self.bits == 0 {
+                0
+            } else {
+                i.reverse_bits() >> (64 - 2 * self.bits)
+            };
             let (x, y) = (compact_even_bits(code), compact_even_bits(code >> 1));
             if x < self.width && y < self.height {
                 return Some((x, y));

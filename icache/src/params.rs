@@ -92,10 +92,16 @@ impl CacheParams {
     pub fn validate(&self) -> Result<()> {
         let bad = |s: String| Err(Error::InvalidParams(s));
         if !(self.accuracy.is_finite() && self.accuracy > 0.0) {
-            return bad(format!("accuracy must be finite and > 0, got {}", self.accuracy));
+            return bad(format!(
+                "accuracy must be finite and > 0, got {}",
+                self.accuracy
+            ));
         }
         if !(self.min_spacing_px.is_finite() && self.min_spacing_px > 0.0) {
-            return bad(format!("min_spacing_px must be finite and > 0, got {}", self.min_spacing_px));
+            return bad(format!(
+                "min_spacing_px must be finite and > 0, got {}",
+                self.min_spacing_px
+            ));
         }
         if !(self.max_spacing_px.is_finite() && self.max_spacing_px >= self.min_spacing_px) {
             return bad(format!(
@@ -105,12 +111,17 @@ impl CacheParams {
         }
         if let Some(t) = self.adaptive {
             if !(t.is_finite() && t > 0.0) {
-                return bad(format!("adaptive threshold must be finite and > 0, got {t}"));
+                return bad(format!(
+                    "adaptive threshold must be finite and > 0, got {t}"
+                ));
             }
         }
         if let Some(b) = self.pass_b_accuracy {
             if !(b.is_finite() && b >= self.accuracy) {
-                return bad(format!("pass_b_accuracy must be finite and ≥ accuracy ({}), got {b}", self.accuracy));
+                return bad(format!(
+                    "pass_b_accuracy must be finite and ≥ accuracy ({}), got {b}",
+                    self.accuracy
+                ));
             }
         }
         Ok(())
@@ -139,7 +150,11 @@ impl CacheParams {
     /// clamping looks for records whose R' spheres overlap.
     /// Reach multiple of a new record: [`ADAPTIVE_START`] under adaptive caching, else 1.
     pub fn start_scale(&self) -> f32 {
-        if self.adaptive.is_some() { ADAPTIVE_START } else { 1.0 }
+        if self.adaptive.is_some() {
+            ADAPTIVE_START
+        } else {
+            1.0
+        }
     }
 
     pub fn index_factor(&self) -> f32 {
@@ -161,7 +176,10 @@ mod tests {
 
     #[test]
     fn invalid_params_rejected() {
-        let mut p = CacheParams { accuracy: f32::NAN, ..Default::default() };
+        let mut p = CacheParams {
+            accuracy: f32::NAN,
+            ..Default::default()
+        };
         assert!(p.validate().is_err());
         p.accuracy = 0.5;
         p.pass_b_accuracy = Some(0.25);

@@ -27,14 +27,33 @@ impl PointGrid {
     /// A grid of cells of side `cell` over `positions` (non-finite positions are never found).
     pub fn new(positions: Vec<Vec3>, cell: f32) -> PointGrid {
         let finite = positions.iter().filter(|p| p.is_finite());
-        let origin = finite.clone().fold(Vec3::splat(f32::INFINITY), |a, &p| a.min(p));
+        let origin = finite
+            .clone()
+            .fold(Vec3::splat(f32::INFINITY), |a, &p| a.min(p));
         let hi = finite.fold(Vec3::splat(f32::NEG_INFINITY), |a, &p| a.max(p));
         let extent = (hi - origin).max_element();
         // Never more cells per axis than the keys hold.
-        let cell = if extent.is_finite() && extent > 0.0 { cell.max(extent / MAX_CELLS_PER_AXIS as f32) } else { 1.0 };
-        let cell = if cell.is_finite() && cell > 0.0 { cell } else { 1.0 };
-        let origin = if origin.is_finite() { origin } else { Vec3::ZERO };
-        let mut grid = PointGrid { origin, cell, keys: Vec::new(), positions };
+        let cell = if extent.is_finite() && extent > 0.0 {
+            cell.max(extent / MAX_CELLS_PER_AXIS as f32)
+        } else {
+            1.0
+        };
+        let cell = if cell.is_finite() && cell > 0.0 {
+            cell
+        } else {
+            1.0
+        };
+        let origin = if origin.is_finite() {
+            origin
+        } else {
+            Vec3::ZERO
+        };
+        let mut grid = PointGrid {
+            origin,
+            cell,
+            keys: Vec::new(),
+            positions,
+        };
         let mut keys: Vec<(u64, u32)> = grid
             .positions
             .iter()
@@ -49,7 +68,8 @@ impl PointGrid {
 
     fn coords(&self, p: Vec3) -> IVec3 {
         let c = ((p - self.origin) / self.cell).floor();
-        c.clamp(Vec3::ZERO, Vec3::splat(MAX_CELLS_PER_AXIS as f32)).as_ivec3()
+        c.clamp(Vec3::ZERO, Vec3::splat(MAX_CELLS_PER_AXIS as f32))
+            .as_ivec3()
     }
 
     /// Call `f` with the index of every point within `r` of `c` (with a relative slack of 1e-5, so that
@@ -64,7 +84,10 @@ impl PointGrid {
                 f(i)
             }
         };
-        let (lo, hi) = (self.coords(c - Vec3::splat(r)), self.coords(c + Vec3::splat(r)));
+        let (lo, hi) = (
+            self.coords(c - Vec3::splat(r)),
+            self.coords(c + Vec3::splat(r)),
+        );
         let span = (hi - lo + IVec3::ONE).as_i64vec3();
         if !r.is_finite() || span.x * span.y * span.z > MAX_CELLS_PER_QUERY {
             self.keys.iter().for_each(|&(_, i)| test(i));
@@ -75,7 +98,10 @@ impl PointGrid {
                 // A row of cells along x is one run of keys (x is the lowest field).
                 let (a, b) = (key(IVec3::new(lo.x, y, z)), key(IVec3::new(hi.x, y, z)));
                 let start = self.keys.partition_point(|&(k, _)| k < a);
-                self.keys[start..].iter().take_while(|&&(k, _)| k <= b).for_each(|&(_, i)| test(i));
+                self.keys[start..]
+                    .iter()
+                    .take_while(|&&(k, _)| k <= b)
+                    .for_each(|&(_, i)| test(i));
             }
         }
     }
@@ -106,7 +132,11 @@ mod tests {
             .collect();
         let grid = PointGrid::new(points.clone(), 0.3);
         for q in 0..300 {
-            let c = Vec3::new(rng.uniform() * 12.0 - 1.0, rng.uniform() * 6.0 - 0.5, rng.uniform() * 12.0 - 1.0);
+            let c = Vec3::new(
+                rng.uniform() * 12.0 - 1.0,
+                rng.uniform() * 6.0 - 0.5,
+                rng.uniform() * 12.0 - 1.0,
+            );
             let r = [0.05, 0.3, 1.0, 4.0, 100.0][q % 5] * rng.uniform();
             let mut found = Vec::new();
             grid.for_each_within(c, r, |i| found.push(i));
@@ -114,10 +144,20 @@ mod tests {
             let n = found.len();
             found.dedup();
             assert_eq!(n, found.len(), "a point found twice");
-            let truth: Vec<u32> = (0..points.len() as u32).filter(|&i| (points[i as usize] - c).length() <= r).collect();
+            let truth: Vec<u32> = (0..points.len() as u32)
+                .filter(|&i| (points[i as usize] - c).length() <= r)
+                .collect();
             // The slack may add points on the border, never drop one.
-            assert!(truth.iter().all(|i| found.contains(i)), "query {q}: missed a point");
-            assert!(found.iter().all(|&i| (points[i as usize] - c).length() <= r * 1.0001), "query {q}: far point");
+            assert!(
+                truth.iter().all(|i| found.contains(i)),
+                "query {q}: missed a point"
+            );
+            assert!(
+                found
+                    .iter()
+                    .all(|&i| (points[i as usize] - c).length() <= r * 1.0001),
+                "query {q}: far point"
+            );
         }
         // Degenerate queries find nothing and do not panic.
         let mut n = 0;

@@ -182,14 +182,21 @@ impl RadiusHistogram {
     }
 
     pub fn mean_px(&self) -> f64 {
-        if self.n == 0 { 0.0 } else { self.sum_px / self.n as f64 }
+        if self.n == 0 {
+            0.0
+        } else {
+            self.sum_px / self.n as f64
+        }
     }
 }
 
 impl AddAssign for RadiusHistogram {
     /// Adds bin by bin; both histograms are expected to share their edges (same cache parameters).
     fn add_assign(&mut self, o: Self) {
-        self.counts.iter_mut().zip(o.counts).for_each(|(a, b)| *a += b);
+        self.counts
+            .iter_mut()
+            .zip(o.counts)
+            .for_each(|(a, b)| *a += b);
         self.n += o.n;
         self.min_px = self.min_px.min(o.min_px);
         self.max_px = self.max_px.max(o.max_px);
@@ -232,8 +239,12 @@ impl CacheStats {
     /// Summarise `cache` after a fill that produced `fill` and a shading pass that made `pass_b` lookups.
     pub fn collect(cache: &IrradianceCache, fill: &FillStats, pass_b: &LookupStats) -> Self {
         let p = cache.params();
-        let mut radius_px = RadiusHistogram::new(p.min_spacing_px, p.max_spacing_px * p.start_scale());
-        cache.records().iter().for_each(|r| radius_px.add(r.radius_px()));
+        let mut radius_px =
+            RadiusHistogram::new(p.min_spacing_px, p.max_spacing_px * p.start_scale());
+        cache
+            .records()
+            .iter()
+            .for_each(|r| radius_px.add(r.radius_px()));
         let totals = cache.insert_totals();
         let n_records = cache.len() as u64;
         CacheStats {
@@ -247,7 +258,8 @@ impl CacheStats {
             extrapolated_pass_b: pass_b.n_extrapolated,
             gathered_pass_b: pass_b.n_gathered,
             reused_pass_b: pass_b.n_reused,
-            n_hits: (fill.lookups.n_lookups - fill.lookups.n_misses) + (pass_b.n_lookups - pass_b.n_misses),
+            n_hits: (fill.lookups.n_lookups - fill.lookups.n_misses)
+                + (pass_b.n_lookups - pass_b.n_misses),
             n_records_used: fill.lookups.n_records_used + pass_b.n_records_used,
             radius_px,
             shrunk_by_clamping: totals.n_shrunk_by_neighbors,
@@ -261,7 +273,11 @@ impl CacheStats {
 
     /// Mean number of usable records per successful lookup.
     pub fn mean_records_per_lookup(&self) -> f64 {
-        if self.n_hits == 0 { 0.0 } else { self.n_records_used as f64 / self.n_hits as f64 }
+        if self.n_hits == 0 {
+            0.0
+        } else {
+            self.n_records_used as f64 / self.n_hits as f64
+        }
     }
 }
 

@@ -23,9 +23,9 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use crate::cache::{IrradianceCache, Shrink};
-use crate::point_grid::PointGrid;
 use crate::order::HierarchicalOrder;
 use crate::params::Pass;
+use crate::point_grid::PointGrid;
 use crate::record::NewRecord;
 use crate::stats::{FillStats, LookupStats};
 
@@ -54,7 +54,8 @@ pub type ProgressFn<'a> = dyn Fn(u64, u64) + Sync + 'a;
 /// The shading points of pixel (x, y), each with the caller's payload for its gather.
 pub type PointsWithFn<'a, P> = dyn Fn(u32, u32) -> Vec<(ShadingPoint, P)> + Sync + 'a;
 /// The gather at point `i` of pixel (x, y), given its payload: the record and the caller's statistics.
-pub type GatherWithFn<'a, P, S> = dyn Fn(u32, u32, usize, &ShadingPoint, &P) -> (NewRecord, S) + Sync + 'a;
+pub type GatherWithFn<'a, P, S> =
+    dyn Fn(u32, u32, usize, &ShadingPoint, &P) -> (NewRecord, S) + Sync + 'a;
 
 /// Caller statistics for the closures without any ([`fill_pass_a`], [`crate::fill_one_pass`]).
 #[derive(Default)]
@@ -101,9 +102,24 @@ pub fn fill_pass_a(
     gather: &GatherFn,
     progress: &ProgressFn,
 ) -> FillStats {
-    let points = |x, y| shading_points(x, y).into_iter().map(|sp| (sp, ())).collect();
+    let points = |x, y| {
+        shading_points(x, y)
+            .into_iter()
+            .map(|sp| (sp, ()))
+            .collect()
+    };
     let gather = |x, y, i, sp: &ShadingPoint, _: &()| (gather(x, y, i, sp), NoStats);
-    fill_pass_a_cancellable(cache, width, height, 1, &points, &gather, progress, &AtomicBool::new(false)).0
+    fill_pass_a_cancellable(
+        cache,
+        width,
+        height,
+        1,
+        &points,
+        &gather,
+        progress,
+        &AtomicBool::new(false),
+    )
+    .0
 }
 
 /// [`fill_pass_a`] with a payload per shading point and statistics per gather (see the module header),
@@ -127,8 +143,19 @@ pub fn fill_pass_a_cancellable<P: Clone + Send + Sync, S: Default + AddAssign + 
 ) -> (FillStats, S) {
     let stride = stride.max(1);
     let total = width.div_ceil(stride) as u64 * height.div_ceil(stride) as u64;
-    let order = HierarchicalOrder::new(width, height).filter(move |&(x, y)| x % stride == 0 && y % stride == 0);
-    let (mut fill, s) = fill_in_order(cache, width, height, order, total, shading_points, gather, progress, cancel);
+    let order = HierarchicalOrder::new(width, height)
+        .filter(move |&(x, y)| x % stride == 0 && y % stride == 0);
+    let (mut fill, s) = fill_in_order(
+        cache,
+        width,
+        height,
+        order,
+        total,
+        shading_points,
+        gather,
+        progress,
+        cancel,
+    );
     fill.pass_a_stride = stride;
     (fill, s)
 }
@@ -154,9 +181,20 @@ pub fn fill_pixels_cancellable<P: Clone + Send + Sync, S: Default + AddAssign + 
             wanted[(y * width + x) as usize] = true;
         }
     }
-    let order = HierarchicalOrder::new(width, height).filter(move |&(x, y)| wanted[(y * width + x) as usize]);
+    let order = HierarchicalOrder::new(width, height)
+        .filter(move |&(x, y)| wanted[(y * width + x) as usize]);
     cache.freeze();
-    fill_in_order(cache, width, height, order, pixels.len() as u64, shading_points, gather, &|_, _| {}, cancel)
+    fill_in_order(
+        cache,
+        width,
+        height,
+        order,
+        pixels.len() as u64,
+        shading_points,
+        gather,
+        &|_, _| {},
+        cancel,
+    )
 }
 
 /// Pass A over the pixels of `order` (`total` of them), then its repair sweeps.
@@ -172,10 +210,22 @@ fn fill_in_order<P: Clone + Send + Sync, S: Default + AddAssign + Send>(
     progress: &ProgressFn,
     cancel: &AtomicBool,
 ) -> (FillStats, S) {
-    let mut tally = Tally { fill: FillStats::default(), gathers: S::default() };
+    let mut tally = Tally {
+        fill: FillStats::default(),
+        gathers: S::default(),
+    };
     let mut store = PointStore::new(width, height);
     cache.log_shrinks(true);
-    let first = sweep(cache, order, shading_points, &mut store, gather, &mut tally, &|done| progress(done, total), cancel);
+    let first = sweep(
+        cache,
+        order,
+        shading_points,
+        &mut store,
+        gather,
+        &mut tally,
+        &|done| progress(done, total),
+        cancel,
+    );
     tally.fill.n_pixels = total;
     if first > 0 {
         repair(cache, &mut store, gather, &mut tally, cancel);
@@ -201,7 +251,13 @@ struct PointStore<P> {
 
 impl<P: Clone> PointStore<P> {
     fn new(width: u32, height: u32) -> Self {
-        PointStore { width, ranges: vec![(0, 0); width as usize * height as usize], points: Vec::new(), pixel: Vec::new(), used: Vec::new() }
+        PointStore {
+            width,
+            ranges: vec![(0, 0); width as usize * height as usize],
+            points: Vec::new(),
+            pixel: Vec::new(),
+            used: Vec::new(),
+        }
     }
 
     fn push(&mut self, x: u32, y: u32, points: Vec<(ShadingPoint, P)>, used: Vec<u32>) {
@@ -216,7 +272,13 @@ impl<P: Clone> PointStore<P> {
     fn candidate(&self, k: u32, payload: P) -> Candidate<P> {
         let (x, y) = self.pixel[k as usize];
         let i = (k - self.ranges[(y * self.width + x) as usize].0) as usize;
-        Candidate { x, y, i, sp: self.points[k as usize].0, payload }
+        Candidate {
+            x,
+            y,
+            i,
+            sp: self.points[k as usize].0,
+            payload,
+        }
     }
 }
 
@@ -250,9 +312,17 @@ fn repair<P: Clone + Send + Sync, S: Default + AddAssign + Send>(
         let cache_ref: &IrradianceCache = cache;
         // Cells about as large as the typical old sphere of the first sweep's shrinks (the most).
         let grid = grid.get_or_insert_with(|| {
-            let mut reach: Vec<f32> = log.iter().map(|s| cache_ref.reach_before(s).1).filter(|r| r.is_finite() && *r > 0.0).collect();
+            let mut reach: Vec<f32> = log
+                .iter()
+                .map(|s| cache_ref.reach_before(s).1)
+                .filter(|r| r.is_finite() && *r > 0.0)
+                .collect();
             let middle = reach.len() / 2;
-            let cell = if reach.is_empty() { 1.0 } else { *reach.select_nth_unstable_by(middle, f32::total_cmp).1 };
+            let cell = if reach.is_empty() {
+                1.0
+            } else {
+                *reach.select_nth_unstable_by(middle, f32::total_cmp).1
+            };
             PointGrid::new(store.points.iter().map(|(sp, _)| sp.pos).collect(), cell)
         });
         // (point, record) for every point a logged shrink took a record from.
@@ -295,7 +365,11 @@ fn repair<P: Clone + Send + Sync, S: Default + AddAssign + Send>(
                 let (sp, payload) = &store.points[k as usize];
                 let hit = cache_ref.lookup(sp.pos, sp.normal, Pass::A);
                 lookups.record(hit.as_ref());
-                (lookups, hit.map_or(0, |h| h.n_used), hit.is_none().then(|| store.candidate(k, payload.clone())))
+                (
+                    lookups,
+                    hit.map_or(0, |h| h.n_used),
+                    hit.is_none().then(|| store.candidate(k, payload.clone())),
+                )
             })
             .collect();
         for (&k, (_, used, _)) in check.iter().zip(&found) {
@@ -370,14 +444,26 @@ fn sweep<P: Clone + Send + Sync, S: Default + AddAssign + Send>(
             .par_iter()
             .with_max_len(4)
             .map(|&(x, y)| {
-                let mut f = PixelFound { lookups: LookupStats::default(), misses: Vec::new(), points: shading_points(x, y), used: Vec::new(), shrink: Vec::new() };
+                let mut f = PixelFound {
+                    lookups: LookupStats::default(),
+                    misses: Vec::new(),
+                    points: shading_points(x, y),
+                    used: Vec::new(),
+                    shrink: Vec::new(),
+                };
                 for (i, (sp, payload)) in f.points.iter().enumerate() {
                     let (hit, deviant) = cache_ref.lookup_adaptive(sp.pos, sp.normal);
                     f.lookups.record(hit.as_ref());
                     f.used.push(hit.map_or(0, |h| h.n_used));
                     f.shrink.extend(deviant);
                     if hit.is_none() {
-                        f.misses.push(Candidate { x, y, i, sp: *sp, payload: payload.clone() });
+                        f.misses.push(Candidate {
+                            x,
+                            y,
+                            i,
+                            sp: *sp,
+                            payload: payload.clone(),
+                        });
                     }
                 }
                 f
@@ -385,10 +471,16 @@ fn sweep<P: Clone + Send + Sync, S: Default + AddAssign + Send>(
             .collect();
         // Adaptive caching: the records that disagreed somewhere in the chunk shrink once each, in id
         // order, before the chunk's uncovered points are gathered (each re-checked then).
-        let mut shrink: Vec<u32> = found.iter().flat_map(|f| f.shrink.iter().copied()).collect();
+        let mut shrink: Vec<u32> = found
+            .iter()
+            .flat_map(|f| f.shrink.iter().copied())
+            .collect();
         shrink.sort_unstable();
         shrink.dedup();
-        let n_shrunk = shrink.into_iter().filter(|&id| cache.shrink_adaptive(id)).count() as u64;
+        let n_shrunk = shrink
+            .into_iter()
+            .filter(|&id| cache.shrink_adaptive(id))
+            .count() as u64;
         tally.fill.insert.n_shrunk_adaptive += n_shrunk;
         let shrunk = n_shrunk > 0;
         for (&(x, y), f) in chunk.iter().zip(found) {
@@ -397,7 +489,9 @@ fn sweep<P: Clone + Send + Sync, S: Default + AddAssign + Send>(
             tally.fill.lookups += f.lookups;
             // A point that only the deviant records made uncovered may be covered by the rest now.
             let cache_ref: &IrradianceCache = cache;
-            pending.extend(f.misses.into_iter().filter(|c| !shrunk || cache_ref.lookup_adaptive(c.sp.pos, c.sp.normal).0.is_none()));
+            pending.extend(f.misses.into_iter().filter(|c| {
+                !shrunk || cache_ref.lookup_adaptive(c.sp.pos, c.sp.normal).0.is_none()
+            }));
         }
         if pending.len() >= WAVE_GATHERS {
             run_wave(cache, &mut pending, gather, tally);
@@ -412,7 +506,12 @@ fn sweep<P: Clone + Send + Sync, S: Default + AddAssign + Send>(
 
 /// Gather every pending point in parallel, then insert in visiting order, skipping points covered by
 /// records inserted earlier in this wave (their gathers still count in the caller's statistics).
-fn run_wave<P: Send + Sync, S: AddAssign + Send>(cache: &mut IrradianceCache, pending: &mut Vec<Candidate<P>>, gather: &GatherWithFn<P, S>, tally: &mut Tally<S>) {
+fn run_wave<P: Send + Sync, S: AddAssign + Send>(
+    cache: &mut IrradianceCache,
+    pending: &mut Vec<Candidate<P>>,
+    gather: &GatherWithFn<P, S>,
+    tally: &mut Tally<S>,
+) {
     tally.fill.n_waves += 1;
     tally.fill.n_gathers += pending.len() as u64;
     // Every pending point was uncovered when the wave began (looked up since the last wave, or just
@@ -430,14 +529,25 @@ fn run_wave<P: Send + Sync, S: AddAssign + Send>(cache: &mut IrradianceCache, pe
         .with_max_len(1)
         .map(|c| {
             let (rec, s) = gather(c.x, c.y, c.i, &c.sp, &c.payload);
-            let rec = NewRecord { pixel_world: c.sp.pixel_world, ..rec };
-            let near = if within_wave && cache_ref.params().neighbor_clamping { cache_ref.neighbor_candidates(&rec) } else { None };
+            let rec = NewRecord {
+                pixel_world: c.sp.pixel_world,
+                ..rec
+            };
+            let near = if within_wave && cache_ref.params().neighbor_clamping {
+                cache_ref.neighbor_candidates(&rec)
+            } else {
+                None
+            };
             (rec, s, near)
         })
         .collect();
     for (c, (rec, s, near)) in pending.drain(..).zip(gathered) {
         tally.gathers += s;
-        let hit = if within_wave { cache.lookup_since(c.sp.pos, c.sp.normal, Pass::A, since) } else { cache.lookup(c.sp.pos, c.sp.normal, Pass::A) };
+        let hit = if within_wave {
+            cache.lookup_since(c.sp.pos, c.sp.normal, Pass::A, since)
+        } else {
+            cache.lookup(c.sp.pos, c.sp.normal, Pass::A)
+        };
         tally.fill.lookups.record(hit.as_ref());
         if hit.is_some() {
             tally.fill.n_skipped_covered += 1;
@@ -449,5 +559,10 @@ fn run_wave<P: Send + Sync, S: AddAssign + Send>(cache: &mut IrradianceCache, pe
 
 /// Shading points with no usable pass-A record.
 fn count_uncovered<P: Clone + Sync>(cache: &IrradianceCache, store: &PointStore<P>) -> u64 {
-    store.points.par_iter().with_min_len(1024).filter(|(sp, _)| cache.lookup(sp.pos, sp.normal, Pass::A).is_none()).count() as u64
+    store
+        .points
+        .par_iter()
+        .with_min_len(1024)
+        .filter(|(sp, _)| cache.lookup(sp.pos, sp.normal, Pass::A).is_none())
+        .count() as u64
 }

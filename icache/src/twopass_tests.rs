@@ -32,7 +32,11 @@ fn shading_points(x: u32, y: u32) -> Vec<ShadingPoint> {
 
 /// The points of pixel (x, y), the strip included.
 fn box_points(x: u32, y: u32) -> Vec<ShadingPoint> {
-    let n_sub = if x.is_multiple_of(13) && y.is_multiple_of(11) { 2 } else { 1 };
+    let n_sub = if x.is_multiple_of(13) && y.is_multiple_of(11) {
+        2
+    } else {
+        1
+    };
     let tan_half = (30f32).to_radians().tan();
     let pixel_angle = 2.0 * tan_half / H as f32;
     (0..n_sub)
@@ -46,8 +50,15 @@ fn box_points(x: u32, y: u32) -> Vec<ShadingPoint> {
                     let den = n.dot(dir);
                     (den < 0.0).then(|| (-d / den, n))
                 })
-                .fold((f32::INFINITY, Vec3::Z), |a, b| if b.0 < a.0 { b } else { a });
-            ShadingPoint { pos: t * dir, normal: n, pixel_world: t * pixel_angle / (-n.dot(dir)) }
+                .fold(
+                    (f32::INFINITY, Vec3::Z),
+                    |a, b| if b.0 < a.0 { b } else { a },
+                );
+            ShadingPoint {
+                pos: t * dir,
+                normal: n,
+                pixel_world: t * pixel_angle / (-n.dot(dir)),
+            }
         })
         .collect()
 }
@@ -57,7 +68,11 @@ const K: f32 = 0.4;
 
 /// Smooth positive irradiance and its gradient.
 fn field(p: Vec3) -> (Vec3, [Vec3; 3]) {
-    let e = Vec3::new(1.0 + 0.5 * (K * p.x).sin(), 1.0 + 0.3 * (K * p.z).cos(), 0.8 + 0.1 * p.y);
+    let e = Vec3::new(
+        1.0 + 0.5 * (K * p.x).sin(),
+        1.0 + 0.3 * (K * p.z).cos(),
+        0.8 + 0.1 * p.y,
+    );
     let g = [
         Vec3::new(0.5 * K * (K * p.x).cos(), 0.0, 0.0),
         Vec3::new(0.0, 0.0, -0.3 * K * (K * p.z).sin()),
@@ -70,18 +85,37 @@ fn gather(x: u32, y: u32, i: usize, sp: &ShadingPoint) -> NewRecord {
     let (e, g) = field(sp.pos);
     let n = sp.normal;
     let grad_t = g.map(|v| v - n * n.dot(v)); // tangent-plane gradient
-    // Distance to the nearest other wall stands in for the harmonic mean distance; every 17th gather leaks.
-    let mut r = PLANES.iter().filter(|(m, _)| *m != n).map(|&(m, d)| m.dot(sp.pos) + d).fold(f32::INFINITY, f32::min);
+                                              // Distance to the nearest other wall stands in for the harmonic mean distance; every 17th gather leaks.
+    let mut r = PLANES
+        .iter()
+        .filter(|(m, _)| *m != n)
+        .map(|&(m, d)| m.dot(sp.pos) + d)
+        .fold(f32::INFINITY, f32::min);
     if hash_keys(&[x as u64, y as u64, i as u64]).is_multiple_of(17) {
         r = f32::INFINITY;
     }
-    NewRecord { pos: sp.pos, normal: n, e, grad_r: [Vec3::ZERO; 3], grad_t, r_harmonic: r, r_min: r, dir: n, pixel_world: 0.0, rel_err: 0.0, at: [x, y, i as u32] }
+    NewRecord {
+        pos: sp.pos,
+        normal: n,
+        e,
+        grad_r: [Vec3::ZERO; 3],
+        grad_t,
+        r_harmonic: r,
+        r_min: r,
+        dir: n,
+        pixel_world: 0.0,
+        rel_err: 0.0,
+        at: [x, y, i as u32],
+    }
 }
 
 /// The plain cache (the default: no adaptive caching): the tests of Ward's criterion, clamping and
 /// gradients.
 fn plain() -> CacheParams {
-    CacheParams { adaptive: None, ..Default::default() }
+    CacheParams {
+        adaptive: None,
+        ..Default::default()
+    }
 }
 
 fn fill(threads: usize) -> (IrradianceCache, FillStats) {
@@ -89,9 +123,18 @@ fn fill(threads: usize) -> (IrradianceCache, FillStats) {
 }
 
 fn fill_with(params: CacheParams, threads: usize) -> (IrradianceCache, FillStats) {
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
-    let mut cache = IrradianceCache::new(Vec3::new(-3.0, -1.0, -6.0), Vec3::new(3.0, 2.0, 1.0), params).unwrap();
-    let stats = pool.install(|| fill_pass_a(&mut cache, W, H, &shading_points, &gather, &|_, _| {}));
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap();
+    let mut cache = IrradianceCache::new(
+        Vec3::new(-3.0, -1.0, -6.0),
+        Vec3::new(3.0, 2.0, 1.0),
+        params,
+    )
+    .unwrap();
+    let stats =
+        pool.install(|| fill_pass_a(&mut cache, W, H, &shading_points, &gather, &|_, _| {}));
     (cache, stats)
 }
 
@@ -111,14 +154,23 @@ fn fill_is_independent_of_thread_count() {
 fn pass_b_covers_every_point_and_is_accurate() {
     let (cache, fill_stats) = fill(2);
     assert_eq!(fill_stats.n_uncovered_after, 0);
-    assert!(fill_stats.insert.n_shrunk_by_neighbors > 0, "the leaking gathers should have been clamped");
-    assert!(fill_stats.n_repair_sweeps > 0, "the shrinks should have been repaired");
+    assert!(
+        fill_stats.insert.n_shrunk_by_neighbors > 0,
+        "the leaking gathers should have been clamped"
+    );
+    assert!(
+        fill_stats.n_repair_sweeps > 0,
+        "the shrinks should have been repaired"
+    );
     // Every point pass A saw is covered in pass A after the repair sweeps (which look up only the points
     // that lost more records than they had).
     for y in 0..H {
         for x in 0..W {
             for sp in shading_points(x, y) {
-                assert!(cache.lookup(sp.pos, sp.normal, crate::Pass::A).is_some(), "pixel ({x}, {y}) uncovered");
+                assert!(
+                    cache.lookup(sp.pos, sp.normal, crate::Pass::A).is_some(),
+                    "pixel ({x}, {y}) uncovered"
+                );
             }
         }
     }
@@ -134,7 +186,10 @@ fn pass_b_covers_every_point_and_is_accurate() {
     let mut flat = cache.clone();
     flat.params.gradients = false;
     let (flat_mean, _) = interpolation_error(&flat, &mut LookupStats::default());
-    assert!(flat_mean > 2.0 * mean_rel, "no gradients {flat_mean} vs gradients {mean_rel}");
+    assert!(
+        flat_mean > 2.0 * mean_rel,
+        "no gradients {flat_mean} vs gradients {mean_rel}"
+    );
     let stats = crate::CacheStats::collect(&cache, &fill_stats, &lookups);
     assert_eq!(stats.misses_pass_b, 0);
     assert_eq!(stats.records_pass_a, cache.len() as u64);
@@ -149,55 +204,129 @@ fn pass_b_covers_every_point_and_is_accurate() {
 #[test]
 fn records_for_points_pass_a_missed_cover_them() {
     let hole = |x: u32, y: u32| (30..70).contains(&x) && (16..48).contains(&y);
-    let block: Vec<(u32, u32)> = (0..H).flat_map(|y| (0..W).map(move |x| (x, y))).filter(|&(x, y)| hole(x, y)).collect();
+    let block: Vec<(u32, u32)> = (0..H)
+        .flat_map(|y| (0..W).map(move |x| (x, y)))
+        .filter(|&(x, y)| hole(x, y))
+        .collect();
     let grow = |threads: usize| {
-        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
-        let mut cache = IrradianceCache::new(Vec3::new(-3.0, -1.0, -6.0), Vec3::new(3.0, 2.0, 1.0), plain()).unwrap();
-        let around = |x, y| if hole(x, y) { Vec::new() } else { box_points(x, y) };
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        let mut cache = IrradianceCache::new(
+            Vec3::new(-3.0, -1.0, -6.0),
+            Vec3::new(3.0, 2.0, 1.0),
+            plain(),
+        )
+        .unwrap();
+        let around = |x, y| {
+            if hole(x, y) {
+                Vec::new()
+            } else {
+                box_points(x, y)
+            }
+        };
         pool.install(|| fill_pass_a(&mut cache, W, H, &around, &gather, &|_, _| {}));
         let before = cache.records().to_vec();
-        let uncovered = block.iter().flat_map(|&(x, y)| box_points(x, y)).filter(|sp| cache.lookup(sp.pos, sp.normal, Pass::B).is_none()).count();
+        let uncovered = block
+            .iter()
+            .flat_map(|&(x, y)| box_points(x, y))
+            .filter(|sp| cache.lookup(sp.pos, sp.normal, Pass::B).is_none())
+            .count();
         let points = |x, y| box_points(x, y).into_iter().map(|sp| (sp, ())).collect();
         // Something small stands in the block (R a fifth of the walls'): unfrozen, its records would
         // clamp their neighbours'.
-        let gather = |x, y, i, sp: &ShadingPoint, _: &()| (NewRecord { r_harmonic: 0.2 * gather(x, y, i, sp).r_harmonic, ..gather(x, y, i, sp) }, NoStats);
-        let (stats, _) = pool.install(|| fill_pixels_cancellable(&mut cache, W, H, &block, &points, &gather, &AtomicBool::new(false)));
+        let gather = |x, y, i, sp: &ShadingPoint, _: &()| {
+            (
+                NewRecord {
+                    r_harmonic: 0.2 * gather(x, y, i, sp).r_harmonic,
+                    ..gather(x, y, i, sp)
+                },
+                NoStats,
+            )
+        };
+        let (stats, _) = pool.install(|| {
+            fill_pixels_cancellable(
+                &mut cache,
+                W,
+                H,
+                &block,
+                &points,
+                &gather,
+                &AtomicBool::new(false),
+            )
+        });
         (cache, before, uncovered, stats)
     };
     let (cache, before, uncovered, stats) = grow(2);
-    assert!(uncovered > block.len() / 2, "the block should be mostly uncovered before: {uncovered} of {}", block.len());
+    assert!(
+        uncovered > block.len() / 2,
+        "the block should be mostly uncovered before: {uncovered} of {}",
+        block.len()
+    );
     assert_eq!(stats.n_pixels, block.len() as u64);
-    assert!(stats.insert.n_inserted > 0 && cache.len() == before.len() + stats.insert.n_inserted as usize);
+    assert!(
+        stats.insert.n_inserted > 0
+            && cache.len() == before.len() + stats.insert.n_inserted as usize
+    );
     // The records before are frozen: the new ones, clamped against them, shrink none of them (so no point
     // they covered loses its cover, and a lookup over the first records is the cache as it was).
-    assert!(before.iter().zip(cache.records()).all(|(a, b)| a.to_bits() == b.to_bits()));
-    assert!(stats.insert.n_shrunk_by_neighbors > 0, "the new records should have been clamped");
+    assert!(before
+        .iter()
+        .zip(cache.records())
+        .all(|(a, b)| a.to_bits() == b.to_bits()));
+    assert!(
+        stats.insert.n_shrunk_by_neighbors > 0,
+        "the new records should have been clamped"
+    );
     for &(x, y) in &block {
         for sp in box_points(x, y) {
-            assert!(cache.lookup(sp.pos, sp.normal, Pass::A).is_some(), "pixel ({x}, {y}) of the block uncovered");
+            assert!(
+                cache.lookup(sp.pos, sp.normal, Pass::A).is_some(),
+                "pixel ({x}, {y}) of the block uncovered"
+            );
         }
     }
     let (c1, _, _, s1) = grow(1);
     assert_eq!(s1, stats);
     assert_eq!(c1.len(), cache.len());
-    assert!(c1.records().iter().zip(cache.records()).all(|(a, b)| a.to_bits() == b.to_bits()));
+    assert!(c1
+        .records()
+        .iter()
+        .zip(cache.records())
+        .all(|(a, b)| a.to_bits() == b.to_bits()));
 }
 
 #[test]
 fn adaptive_caching_places_fewer_records_and_stays_accurate() {
     let (plain_cache, _) = fill(2);
-    let adaptive = CacheParams { adaptive: Some(crate::params::DEFAULT_WEBER), ..Default::default() };
+    let adaptive = CacheParams {
+        adaptive: Some(crate::params::DEFAULT_WEBER),
+        ..Default::default()
+    };
     let (c1, s1) = fill_with(adaptive, 1);
     let (cache, stats) = fill_with(adaptive, 2);
     // Deterministic whatever the thread count, as the plain fill.
     assert_eq!(s1, stats);
-    assert!(c1.records().iter().zip(cache.records()).all(|(a, b)| a.to_bits() == b.to_bits()));
+    assert!(c1
+        .records()
+        .iter()
+        .zip(cache.records())
+        .all(|(a, b)| a.to_bits() == b.to_bits()));
     // Records start at twice the plain reach: far fewer of them on this smooth field (measured 81
     // against 322: 0.25×).
-    assert!(cache.len() * 10 < plain_cache.len() * 6, "adaptive {} vs plain {}", cache.len(), plain_cache.len());
+    assert!(
+        cache.len() * 10 < plain_cache.len() * 6,
+        "adaptive {} vs plain {}",
+        cache.len(),
+        plain_cache.len()
+    );
     // Where extrapolations disagree by more than the Weber threshold (10 %), records shrank.
     assert!(stats.insert.n_shrunk_adaptive > 0);
-    assert!(cache.records().iter().all(|r| r.radius_px() >= 3.0 - 1e-3 && r.radius_px() <= 40.0 + 1e-3));
+    assert!(cache
+        .records()
+        .iter()
+        .all(|r| r.radius_px() >= 3.0 - 1e-3 && r.radius_px() <= 40.0 + 1e-3));
     let mut lookups = LookupStats::default();
     let (mean_rel, max_rel) = interpolation_error(&cache, &mut lookups);
     assert_eq!(lookups.n_misses, 0);
@@ -229,16 +358,28 @@ fn interpolation_error(cache: &IrradianceCache, lookups: &mut LookupStats) -> (f
 
 #[test]
 fn one_pass_fill_covers_each_pixel_with_the_records_that_existed_then() {
-    let mut cache = IrradianceCache::new(Vec3::new(-3.0, -1.0, -6.0), Vec3::new(3.0, 2.0, 1.0), plain()).unwrap();
-    let (stats, order) = crate::fill_one_pass(&mut cache, W, H, &shading_points, &gather, &|_, _| {});
+    let mut cache = IrradianceCache::new(
+        Vec3::new(-3.0, -1.0, -6.0),
+        Vec3::new(3.0, 2.0, 1.0),
+        plain(),
+    )
+    .unwrap();
+    let (stats, order) =
+        crate::fill_one_pass(&mut cache, W, H, &shading_points, &gather, &|_, _| {});
     assert!(cache.len() > 50, "{}", cache.len());
-    assert_eq!(stats.n_gathers, cache.len() as u64 + stats.insert.n_rejected);
+    assert_eq!(
+        stats.n_gathers,
+        cache.len() as u64 + stats.insert.n_rejected
+    );
     let mut last = 0;
     let mut limited = 0;
     for y in 0..H {
         for x in 0..W {
             let n = order.visible_records(x, y);
-            assert!(n >= last && n <= cache.len(), "({x}, {y}): {n} after {last}");
+            assert!(
+                n >= last && n <= cache.len(),
+                "({x}, {y}): {n} after {last}"
+            );
             last = n;
             for sp in shading_points(x, y) {
                 let first = cache.lookup_first(sp.pos, sp.normal, Pass::A, n);
@@ -254,10 +395,16 @@ fn one_pass_fill_covers_each_pixel_with_the_records_that_existed_then() {
         }
     }
     assert_eq!(last, cache.len());
-    assert!(limited < (W * H / 100) as usize, "{limited} points lost their cover");
+    assert!(
+        limited < (W * H / 100) as usize,
+        "{limited} points lost their cover"
+    );
     // The prefix lookup is the full lookup when every record is visible.
     let sp = shading_points(W / 2, H / 2)[0];
-    assert_eq!(cache.lookup_first(sp.pos, sp.normal, Pass::B, usize::MAX), cache.lookup(sp.pos, sp.normal, Pass::B));
+    assert_eq!(
+        cache.lookup_first(sp.pos, sp.normal, Pass::B, usize::MAX),
+        cache.lookup(sp.pos, sp.normal, Pass::B)
+    );
 }
 
 #[test]
@@ -266,25 +413,67 @@ fn a_pass_a_stride_visits_its_lattice_only_and_covers_it() {
     let visited = std::sync::Mutex::new(Vec::new());
     let points = |x: u32, y: u32| {
         visited.lock().unwrap().push((x, y));
-        shading_points(x, y).into_iter().map(|sp| (sp, ())).collect()
+        shading_points(x, y)
+            .into_iter()
+            .map(|sp| (sp, ()))
+            .collect()
     };
     let gather_with = |x, y, i, sp: &ShadingPoint, _: &()| (gather(x, y, i, sp), NoStats);
-    let mut cache = IrradianceCache::new(Vec3::new(-3.0, -1.0, -6.0), Vec3::new(3.0, 2.0, 1.0), plain()).unwrap();
-    let (stats, _) = fill_pass_a_cancellable(&mut cache, W, H, 2, &points, &gather_with, &|_, _| {}, &AtomicBool::new(false));
+    let mut cache = IrradianceCache::new(
+        Vec3::new(-3.0, -1.0, -6.0),
+        Vec3::new(3.0, 2.0, 1.0),
+        plain(),
+    )
+    .unwrap();
+    let (stats, _) = fill_pass_a_cancellable(
+        &mut cache,
+        W,
+        H,
+        2,
+        &points,
+        &gather_with,
+        &|_, _| {},
+        &AtomicBool::new(false),
+    );
     let mut visited = visited.into_inner().unwrap();
     visited.sort_unstable();
-    let lattice: Vec<(u32, u32)> = (0..W).step_by(2).flat_map(|x| (0..H).step_by(2).map(move |y| (x, y))).collect();
+    let lattice: Vec<(u32, u32)> = (0..W)
+        .step_by(2)
+        .flat_map(|x| (0..H).step_by(2).map(move |y| (x, y)))
+        .collect();
     assert_eq!(visited, lattice, "each lattice pixel once, no other");
-    assert_eq!((stats.pass_a_stride, stats.n_pixels, stats.n_uncovered_after), (2, lattice.len() as u64, 0));
+    assert_eq!(
+        (stats.pass_a_stride, stats.n_pixels, stats.n_uncovered_after),
+        (2, lattice.len() as u64, 0)
+    );
     for &(x, y) in &lattice {
         for sp in shading_points(x, y) {
-            assert!(cache.lookup(sp.pos, sp.normal, Pass::A).is_some(), "lattice pixel ({x}, {y}) uncovered");
+            assert!(
+                cache.lookup(sp.pos, sp.normal, Pass::A).is_some(),
+                "lattice pixel ({x}, {y}) uncovered"
+            );
         }
     }
     // Fewer records than a fill of every pixel, and most of the pixels between are covered in pass B.
     let (full, _) = fill(2);
-    assert!(cache.len() < full.len(), "{} vs {}", cache.len(), full.len());
-    let between: Vec<ShadingPoint> = (0..W).flat_map(|x| (0..H).map(move |y| (x, y))).filter(|(x, y)| x % 2 == 1 || y % 2 == 1).flat_map(|(x, y)| shading_points(x, y)).collect();
-    let covered = between.iter().filter(|sp| cache.lookup(sp.pos, sp.normal, Pass::B).is_some()).count();
-    assert!(covered as f64 >= 0.99 * between.len() as f64, "{covered} of {}", between.len());
+    assert!(
+        cache.len() < full.len(),
+        "{} vs {}",
+        cache.len(),
+        full.len()
+    );
+    let between: Vec<ShadingPoint> = (0..W)
+        .flat_map(|x| (0..H).map(move |y| (x, y)))
+        .filter(|(x, y)| x % 2 == 1 || y % 2 == 1)
+        .flat_map(|(x, y)| shading_points(x, y))
+        .collect();
+    let covered = between
+        .iter()
+        .filter(|sp| cache.lookup(sp.pos, sp.normal, Pass::B).is_some())
+        .count();
+    assert!(
+        covered as f64 >= 0.99 * between.len() as f64,
+        "{covered} of {}",
+        between.len()
+    );
 }

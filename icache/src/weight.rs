@@ -54,7 +54,13 @@ pub fn is_above(rec: &Record, p: Vec3) -> bool {
 }
 
 /// The record's weight at (p, n) if it is usable there for `pass`, else `None`.
-pub fn usable_weight(params: &CacheParams, pass: Pass, rec: &Record, p: Vec3, n: Vec3) -> Option<f32> {
+pub fn usable_weight(
+    params: &CacheParams,
+    pass: Pass,
+    rec: &Record,
+    p: Vec3,
+    n: Vec3,
+) -> Option<f32> {
     let n_dot = n.dot(rec.normal);
     if n_dot <= 0.0 || is_in_front(rec, p, n) || (pass != Pass::Extrapolate && is_above(rec, p)) {
         return None;
@@ -128,7 +134,11 @@ mod tests {
         // Decreasing with distance.
         assert!(ward_weight(0.1, 1.0, 1.0) > ward_weight(0.2, 1.0, 1.0));
         // Acceptance at w > 1/a is a hard edge: the weight just inside is ≈ 1/a, not 0.
-        let p = CacheParams { weight: Weighting::Ward, accuracy: 0.5, ..Default::default() };
+        let p = CacheParams {
+            weight: Weighting::Ward,
+            accuracy: 0.5,
+            ..Default::default()
+        };
         let r = rec_at(Vec3::ZERO, Vec3::Z, 1.0);
         let inside = usable_weight(&p, Pass::A, &r, Vec3::new(0.499, 0.0, 0.0), Vec3::Z).unwrap();
         assert!((inside - 2.0).abs() < 0.01);
@@ -155,12 +165,36 @@ mod tests {
         let tilted = |deg: f32| Vec3::new(deg.to_radians().sin(), 0.0, deg.to_radians().cos());
         // 30°: beyond pass B's ~20° normal reach, within extrapolation's 60°.
         assert!(usable_weight(&p, Pass::B, &r, Vec3::new(0.1, 0.0, 0.0), tilted(30.0)).is_none());
-        let w = usable_weight(&p, Pass::Extrapolate, &r, Vec3::new(0.1, 0.0, 0.0), tilted(30.0)).unwrap();
+        let w = usable_weight(
+            &p,
+            Pass::Extrapolate,
+            &r,
+            Vec3::new(0.1, 0.0, 0.0),
+            tilted(30.0),
+        )
+        .unwrap();
         // The weight is pass B's for the distance alone.
-        assert_eq!(Some(w), usable_weight(&p, Pass::B, &r, Vec3::new(0.1, 0.0, 0.0), Vec3::Z));
-        assert!(usable_weight(&p, Pass::Extrapolate, &r, Vec3::new(0.1, 0.0, 0.0), tilted(65.0)).is_none());
+        assert_eq!(
+            Some(w),
+            usable_weight(&p, Pass::B, &r, Vec3::new(0.1, 0.0, 0.0), Vec3::Z)
+        );
+        assert!(usable_weight(
+            &p,
+            Pass::Extrapolate,
+            &r,
+            Vec3::new(0.1, 0.0, 0.0),
+            tilted(65.0)
+        )
+        .is_none());
         // The reach is pass B's: 4 · a_B = 4 (TL weight zero at the border).
-        assert!(usable_weight(&p, Pass::Extrapolate, &r, Vec3::new(4.1, 0.0, 0.0), tilted(30.0)).is_none());
+        assert!(usable_weight(
+            &p,
+            Pass::Extrapolate,
+            &r,
+            Vec3::new(4.1, 0.0, 0.0),
+            tilted(30.0)
+        )
+        .is_none());
     }
 
     #[test]
@@ -173,7 +207,14 @@ mod tests {
         assert!(usable_weight(&p, Pass::B, &r, Vec3::new(0.05, 0.0, 0.04), Vec3::Z).is_none());
         assert!(usable_weight(&p, Pass::A, &r, Vec3::new(0.05, 0.0, 0.04), Vec3::Z).is_none());
         // The last resort before a gather of its own still takes it.
-        assert!(usable_weight(&p, Pass::Extrapolate, &r, Vec3::new(0.05, 0.0, 0.04), Vec3::Z).is_some());
+        assert!(usable_weight(
+            &p,
+            Pass::Extrapolate,
+            &r,
+            Vec3::new(0.05, 0.0, 0.04),
+            Vec3::Z
+        )
+        .is_some());
     }
 
     #[test]

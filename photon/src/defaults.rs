@@ -44,7 +44,11 @@ pub fn default_max_radius(scene_diagonal: f32, n_photons: usize) -> f32 {
 
 /// As [`default_max_radius`] for estimates of `k` photons.
 pub fn max_radius_for_k(scene_diagonal: f32, n_photons: usize, k: usize) -> f32 {
-    let d = if scene_diagonal.is_finite() && scene_diagonal > 0.0 { scene_diagonal } else { 1.0 };
+    let d = if scene_diagonal.is_finite() && scene_diagonal > 0.0 {
+        scene_diagonal
+    } else {
+        1.0
+    };
     let cap = MAX_RADIUS_FRACTION * d;
     if n_photons == 0 {
         return cap;
@@ -55,7 +59,9 @@ pub fn max_radius_for_k(scene_diagonal: f32, n_photons: usize, k: usize) -> f32 
 
 /// Default global photon count for a scene of `n_triangles` (see the module header), in steps of 10 k.
 pub fn default_global_photons(n_triangles: usize) -> usize {
-    let scale = (n_triangles.max(1) as f64 / DETAIL_TRIANGLES as f64).sqrt().max(1.0);
+    let scale = (n_triangles.max(1) as f64 / DETAIL_TRIANGLES as f64)
+        .sqrt()
+        .max(1.0);
     let n = (DEFAULT_GLOBAL_PHOTONS as f64 * scale / 10_000.0).round() as usize * 10_000;
     n.clamp(DEFAULT_GLOBAL_PHOTONS, MAX_DEFAULT_GLOBAL_PHOTONS)
 }
@@ -64,7 +70,11 @@ pub fn default_global_photons(n_triangles: usize) -> usize {
 /// real surface area), [`MAX_RADIUS_FACTOR`] times the radius holding `k` at that mean density, at most
 /// [`MAX_RADIUS_FRACTION`] of the diagonal.
 pub fn max_radius_for_area(area: f32, scene_diagonal: f32, n_photons: usize, k: usize) -> f32 {
-    let d = if scene_diagonal.is_finite() && scene_diagonal > 0.0 { scene_diagonal } else { 1.0 };
+    let d = if scene_diagonal.is_finite() && scene_diagonal > 0.0 {
+        scene_diagonal
+    } else {
+        1.0
+    };
     let cap = MAX_RADIUS_FRACTION * d;
     if n_photons == 0 || !(area.is_finite() && area > 0.0) {
         return cap;
@@ -76,7 +86,15 @@ pub fn max_radius_for_area(area: f32, scene_diagonal: f32, n_photons: usize, k: 
 /// Default targets: the default counts, and a path budget of [`PATHS_PER_TARGET_PHOTON`] per photon.
 pub fn default_targets(global: usize, caustic: usize) -> PhotonTargets {
     let wanted = (global as u64).saturating_add(caustic as u64);
-    PhotonTargets { global, caustic, volume: 0, volume_caustic: 0, max_paths: wanted.saturating_mul(PATHS_PER_TARGET_PHOTON).max(MIN_MAX_PATHS) }
+    PhotonTargets {
+        global,
+        caustic,
+        volume: 0,
+        volume_caustic: 0,
+        max_paths: wanted
+            .saturating_mul(PATHS_PER_TARGET_PHOTON)
+            .max(MIN_MAX_PATHS),
+    }
 }
 
 impl Default for PhotonTargets {
@@ -110,7 +128,11 @@ mod tests {
         assert_eq!(default_global_photons(262_000), 1_450_000);
         assert_eq!(default_global_photons(10_000_000), 2_000_000);
         // The area rule agrees with the 2 d² rule where the area is 2 d².
-        assert!((max_radius_for_area(200.0, 10.0, 100_000, 64) - default_max_radius(10.0, 100_000)).abs() < 1e-4);
+        assert!(
+            (max_radius_for_area(200.0, 10.0, 100_000, 64) - default_max_radius(10.0, 100_000))
+                .abs()
+                < 1e-4
+        );
     }
 
     #[test]

@@ -13,16 +13,25 @@ pub enum Error {
     NonFinitePoint { index: usize },
     #[error("invalid parameter: {0}")]
     InvalidParameter(String),
-    #[error("no photon was stored after {n_paths_emitted} paths: light reaches no diffuse surface")]
+    #[error(
+        "no photon was stored after {n_paths_emitted} paths: light reaches no diffuse surface"
+    )]
     NothingStored { n_paths_emitted: u64 },
     #[error("cancelled")]
     Cancelled,
     #[error("{path}: {source}")]
-    Io { path: PathBuf, source: std::io::Error },
+    Io {
+        path: PathBuf,
+        source: std::io::Error,
+    },
     #[error("not a regular file")]
     NotRegularFile { path: PathBuf },
     #[error("{bytes} bytes, larger than the limit for a photon-map file ({limit} bytes)")]
-    TooLarge { path: PathBuf, bytes: u64, limit: u64 },
+    TooLarge {
+        path: PathBuf,
+        bytes: u64,
+        limit: u64,
+    },
     #[error("not a photon-map file (bad magic)")]
     BadMagic,
     #[error("photon-map file version {found}, this build reads version {expected}")]

@@ -43,7 +43,8 @@ const HAS_PRECOMPUTED: u32 = 4;
 const HAS_VOLUME: u32 = 8;
 const HAS_VOLUME_CAUSTIC: u32 = 16;
 /// Largest photon-map file read: 100 million photons in each map and as many irradiance points.
-pub const MAX_FILE_BYTES: u64 = HEADER_BYTES as u64 + 100_000_000 * (4 * PHOTON_BYTES + POINT_BYTES) + CHECKSUM_BYTES;
+pub const MAX_FILE_BYTES: u64 =
+    HEADER_BYTES as u64 + 100_000_000 * (4 * PHOTON_BYTES + POINT_BYTES) + CHECKSUM_BYTES;
 
 /// What produced the maps: the caller's scene fingerprint and the trace parameters.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -59,7 +60,12 @@ pub struct MapsInfo {
 }
 
 impl MapsInfo {
-    pub fn new(fingerprint: u64, seed: u64, targets: PhotonTargets, stats: &TraceStats) -> MapsInfo {
+    pub fn new(
+        fingerprint: u64,
+        seed: u64,
+        targets: PhotonTargets,
+        stats: &TraceStats,
+    ) -> MapsInfo {
         MapsInfo {
             fingerprint,
             seed,
@@ -114,17 +120,26 @@ pub fn write_maps<W: Write>(
 ) -> std::io::Result<()> {
     let mut w = w;
     w.write_all(&MAGIC)?;
-    let mut h = Fnv { inner: w, hash: FNV_OFFSET };
+    let mut h = Fnv {
+        inner: w,
+        hash: FNV_OFFSET,
+    };
     let global = maps.global.as_ref().map_or(&[][..], |m| m.photons());
     let caustic = maps.caustic.as_ref().map_or(&[][..], |m| m.photons());
     let volume = maps.volume.as_ref().map_or(&[][..], |m| m.photons());
-    let volume_caustic = maps.volume_caustic.as_ref().map_or(&[][..], |m| m.photons());
+    let volume_caustic = maps
+        .volume_caustic
+        .as_ref()
+        .map_or(&[][..], |m| m.photons());
     let points = precomputed.map_or(&[][..], |p| p.points());
     let flags = maps.global.as_ref().map_or(0, |_| HAS_GLOBAL)
         | maps.caustic.as_ref().map_or(0, |_| HAS_CAUSTIC)
         | precomputed.map_or(0, |_| HAS_PRECOMPUTED)
         | maps.volume.as_ref().map_or(0, |_| HAS_VOLUME)
-        | maps.volume_caustic.as_ref().map_or(0, |_| HAS_VOLUME_CAUSTIC);
+        | maps
+            .volume_caustic
+            .as_ref()
+            .map_or(0, |_| HAS_VOLUME_CAUSTIC);
     h.write_all(&VERSION.to_le_bytes())?;
     h.write_all(&flags.to_le_bytes())?;
     let t = &info.targets;
@@ -145,12 +160,31 @@ pub fn write_maps<W: Write>(
     }
     h.write_all(&precomputed.map_or(0.0f32, |p| p.max_radius()).to_le_bytes())?;
     h.write_all(&[0u8; 4])?;
-    for v in [t.volume as u64, t.volume_caustic as u64, info.n_volume_paths, info.n_volume_caustic_paths, volume.len() as u64, volume_caustic.len() as u64] {
+    for v in [
+        t.volume as u64,
+        t.volume_caustic as u64,
+        info.n_volume_paths,
+        info.n_volume_caustic_paths,
+        volume.len() as u64,
+        volume_caustic.len() as u64,
+    ] {
         h.write_all(&v.to_le_bytes())?;
     }
-    for ph in global.iter().chain(caustic).chain(volume).chain(volume_caustic) {
+    for ph in global
+        .iter()
+        .chain(caustic)
+        .chain(volume)
+        .chain(volume_caustic)
+    {
         write_vecs(&mut h, &[ph.pos, ph.wi, ph.power, ph.normal])?;
-        h.write_all(&(if ph.direct { 2.0f32 } else { ph.indirect as u8 as f32 }).to_le_bytes())?;
+        h.write_all(
+            &(if ph.direct {
+                2.0f32
+            } else {
+                ph.indirect as u8 as f32
+            })
+            .to_le_bytes(),
+        )?;
     }
     for pt in points {
         write_vecs(&mut h, &[pt.pos, pt.normal, pt.e, pt.e_indirect])?;
@@ -177,7 +211,10 @@ pub fn save(
     maps: &PhotonMaps,
     precomputed: Option<&PrecomputedIrradiance>,
 ) -> Result<()> {
-    let io = |source| Error::Io { path: path.to_path_buf(), source };
+    let io = |source| Error::Io {
+        path: path.to_path_buf(),
+        source,
+    };
     let mut tmp = path.as_os_str().to_owned();
     tmp.push(".tmp");
     let file = File::create(&tmp).map_err(io)?;
@@ -187,14 +224,23 @@ pub fn save(
 
 /// Loads from `path`; the file must have been made for `expected_fingerprint`.
 pub fn load(path: &Path, expected_fingerprint: u64) -> Result<LoadedMaps> {
-    let io = |source| Error::Io { path: path.to_path_buf(), source };
+    let io = |source| Error::Io {
+        path: path.to_path_buf(),
+        source,
+    };
     // Only a regular file: opening a FIFO blocks, a device may never end.
     let meta = std::fs::metadata(path).map_err(io)?;
     if !meta.is_file() {
-        return Err(Error::NotRegularFile { path: path.to_path_buf() });
+        return Err(Error::NotRegularFile {
+            path: path.to_path_buf(),
+        });
     }
     if meta.len() > MAX_FILE_BYTES {
-        return Err(Error::TooLarge { path: path.to_path_buf(), bytes: meta.len(), limit: MAX_FILE_BYTES });
+        return Err(Error::TooLarge {
+            path: path.to_path_buf(),
+            bytes: meta.len(),
+            limit: MAX_FILE_BYTES,
+        });
     }
     let mut file = File::open(path).map_err(io)?;
     let actual = file.metadata().map_err(io)?.len();
@@ -225,17 +271,28 @@ impl Header {
             return Err(Error::BadMagic);
         }
         if bytes.len() < 12 {
-            return Err(Error::BadLength { expected: HEADER_BYTES as u64 + CHECKSUM_BYTES, actual: bytes.len() as u64 });
+            return Err(Error::BadLength {
+                expected: HEADER_BYTES as u64 + CHECKSUM_BYTES,
+                actual: bytes.len() as u64,
+            });
         }
         let u32_at = |i: usize| u32::from_le_bytes(bytes[i..i + 4].try_into().unwrap_or_default());
         let version = u32_at(8);
         let len = match version {
             VERSION => HEADER_BYTES,
             4 => HEADER_BYTES_V4,
-            _ => return Err(Error::UnsupportedVersion { found: version, expected: VERSION }),
+            _ => {
+                return Err(Error::UnsupportedVersion {
+                    found: version,
+                    expected: VERSION,
+                })
+            }
         };
         if bytes.len() < len {
-            return Err(Error::BadLength { expected: len as u64 + CHECKSUM_BYTES, actual: bytes.len() as u64 });
+            return Err(Error::BadLength {
+                expected: len as u64 + CHECKSUM_BYTES,
+                actual: bytes.len() as u64,
+            });
         }
         let mut words = [0u64; 17];
         for k in 0..11 {
@@ -248,18 +305,33 @@ impl Header {
                 words[k] = u64::from_le_bytes(bytes[i..i + 8].try_into().unwrap_or_default());
             }
         }
-        Ok(Header { flags: u32_at(12), words, max_radius: f32::from_bits(u32_at(104)), len })
+        Ok(Header {
+            flags: u32_at(12),
+            words,
+            max_radius: f32::from_bits(u32_at(104)),
+            len,
+        })
     }
 
     /// Photons of the global, caustic, volume and volume caustic maps, and irradiance points.
     fn counts(&self) -> (u64, u64, u64, u64, u64) {
-        (self.words[8], self.words[9], self.words[15], self.words[16], self.words[10])
+        (
+            self.words[8],
+            self.words[9],
+            self.words[15],
+            self.words[16],
+            self.words[10],
+        )
     }
 
     /// The file length the counts imply (overflow is corruption).
     fn file_len(&self) -> Result<u64> {
         let (g, c, v, w, p) = self.counts();
-        let photons = g.checked_add(c).and_then(|n| n.checked_add(v)).and_then(|n| n.checked_add(w)).and_then(|n| n.checked_mul(PHOTON_BYTES));
+        let photons = g
+            .checked_add(c)
+            .and_then(|n| n.checked_add(v))
+            .and_then(|n| n.checked_add(w))
+            .and_then(|n| n.checked_mul(PHOTON_BYTES));
         let points = p.checked_mul(POINT_BYTES);
         photons
             .zip(points)
@@ -275,7 +347,14 @@ fn is_unit(v: Vec3) -> bool {
 
 /// Why a photon read from a file cannot be used (the checksum only proves it is what was written). A
 /// volume photon (`in_medium`) has a zero normal, a surface photon a unit one.
-fn photon_problem(pos: Vec3, wi: Vec3, power: Vec3, normal: Vec3, flag: f32, in_medium: bool) -> Option<&'static str> {
+fn photon_problem(
+    pos: Vec3,
+    wi: Vec3,
+    power: Vec3,
+    normal: Vec3,
+    flag: f32,
+    in_medium: bool,
+) -> Option<&'static str> {
     if !pos.is_finite() {
         Some("position is not finite")
     } else if !is_unit(wi) {
@@ -315,7 +394,10 @@ pub fn read_maps(bytes: &[u8], expected_fingerprint: u64) -> Result<LoadedMaps> 
     let header = Header::parse(bytes)?;
     let expected = header.file_len()?;
     if expected != bytes.len() as u64 {
-        return Err(Error::BadLength { expected, actual: bytes.len() as u64 });
+        return Err(Error::BadLength {
+            expected,
+            actual: bytes.len() as u64,
+        });
     }
     let body_end = bytes.len() - CHECKSUM_BYTES as usize;
     let stored = u64::from_le_bytes(bytes[body_end..].try_into().unwrap_or_default());
@@ -324,7 +406,10 @@ pub fn read_maps(bytes: &[u8], expected_fingerprint: u64) -> Result<LoadedMaps> 
     }
     let w = header.words;
     if w[0] != expected_fingerprint {
-        return Err(Error::SceneMismatch { found: w[0], expected: expected_fingerprint });
+        return Err(Error::SceneMismatch {
+            found: w[0],
+            expected: expected_fingerprint,
+        });
     }
     let (n_global, n_caustic, n_volume, n_volume_caustic, n_points) = header.counts();
     let flag = |f: u32| header.flags & f != 0;
@@ -334,20 +419,29 @@ pub fn read_maps(bytes: &[u8], expected_fingerprint: u64) -> Result<LoadedMaps> 
         || (!flag(HAS_VOLUME_CAUSTIC) && n_volume_caustic > 0)
         || (!flag(HAS_PRECOMPUTED) && n_points > 0)
     {
-        return Err(Error::Corrupt("photons present for a map flagged absent".into()));
+        return Err(Error::Corrupt(
+            "photons present for a map flagged absent".into(),
+        ));
     }
     let info = MapsInfo {
         fingerprint: w[0],
         seed: w[1],
-        targets: PhotonTargets { global: w[2] as usize, caustic: w[3] as usize, volume: w[11] as usize, volume_caustic: w[12] as usize, max_paths: w[4] },
+        targets: PhotonTargets {
+            global: w[2] as usize,
+            caustic: w[3] as usize,
+            volume: w[11] as usize,
+            volume_caustic: w[12] as usize,
+            max_paths: w[4],
+        },
         n_paths_emitted: w[5],
         n_global_paths: w[6],
         n_caustic_paths: w[7],
         n_volume_paths: w[13],
         n_volume_caustic_paths: w[14],
     };
-    let mut floats =
-        bytes[header.len..body_end].chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]));
+    let mut floats = bytes[header.len..body_end]
+        .chunks_exact(4)
+        .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]));
     let mut next = || floats.next().unwrap_or(f32::NAN);
     let mut read_photons = |map: &str, n: u64, in_medium: bool| -> Result<Vec<Photon>> {
         (0..n)
@@ -357,7 +451,14 @@ pub fn read_maps(bytes: &[u8], expected_fingerprint: u64) -> Result<LoadedMaps> 
                 let flag = next();
                 match photon_problem(pos, wi, power, normal, flag, in_medium) {
                     Some(why) => Err(Error::Corrupt(format!("{map} photon {index}: {why}"))),
-                    None => Ok(Photon { pos, wi, power, normal, indirect: flag == 1.0, direct: flag == 2.0 }),
+                    None => Ok(Photon {
+                        pos,
+                        wi,
+                        power,
+                        normal,
+                        indirect: flag == 1.0,
+                        direct: flag == 2.0,
+                    }),
                 }
             })
             .collect()
@@ -370,14 +471,27 @@ pub fn read_maps(bytes: &[u8], expected_fingerprint: u64) -> Result<LoadedMaps> 
         .map(|_| {
             let mut v = || Vec3::new(next(), next(), next());
             let (pos, normal, e, e_indirect) = (v(), v(), v(), v());
-            IrradiancePoint { pos, normal, e, e_indirect, half_thickness: next() }
+            IrradiancePoint {
+                pos,
+                normal,
+                e,
+                e_indirect,
+                half_thickness: next(),
+            }
         })
         .collect();
-            if let Some((index, why)) = points.iter().enumerate().find_map(|(i, p)| point_problem(p).map(|w| (i, w))) {
+    if let Some((index, why)) = points
+        .iter()
+        .enumerate()
+        .find_map(|(i, p)| point_problem(p).map(|w| (i, w)))
+    {
         return Err(Error::Corrupt(format!("irradiance point {index}: {why}")));
     }
     if flag(HAS_PRECOMPUTED) && !(header.max_radius.is_finite() && header.max_radius > 0.0) {
-        return Err(Error::Corrupt(format!("precomputed max radius {} is not a positive number", header.max_radius)));
+        return Err(Error::Corrupt(format!(
+            "precomputed max radius {} is not a positive number",
+            header.max_radius
+        )));
     }
     let corrupt = |e: Error| Error::Corrupt(format!("cannot rebuild a kd-tree: {e}"));
     let map = |present: bool, photons: Vec<Photon>| -> Result<Option<PhotonMap>> {
@@ -398,5 +512,9 @@ pub fn read_maps(bytes: &[u8], expected_fingerprint: u64) -> Result<LoadedMaps> 
     } else {
         None
     };
-    Ok(LoadedMaps { info, maps, precomputed })
+    Ok(LoadedMaps {
+        info,
+        maps,
+        precomputed,
+    })
 }

@@ -141,10 +141,15 @@ impl KdTree {
         if let Some(index) = points.iter().position(|p| !p.is_finite()) {
             return Err(Error::NonFinitePoint { index });
         }
-        let rows = c_int::try_from(points.len()).map_err(|_| Error::TooManyPoints { n_points: points.len() })?;
+        let rows = c_int::try_from(points.len()).map_err(|_| Error::TooManyPoints {
+            n_points: points.len(),
+        })?;
         let mut coords: Vec<f32> = points.iter().flat_map(|p| p.to_array()).collect();
         if rows == 0 {
-            return Ok(KdTree { index: None, coords });
+            return Ok(KdTree {
+                index: None,
+                coords,
+            });
         }
         static QUIET: Once = Once::new();
         // SAFETY: sets a plain global int; every later FLANN call happens after this Once completes.
@@ -152,9 +157,13 @@ impl KdTree {
         let mut p = params(-1);
         let mut speedup = 0.0f32;
         // SAFETY: `coords` holds rows × 3 floats and outlives the index (both owned by the KdTree).
-        let raw = unsafe { flann_build_index_float(coords.as_mut_ptr(), rows, 3, &mut speedup, &mut p) };
+        let raw =
+            unsafe { flann_build_index_float(coords.as_mut_ptr(), rows, 3, &mut speedup, &mut p) };
         let index = NonNull::new(raw).ok_or(Error::Flann("build a kd-tree"))?;
-        Ok(KdTree { index: Some(index), coords })
+        Ok(KdTree {
+            index: Some(index),
+            coords,
+        })
     }
 
     pub fn len(&self) -> usize {
@@ -204,7 +213,10 @@ impl KdTree {
                     .iter()
                     .zip(&dists[..n])
                     .filter(|(&i, _)| i >= 0)
-                    .map(|(&i, &d)| Neighbor { index: i as u32, dist2: d }),
+                    .map(|(&i, &d)| Neighbor {
+                        index: i as u32,
+                        dist2: d,
+                    }),
             );
         });
         out.sort_unstable_by(|a, b| a.dist2.total_cmp(&b.dist2).then(a.index.cmp(&b.index)));
@@ -217,7 +229,9 @@ impl KdTree {
         out.clear();
         out.resize(queries.len(), None);
         let Some(index) = self.index else { return };
-        let finite: Vec<usize> = (0..queries.len()).filter(|&i| queries[i].is_finite()).collect();
+        let finite: Vec<usize> = (0..queries.len())
+            .filter(|&i| queries[i].is_finite())
+            .collect();
         if finite.is_empty() || finite.len() > c_int::MAX as usize {
             return;
         }
@@ -243,7 +257,10 @@ impl KdTree {
         }
         for (k, &i) in finite.iter().enumerate() {
             if indices[k] >= 0 {
-                out[i] = Some(Neighbor { index: indices[k] as u32, dist2: dists[k] });
+                out[i] = Some(Neighbor {
+                    index: indices[k] as u32,
+                    dist2: dists[k],
+                });
             }
         }
     }
@@ -263,7 +280,9 @@ impl KdTree {
     /// Bytes held by the index (FLANN's own count) plus the point copy.
     pub fn memory_bytes(&self) -> usize {
         // SAFETY: the index is alive; the call only reads sizes.
-        let flann = self.index.map_or(0, |i| unsafe { flann_used_memory_float(i.as_ptr()) }.max(0) as usize);
+        let flann = self.index.map_or(0, |i| {
+            unsafe { flann_used_memory_float(i.as_ptr()) }.max(0) as usize
+        });
         flann + self.coords.capacity() * std::mem::size_of::<f32>()
     }
 }
@@ -291,7 +310,10 @@ mod tests {
     fn brute_force(points: &[Vec3], q: Vec3, k: usize, max_radius: f32) -> Vec<Neighbor> {
         let r2 = max_radius * max_radius;
         let mut all: Vec<Neighbor> = (0..points.len())
-            .map(|i| Neighbor { index: i as u32, dist2: dist2_like_flann(q, points[i]) })
+            .map(|i| Neighbor {
+                index: i as u32,
+                dist2: dist2_like_flann(q, points[i]),
+            })
             .filter(|n| n.dist2 < r2)
             .collect();
         all.sort_by(|a, b| a.dist2.total_cmp(&b.dist2).then(a.index.cmp(&b.index)));
@@ -303,20 +325,32 @@ mod tests {
     /// returned distance, where any tied point is a correct answer.
     fn check(got: &[Neighbor], want: &[Neighbor]) {
         assert_eq!(got.len(), want.len());
-        let Some(last) = want.last().map(|n| n.dist2) else { return };
+        let Some(last) = want.last().map(|n| n.dist2) else {
+            return;
+        };
         for (g, w) in got.iter().zip(want) {
             assert_eq!(g.dist2, w.dist2);
             if w.dist2 < last {
                 assert_eq!(g.index, w.index);
             }
         }
-        let mut tied: Vec<u32> = got.iter().filter(|n| n.dist2 == last).map(|n| n.index).collect();
+        let mut tied: Vec<u32> = got
+            .iter()
+            .filter(|n| n.dist2 == last)
+            .map(|n| n.index)
+            .collect();
         tied.dedup();
-        assert_eq!(tied.len(), got.iter().filter(|n| n.dist2 == last).count(), "duplicate index");
+        assert_eq!(
+            tied.len(),
+            got.iter().filter(|n| n.dist2 == last).count(),
+            "duplicate index"
+        );
     }
 
     fn random_points(rng: &mut Rng, n: usize, n_dup: usize) -> Vec<Vec3> {
-        let mut pts: Vec<Vec3> = (0..n).map(|_| Vec3::new(rng.uniform(), rng.uniform(), rng.uniform())).collect();
+        let mut pts: Vec<Vec3> = (0..n)
+            .map(|_| Vec3::new(rng.uniform(), rng.uniform(), rng.uniform()))
+            .collect();
         for _ in 0..n_dup {
             let i = (rng.next_u32() as usize) % n;
             pts.push(pts[i]);
@@ -352,7 +386,9 @@ mod tests {
         let mut rng = Rng::new(5);
         let pts = random_points(&mut rng, 2000, 100);
         let tree = KdTree::build(&pts).unwrap();
-        let queries: Vec<Vec3> = (0..300).map(|_| Vec3::new(rng.uniform(), rng.uniform(), rng.uniform())).collect();
+        let queries: Vec<Vec3> = (0..300)
+            .map(|_| Vec3::new(rng.uniform(), rng.uniform(), rng.uniform()))
+            .collect();
         let batch = tree.knn_batch(&queries, 16, 0.1);
         let mut out = Vec::new();
         for (q, b) in queries.iter().zip(&batch) {
@@ -382,7 +418,10 @@ mod tests {
     fn empty_tree_answers_nothing() {
         let tree = KdTree::build(&[]).unwrap();
         assert!(tree.is_empty());
-        let mut out = vec![Neighbor { index: 0, dist2: 0.0 }];
+        let mut out = vec![Neighbor {
+            index: 0,
+            dist2: 0.0,
+        }];
         tree.knn(Vec3::ZERO, 5, f32::INFINITY, &mut out);
         assert!(out.is_empty());
         assert!(tree.knn_batch(&[Vec3::ONE], 3, 1.0)[0].is_empty());
@@ -390,7 +429,9 @@ mod tests {
 
     #[test]
     fn non_finite_points_are_rejected() {
-        let err = KdTree::build(&[Vec3::ZERO, Vec3::new(f32::NAN, 0.0, 0.0)]).err().unwrap();
+        let err = KdTree::build(&[Vec3::ZERO, Vec3::new(f32::NAN, 0.0, 0.0)])
+            .err()
+            .unwrap();
         assert!(matches!(err, Error::NonFinitePoint { index: 1 }));
     }
 }

@@ -102,7 +102,10 @@ pub struct FullDisc;
 
 impl Coverage for FullDisc {
     fn measure(&self, _p: Vec3, _n: Vec3, _r: f32, half_thickness: f32) -> Disc {
-        Disc { half_thickness, fraction: 1.0 }
+        Disc {
+            half_thickness,
+            fraction: 1.0,
+        }
     }
 }
 
@@ -132,33 +135,79 @@ impl PhotonMap {
 
     /// Irradiance at `p` on a surface with unit normal `n` (on the side being shaded), from the `k`
     /// nearest photons within `max_radius`.
-    pub fn irradiance(&self, p: Vec3, n: Vec3, k: usize, max_radius: f32, filter: Filter, cov: &dyn Coverage) -> Estimate {
+    pub fn irradiance(
+        &self,
+        p: Vec3,
+        n: Vec3,
+        k: usize,
+        max_radius: f32,
+        filter: Filter,
+        cov: &dyn Coverage,
+    ) -> Estimate {
         self.estimate(p, n, k, max_radius, filter, cov, |ph| ph.power)
     }
 
     /// Irradiance from the photons flagged `indirect` only (the k-NN neighbourhood is the same as
     /// [`irradiance`](Self::irradiance)'s): what method `photons` shows as the soft indirect term.
-    pub fn irradiance_indirect(&self, p: Vec3, n: Vec3, k: usize, max_radius: f32, cov: &dyn Coverage) -> Estimate {
-        self.estimate(p, n, k, max_radius, Filter::None, cov, |ph| if ph.indirect { ph.power } else { Vec3::ZERO })
+    pub fn irradiance_indirect(
+        &self,
+        p: Vec3,
+        n: Vec3,
+        k: usize,
+        max_radius: f32,
+        cov: &dyn Coverage,
+    ) -> Estimate {
+        self.estimate(p, n, k, max_radius, Filter::None, cov, |ph| {
+            if ph.indirect {
+                ph.power
+            } else {
+                Vec3::ZERO
+            }
+        })
     }
 
     /// [`irradiance`](Self::irradiance) and [`irradiance_indirect`](Self::irradiance_indirect) from one
     /// search: `(full, indirect only)`.
-    pub fn irradiance_and_indirect(&self, p: Vec3, n: Vec3, k: usize, max_radius: f32, cov: &dyn Coverage) -> (Estimate, Vec3) {
-        let (est, [full, indirect]) = self.estimate_sums(p, n, k, max_radius, Filter::None, cov, |ph| {
-            [ph.power, if ph.indirect { ph.power } else { Vec3::ZERO }]
-        });
+    pub fn irradiance_and_indirect(
+        &self,
+        p: Vec3,
+        n: Vec3,
+        k: usize,
+        max_radius: f32,
+        cov: &dyn Coverage,
+    ) -> (Estimate, Vec3) {
+        let (est, [full, indirect]) =
+            self.estimate_sums(p, n, k, max_radius, Filter::None, cov, |ph| {
+                [ph.power, if ph.indirect { ph.power } else { Vec3::ZERO }]
+            });
         (Estimate { e: full, ..est }, indirect)
     }
 
     /// Irradiance from the photons that are not direct (caustic and indirect ones) and from the
     /// indirect ones only, over the neighbourhood of [`irradiance`](Self::irradiance): the parts of the
     /// irradiance that a caller computing direct light itself still needs from the map.
-    pub fn irradiance_not_direct(&self, p: Vec3, n: Vec3, k: usize, max_radius: f32, cov: &dyn Coverage) -> (Estimate, Vec3) {
-        let (est, [not_direct, indirect]) = self.estimate_sums(p, n, k, max_radius, Filter::None, cov, |ph| {
-            [if ph.direct { Vec3::ZERO } else { ph.power }, if ph.indirect { ph.power } else { Vec3::ZERO }]
-        });
-        (Estimate { e: not_direct, ..est }, indirect)
+    pub fn irradiance_not_direct(
+        &self,
+        p: Vec3,
+        n: Vec3,
+        k: usize,
+        max_radius: f32,
+        cov: &dyn Coverage,
+    ) -> (Estimate, Vec3) {
+        let (est, [not_direct, indirect]) =
+            self.estimate_sums(p, n, k, max_radius, Filter::None, cov, |ph| {
+                [
+                    if ph.direct { Vec3::ZERO } else { ph.power },
+                    if ph.indirect { ph.power } else { Vec3::ZERO },
+                ]
+            });
+        (
+            Estimate {
+                e: not_direct,
+                ..est
+            },
+            indirect,
+        )
     }
 
     /// Reflected radiance at `p`: `Σ f(wi) Φ / (π r²)` over the same neighbourhood as
@@ -174,7 +223,9 @@ impl PhotonMap {
         cov: &dyn Coverage,
         brdf: impl Fn(Vec3) -> Vec3,
     ) -> Estimate {
-        self.estimate(p, n, k, max_radius, filter, cov, |ph| brdf(ph.wi) * ph.power)
+        self.estimate(p, n, k, max_radius, filter, cov, |ph| {
+            brdf(ph.wi) * ph.power
+        })
     }
 
     fn estimate(
@@ -187,7 +238,8 @@ impl PhotonMap {
         cov: &dyn Coverage,
         contribution: impl Fn(&Photon) -> Vec3,
     ) -> Estimate {
-        let (est, [e]) = self.estimate_sums(p, n, k, max_radius, filter, cov, |ph| [contribution(ph)]);
+        let (est, [e]) =
+            self.estimate_sums(p, n, k, max_radius, filter, cov, |ph| [contribution(ph)]);
         Estimate { e, ..est }
     }
 
@@ -216,7 +268,13 @@ impl PhotonMap {
             };
             if !r.is_finite() || r <= 0.0 {
                 // k photons exactly at p (or an unlimited search that found fewer than k): no area.
-                return (Estimate { hit_max_radius, ..Estimate::default() }, [Vec3::ZERO; N]);
+                return (
+                    Estimate {
+                        hit_max_radius,
+                        ..Estimate::default()
+                    },
+                    [Vec3::ZERO; N],
+                );
             }
             let (cone_k, norm) = match filter {
                 Filter::None => (f32::INFINITY, 1.0),
@@ -227,31 +285,53 @@ impl PhotonMap {
             };
             // Coverage costs probe rays: only estimates that found something ask for it.
             let disc = if found.is_empty() {
-                Disc { half_thickness: DISC_HALF_THICKNESS * r, fraction: 1.0 }
+                Disc {
+                    half_thickness: DISC_HALF_THICKNESS * r,
+                    fraction: 1.0,
+                }
             } else {
                 cov.measure(p, n, r, DISC_HALF_THICKNESS * r)
             };
             let max_height = disc.half_thickness.min(DISC_HALF_THICKNESS * r);
             let counted = |nb: &&Neighbor| {
                 let ph = &self.photons[nb.index as usize];
-                ph.wi.dot(n) > 0.0 && ph.normal.dot(n) > MIN_NORMAL_COS && (ph.pos - p).dot(n).abs() <= max_height
+                ph.wi.dot(n) > 0.0
+                    && ph.normal.dot(n) > MIN_NORMAL_COS
+                    && (ph.pos - p).dot(n).abs() <= max_height
             };
             // The k-th photon only marks the radius: the disc's inside holds k − 1 photons of a uniform
             // density, and counting the one on its rim biases the estimate up by k / (k − 1) (+1 % at
             // k = 100; with the old dark bias at edges gone, this showed on every box scene).
-            let inside = if hit_max_radius { &found[..] } else { &found[..found.len() - 1] };
+            let inside = if hit_max_radius {
+                &found[..]
+            } else {
+                &found[..found.len() - 1]
+            };
             let mut sums = [Vec3::ZERO; N];
             let mut n_found = 0u32;
             for nb in inside.iter().filter(counted) {
                 let ph = &self.photons[nb.index as usize];
-                let w = if cone_k.is_finite() { 1.0 - nb.dist2.sqrt() / (cone_k * r) } else { 1.0 };
+                let w = if cone_k.is_finite() {
+                    1.0 - nb.dist2.sqrt() / (cone_k * r)
+                } else {
+                    1.0
+                };
                 for (sum, c) in sums.iter_mut().zip(contribution(ph)) {
                     *sum += w * c;
                 }
                 n_found += 1;
             }
             let area = std::f32::consts::PI * r * r * disc.fraction.clamp(1e-3, 4.0);
-            (Estimate { e: Vec3::ZERO, n_found, hit_max_radius, half_thickness: max_height, radius: r }, sums.map(|sum| sum / (norm * area)))
+            (
+                Estimate {
+                    e: Vec3::ZERO,
+                    n_found,
+                    hit_max_radius,
+                    half_thickness: max_height,
+                    radius: r,
+                },
+                sums.map(|sum| sum / (norm * area)),
+            )
         })
     }
 
@@ -273,7 +353,14 @@ mod tests {
         let photons = (0..n)
             .map(|_| {
                 let pos = Vec3::new(rng.uniform() * 2.0 - 1.0, rng.uniform() * 2.0 - 1.0, 0.0);
-                Photon { pos, wi, power, normal: Vec3::Z, indirect: false, direct: false }
+                Photon {
+                    pos,
+                    wi,
+                    power,
+                    normal: Vec3::Z,
+                    indirect: false,
+                    direct: false,
+                }
             })
             .collect();
         PhotonMap::new(photons).unwrap()
@@ -301,20 +388,33 @@ mod tests {
             // Area of the disc's part with x ≥ 0, for a centre at p.x: the circular-segment formula.
             let d = (-p.x / r).clamp(-1.0, 1.0);
             let segment = d.acos() - d * (1.0 - d * d).sqrt();
-            Disc { half_thickness: h, fraction: segment / std::f32::consts::PI }
+            Disc {
+                half_thickness: h,
+                fraction: segment / std::f32::consts::PI,
+            }
         }
     }
 
     #[test]
     fn coverage_removes_the_dark_bias_at_an_edge() {
         // Photons on x ≥ 0 only, 1 W/m². At the edge the full-disc estimate halves; with coverage it holds.
-        let photons: Vec<Photon> =
-            plane_map(200_000, Vec3::Z, 6).photons().iter().filter(|ph| ph.pos.x >= 0.0).copied().collect();
+        let photons: Vec<Photon> = plane_map(200_000, Vec3::Z, 6)
+            .photons()
+            .iter()
+            .filter(|ph| ph.pos.x >= 0.0)
+            .copied()
+            .collect();
         let map = PhotonMap::new(photons).unwrap();
         for x in [0.0f32, 0.02, 0.05] {
             let p = Vec3::new(x, 0.3, 0.0);
-            let classic = map.irradiance(p, Vec3::Z, 1000, 1.0, Filter::None, &FullDisc).e.x;
-            let covered = map.irradiance(p, Vec3::Z, 1000, 1.0, Filter::None, &HalfPlane).e.x;
+            let classic = map
+                .irradiance(p, Vec3::Z, 1000, 1.0, Filter::None, &FullDisc)
+                .e
+                .x;
+            let covered = map
+                .irradiance(p, Vec3::Z, 1000, 1.0, Filter::None, &HalfPlane)
+                .e
+                .x;
             // 1000 photons: ±3 % (1σ); bounds at ~3σ.
             assert!((covered - 1.0).abs() < 0.1, "x = {x}: {covered}");
             if x == 0.0 {
@@ -327,7 +427,10 @@ mod tests {
     struct Layered;
     impl Coverage for Layered {
         fn measure(&self, _p: Vec3, _n: Vec3, _r: f32, h: f32) -> Disc {
-            Disc { half_thickness: h.min(0.005), fraction: 1.0 }
+            Disc {
+                half_thickness: h.min(0.005),
+                fraction: 1.0,
+            }
         }
     }
 
@@ -335,11 +438,24 @@ mod tests {
     fn a_thinner_slab_keeps_the_photons_of_another_layer_out() {
         let mut photons = plane_map(100_000, Vec3::Z, 7).photons().to_vec();
         // The upper layer gets 3 W/m² where the lower gets 1 W/m².
-        let upper: Vec<Photon> = photons.iter().map(|ph| Photon { pos: ph.pos + Vec3::Z * 0.01, power: ph.power * 3.0, ..*ph }).collect();
+        let upper: Vec<Photon> = photons
+            .iter()
+            .map(|ph| Photon {
+                pos: ph.pos + Vec3::Z * 0.01,
+                power: ph.power * 3.0,
+                ..*ph
+            })
+            .collect();
         photons.extend(upper);
         let map = PhotonMap::new(photons).unwrap();
-        let mixed = map.irradiance(Vec3::ZERO, Vec3::Z, 2000, 1.0, Filter::None, &FullDisc).e.x;
-        let own = map.irradiance(Vec3::ZERO, Vec3::Z, 2000, 1.0, Filter::None, &Layered).e.x;
+        let mixed = map
+            .irradiance(Vec3::ZERO, Vec3::Z, 2000, 1.0, Filter::None, &FullDisc)
+            .e
+            .x;
+        let own = map
+            .irradiance(Vec3::ZERO, Vec3::Z, 2000, 1.0, Filter::None, &Layered)
+            .e
+            .x;
         // Full disc: both layers in the slab, 4 W/m² over one layer's area. Thinned: the lower layer's 1,
         // from ~1000 photons (±3 %).
         assert!(mixed > 3.0, "{mixed}");
@@ -362,7 +478,13 @@ mod tests {
     fn photons_off_the_tangent_plane_are_rejected() {
         // A second layer 0.5 above the plane, facing the same way: outside the disc for small radii.
         let mut photons = plane_map(20_000, Vec3::Z, 3).photons().to_vec();
-        let lifted: Vec<Photon> = photons.iter().map(|ph| Photon { pos: ph.pos + Vec3::Z * 0.05, ..*ph }).collect();
+        let lifted: Vec<Photon> = photons
+            .iter()
+            .map(|ph| Photon {
+                pos: ph.pos + Vec3::Z * 0.05,
+                ..*ph
+            })
+            .collect();
         photons.extend(lifted);
         let map = PhotonMap::new(photons).unwrap();
         let est = map.irradiance(Vec3::ZERO, Vec3::Z, 200, 1.0, Filter::None, &FullDisc);
@@ -377,18 +499,42 @@ mod tests {
         let est = map.irradiance(Vec3::ZERO, Vec3::Z, 50, 0.1, Filter::None, &FullDisc);
         assert!(est.hit_max_radius);
         let empty = PhotonMap::new(Vec::new()).unwrap();
-        let est = empty.irradiance(Vec3::ZERO, Vec3::Z, 50, 0.1, Filter::Cone { k: 1.0 }, &FullDisc);
-        assert_eq!((est.e, est.n_found, est.hit_max_radius), (Vec3::ZERO, 0, true));
+        let est = empty.irradiance(
+            Vec3::ZERO,
+            Vec3::Z,
+            50,
+            0.1,
+            Filter::Cone { k: 1.0 },
+            &FullDisc,
+        );
+        assert_eq!(
+            (est.e, est.n_found, est.hit_max_radius),
+            (Vec3::ZERO, 0, true)
+        );
         assert!((est.half_thickness - DISC_HALF_THICKNESS * 0.1).abs() < 1e-7);
     }
 
     #[test]
     fn lambertian_radiance_is_albedo_over_pi_times_irradiance() {
         let map = plane_map(50_000, Vec3::new(0.0, 0.6, 0.8), 5);
-        let e = map.irradiance(Vec3::ZERO, Vec3::Z, 300, 1.0, Filter::Cone { k: 2.0 }, &FullDisc);
+        let e = map.irradiance(
+            Vec3::ZERO,
+            Vec3::Z,
+            300,
+            1.0,
+            Filter::Cone { k: 2.0 },
+            &FullDisc,
+        );
         let rho = Vec3::new(0.2, 0.5, 0.8);
-        let l =
-            map.radiance_with(Vec3::ZERO, Vec3::Z, 300, 1.0, Filter::Cone { k: 2.0 }, &FullDisc, |_| rho / std::f32::consts::PI);
+        let l = map.radiance_with(
+            Vec3::ZERO,
+            Vec3::Z,
+            300,
+            1.0,
+            Filter::Cone { k: 2.0 },
+            &FullDisc,
+            |_| rho / std::f32::consts::PI,
+        );
         assert!((l.e - rho / std::f32::consts::PI * e.e).abs().max_element() < 1e-5);
         assert!(map.memory_bytes() >= 50_000 * std::mem::size_of::<Photon>());
     }

@@ -34,8 +34,14 @@ pub struct PointTree {
 impl PointTree {
     /// Builds the tree (median splits on the widest axis). Non-finite points are left out.
     pub fn build(points: &[Vec3]) -> PointTree {
-        let mut order: Vec<u32> = (0..points.len() as u32).filter(|&i| points[i as usize].is_finite()).collect();
-        let mut tree = PointTree { nodes: Vec::new(), points: Vec::with_capacity(order.len()), ids: Vec::with_capacity(order.len()) };
+        let mut order: Vec<u32> = (0..points.len() as u32)
+            .filter(|&i| points[i as usize].is_finite())
+            .collect();
+        let mut tree = PointTree {
+            nodes: Vec::new(),
+            points: Vec::with_capacity(order.len()),
+            ids: Vec::with_capacity(order.len()),
+        };
         if !order.is_empty() {
             tree.build_node(points, &mut order, 0);
         }
@@ -47,18 +53,31 @@ impl PointTree {
             let lo = offset as u32;
             self.points.extend(ids.iter().map(|&i| points[i as usize]));
             self.ids.extend_from_slice(ids);
-            self.nodes.push(Node::Leaf { lo, hi: lo + ids.len() as u32 });
+            self.nodes.push(Node::Leaf {
+                lo,
+                hi: lo + ids.len() as u32,
+            });
             return;
         }
-        let (lo, hi) = ids.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &i| {
-            (lo.min(points[i as usize]), hi.max(points[i as usize]))
-        });
+        let (lo, hi) = ids
+            .iter()
+            .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &i| {
+                (lo.min(points[i as usize]), hi.max(points[i as usize]))
+            });
         let extent = hi - lo;
-        let axis = if extent.x >= extent.y && extent.x >= extent.z { 0 } else if extent.y >= extent.z { 1 } else { 2 };
+        let axis = if extent.x >= extent.y && extent.x >= extent.z {
+            0
+        } else if extent.y >= extent.z {
+            1
+        } else {
+            2
+        };
         let mid = ids.len() / 2;
         // Ties broken by id, so the tree (and every answer) is a function of the point set alone.
         ids.select_nth_unstable_by(mid, |&a, &b| {
-            points[a as usize][axis].total_cmp(&points[b as usize][axis]).then(a.cmp(&b))
+            points[a as usize][axis]
+                .total_cmp(&points[b as usize][axis])
+                .then(a.cmp(&b))
         });
         let split = points[ids[mid] as usize][axis];
         let at = self.nodes.len();
@@ -67,7 +86,11 @@ impl PointTree {
         self.build_node(points, left, offset);
         let right_at = self.nodes.len() as u32;
         self.build_node(points, right, offset + mid);
-        self.nodes[at] = Node::Split { axis: axis as u8, split, right: right_at };
+        self.nodes[at] = Node::Split {
+            axis: axis as u8,
+            split,
+            right: right_at,
+        };
     }
 
     pub fn len(&self) -> usize {
@@ -79,13 +102,20 @@ impl PointTree {
     }
 
     pub fn memory_bytes(&self) -> usize {
-        self.nodes.capacity() * std::mem::size_of::<Node>() + self.points.capacity() * 12 + self.ids.capacity() * 4
+        self.nodes.capacity() * std::mem::size_of::<Node>()
+            + self.points.capacity() * 12
+            + self.ids.capacity() * 4
     }
 
     /// The id and squared distance of the nearest point strictly closer than `max_radius` to `q` for which
     /// `accept(id)` holds; among equally distant points the smallest id. `accept` is called only for points
     /// closer than the best accepted so far.
-    pub fn nearest_where(&self, q: Vec3, max_radius: f32, mut accept: impl FnMut(u32) -> bool) -> Option<(u32, f32)> {
+    pub fn nearest_where(
+        &self,
+        q: Vec3,
+        max_radius: f32,
+        mut accept: impl FnMut(u32) -> bool,
+    ) -> Option<(u32, f32)> {
         let mut best: Option<(u32, f32)> = None;
         self.search(q, max_radius, |id, d2| {
             let better = match best {
@@ -148,7 +178,11 @@ impl PointTree {
                     }
                     Node::Split { axis, split, right } => {
                         let diff = q[axis as usize] - split;
-                        let (near, far) = if diff < 0.0 { (node + 1, right) } else { (right, node + 1) };
+                        let (near, far) = if diff < 0.0 {
+                            (node + 1, right)
+                        } else {
+                            (right, node + 1)
+                        };
                         // Depth ≤ log2(n / LEAF) + 1 < 64 for any point count that fits in u32.
                         if diff * diff <= bound && top < stack.len() {
                             stack[top] = (far, diff * diff);
@@ -171,7 +205,10 @@ mod tests {
         let mut best: Option<(u32, f32)> = None;
         for (i, p) in points.iter().enumerate() {
             let d2 = p.distance_squared(q);
-            if d2 < r * r && accept(i as u32) && best.is_none_or(|(b, bd)| d2 < bd || (d2 == bd && (i as u32) < b)) {
+            if d2 < r * r
+                && accept(i as u32)
+                && best.is_none_or(|(b, bd)| d2 < bd || (d2 == bd && (i as u32) < b))
+            {
                 best = Some((i as u32, d2));
             }
         }
@@ -197,29 +234,56 @@ mod tests {
         let tree = PointTree::build(&points);
         assert_eq!(tree.len(), points.len() - 1);
         for k in 0..2000 {
-            let q = Vec3::new(rng.uniform() * 5.0 - 2.5, rng.uniform() * 5.0 - 2.5, rng.uniform() * 5.0 - 2.5);
+            let q = Vec3::new(
+                rng.uniform() * 5.0 - 2.5,
+                rng.uniform() * 5.0 - 2.5,
+                rng.uniform() * 5.0 - 2.5,
+            );
             let r = if k % 2 == 0 { 0.3 } else { 10.0 };
-            assert_eq!(tree.nearest_where(q, r, |_| true), brute(&points, q, r, |_| true), "query {q}");
+            assert_eq!(
+                tree.nearest_where(q, r, |_| true),
+                brute(&points, q, r, |_| true),
+                "query {q}"
+            );
             let odd = |id: u32| id % 7 == 3;
-            assert_eq!(tree.nearest_where(q, r, odd), brute(&points, q, r, odd), "query {q} with a test");
+            assert_eq!(
+                tree.nearest_where(q, r, odd),
+                brute(&points, q, r, odd),
+                "query {q} with a test"
+            );
         }
         assert_eq!(tree.nearest_where(Vec3::NAN, 1.0, |_| true), None);
         assert_eq!(tree.nearest_where(Vec3::ZERO, 0.0, |_| true), None);
-        assert_eq!(PointTree::build(&[]).nearest_where(Vec3::ZERO, 1.0, |_| true), None);
+        assert_eq!(
+            PointTree::build(&[]).nearest_where(Vec3::ZERO, 1.0, |_| true),
+            None
+        );
     }
 
     #[test]
     fn knn_matches_brute_force() {
         let mut rng = Rng::new(11);
-        let points: Vec<Vec3> = (0..2000).map(|_| Vec3::new(rng.uniform(), rng.uniform(), (rng.uniform() * 4.0).floor() * 0.1)).collect();
+        let points: Vec<Vec3> = (0..2000)
+            .map(|_| {
+                Vec3::new(
+                    rng.uniform(),
+                    rng.uniform(),
+                    (rng.uniform() * 4.0).floor() * 0.1,
+                )
+            })
+            .collect();
         let tree = PointTree::build(&points);
         let mut out = Vec::new();
         for _ in 0..500 {
             let q = Vec3::new(rng.uniform(), rng.uniform(), rng.uniform() * 0.4);
             for (k, r) in [(1, 0.05), (8, 0.05), (8, 2.0), (30, 0.1)] {
                 tree.knn(q, k, r, &mut out);
-                let mut all: Vec<(u32, f32)> =
-                    points.iter().enumerate().map(|(i, p)| (i as u32, p.distance_squared(q))).filter(|&(_, d)| d < r * r).collect();
+                let mut all: Vec<(u32, f32)> = points
+                    .iter()
+                    .enumerate()
+                    .map(|(i, p)| (i as u32, p.distance_squared(q)))
+                    .filter(|&(_, d)| d < r * r)
+                    .collect();
                 all.sort_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)));
                 all.truncate(k);
                 assert_eq!(out, all, "q {q} k {k} r {r}");
@@ -231,7 +295,14 @@ mod tests {
     fn duplicates_resolve_to_the_smallest_id() {
         let points = vec![Vec3::ONE; 40];
         let tree = PointTree::build(&points);
-        assert_eq!(tree.nearest_where(Vec3::ZERO, 5.0, |_| true).map(|b| b.0), Some(0));
-        assert_eq!(tree.nearest_where(Vec3::ZERO, 5.0, |id| id >= 17).map(|b| b.0), Some(17));
+        assert_eq!(
+            tree.nearest_where(Vec3::ZERO, 5.0, |_| true).map(|b| b.0),
+            Some(0)
+        );
+        assert_eq!(
+            tree.nearest_where(Vec3::ZERO, 5.0, |id| id >= 17)
+                .map(|b| b.0),
+            Some(17)
+        );
     }
 }

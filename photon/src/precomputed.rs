@@ -72,13 +72,26 @@ pub struct PrecomputedIrradiance {
 impl PrecomputedIrradiance {
     /// Estimates irradiance (k nearest within `max_radius`, no filter) at one photon out of each block
     /// of `every` consecutive global photons, in parallel; the result does not depend on the thread count.
-    pub fn build(global: &PhotonMap, every: usize, k: usize, max_radius: f32, cov: &dyn Coverage) -> Result<(Self, PrecomputeStats)> {
+    pub fn build(
+        global: &PhotonMap,
+        every: usize,
+        k: usize,
+        max_radius: f32,
+        cov: &dyn Coverage,
+    ) -> Result<(Self, PrecomputeStats)> {
         Self::build_cancellable(global, every, k, max_radius, cov, &AtomicBool::new(false))
     }
 
     /// [`build`](Self::build) that stops with [`Error::Cancelled`] soon after `cancel` is set (read
     /// before every estimate).
-    pub fn build_cancellable(global: &PhotonMap, every: usize, k: usize, max_radius: f32, cov: &dyn Coverage, cancel: &AtomicBool) -> Result<(Self, PrecomputeStats)> {
+    pub fn build_cancellable(
+        global: &PhotonMap,
+        every: usize,
+        k: usize,
+        max_radius: f32,
+        cov: &dyn Coverage,
+        cancel: &AtomicBool,
+    ) -> Result<(Self, PrecomputeStats)> {
         if every == 0 || k == 0 || max_radius.is_nan() || max_radius <= 0.0 {
             return Err(Error::InvalidParameter(format!(
                 "precomputed irradiance needs every ≥ 1, k ≥ 1, max_radius > 0 (got {every}, {k}, {max_radius})"
@@ -91,11 +104,34 @@ impl PrecomputedIrradiance {
             .map(|block| {
                 let ph = &photons[pick_in_block(block, every, photons.len())];
                 if cancel.load(Ordering::Relaxed) {
-                    return (IrradiancePoint { pos: ph.pos, normal: ph.normal, e: Vec3::ZERO, e_indirect: Vec3::ZERO, half_thickness: 0.0 }, false);
+                    return (
+                        IrradiancePoint {
+                            pos: ph.pos,
+                            normal: ph.normal,
+                            e: Vec3::ZERO,
+                            e_indirect: Vec3::ZERO,
+                            half_thickness: 0.0,
+                        },
+                        false,
+                    );
                 }
-                let (est, e_indirect) = global.irradiance_and_indirect(ph.pos, ph.normal, k, max_radius, cov);
-                let half_thickness = if est.half_thickness > 0.0 { est.half_thickness } else { crate::map::DISC_HALF_THICKNESS * max_radius };
-                (IrradiancePoint { pos: ph.pos, normal: ph.normal, e: est.e, e_indirect, half_thickness }, est.hit_max_radius)
+                let (est, e_indirect) =
+                    global.irradiance_and_indirect(ph.pos, ph.normal, k, max_radius, cov);
+                let half_thickness = if est.half_thickness > 0.0 {
+                    est.half_thickness
+                } else {
+                    crate::map::DISC_HALF_THICKNESS * max_radius
+                };
+                (
+                    IrradiancePoint {
+                        pos: ph.pos,
+                        normal: ph.normal,
+                        e: est.e,
+                        e_indirect,
+                        half_thickness,
+                    },
+                    est.hit_max_radius,
+                )
             })
             .collect();
         if cancel.load(Ordering::Relaxed) {
@@ -117,7 +153,11 @@ impl PrecomputedIrradiance {
     pub fn from_points(points: Vec<IrradiancePoint>, max_radius: f32) -> Result<Self> {
         let positions: Vec<Vec3> = points.iter().map(|p| p.pos).collect();
         let tree = PointTree::build(&positions);
-        Ok(PrecomputedIrradiance { points, tree, max_radius })
+        Ok(PrecomputedIrradiance {
+            points,
+            tree,
+            max_radius,
+        })
     }
 
     pub fn points(&self) -> &[IrradiancePoint] {
@@ -141,8 +181,12 @@ impl PrecomputedIrradiance {
         }
         CANDIDATES.with(|cell| {
             let mut found = cell.borrow_mut();
-            self.tree.knn(p, LOOKUP_CANDIDATES, self.max_radius, &mut found);
-            found.iter().map(|&(id, _)| &self.points[id as usize]).find(|pt| self.compatible(pt, p, n))
+            self.tree
+                .knn(p, LOOKUP_CANDIDATES, self.max_radius, &mut found);
+            found
+                .iter()
+                .map(|&(id, _)| &self.points[id as usize])
+                .find(|pt| self.compatible(pt, p, n))
         })
     }
 
@@ -150,7 +194,9 @@ impl PrecomputedIrradiance {
     /// plane (as in the photon estimate's disc): a surface parallel to the query's, a little above or
     /// below it — the inside of a box resting on or floating over a floor — has seen other light.
     fn compatible(&self, pt: &IrradiancePoint, p: Vec3, n: Vec3) -> bool {
-        let slab = pt.half_thickness.min(crate::map::DISC_HALF_THICKNESS * self.max_radius);
+        let slab = pt
+            .half_thickness
+            .min(crate::map::DISC_HALF_THICKNESS * self.max_radius);
         pt.normal.dot(n) > MIN_NORMAL_COS && (pt.pos - p).dot(n).abs() <= slab
     }
 
@@ -180,8 +226,19 @@ mod tests {
         let photons = (0..n)
             .map(|i| {
                 let pos = Vec3::new(rng.uniform() * 2.0 - 1.0, rng.uniform() * 2.0 - 1.0, 0.0);
-                let (side, power) = if i % 2 == 0 { (Vec3::Z, 8.0) } else { (-Vec3::Z, 2.0) };
-                Photon { pos, wi: side, power: Vec3::splat(power / n as f32), normal: side, indirect: false, direct: false }
+                let (side, power) = if i % 2 == 0 {
+                    (Vec3::Z, 8.0)
+                } else {
+                    (-Vec3::Z, 2.0)
+                };
+                Photon {
+                    pos,
+                    wi: side,
+                    power: Vec3::splat(power / n as f32),
+                    normal: side,
+                    indirect: false,
+                    direct: false,
+                }
             })
             .collect();
         PhotonMap::new(photons).unwrap()
@@ -202,15 +259,29 @@ mod tests {
         assert_eq!(pre.lookup(Vec3::new(0.1, 0.2, 0.0), Vec3::X), None);
         assert_eq!(pre.lookup(Vec3::new(5.0, 0.0, 0.0), Vec3::Z), None);
         // Every test photon is flagged direct.
-        assert_eq!(pre.lookup(Vec3::new(0.1, 0.2, 0.0), Vec3::Z).unwrap().e_indirect, Vec3::ZERO);
+        assert_eq!(
+            pre.lookup(Vec3::new(0.1, 0.2, 0.0), Vec3::Z)
+                .unwrap()
+                .e_indirect,
+            Vec3::ZERO
+        );
     }
 
     #[test]
     fn build_is_independent_of_thread_count() {
         let map = two_sided_plane(20_000);
         let run = |threads| {
-            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
-            pool.install(|| PrecomputedIrradiance::build(&map, 3, 50, 0.5, &FullDisc).unwrap().0.points().to_vec())
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            pool.install(|| {
+                PrecomputedIrradiance::build(&map, 3, 50, 0.5, &FullDisc)
+                    .unwrap()
+                    .0
+                    .points()
+                    .to_vec()
+            })
         };
         assert_eq!(run(1), run(2));
     }

@@ -39,17 +39,23 @@ impl Hasher for CellHasher {
     }
 }
 
-
 impl ReachGrid {
     /// Cells of size `radius` holding at least one of `points`. A non-positive or non-finite radius
     /// gives a grid that answers "maybe" everywhere.
     pub fn build(points: impl Iterator<Item = Vec3>, radius: f32) -> Self {
-        let cell = if radius.is_finite() && radius > 0.0 { radius } else { 0.0 };
+        let cell = if radius.is_finite() && radius > 0.0 {
+            radius
+        } else {
+            0.0
+        };
         let mut occupied = HashSet::default();
         if cell > 0.0 {
             // Each point's cell and its 26 neighbours, so that a query probes one cell (27 probes per
             // shading sample were 10 % of Sibenik's shading).
-            let own: HashSet<[i64; 3], BuildHasherDefault<CellHasher>> = points.filter(|p| p.is_finite()).map(|p| Self::key(p, cell)).collect();
+            let own: HashSet<[i64; 3], BuildHasherDefault<CellHasher>> = points
+                .filter(|p| p.is_finite())
+                .map(|p| Self::key(p, cell))
+                .collect();
             for [x, y, z] in own {
                 for dx in -1..=1 {
                     for dy in -1..=1 {
@@ -88,7 +94,9 @@ mod tests {
     #[test]
     fn never_says_no_where_a_point_is_within_reach() {
         let mut rng = Rng::new(3);
-        let pts: Vec<Vec3> = (0..500).map(|_| Vec3::new(rng.uniform(), rng.uniform(), rng.uniform()) * 4.0 - 2.0).collect();
+        let pts: Vec<Vec3> = (0..500)
+            .map(|_| Vec3::new(rng.uniform(), rng.uniform(), rng.uniform()) * 4.0 - 2.0)
+            .collect();
         let r = 0.3;
         let grid = ReachGrid::build(pts.iter().copied(), r);
         let mut n_skipped = 0;

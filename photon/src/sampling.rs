@@ -27,7 +27,10 @@ pub struct Rng {
 
 impl Rng {
     pub fn new(seed: u64) -> Self {
-        let mut rng = Rng { state: 0, inc: (mix64(seed ^ 0xDA3E_39CB_94B9_5BDB) << 1) | 1 };
+        let mut rng = Rng {
+            state: 0,
+            inc: (mix64(seed ^ 0xDA3E_39CB_94B9_5BDB) << 1) | 1,
+        };
         rng.next_u32();
         rng.state = rng.state.wrapping_add(mix64(seed));
         rng.next_u32();
@@ -37,7 +40,9 @@ impl Rng {
     #[inline]
     pub fn next_u32(&mut self) -> u32 {
         let old = self.state;
-        self.state = old.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(self.inc);
+        self.state = old
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(self.inc);
         let xorshifted = (((old >> 18) ^ old) >> 27) as u32;
         let rot = (old >> 59) as u32;
         xorshifted.rotate_right(rot)
@@ -61,7 +66,8 @@ const PRIMES: [u32; 16] = [2, 3, 5, 7, 11, 13, 17, 19, 23, 29, 31, 37, 41, 43, 4
 /// permutation offset (Cranley–Patterson rotation) derived from `seed`. Dimensions beyond the table
 /// fall back to hashed uniform numbers of `(seed, index, dim)`.
 pub fn halton(index: u64, dim: usize, seed: u64) -> f32 {
-    let shift = (mix64(seed ^ (dim as u64).wrapping_mul(0x2545_F491_4F6C_DD1D)) >> 40) as f32 / 16_777_216.0;
+    let shift = (mix64(seed ^ (dim as u64).wrapping_mul(0x2545_F491_4F6C_DD1D)) >> 40) as f32
+        / 16_777_216.0;
     let v = if dim < PRIMES.len() {
         radical_inverse_in(dim, index) as f32
     } else {
@@ -141,8 +147,15 @@ mod tests {
         let mut rng = Rng::new(3);
         for (dim, &base) in PRIMES.iter().enumerate() {
             for k in 0..2000u64 {
-                let index = if k < 1000 { k } else { (rng.uniform() as f64 * 1e15) as u64 };
-                let (fast, slow) = (radical_inverse_in(dim, index), by_variable(index, base as u64));
+                let index = if k < 1000 {
+                    k
+                } else {
+                    (rng.uniform() as f64 * 1e15) as u64
+                };
+                let (fast, slow) = (
+                    radical_inverse_in(dim, index),
+                    by_variable(index, base as u64),
+                );
                 assert_eq!(fast.to_bits(), slow.to_bits(), "dim {dim} index {index}");
             }
         }

@@ -58,9 +58,21 @@ pub trait PhotonScene: Sync {
     /// medium, or the next surface (invisible medium boundaries crossed, the medium updated), with the
     /// free flight's throughput weight and ratios for distances sampled in channel `hero` (0..3; see
     /// [`Propagation`]). `u` are 2 numbers in [0,1). Called only when `has_media`.
-    fn propagate(&self, origin: Vec3, dir: Vec3, medium: u16, _hero: usize, _u: [f32; 2]) -> Propagation {
+    fn propagate(
+        &self,
+        origin: Vec3,
+        dir: Vec3,
+        medium: u16,
+        _hero: usize,
+        _u: [f32; 2],
+    ) -> Propagation {
         match self.intersect(origin, dir) {
-            Some(hit) => Propagation::Surface { hit, weight: Vec3::ONE, ratio: Vec3::ONE, medium },
+            Some(hit) => Propagation::Surface {
+                hit,
+                weight: Vec3::ONE,
+                ratio: Vec3::ONE,
+                medium,
+            },
             None => Propagation::Escaped,
         }
     }
@@ -84,9 +96,19 @@ pub trait PhotonScene: Sync {
 pub enum Propagation {
     Escaped,
     /// At a surface, reached in `medium`.
-    Surface { hit: SurfaceHit, weight: Vec3, ratio: Vec3, medium: u16 },
+    Surface {
+        hit: SurfaceHit,
+        weight: Vec3,
+        ratio: Vec3,
+        medium: u16,
+    },
     /// At a scattering event at `pos` in `medium`; `weight` includes the scattering albedo.
-    Medium { pos: Vec3, weight: Vec3, ratio: Vec3, medium: u16 },
+    Medium {
+        pos: Vec3,
+        weight: Vec3,
+        ratio: Vec3,
+        medium: u16,
+    },
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -224,19 +246,34 @@ pub fn trace_photons_cancellable<S: PhotonScene + ?Sized>(
     cancel: &AtomicBool,
 ) -> Result<(PhotonMaps, TraceStats)> {
     let start = Instant::now();
-    let caustic_target = if scene.has_specular() { targets.caustic } else { 0 };
+    let caustic_target = if scene.has_specular() {
+        targets.caustic
+    } else {
+        0
+    };
     let mut global = Filling::new(targets.global);
     let mut caustic = Filling::new(caustic_target);
     let mut volume = Filling::new(if scene.has_media() { targets.volume } else { 0 });
-    let mut volume_caustic = Filling::new(if scene.has_media() && scene.has_specular() { targets.volume_caustic } else { 0 });
+    let mut volume_caustic = Filling::new(if scene.has_media() && scene.has_specular() {
+        targets.volume_caustic
+    } else {
+        0
+    });
     let mut stats = TraceStats::default();
     let mut next_path = 0u64;
-    while (global.active || caustic.active || volume.active || volume_caustic.active) && next_path < targets.max_paths {
+    while (global.active || caustic.active || volume.active || volume_caustic.active)
+        && next_path < targets.max_paths
+    {
         if cancel.load(Ordering::Relaxed) {
             return Err(Error::Cancelled);
         }
         let n_batch = BATCH_PATHS.min(targets.max_paths - next_path);
-        let want = Want { global: global.active, caustic: caustic.active, volume: volume.active, volume_caustic: volume_caustic.active };
+        let want = Want {
+            global: global.active,
+            caustic: caustic.active,
+            volume: volume.active,
+            volume_caustic: volume_caustic.active,
+        };
         let chunks: Vec<ChunkOut> = (0..n_batch.div_ceil(CHUNK_PATHS) as usize)
             .into_par_iter()
             .with_max_len(1)
@@ -256,7 +293,11 @@ pub fn trace_photons_cancellable<S: PhotonScene + ?Sized>(
             for j in 0..chunk.ends.len() {
                 let path = next_path;
                 next_path += 1;
-                let (g0, c0, v0, w0) = if j == 0 { (0, 0, 0, 0) } else { chunk.ends[j - 1] };
+                let (g0, c0, v0, w0) = if j == 0 {
+                    (0, 0, 0, 0)
+                } else {
+                    chunk.ends[j - 1]
+                };
                 let (g1, c1, v1, w1) = chunk.ends[j];
                 global.take(&chunk.global[g0..g1], path);
                 caustic.take(&chunk.caustic[c0..c1], path);
@@ -273,7 +314,9 @@ pub fn trace_photons_cancellable<S: PhotonScene + ?Sized>(
                     }
                 }
                 // The volume caustic map likewise, against the volume map.
-                if let (false, true, Some(v)) = (volume.active, volume_caustic.active, volume.n_paths) {
+                if let (false, true, Some(v)) =
+                    (volume.active, volume_caustic.active, volume.n_paths)
+                {
                     if path + 1 >= v.saturating_mul(CAUSTIC_PATH_BUDGET).max(CAUSTIC_MIN_PATHS) {
                         volume_caustic.active = false;
                         volume_caustic.n_paths = Some(path + 1);
@@ -282,7 +325,8 @@ pub fn trace_photons_cancellable<S: PhotonScene + ?Sized>(
                 // With media, a map that fills slowly next to the other (a dense fog that photons seldom
                 // cross to a surface, or a thin one they seldom scatter in) gets MEDIA_PATH_BUDGET × the
                 // paths the other needed, at least MEDIA_MIN_PATHS.
-                stats.n_media_cut += media_cut(&global, &mut volume, path) + media_cut(&volume, &mut global, path);
+                stats.n_media_cut +=
+                    media_cut(&global, &mut volume, path) + media_cut(&volume, &mut global, path);
                 match chunk.end_kinds[j] {
                     PathEnd::Dropped => stats.n_paths_dropped += 1,
                     PathEnd::DepthCapped => stats.n_paths_depth_capped += 1,
@@ -296,8 +340,14 @@ pub fn trace_photons_cancellable<S: PhotonScene + ?Sized>(
                 break;
             }
         }
-        let stored = (global.photons.len() + caustic.photons.len() + volume.photons.len() + volume_caustic.photons.len()) as u64;
-        progress(stored, (global.target + caustic.target + volume.target + volume_caustic.target) as u64);
+        let stored = (global.photons.len()
+            + caustic.photons.len()
+            + volume.photons.len()
+            + volume_caustic.photons.len()) as u64;
+        progress(
+            stored,
+            (global.target + caustic.target + volume.target + volume_caustic.target) as u64,
+        );
         if stored == 0 && next_path >= GIVE_UP_EMPTY_PATHS {
             break; // nothing reaches a non-specular surface: more paths will not change that
         }
@@ -305,7 +355,9 @@ pub fn trace_photons_cancellable<S: PhotonScene + ?Sized>(
     stats.n_paths_emitted = next_path;
     stats.trace_s = start.elapsed().as_secs_f64();
     if global.target > 0 && global.photons.is_empty() {
-        return Err(Error::NothingStored { n_paths_emitted: next_path });
+        return Err(Error::NothingStored {
+            n_paths_emitted: next_path,
+        });
     }
     let (global, n_global_paths) = global.finish(next_path);
     let (caustic, n_caustic_paths) = caustic.finish(next_path);
@@ -333,8 +385,18 @@ pub fn trace_photons_cancellable<S: PhotonScene + ?Sized>(
     let (volume_caustic, volume_caustic_build_s) = build_map(volume_caustic)?;
     stats.volume_build_s = volume_build_s + volume_caustic_build_s;
     stats.volume_memory_bytes = volume.as_ref().map_or(0, |m| m.memory_bytes() as u64);
-    stats.volume_caustic_memory_bytes = volume_caustic.as_ref().map_or(0, |m| m.memory_bytes() as u64);
-    Ok((PhotonMaps { global, caustic, volume, volume_caustic }, stats))
+    stats.volume_caustic_memory_bytes = volume_caustic
+        .as_ref()
+        .map_or(0, |m| m.memory_bytes() as u64);
+    Ok((
+        PhotonMaps {
+            global,
+            caustic,
+            volume,
+            volume_caustic,
+        },
+        stats,
+    ))
 }
 
 fn build_map(photons: Option<Vec<Photon>>) -> Result<(Option<PhotonMap>, f64)> {
@@ -350,7 +412,9 @@ pub const GIVE_UP_EMPTY_PATHS: u64 = 200_000;
 /// Stops `b` (returns 1) when `a` is full and `b` has had its media path budget by `path`.
 fn media_cut(a: &Filling, b: &mut Filling, path: u64) -> u64 {
     match (a.active, b.active, a.n_paths) {
-        (false, true, Some(n)) if path + 1 >= n.saturating_mul(MEDIA_PATH_BUDGET).max(MEDIA_MIN_PATHS) => {
+        (false, true, Some(n))
+            if path + 1 >= n.saturating_mul(MEDIA_PATH_BUDGET).max(MEDIA_MIN_PATHS) =>
+        {
             b.active = false;
             b.n_paths = Some(path + 1);
             1
@@ -380,7 +444,12 @@ struct Filling {
 
 impl Filling {
     fn new(target: usize) -> Filling {
-        Filling { photons: Vec::new(), target, active: target > 0, n_paths: None }
+        Filling {
+            photons: Vec::new(),
+            target,
+            active: target > 0,
+            n_paths: None,
+        }
     }
 
     fn take(&mut self, path_photons: &[Photon], path: u64) {
@@ -435,11 +504,26 @@ struct ChunkOut {
     end_kinds: Vec<PathEnd>,
 }
 
-fn trace_chunk<S: PhotonScene + ?Sized>(scene: &S, paths: std::ops::Range<u64>, seed: u64, want: Want) -> ChunkOut {
+fn trace_chunk<S: PhotonScene + ?Sized>(
+    scene: &S,
+    paths: std::ops::Range<u64>,
+    seed: u64,
+    want: Want,
+) -> ChunkOut {
     let mut out = ChunkOut::default();
     for i in paths {
-        let (g, c, v, w) = (out.global.len(), out.caustic.len(), out.volume.len(), out.volume_caustic.len());
-        let mut sampler = PathSampler { index: i, seed, dim: 0, rng: None };
+        let (g, c, v, w) = (
+            out.global.len(),
+            out.caustic.len(),
+            out.volume.len(),
+            out.volume_caustic.len(),
+        );
+        let mut sampler = PathSampler {
+            index: i,
+            seed,
+            dim: 0,
+            rng: None,
+        };
         let end = trace_path(scene, &mut sampler, want, &mut out);
         if end == PathEnd::Dropped {
             // A path that went bad leaves nothing behind.
@@ -448,7 +532,12 @@ fn trace_chunk<S: PhotonScene + ?Sized>(scene: &S, paths: std::ops::Range<u64>, 
             out.volume.truncate(v);
             out.volume_caustic.truncate(w);
         }
-        out.ends.push((out.global.len(), out.caustic.len(), out.volume.len(), out.volume_caustic.len()));
+        out.ends.push((
+            out.global.len(),
+            out.caustic.len(),
+            out.volume.len(),
+            out.volume_caustic.len(),
+        ));
         out.end_kinds.push(end);
     }
     out
@@ -470,7 +559,9 @@ impl PathSampler {
             halton(self.index, dim, self.seed)
         } else {
             let (seed, index) = (self.seed, self.index);
-            self.rng.get_or_insert_with(|| Rng::new(hash_keys(&[seed, index]))).uniform()
+            self.rng
+                .get_or_insert_with(|| Rng::new(hash_keys(&[seed, index])))
+                .uniform()
         }
     }
 }
@@ -484,7 +575,12 @@ fn valid_power(power: Vec3) -> bool {
 /// has something to store: after this event no photon of it can be a caustic one.
 fn store(out: &mut ChunkOut, want: Want, photon: Photon, caustic: bool, in_medium: bool) -> bool {
     let (map, wanted, caustic_map, caustic_wanted) = if in_medium {
-        (&mut out.volume, want.volume, &mut out.volume_caustic, want.volume_caustic)
+        (
+            &mut out.volume,
+            want.volume,
+            &mut out.volume_caustic,
+            want.volume_caustic,
+        )
     } else {
         (&mut out.global, want.global, &mut out.caustic, want.caustic)
     };
@@ -497,9 +593,16 @@ fn store(out: &mut ChunkOut, want: Want, photon: Photon, caustic: bool, in_mediu
     want.global || want.volume
 }
 
-fn trace_path<S: PhotonScene + ?Sized>(scene: &S, s: &mut PathSampler, want: Want, out: &mut ChunkOut) -> PathEnd {
+fn trace_path<S: PhotonScene + ?Sized>(
+    scene: &S,
+    s: &mut PathSampler,
+    want: Want,
+    out: &mut ChunkOut,
+) -> PathEnd {
     let u = [s.next(), s.next(), s.next(), s.next(), s.next()];
-    let Some(ray) = scene.emit(u) else { return PathEnd::Done };
+    let Some(ray) = scene.emit(u) else {
+        return PathEnd::Done;
+    };
     if !valid_power(ray.power) || !ray.origin.is_finite() || !ray.dir.is_finite() {
         return PathEnd::Dropped;
     }
@@ -514,11 +617,19 @@ fn trace_path<S: PhotonScene + ?Sized>(scene: &S, s: &mut PathSampler, want: Wan
     let (mut origin, mut dir, mut power, mut medium) = (ray.origin, ray.dir, ray.power, ray.medium);
     // With media: the hero channel distances are sampled in, and the product of the flights' pdf
     // ratios; the photon's power is `power / mean(ratios)` (see [`Propagation`]).
-    let hero = if media { ((s.next() * 3.0) as usize).min(2) } else { 0 };
+    let hero = if media {
+        ((s.next() * 3.0) as usize).min(2)
+    } else {
+        0
+    };
     let mut ratios = Vec3::ONE;
     let mis = |power: Vec3, ratios: Vec3| {
         let m = (ratios.x + ratios.y + ratios.z) / 3.0;
-        if m > 0.0 { power / m } else { Vec3::ZERO }
+        if m > 0.0 {
+            power / m
+        } else {
+            Vec3::ZERO
+        }
     };
     let mut any_specular = false;
     let mut any_diffuse = false;
@@ -527,19 +638,34 @@ fn trace_path<S: PhotonScene + ?Sized>(scene: &S, s: &mut PathSampler, want: Wan
             scene.propagate(origin, dir, medium, hero, [s.next(), s.next()])
         } else {
             match scene.intersect(origin, dir) {
-                Some(hit) => Propagation::Surface { hit, weight: Vec3::ONE, ratio: Vec3::ONE, medium },
+                Some(hit) => Propagation::Surface {
+                    hit,
+                    weight: Vec3::ONE,
+                    ratio: Vec3::ONE,
+                    medium,
+                },
                 None => Propagation::Escaped,
             }
         };
         let hit = match event {
             Propagation::Escaped => return PathEnd::Done,
-            Propagation::Surface { hit, weight, ratio, medium: m } => {
+            Propagation::Surface {
+                hit,
+                weight,
+                ratio,
+                medium: m,
+            } => {
                 power *= weight;
                 ratios *= ratio;
                 medium = m;
                 hit
             }
-            Propagation::Medium { pos, weight, ratio, medium: m } => {
+            Propagation::Medium {
+                pos,
+                weight,
+                ratio,
+                medium: m,
+            } => {
                 // Stored with the power it scatters (× albedo): the volume estimate is then σs·Li.
                 let before = mis(power, ratios);
                 let (scattered, r) = (power * weight, ratios * ratio);
@@ -547,7 +673,14 @@ fn trace_path<S: PhotonScene + ?Sized>(scene: &S, s: &mut PathSampler, want: Wan
                 if !valid_power(stored) || !pos.is_finite() {
                     return PathEnd::Dropped;
                 }
-                let photon = Photon { pos, wi: -dir, power: stored, normal: Vec3::ZERO, indirect: any_diffuse, direct: !any_diffuse && !any_specular };
+                let photon = Photon {
+                    pos,
+                    wi: -dir,
+                    power: stored,
+                    normal: Vec3::ZERO,
+                    indirect: any_diffuse,
+                    direct: !any_diffuse && !any_specular,
+                };
                 let go_on = store(out, want, photon, any_specular && !any_diffuse, true);
                 any_diffuse = true;
                 if !go_on {
@@ -575,7 +708,14 @@ fn trace_path<S: PhotonScene + ?Sized>(scene: &S, s: &mut PathSampler, want: Wan
             if !valid_power(power_here) {
                 return PathEnd::Dropped;
             }
-            let photon = Photon { pos: hit.pos, wi: wo, power: power_here, normal: hit.normal, indirect: any_diffuse, direct: !any_diffuse && !any_specular };
+            let photon = Photon {
+                pos: hit.pos,
+                wi: wo,
+                power: power_here,
+                normal: hit.normal,
+                indirect: any_diffuse,
+                direct: !any_diffuse && !any_specular,
+            };
             let go_on = store(out, want, photon, any_specular && !any_diffuse, false);
             any_diffuse = true;
             if !go_on {
@@ -584,11 +724,20 @@ fn trace_path<S: PhotonScene + ?Sized>(scene: &S, s: &mut PathSampler, want: Wan
         }
         let u = [s.next(), s.next(), s.next()];
         let u_roulette = s.next();
-        let Scatter::Continue { origin: o, dir: d, weight } = scene.scatter(&hit, wo, u) else {
+        let Scatter::Continue {
+            origin: o,
+            dir: d,
+            weight,
+        } = scene.scatter(&hit, wo, u)
+        else {
             return PathEnd::Done;
         };
         // Specular bounces follow the scene's own (Fresnel) choice; roulette acts at diffuse ones.
-        let survive = if hit.specular { 1.0 } else { weight.max_element().min(1.0) };
+        let survive = if hit.specular {
+            1.0
+        } else {
+            weight.max_element().min(1.0)
+        };
         if survive.is_nan() || survive <= 0.0 || u_roulette >= survive {
             return PathEnd::Done;
         }

@@ -12,9 +12,18 @@ fn no_progress(_: u64, _: u64) {}
 #[test]
 fn global_map_matches_point_light_on_a_floor() {
     let scene = lit_floor();
-    let targets = PhotonTargets { global: 200_000, caustic: 10_000, volume: 0, volume_caustic: 0, max_paths: 10_000_000 };
+    let targets = PhotonTargets {
+        global: 200_000,
+        caustic: 10_000,
+        volume: 0,
+        volume_caustic: 0,
+        max_paths: 10_000_000,
+    };
     let (maps, stats) = trace_photons(&scene, &targets, 7, &no_progress).unwrap();
-    assert!(maps.caustic.is_none(), "no specular surface, no caustic map");
+    assert!(
+        maps.caustic.is_none(),
+        "no specular surface, no caustic map"
+    );
     let global = maps.global.unwrap();
     // Each path hits the floor at most once (bounced light leaves upward), with probability 1/2.
     assert_eq!(stats.n_global_stored, 200_000);
@@ -35,16 +44,31 @@ fn global_map_matches_point_light_on_a_floor() {
             assert!(rel < 0.05, "x={x} {filter:?}: {} vs {want}", est.e.x);
         }
         let e = pre.lookup(p, Vec3::Z).unwrap().e;
-        assert!((e.x / want - 1.0).abs() < 0.08, "precomputed x={x}: {} vs {want}", e.x);
+        assert!(
+            (e.x / want - 1.0).abs() < 0.08,
+            "precomputed x={x}: {} vs {want}",
+            e.x
+        );
         // Nothing arrives at the underside.
-        assert_eq!(global.irradiance(p, -Vec3::Z, 400, 1.0, Filter::None, &FullDisc).n_found, 0);
+        assert_eq!(
+            global
+                .irradiance(p, -Vec3::Z, 400, 1.0, Filter::None, &FullDisc)
+                .n_found,
+            0
+        );
     }
 }
 
 /// RMS relative error of the caustic estimate over a grid of floor points.
 fn caustic_rms_error(n_caustic: usize, k: usize) -> f64 {
     let scene = mirror_wall();
-    let targets = PhotonTargets { global: 1_000, caustic: n_caustic, volume: 0, volume_caustic: 0, max_paths: 50_000_000 };
+    let targets = PhotonTargets {
+        global: 1_000,
+        caustic: n_caustic,
+        volume: 0,
+        volume_caustic: 0,
+        max_paths: 50_000_000,
+    };
     let (maps, stats) = trace_photons(&scene, &targets, 3, &no_progress).unwrap();
     assert!(stats.n_caustic_stored as usize >= n_caustic);
     let caustic = maps.caustic.unwrap();
@@ -85,10 +109,20 @@ fn caustic_map_holds_only_light_specular_diffuse_paths() {
     // the mirror and then the floor (L D S D, ~3 % of paths) must be in the global map only.
     let scene = mirror_wall_with_ceiling();
     // The global map is still filling while the caustic map fills, so every path is traced in full.
-    let targets = PhotonTargets { global: 300_000, caustic: 20_000, volume: 0, volume_caustic: 0, max_paths: 10_000_000 };
+    let targets = PhotonTargets {
+        global: 300_000,
+        caustic: 20_000,
+        volume: 0,
+        volume_caustic: 0,
+        max_paths: 10_000_000,
+    };
     let (maps, stats) = trace_photons(&scene, &targets, 1, &no_progress).unwrap();
     let caustic = maps.caustic.unwrap();
-    let on_floor = caustic.photons().iter().filter(|ph| ph.pos.z.abs() < 1e-5).count();
+    let on_floor = caustic
+        .photons()
+        .iter()
+        .filter(|ph| ph.pos.z.abs() < 1e-5)
+        .count();
     let fraction = on_floor as f64 / stats.n_caustic_paths as f64;
     // Binomial σ over ~160 000 paths is 0.0008; tolerance 0.004 (5σ).
     assert!((fraction - 0.125).abs() < 0.004, "{fraction}");
@@ -101,5 +135,8 @@ fn caustic_map_holds_only_light_specular_diffuse_paths() {
     // The caustic map filled first and stopped storing; each map keeps its own path count.
     assert!(stats.n_caustic_paths < stats.n_global_paths);
     assert_eq!(stats.n_global_paths, stats.n_paths_emitted);
-    assert!(stats.n_caustic_stored >= 20_000 && stats.n_caustic_stored < 20_000 + photon::trace::MAX_DEPTH as u64);
+    assert!(
+        stats.n_caustic_stored >= 20_000
+            && stats.n_caustic_stored < 20_000 + photon::trace::MAX_DEPTH as u64
+    );
 }

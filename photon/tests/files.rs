@@ -10,17 +10,31 @@ const FINGERPRINT: u64 = 0xFEED_F00D_1234_5678;
 
 fn encoded() -> (Vec<u8>, MapsInfo) {
     let scene = mirror_wall();
-    let targets = PhotonTargets { global: 3_000, caustic: 500, volume: 0, volume_caustic: 0, max_paths: 1_000_000 };
+    let targets = PhotonTargets {
+        global: 3_000,
+        caustic: 500,
+        volume: 0,
+        volume_caustic: 0,
+        max_paths: 1_000_000,
+    };
     let (maps, stats) = trace_photons(&scene, &targets, 5, &|_, _| {}).unwrap();
-    let (pre, _) = PrecomputedIrradiance::build(maps.global.as_ref().unwrap(), 4, 50, 0.5, &photon::FullDisc).unwrap();
+    let (pre, _) =
+        PrecomputedIrradiance::build(maps.global.as_ref().unwrap(), 4, 50, 0.5, &photon::FullDisc)
+            .unwrap();
     let info = MapsInfo::new(FINGERPRINT, 5, targets, &stats);
     let mut bytes = Vec::new();
     write_maps(&mut bytes, &info, &maps, Some(&pre)).unwrap();
     // The decoded maps must equal what was written.
     let loaded = read_maps(&bytes, FINGERPRINT).unwrap();
     assert_eq!(loaded.info, info);
-    assert_eq!(loaded.maps.global.unwrap().photons(), maps.global.unwrap().photons());
-    assert_eq!(loaded.maps.caustic.unwrap().photons(), maps.caustic.unwrap().photons());
+    assert_eq!(
+        loaded.maps.global.unwrap().photons(),
+        maps.global.unwrap().photons()
+    );
+    assert_eq!(
+        loaded.maps.caustic.unwrap().photons(),
+        maps.caustic.unwrap().photons()
+    );
     assert_eq!(loaded.precomputed.unwrap().points(), pre.points());
     (bytes, info)
 }
@@ -36,9 +50,15 @@ fn round_trip_through_a_file() {
     assert_eq!(again.info, info);
     // A truncated file on disk is refused before its payload is read.
     std::fs::write(&path, &bytes[..bytes.len() - 100]).unwrap();
-    assert!(matches!(load(&path, FINGERPRINT), Err(Error::BadLength { .. })));
+    assert!(matches!(
+        load(&path, FINGERPRINT),
+        Err(Error::BadLength { .. })
+    ));
     std::fs::write(&path, &bytes[..50]).unwrap();
-    assert!(matches!(load(&path, FINGERPRINT), Err(Error::BadLength { .. })));
+    assert!(matches!(
+        load(&path, FINGERPRINT),
+        Err(Error::BadLength { .. })
+    ));
     std::fs::remove_file(&path).unwrap();
     assert!(matches!(load(&path, FINGERPRINT), Err(Error::Io { .. })));
 }
@@ -46,44 +66,91 @@ fn round_trip_through_a_file() {
 #[test]
 fn damaged_files_give_clear_errors() {
     let (bytes, _) = encoded();
-    assert!(matches!(read_maps(&bytes, FINGERPRINT ^ 1), Err(Error::SceneMismatch { .. })));
+    assert!(matches!(
+        read_maps(&bytes, FINGERPRINT ^ 1),
+        Err(Error::SceneMismatch { .. })
+    ));
     for cut in [0, 7, 8, 60, 111, 112, bytes.len() - 1] {
         let r = read_maps(&bytes[..cut], FINGERPRINT);
-        assert!(matches!(r, Err(Error::BadMagic | Error::BadLength { .. })), "cut {cut}");
+        assert!(
+            matches!(r, Err(Error::BadMagic | Error::BadLength { .. })),
+            "cut {cut}"
+        );
     }
     let mut longer = bytes.clone();
     longer.push(0);
-    assert!(matches!(read_maps(&longer, FINGERPRINT), Err(Error::BadLength { .. })));
+    assert!(matches!(
+        read_maps(&longer, FINGERPRINT),
+        Err(Error::BadLength { .. })
+    ));
     let mut flipped = bytes.clone();
     flipped[bytes.len() / 2] ^= 0x10;
-    assert!(matches!(read_maps(&flipped, FINGERPRINT), Err(Error::Checksum)));
+    assert!(matches!(
+        read_maps(&flipped, FINGERPRINT),
+        Err(Error::Checksum)
+    ));
     let mut magic = bytes.clone();
     magic[0] = b'X';
-    assert!(matches!(read_maps(&magic, FINGERPRINT), Err(Error::BadMagic)));
+    assert!(matches!(
+        read_maps(&magic, FINGERPRINT),
+        Err(Error::BadMagic)
+    ));
     let mut version = bytes.clone();
     version[8] = 99;
-    assert!(matches!(read_maps(&version, FINGERPRINT), Err(Error::UnsupportedVersion { found: 99, .. })));
+    assert!(matches!(
+        read_maps(&version, FINGERPRINT),
+        Err(Error::UnsupportedVersion { found: 99, .. })
+    ));
     // Absurd photon counts are caught from the length, without allocating for them.
     let mut huge = bytes.clone();
     huge[80..88].copy_from_slice(&(1u64 << 40).to_le_bytes());
-    assert!(matches!(read_maps(&huge, FINGERPRINT), Err(Error::BadLength { .. })));
+    assert!(matches!(
+        read_maps(&huge, FINGERPRINT),
+        Err(Error::BadLength { .. })
+    ));
     huge[80..88].copy_from_slice(&u64::MAX.to_le_bytes());
-    assert!(matches!(read_maps(&huge, FINGERPRINT), Err(Error::Corrupt(_))));
+    assert!(matches!(
+        read_maps(&huge, FINGERPRINT),
+        Err(Error::Corrupt(_))
+    ));
 }
 
 /// Maps with volume photons (normal zero) in both volume maps.
 fn with_volume_maps() -> (Vec<u8>, MapsInfo, photon::PhotonMaps) {
     let scene = mirror_wall();
-    let targets = PhotonTargets { global: 2_000, caustic: 300, volume: 0, volume_caustic: 0, max_paths: 1_000_000 };
+    let targets = PhotonTargets {
+        global: 2_000,
+        caustic: 300,
+        volume: 0,
+        volume_caustic: 0,
+        max_paths: 1_000_000,
+    };
     let (mut maps, stats) = trace_photons(&scene, &targets, 7, &|_, _| {}).unwrap();
     // Volume photons made from the surface ones: positions off the surfaces, no normal.
     let to_volume = |m: &photon::PhotonMap, lift: f32| -> Vec<photon::Photon> {
-        m.photons().iter().map(|ph| photon::Photon { pos: ph.pos + glam::Vec3::splat(lift), normal: glam::Vec3::ZERO, ..*ph }).collect()
+        m.photons()
+            .iter()
+            .map(|ph| photon::Photon {
+                pos: ph.pos + glam::Vec3::splat(lift),
+                normal: glam::Vec3::ZERO,
+                ..*ph
+            })
+            .collect()
     };
-    maps.volume = Some(photon::PhotonMap::new(to_volume(maps.global.as_ref().unwrap(), 0.1)).unwrap());
-    maps.volume_caustic = Some(photon::PhotonMap::new(to_volume(maps.caustic.as_ref().unwrap(), 0.2)).unwrap());
-    let targets = PhotonTargets { volume: 2_000, volume_caustic: 300, ..targets };
-    let stats = photon::TraceStats { n_volume_paths: 12_345, n_volume_caustic_paths: 67_890, ..stats };
+    maps.volume =
+        Some(photon::PhotonMap::new(to_volume(maps.global.as_ref().unwrap(), 0.1)).unwrap());
+    maps.volume_caustic =
+        Some(photon::PhotonMap::new(to_volume(maps.caustic.as_ref().unwrap(), 0.2)).unwrap());
+    let targets = PhotonTargets {
+        volume: 2_000,
+        volume_caustic: 300,
+        ..targets
+    };
+    let stats = photon::TraceStats {
+        n_volume_paths: 12_345,
+        n_volume_caustic_paths: 67_890,
+        ..stats
+    };
     let info = MapsInfo::new(FINGERPRINT, 7, targets, &stats);
     let mut bytes = Vec::new();
     write_maps(&mut bytes, &info, &maps, None).unwrap();
@@ -95,8 +162,19 @@ fn volume_maps_round_trip_and_a_volume_photon_with_a_normal_is_refused() {
     let (bytes, info, maps) = with_volume_maps();
     let loaded = read_maps(&bytes, FINGERPRINT).unwrap();
     assert_eq!(loaded.info, info);
-    assert_eq!((loaded.info.n_volume_paths, loaded.info.n_volume_caustic_paths), (12_345, 67_890));
-    for (a, b) in [(&loaded.maps.global, &maps.global), (&loaded.maps.caustic, &maps.caustic), (&loaded.maps.volume, &maps.volume), (&loaded.maps.volume_caustic, &maps.volume_caustic)] {
+    assert_eq!(
+        (
+            loaded.info.n_volume_paths,
+            loaded.info.n_volume_caustic_paths
+        ),
+        (12_345, 67_890)
+    );
+    for (a, b) in [
+        (&loaded.maps.global, &maps.global),
+        (&loaded.maps.caustic, &maps.caustic),
+        (&loaded.maps.volume, &maps.volume),
+        (&loaded.maps.volume_caustic, &maps.volume_caustic),
+    ] {
         assert_eq!(a.as_ref().unwrap().photons(), b.as_ref().unwrap().photons());
     }
     // The first volume photon's normal (pos, wi, power, then normal: 36 bytes in), made unit, checksum
@@ -108,11 +186,15 @@ fn volume_maps_round_trip_and_a_volume_photon_with_a_normal_is_refused() {
     let end = bad.len() - 8;
     let sum = fnv(&bad[8..end]);
     bad[end..].copy_from_slice(&sum.to_le_bytes());
-    assert!(matches!(read_maps(&bad, FINGERPRINT), Err(Error::Corrupt(m)) if m.contains("volume photon 0")));
+    assert!(
+        matches!(read_maps(&bad, FINGERPRINT), Err(Error::Corrupt(m)) if m.contains("volume photon 0"))
+    );
 }
 
 fn fnv(bytes: &[u8]) -> u64 {
-    bytes.iter().fold(0xcbf2_9ce4_8422_2325u64, |h, &b| (h ^ b as u64).wrapping_mul(0x0100_0000_01b3))
+    bytes.iter().fold(0xcbf2_9ce4_8422_2325u64, |h, &b| {
+        (h ^ b as u64).wrapping_mul(0x0100_0000_01b3)
+    })
 }
 
 #[test]
@@ -124,10 +206,29 @@ fn a_version_4_file_is_still_read() {
     v4.extend_from_slice(&v5[160..v5.len() - 8]);
     let sum = fnv(&v4[8..]);
     v4.extend_from_slice(&sum.to_le_bytes());
-    let (a, b) = (read_maps(&v4, FINGERPRINT).unwrap(), read_maps(&v5, FINGERPRINT).unwrap());
-    assert_eq!(a.info, MapsInfo { n_volume_paths: 0, n_volume_caustic_paths: 0, ..info });
-    assert_eq!(a.maps.global.unwrap().photons(), b.maps.global.unwrap().photons());
-    assert_eq!(a.maps.caustic.unwrap().photons(), b.maps.caustic.unwrap().photons());
-    assert_eq!(a.precomputed.unwrap().points(), b.precomputed.unwrap().points());
+    let (a, b) = (
+        read_maps(&v4, FINGERPRINT).unwrap(),
+        read_maps(&v5, FINGERPRINT).unwrap(),
+    );
+    assert_eq!(
+        a.info,
+        MapsInfo {
+            n_volume_paths: 0,
+            n_volume_caustic_paths: 0,
+            ..info
+        }
+    );
+    assert_eq!(
+        a.maps.global.unwrap().photons(),
+        b.maps.global.unwrap().photons()
+    );
+    assert_eq!(
+        a.maps.caustic.unwrap().photons(),
+        b.maps.caustic.unwrap().photons()
+    );
+    assert_eq!(
+        a.precomputed.unwrap().points(),
+        b.precomputed.unwrap().points()
+    );
     assert!(a.maps.volume.is_none() && a.maps.volume_caustic.is_none());
 }

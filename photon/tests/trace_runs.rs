@@ -10,14 +10,23 @@ use photon::{trace_photons, Error, PhotonMaps, PhotonTargets, TraceStats};
 use std::sync::atomic::{AtomicU64, Ordering};
 
 fn run(scene: &PlaneScene, targets: PhotonTargets, threads: usize) -> (PhotonMaps, TraceStats) {
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap();
     pool.install(|| trace_photons(scene, &targets, 11, &|_, _| {}).unwrap())
 }
 
 #[test]
 fn maps_are_identical_with_one_and_two_threads() {
     let scene = mirror_wall();
-    let targets = PhotonTargets { global: 30_000, caustic: 5_000, volume: 0, volume_caustic: 0, max_paths: 10_000_000 };
+    let targets = PhotonTargets {
+        global: 30_000,
+        caustic: 5_000,
+        volume: 0,
+        volume_caustic: 0,
+        max_paths: 10_000_000,
+    };
     let (a, sa) = run(&scene, targets, 1);
     let (b, sb) = run(&scene, targets, 2);
     for (x, y) in [(&a.global, &b.global), (&a.caustic, &b.caustic)] {
@@ -25,15 +34,33 @@ fn maps_are_identical_with_one_and_two_threads() {
         assert_eq!(x.photons(), y.photons());
     }
     assert_eq!(
-        (sa.n_paths_emitted, sa.n_global_paths, sa.n_caustic_paths, sa.n_global_stored, sa.n_caustic_stored),
-        (sb.n_paths_emitted, sb.n_global_paths, sb.n_caustic_paths, sb.n_global_stored, sb.n_caustic_stored)
+        (
+            sa.n_paths_emitted,
+            sa.n_global_paths,
+            sa.n_caustic_paths,
+            sa.n_global_stored,
+            sa.n_caustic_stored
+        ),
+        (
+            sb.n_paths_emitted,
+            sb.n_global_paths,
+            sb.n_caustic_paths,
+            sb.n_global_stored,
+            sb.n_caustic_stored
+        )
     );
 }
 
 #[test]
 fn maps_stop_at_the_path_that_reaches_the_target() {
     let scene = mirror_wall();
-    let small = PhotonTargets { global: 12_345, caustic: 0, volume: 0, volume_caustic: 0, max_paths: 10_000_000 };
+    let small = PhotonTargets {
+        global: 12_345,
+        caustic: 0,
+        volume: 0,
+        volume_caustic: 0,
+        max_paths: 10_000_000,
+    };
     let (maps, stats) = run(&scene, small, 2);
     assert!(maps.caustic.is_none());
     let n = stats.n_global_stored;
@@ -41,7 +68,14 @@ fn maps_stop_at_the_path_that_reaches_the_target() {
     assert_eq!(stats.n_global_paths, stats.n_paths_emitted);
     // A larger target traces the same first paths: the smaller map is a prefix of the larger one,
     // with powers rescaled by the ratio of path counts.
-    let (big, big_stats) = run(&scene, PhotonTargets { global: 40_000, ..small }, 2);
+    let (big, big_stats) = run(
+        &scene,
+        PhotonTargets {
+            global: 40_000,
+            ..small
+        },
+        2,
+    );
     let big = big.global.unwrap();
     let scale = big_stats.n_global_paths as f32 / stats.n_global_paths as f32;
     for (p, q) in maps.global.unwrap().photons().iter().zip(big.photons()) {
@@ -54,13 +88,28 @@ fn maps_stop_at_the_path_that_reaches_the_target() {
 fn no_diffuse_surface_is_an_error_not_a_hang() {
     let mut scene = mirror_wall();
     scene.planes.remove(0); // only the mirror is left
-    let targets = PhotonTargets { global: 1_000, caustic: 1_000, volume: 0, volume_caustic: 0, max_paths: 50_000 };
+    let targets = PhotonTargets {
+        global: 1_000,
+        caustic: 1_000,
+        volume: 0,
+        volume_caustic: 0,
+        max_paths: 50_000,
+    };
     let calls = AtomicU64::new(0);
     let result = trace_photons(&scene, &targets, 0, &|stored, target| {
         assert_eq!((stored, target), (0, 2_000));
         calls.fetch_add(1, Ordering::Relaxed);
     });
-    assert!(matches!(result, Err(Error::NothingStored { n_paths_emitted: 50_000 })), "{:?}", result.err());
+    assert!(
+        matches!(
+            result,
+            Err(Error::NothingStored {
+                n_paths_emitted: 50_000
+            })
+        ),
+        "{:?}",
+        result.err()
+    );
     assert!(calls.load(Ordering::Relaxed) >= 1);
 }
 
@@ -77,7 +126,13 @@ fn a_mirror_the_light_cannot_reach_gives_no_caustic_map() {
         reflectance: 1.0,
     };
     scene.planes[0].reflectance = 0.0;
-    let targets = PhotonTargets { global: 1_000, caustic: 1_000, volume: 0, volume_caustic: 0, max_paths: 100_000 };
+    let targets = PhotonTargets {
+        global: 1_000,
+        caustic: 1_000,
+        volume: 0,
+        volume_caustic: 0,
+        max_paths: 100_000,
+    };
     let (maps, stats) = trace_photons(&scene, &targets, 0, &|_, _| {}).unwrap();
     assert!(maps.global.is_some());
     assert!(maps.caustic.is_none());

@@ -116,7 +116,12 @@ extern "C" {
     fn rtcReleaseGeometry(geometry: RTCGeometry);
     fn rtcCommitScene(scene: RTCScene);
     fn rtcIntersect1(scene: RTCScene, context: *mut RTCIntersectContext, rayhit: *mut RTCRayHit);
-    fn rtcIntersect8(valid: *const i32, scene: RTCScene, context: *mut RTCIntersectContext, rayhit: *mut RTCRayHit8);
+    fn rtcIntersect8(
+        valid: *const i32,
+        scene: RTCScene,
+        context: *mut RTCIntersectContext,
+        rayhit: *mut RTCRayHit8,
+    );
     fn rtcOccluded1(scene: RTCScene, context: *mut RTCIntersectContext, ray: *mut RTCRay);
 }
 
@@ -166,10 +171,20 @@ impl Bvh {
             if !triangles.is_empty() {
                 let geom = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
                 let vb = rtcSetNewGeometryBuffer(
-                    geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 12, positions.len(),
+                    geom,
+                    RTC_BUFFER_TYPE_VERTEX,
+                    0,
+                    RTC_FORMAT_FLOAT3,
+                    12,
+                    positions.len(),
                 ) as *mut f32;
                 let ib = rtcSetNewGeometryBuffer(
-                    geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 12, triangles.len(),
+                    geom,
+                    RTC_BUFFER_TYPE_INDEX,
+                    0,
+                    RTC_FORMAT_UINT3,
+                    12,
+                    triangles.len(),
                 ) as *mut u32;
                 if vb.is_null() || ib.is_null() {
                     rtcReleaseGeometry(geom);
@@ -197,7 +212,11 @@ impl Bvh {
     }
 
     fn context() -> RTCIntersectContext {
-        RTCIntersectContext { flags: 0, filter: std::ptr::null(), inst_id: [RTC_INVALID_GEOMETRY_ID] }
+        RTCIntersectContext {
+            flags: 0,
+            filter: std::ptr::null(),
+            inst_id: [RTC_INVALID_GEOMETRY_ID],
+        }
     }
 
     fn ray(origin: Vec3, dir: Vec3, tmax: f32) -> RTCRay {
@@ -220,13 +239,26 @@ impl Bvh {
 
     /// Closest hit in (tnear, tmax), `t` measured from `origin`: the same ray continued past a surface it
     /// crossed (an invisible medium boundary) without moving its origin off its line.
-    pub fn intersect_range(&self, origin: Vec3, dir: Vec3, tnear: f32, tmax: f32) -> Option<RawHit> {
+    pub fn intersect_range(
+        &self,
+        origin: Vec3,
+        dir: Vec3,
+        tnear: f32,
+        tmax: f32,
+    ) -> Option<RawHit> {
         let mut ctx = Self::context();
         let mut ray = Self::ray(origin, dir, tmax);
         ray.tnear = tnear;
         let mut rh = RTCRayHit {
             ray,
-            hit: RTCHit { ng: [0.0; 3], u: 0.0, v: 0.0, prim_id: 0, geom_id: RTC_INVALID_GEOMETRY_ID, inst_id: [RTC_INVALID_GEOMETRY_ID] },
+            hit: RTCHit {
+                ng: [0.0; 3],
+                u: 0.0,
+                v: 0.0,
+                prim_id: 0,
+                geom_id: RTC_INVALID_GEOMETRY_ID,
+                inst_id: [RTC_INVALID_GEOMETRY_ID],
+            },
         };
         // SAFETY: scene is committed; ctx and rh are valid, aligned and live for the call.
         unsafe { rtcIntersect1(self.scene, &mut ctx, &mut rh) };
@@ -276,7 +308,12 @@ impl Bvh {
         // and RTCRayHit8, and live for the call; lanes past `rays.len()` are marked invalid.
         unsafe { rtcIntersect8(valid.0.as_ptr(), self.scene, &mut ctx, &mut rh) };
         for i in 0..rays.len() {
-            out[i] = (rh.geom_id[i] != RTC_INVALID_GEOMETRY_ID).then_some(RawHit { t: rh.tfar[i], prim: rh.prim_id[i], u: rh.u[i], v: rh.v[i] });
+            out[i] = (rh.geom_id[i] != RTC_INVALID_GEOMETRY_ID).then_some(RawHit {
+                t: rh.tfar[i],
+                prim: rh.prim_id[i],
+                u: rh.u[i],
+                v: rh.v[i],
+            });
         }
     }
 

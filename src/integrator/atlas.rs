@@ -94,38 +94,91 @@ struct Grid {
 impl Grid {
     fn of(a: Vec3, b: Vec3, c: Vec3, spacing: f32) -> Grid {
         let edges = [(a, b, c), (b, c, a), (c, a, b)];
-        let (p, q, r) = edges.into_iter().fold(edges[0], |best, e| if (e.1 - e.0).length_squared() > (best.1 - best.0).length_squared() { e } else { best });
+        let (p, q, r) = edges.into_iter().fold(edges[0], |best, e| {
+            if (e.1 - e.0).length_squared() > (best.1 - best.0).length_squared() {
+                e
+            } else {
+                best
+            }
+        });
         let long = (q - p).length();
         let u_dir = (q - p) / long;
         let u_r = (r - p).dot(u_dir);
         let across = (r - p) - u_r * u_dir;
         let height = across.length();
-        let v_dir = if height > 0.0 { across / height } else { Vec3::ZERO };
-        let cell = spacing.max(long / MAX_TEXELS_PER_AXIS as f32).max(height / MAX_TEXELS_PER_AXIS as f32);
-        if !(long.is_finite() && long > 0.0 && cell.is_finite() && cell > 0.0 && u_dir.is_finite()) {
-            return Grid { origin: a, u_dir: Vec3::ZERO, v_dir: Vec3::ZERO, cell: 1.0, long: 0.0, u_r: 0.0, height: 0.0, nu: 1, nv: 1 };
+        let v_dir = if height > 0.0 {
+            across / height
+        } else {
+            Vec3::ZERO
+        };
+        let cell = spacing
+            .max(long / MAX_TEXELS_PER_AXIS as f32)
+            .max(height / MAX_TEXELS_PER_AXIS as f32);
+        if !(long.is_finite() && long > 0.0 && cell.is_finite() && cell > 0.0 && u_dir.is_finite())
+        {
+            return Grid {
+                origin: a,
+                u_dir: Vec3::ZERO,
+                v_dir: Vec3::ZERO,
+                cell: 1.0,
+                long: 0.0,
+                u_r: 0.0,
+                height: 0.0,
+                nu: 1,
+                nv: 1,
+            };
         }
         let count = |len: f32| (len / cell).ceil().clamp(1.0, MAX_TEXELS_PER_AXIS as f32) as u8;
-        Grid { origin: p, u_dir, v_dir, cell, long, u_r: u_r.clamp(0.0, long), height, nu: count(long), nv: count(height) }
+        Grid {
+            origin: p,
+            u_dir,
+            v_dir,
+            cell,
+            long,
+            u_r: u_r.clamp(0.0, long),
+            height,
+            nu: count(long),
+            nv: count(height),
+        }
     }
 
     fn cell(&self, p: Vec3) -> (u32, u32) {
         let d = p - self.origin;
-        let at = |x: f32, n: u8| if x.is_finite() { (x.max(0.0) as u32).min(n as u32 - 1) } else { 0 };
-        (at(d.dot(self.u_dir) / self.cell, self.nu), at(d.dot(self.v_dir) / self.cell, self.nv))
+        let at = |x: f32, n: u8| {
+            if x.is_finite() {
+                (x.max(0.0) as u32).min(n as u32 - 1)
+            } else {
+                0
+            }
+        };
+        (
+            at(d.dot(self.u_dir) / self.cell, self.nu),
+            at(d.dot(self.v_dir) / self.cell, self.nv),
+        )
     }
 
     /// Height of the triangle above PQ at `u`.
     fn v_max(&self, u: f32) -> f32 {
-        let h = if u <= self.u_r { self.height * u / self.u_r } else { self.height * (self.long - u) / (self.long - self.u_r) };
-        if h.is_finite() { h.clamp(0.0, self.height) } else { 0.0 }
+        let h = if u <= self.u_r {
+            self.height * u / self.u_r
+        } else {
+            self.height * (self.long - u) / (self.long - self.u_r)
+        };
+        if h.is_finite() {
+            h.clamp(0.0, self.height)
+        } else {
+            0.0
+        }
     }
 
     /// The middle of the part of cell (i, j) inside the triangle (of its row's part, when the cell misses
     /// the triangle): a texel's estimate is made there. At a slat's edge instead (a cell's middle clamped
     /// into a sliver), the slats of the blinds room came out 7 % dark.
     fn middle(&self, i: u32, j: u32) -> Vec3 {
-        let (lo, hi) = (i as f32 * self.cell, ((i + 1) as f32 * self.cell).min(self.long));
+        let (lo, hi) = (
+            i as f32 * self.cell,
+            ((i + 1) as f32 * self.cell).min(self.long),
+        );
         let u = 0.5 * (lo + hi);
         let top = self.v_max(u);
         let (lo, hi) = (j as f32 * self.cell, ((j + 1) as f32 * self.cell).min(top));
@@ -146,12 +199,20 @@ fn texel_albedo(scene: &Scene, tri: u32, grid: &Grid, i: u32, j: u32, seed: u64)
     let t = &scene.geometry.triangles[tri as usize];
     let material = &scene.materials[t.material as usize].bsdf;
     let texture = match *material {
-        Bsdf::Diffuse { texture: Some(k), .. } => &scene.textures[k],
-        Bsdf::Diffuse { albedo, .. } | Bsdf::Glossy { albedo, .. } => return material.diffuse_albedo(albedo),
+        Bsdf::Diffuse {
+            texture: Some(k), ..
+        } => &scene.textures[k],
+        Bsdf::Diffuse { albedo, .. } | Bsdf::Glossy { albedo, .. } => {
+            return material.diffuse_albedo(albedo)
+        }
         _ => return Vec3::ZERO,
     };
     let [a, b, c] = t.v.map(|k| scene.geometry.positions[k as usize]);
-    let [ua, ub, uc] = if t.has_uv { t.v.map(|k| scene.geometry.uvs[k as usize]) } else { [Vec2::ZERO; 3] };
+    let [ua, ub, uc] = if t.has_uv {
+        t.v.map(|k| scene.geometry.uvs[k as usize])
+    } else {
+        [Vec2::ZERO; 3]
+    };
     let (e1, e2) = (b - a, c - a);
     let (d11, d12, d22) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
     let det = d11 * d22 - d12 * d12;
@@ -159,12 +220,24 @@ fn texel_albedo(scene: &Scene, tri: u32, grid: &Grid, i: u32, j: u32, seed: u64)
         let d = p - a;
         let (q1, q2) = (d.dot(e1), d.dot(e2));
         let (b1, b2) = ((d22 * q1 - d12 * q2) / det, (d11 * q2 - d12 * q1) / det);
-        let (b1, b2) = if b1.is_finite() && b2.is_finite() { (b1, b2) } else { (0.0, 0.0) };
+        let (b1, b2) = if b1.is_finite() && b2.is_finite() {
+            (b1, b2)
+        } else {
+            (0.0, 0.0)
+        };
         // As at a hit: a mesh without texture coordinates reads its texture at the barycentrics.
-        if t.has_uv { ua * (1.0 - b1 - b2) + ub * b1 + uc * b2 } else { Vec2::new(b1, b2) }
+        if t.has_uv {
+            ua * (1.0 - b1 - b2) + ub * b1 + uc * b2
+        } else {
+            Vec2::new(b1, b2)
+        }
     };
     let points = texel_points(grid, i, j, TEXEL_ALBEDO_SIDE, hash_keys(&[seed, 0xa1bed0]));
-    let mean = points.iter().map(|&q| texture.lookup(uv_at(q))).sum::<Vec3>() / points.len() as f32;
+    let mean = points
+        .iter()
+        .map(|&q| texture.lookup(uv_at(q)))
+        .sum::<Vec3>()
+        / points.len() as f32;
     material.diffuse_albedo(mean)
 }
 
@@ -175,10 +248,28 @@ const TEXEL_AREA_SAMPLES: u32 = 16;
 /// rays: every point, spot and directional light once (`delta`), and area lights by
 /// [`TEXEL_AREA_SAMPLES`] samples from a generator seeded with `seed` (`area`; the texel's value stays a
 /// function of the texel).
-pub(crate) fn direct_irradiance(scene: &Scene, tri: u32, p: Vec3, n: Vec3, seed: u64, delta: bool, area: bool) -> Vec3 {
-    let hit = Hit { p, t: 0.0, ng: n, ns: n, uv: Vec2::ZERO, tri, material: scene.geometry.triangles[tri as usize].material };
+pub(crate) fn direct_irradiance(
+    scene: &Scene,
+    tri: u32,
+    p: Vec3,
+    n: Vec3,
+    seed: u64,
+    delta: bool,
+    area: bool,
+) -> Vec3 {
+    let hit = Hit {
+        p,
+        t: 0.0,
+        ng: n,
+        ns: n,
+        uv: Vec2::ZERO,
+        tri,
+        material: scene.geometry.triangles[tri as usize].material,
+    };
     // With media: the medium on the texel's side, and shadow rays through it.
-    let medium = scene.media.as_ref().map_or(crate::medium::VACUUM, |m| m.medium_at(crate::geometry::spawn(&hit, n)));
+    let medium = scene.media.as_ref().map_or(crate::medium::VACUUM, |m| {
+        m.medium_at(crate::geometry::spawn(&hit, n))
+    });
     let arrive = |ls: &LightSample| -> Vec3 {
         let cos = ls.wi.dot(n);
         if !(ls.pdf > 0.0 && cos > 0.0) {
@@ -193,14 +284,21 @@ pub(crate) fn direct_irradiance(scene: &Scene, tri: u32, p: Vec3, n: Vec3, seed:
     let lights = &scene.lights;
     let mut e = Vec3::ZERO;
     if delta {
-        e += lights.delta_samples(&scene.geometry, p).map(|ls| arrive(&ls)).sum::<Vec3>();
+        e += lights
+            .delta_samples(&scene.geometry, p)
+            .map(|ls| arrive(&ls))
+            .sum::<Vec3>();
     }
     if area && lights.has_area() {
         let mut rng = Rng::new(hash_keys(&[seed, 0x7e7e1]));
         let side = (TEXEL_AREA_SAMPLES as f32).sqrt() as u32;
         for s in 0..TEXEL_AREA_SAMPLES {
             let (a, b) = ((s % side) as f32, (s / side) as f32);
-            let u = [rng.uniform(), (a + rng.uniform()) / side as f32, (b + rng.uniform()) / side as f32];
+            let u = [
+                rng.uniform(),
+                (a + rng.uniform()) / side as f32,
+                (b + rng.uniform()) / side as f32,
+            ];
             if let Some(ls) = lights.sample_area(&scene.geometry, p, u) {
                 e += arrive(&ls) / TEXEL_AREA_SAMPLES as f32;
             }
@@ -240,14 +338,32 @@ fn texel_points(grid: &Grid, i: u32, j: u32, side: u32, seed: u64) -> Vec<Vec3> 
 
 /// The direct light of the point, spot and directional lights over texel (i, j): the mean over its probe
 /// points, and whether they disagree (an edge texel).
-fn delta_over_texel(scene: &Scene, tri: u32, grid: &Grid, i: u32, j: u32, n: Vec3, seed: u64) -> (Vec3, bool) {
-    if scene.lights.delta_samples(&scene.geometry, grid.middle(i, j)).next().is_none() {
+fn delta_over_texel(
+    scene: &Scene,
+    tri: u32,
+    grid: &Grid,
+    i: u32,
+    j: u32,
+    n: Vec3,
+    seed: u64,
+) -> (Vec3, bool) {
+    if scene
+        .lights
+        .delta_samples(&scene.geometry, grid.middle(i, j))
+        .next()
+        .is_none()
+    {
         return (Vec3::ZERO, false);
     }
-    let values: Vec<Vec3> = texel_points(grid, i, j, EDGE_PROBE_SIDE, hash_keys(&[seed, 0xed6e])).into_iter().map(|q| direct_irradiance(scene, tri, q, n, seed, true, false)).collect();
+    let values: Vec<Vec3> = texel_points(grid, i, j, EDGE_PROBE_SIDE, hash_keys(&[seed, 0xed6e]))
+        .into_iter()
+        .map(|q| direct_irradiance(scene, tri, q, n, seed, true, false))
+        .collect();
     let mean = values.iter().copied().sum::<Vec3>() / values.len() as f32;
     let lum: Vec<f32> = values.iter().map(|&v| luminance(v)).collect();
-    let (lo, hi) = lum.iter().fold((f32::INFINITY, 0.0f32), |(lo, hi), &l| (lo.min(l), hi.max(l)));
+    let (lo, hi) = lum.iter().fold((f32::INFINITY, 0.0f32), |(lo, hi), &l| {
+        (lo.min(l), hi.max(l))
+    });
     (mean, hi - lo > EDGE_CONTRAST * luminance(mean))
 }
 
@@ -277,10 +393,20 @@ pub struct AtlasStats {
 impl IrradianceAtlas {
     /// An empty atlas over `geometry` whose texels hold `every` global photons of `n_photons` spread over
     /// the scene's surface.
-    pub fn new(geometry: &Geometry, n_photons: usize, every: usize, k: usize, max_radius: f32) -> Self {
+    pub fn new(
+        geometry: &Geometry,
+        n_photons: usize,
+        every: usize,
+        k: usize,
+        max_radius: f32,
+    ) -> Self {
         let area: f64 = geometry.triangles.iter().map(|t| t.area as f64).sum();
         let per_texel = (area * every.max(1) as f64 / n_photons.max(1) as f64).sqrt() as f32;
-        let mut spacing = if per_texel.is_finite() && per_texel > 0.0 { per_texel } else { f32::INFINITY };
+        let mut spacing = if per_texel.is_finite() && per_texel > 0.0 {
+            per_texel
+        } else {
+            f32::INFINITY
+        };
         loop {
             let grids: Vec<Grid> = geometry
                 .triangles
@@ -319,7 +445,14 @@ impl IrradianceAtlas {
 
     /// Irradiance of the global map on the `front` (winding) or back side of triangle `tri`, at the texel
     /// holding `p`.
-    pub fn lookup(&self, cov: &SceneCoverage, global: &PhotonMap, tri: u32, front: bool, p: Vec3) -> TexelIrradiance {
+    pub fn lookup(
+        &self,
+        cov: &SceneCoverage,
+        global: &PhotonMap,
+        tri: u32,
+        front: bool,
+        p: Vec3,
+    ) -> TexelIrradiance {
         self.read(cov, global, self.texel(tri, front, p))
     }
 
@@ -327,29 +460,55 @@ impl IrradianceAtlas {
     pub fn texel(&self, tri: u32, front: bool, p: Vec3) -> Texel {
         let (grid, first) = &self.grids[tri as usize];
         let (i, j) = grid.cell(p);
-        let side = if front { 0 } else { grid.nu as u32 * grid.nv as u32 };
-        Texel { index: first + side + j * grid.nu as u32 + i, tri, front, i, j }
+        let side = if front {
+            0
+        } else {
+            grid.nu as u32 * grid.nv as u32
+        };
+        Texel {
+            index: first + side + j * grid.nu as u32 + i,
+            tri,
+            front,
+            i,
+            j,
+        }
     }
 
     /// A texel's value: its slot's, estimated first if no ray has reached it yet.
     pub fn read(&self, cov: &SceneCoverage, global: &PhotonMap, texel: Texel) -> TexelIrradiance {
-        let Texel { index, tri, front, i, j } = texel;
+        let Texel {
+            index,
+            tri,
+            front,
+            i,
+            j,
+        } = texel;
         *self.slots[index as usize].get_or_init(|| {
             let grid = &self.grids[tri as usize].0;
             let scene = cov.0;
             let t = &scene.geometry.triangles[tri as usize];
             let n = if front { t.ng } else { -t.ng };
             let middle = grid.middle(i, j);
-            let (est, e_indirect) = global.irradiance_not_direct(middle, n, self.k, self.max_radius, cov);
+            let (est, e_indirect) =
+                global.irradiance_not_direct(middle, n, self.k, self.max_radius, cov);
             self.estimated.fetch_add(1, Ordering::Relaxed);
             let area = direct_irradiance(scene, tri, middle, n, index as u64, false, true);
             let (delta, edge) = delta_over_texel(scene, tri, grid, i, j, n, index as u64);
-            let albedo_pi = texel_albedo(scene, tri, grid, i, j, index as u64) / std::f32::consts::PI;
+            let albedo_pi =
+                texel_albedo(scene, tri, grid, i, j, index as u64) / std::f32::consts::PI;
             if edge {
                 self.edges.fetch_add(1, Ordering::Relaxed);
-                TexelIrradiance { radiance: albedo_pi * (area + est.e), e_indirect, albedo_pi }
+                TexelIrradiance {
+                    radiance: albedo_pi * (area + est.e),
+                    e_indirect,
+                    albedo_pi,
+                }
             } else {
-                TexelIrradiance { radiance: albedo_pi * (delta + area + est.e), e_indirect, albedo_pi: Vec3::ZERO }
+                TexelIrradiance {
+                    radiance: albedo_pi * (delta + area + est.e),
+                    e_indirect,
+                    albedo_pi: Vec3::ZERO,
+                }
             }
         })
     }
@@ -362,7 +521,8 @@ impl IrradianceAtlas {
             edges: self.edges.load(Ordering::Relaxed),
             memory_bytes: (self.slots.len() * std::mem::size_of::<OnceLock<TexelIrradiance>>()
                 + self.caustic.len() * std::mem::size_of::<OnceLock<(Vec3, bool)>>()
-                + self.grids.len() * std::mem::size_of::<(Grid, u32)>()) as u64,
+                + self.grids.len() * std::mem::size_of::<(Grid, u32)>())
+                as u64,
         }
     }
 
@@ -379,7 +539,14 @@ impl IrradianceAtlas {
     /// caustic photons within it: a faint caustic of sparse photons) and at least a texel. `None` where
     /// the texel's estimate is sharper (a focused caustic): the caller estimates at `p` itself. The
     /// value is a function of the texel alone, whichever sample reads it first.
-    pub fn caustic(&self, tri: u32, ng: Vec3, front: bool, p: Vec3, estimate: impl FnOnce(Vec3, Vec3) -> Estimate) -> Option<Vec3> {
+    pub fn caustic(
+        &self,
+        tri: u32,
+        ng: Vec3,
+        front: bool,
+        p: Vec3,
+        estimate: impl FnOnce(Vec3, Vec3) -> Estimate,
+    ) -> Option<Vec3> {
         if self.caustic.is_empty() {
             return None;
         }
@@ -388,7 +555,11 @@ impl IrradianceAtlas {
         let (e, smooth) = *self.caustic[t.index as usize].get_or_init(|| {
             self.caustic_estimated.fetch_add(1, Ordering::Relaxed);
             let est = estimate(grid.middle(t.i, t.j), if front { ng } else { -ng });
-            (est.e, est.radius >= CAUSTIC_TEXEL_REACH * grid.cell || (est.hit_max_radius && est.radius >= grid.cell))
+            (
+                est.e,
+                est.radius >= CAUSTIC_TEXEL_REACH * grid.cell
+                    || (est.hit_max_radius && est.radius >= grid.cell),
+            )
         });
         smooth.then_some(e)
     }
@@ -402,7 +573,11 @@ mod tests {
     #[test]
     fn a_sliver_gets_a_row_of_texels_and_centres_stay_on_it() {
         // 10 m long, 2 cm wide, texels of 0.5 m: 20 × 1.
-        let (a, b, c) = (Vec3::ZERO, Vec3::new(10.0, 0.0, 0.0), Vec3::new(5.0, 0.02, 0.0));
+        let (a, b, c) = (
+            Vec3::ZERO,
+            Vec3::new(10.0, 0.0, 0.0),
+            Vec3::new(5.0, 0.02, 0.0),
+        );
         let g = Grid::of(a, b, c, 0.5);
         assert_eq!((g.nu, g.nv), (20, 1));
         assert_eq!(g.cell(Vec3::new(7.3, 0.01, 0.0)), (14, 0));
@@ -416,34 +591,75 @@ mod tests {
         let m = g.middle(19, 0);
         assert!((m - Vec3::new(9.75, 0.0005, 0.0)).length() < 1e-5, "{m}");
         // A right triangle 2 × 1 m: 4 × 2 texels (its longest edge is the hypotenuse).
-        let g = Grid::of(Vec3::ZERO, Vec3::new(2.0, 0.0, 0.0), Vec3::new(0.0, 1.0, 0.0), 0.5);
+        let g = Grid::of(
+            Vec3::ZERO,
+            Vec3::new(2.0, 0.0, 0.0),
+            Vec3::new(0.0, 1.0, 0.0),
+            0.5,
+        );
         assert_eq!((g.nu, g.nv), (5, 2));
     }
 
     #[test]
     fn a_wide_caustic_estimate_serves_its_texel_and_a_narrow_one_does_not() {
         // One triangle of 2 m² (its longest edge along x), 100 photons, 8 a texel: texels of 0.4 m.
-        let tri = Triangle { v: [0, 1, 2], material: 0, ng: Vec3::Z, area: 2.0, has_normals: false, has_uv: false };
-        let geometry = Geometry { positions: vec![Vec3::ZERO, Vec3::new(4.0, 0.0, 0.0), Vec3::new(2.0, 1.0, 0.0)], triangles: vec![tri], ..Default::default() };
+        let tri = Triangle {
+            v: [0, 1, 2],
+            material: 0,
+            ng: Vec3::Z,
+            area: 2.0,
+            has_normals: false,
+            has_uv: false,
+        };
+        let geometry = Geometry {
+            positions: vec![
+                Vec3::ZERO,
+                Vec3::new(4.0, 0.0, 0.0),
+                Vec3::new(2.0, 1.0, 0.0),
+            ],
+            triangles: vec![tri],
+            ..Default::default()
+        };
         let atlas = IrradianceAtlas::new(&geometry, 100, 8, 50, 1.0);
         let cell = atlas.grids[0].0.cell;
         assert!((cell - 0.4).abs() < 1e-4, "{cell}");
-        assert_eq!(atlas.caustic(0, Vec3::Z, true, Vec3::new(0.1, 0.1, 0.0), |_, _| unreachable!()), None, "no caustic map");
+        assert_eq!(
+            atlas.caustic(
+                0,
+                Vec3::Z,
+                true,
+                Vec3::new(0.1, 0.1, 0.0),
+                |_, _| unreachable!()
+            ),
+            None,
+            "no caustic map"
+        );
         let atlas = atlas.with_caustic();
         let calls = &std::cell::Cell::new(0);
         let estimate = |radius: f32, hit_max_radius: bool| {
             move |middle: Vec3, n: Vec3| {
                 calls.set(calls.get() + 1);
                 assert_eq!(n.z.abs(), 1.0);
-                Estimate { e: middle, radius, hit_max_radius, ..Default::default() }
+                Estimate {
+                    e: middle,
+                    radius,
+                    hit_max_radius,
+                    ..Default::default()
+                }
             }
         };
         // Two points of one texel: one estimate, at the texel's middle (0.2 along, halfway up the
         // triangle's 0.1 m there), for both.
         let (p, q) = (Vec3::new(0.05, 0.01, 0.0), Vec3::new(0.35, 0.1, 0.0));
         let first = atlas.caustic(0, Vec3::Z, true, p, estimate(2.0 * cell, false));
-        assert!(first.is_some_and(|e| (e - Vec3::new(0.2, 0.05, 0.0)).length() < 1e-5), "{first:?}");
-        assert_eq!(atlas.caustic(0, Vec3::Z, true, q, estimate(0.0, false)), first);
+        assert!(
+            first.is_some_and(|e| (e - Vec3::new(0.2, 0.05, 0.0)).length() < 1e-5),
+            "{first:?}"
+        );
+        assert_eq!(
+            atlas.caustic(0, Vec3::Z, true, q, estimate(0.0, false)),
+            first
+        );
         assert_eq!(calls.get(), 1);
         // The back side is another texel (estimated with the back's normal). A disc of a texel and a
         // half: per sample, unless it reached the lookup's maximum radius (a faint caustic).
@@ -452,8 +668,25 @@ mod tests {
             estimate(1.5 * cell, false)(m, n)
         };
         assert_eq!(atlas.caustic(0, Vec3::Z, false, p, back), None);
-        assert!(atlas.caustic(0, Vec3::Z, true, Vec3::new(1.0, 0.1, 0.0), estimate(1.5 * cell, true)).is_some());
-        assert_eq!(atlas.caustic(0, Vec3::Z, true, Vec3::new(2.0, 0.1, 0.0), estimate(0.5 * cell, true)), None);
+        assert!(atlas
+            .caustic(
+                0,
+                Vec3::Z,
+                true,
+                Vec3::new(1.0, 0.1, 0.0),
+                estimate(1.5 * cell, true)
+            )
+            .is_some());
+        assert_eq!(
+            atlas.caustic(
+                0,
+                Vec3::Z,
+                true,
+                Vec3::new(2.0, 0.1, 0.0),
+                estimate(0.5 * cell, true)
+            ),
+            None
+        );
         assert_eq!(calls.get(), 4);
         assert_eq!(atlas.stats().caustic_estimates, 4);
     }

@@ -27,7 +27,10 @@ pub fn shading_hits(ctx: &PmContext, camera: &Camera, x: u32, y: u32) -> Vec<(Sh
     follow(ctx, camera, d, camera.eye, d, 0.0, 0, &mut out);
     let mut i = n_centre;
     while i < out.len() {
-        if out[..n_centre].iter().any(|(c, _)| same_surface(c, &out[i].0)) {
+        if out[..n_centre]
+            .iter()
+            .any(|(c, _)| same_surface(c, &out[i].0))
+        {
             out.remove(i);
         } else {
             i += 1;
@@ -40,7 +43,13 @@ pub fn shading_hits(ctx: &PmContext, camera: &Camera, x: u32, y: u32) -> Vec<(Sh
 /// that found no record). Not merged: the fill looks each up before its gather, and a point merged into
 /// a neighbour half a pixel away was left uncovered as often as not (blinds room at 128²: 247 misses
 /// left of 203 k lookups merged, 96 not, for 3 % more records).
-pub fn sample_hits(ctx: &PmContext, camera: &Camera, x: u32, y: u32, offsets: &[[f32; 2]]) -> Vec<(ShadingPoint, Hit)> {
+pub fn sample_hits(
+    ctx: &PmContext,
+    camera: &Camera,
+    x: u32,
+    y: u32,
+    offsets: &[[f32; 2]],
+) -> Vec<(ShadingPoint, Hit)> {
     let mut out = Vec::new();
     for off in offsets {
         let d = camera.ray(x as f32 + off[0], y as f32 + off[1]);
@@ -51,12 +60,25 @@ pub fn sample_hits(ctx: &PmContext, camera: &Camera, x: u32, y: u32, offsets: &[
 
 /// Half a pixel apart on one smooth surface: the centre's record will cover the corner.
 fn same_surface(a: &ShadingPoint, b: &ShadingPoint) -> bool {
-    a.normal.dot(b.normal) > 0.95 && (a.pos - b.pos).dot(a.normal).abs() < a.pixel_world && (a.pos - b.pos).length() < 2.0 * a.pixel_world
+    a.normal.dot(b.normal) > 0.95
+        && (a.pos - b.pos).dot(a.normal).abs() < a.pixel_world
+        && (a.pos - b.pos).length() < 2.0 * a.pixel_world
 }
 
 #[allow(clippy::too_many_arguments)]
-fn follow(ctx: &PmContext, camera: &Camera, d0: Vec3, o: Vec3, d: Vec3, dist: f32, depth: u32, out: &mut Vec<(ShadingPoint, Hit)>) {
-    let Some(hit) = ctx.scene.intersect_visible(o, d) else { return };
+fn follow(
+    ctx: &PmContext,
+    camera: &Camera,
+    d0: Vec3,
+    o: Vec3,
+    d: Vec3,
+    dist: f32,
+    depth: u32,
+    out: &mut Vec<(ShadingPoint, Hit)>,
+) {
+    let Some(hit) = ctx.scene.intersect_visible(o, d) else {
+        return;
+    };
     let frame = Frame::new(&hit, -d);
     let bsdf = &ctx.scene.material(&hit).bsdf;
     let dist = dist + hit.t;
@@ -67,8 +89,24 @@ fn follow(ctx: &PmContext, camera: &Camera, d0: Vec3, o: Vec3, d: Vec3, dist: f3
             }
             // Both branches of glass (u below / above any Fresnel value).
             for u in [0.0f32, 0.999_999] {
-                if let Some(s) = bsdf.sample(Vec3::ZERO, frame.n, -d, frame.front, [0.5, 0.5, u], crate::material::Transport::Radiance) {
-                    follow(ctx, camera, d0, spawn(&hit, s.wi), s.wi, dist, depth + 1, out);
+                if let Some(s) = bsdf.sample(
+                    Vec3::ZERO,
+                    frame.n,
+                    -d,
+                    frame.front,
+                    [0.5, 0.5, u],
+                    crate::material::Transport::Radiance,
+                ) {
+                    follow(
+                        ctx,
+                        camera,
+                        d0,
+                        spawn(&hit, s.wi),
+                        s.wi,
+                        dist,
+                        depth + 1,
+                        out,
+                    );
                 }
                 if matches!(bsdf, Bsdf::Mirror { .. }) {
                     break;
@@ -81,19 +119,41 @@ fn follow(ctx: &PmContext, camera: &Camera, d0: Vec3, o: Vec3, d: Vec3, dist: f3
             }
             let cos = frame.n.dot(-d);
             let pixel_world = camera.pixel_world(d0, dist, cos);
-            out.push((ShadingPoint { pos: hit.p, normal: frame.n, pixel_world }, hit));
+            out.push((
+                ShadingPoint {
+                    pos: hit.p,
+                    normal: frame.n,
+                    pixel_world,
+                },
+                hit,
+            ));
         }
     }
 }
 
 /// The final gather at shading point `i` of pixel (x, y), from the hit [`shading_hits`] traced there, as
 /// a record for the cache, with the gather's rays counted.
-pub fn gather_record(ctx: &PmContext, x: u32, y: u32, i: usize, sp: &ShadingPoint, hit: &Hit) -> (NewRecord, SampleCounters) {
+pub fn gather_record(
+    ctx: &PmContext,
+    x: u32,
+    y: u32,
+    i: usize,
+    sp: &ShadingPoint,
+    hit: &Hit,
+) -> (NewRecord, SampleCounters) {
     gather_record_round(ctx, x, y, i, 0, sp, hit)
 }
 
 /// [`gather_record`]'s gather again, with the jitter of round `round` (0: the first gather's).
-pub fn gather_record_round(ctx: &PmContext, x: u32, y: u32, i: usize, round: u32, sp: &ShadingPoint, hit: &Hit) -> (NewRecord, SampleCounters) {
+pub fn gather_record_round(
+    ctx: &PmContext,
+    x: u32,
+    y: u32,
+    i: usize,
+    round: u32,
+    sp: &ShadingPoint,
+    hit: &Hit,
+) -> (NewRecord, SampleCounters) {
     let mut counters = SampleCounters::default();
     let frame = Frame::new(hit, sp.normal);
     // The render's seed too: another seed must give another set of gathers (and so an independent

@@ -43,7 +43,11 @@ impl SceneCoverage<'_> {
         let skip = 1e-3 * max;
         [n, -n]
             .into_iter()
-            .filter_map(|d| self.0.intersect_solid(p + skip * d, d, 2.0 * max).map(|raw| raw.t + skip))
+            .filter_map(|d| {
+                self.0
+                    .intersect_solid(p + skip * d, d, 2.0 * max)
+                    .map(|raw| raw.t + skip)
+            })
             .fold(2.0 * max, f32::min)
     }
 
@@ -55,7 +59,9 @@ impl SceneCoverage<'_> {
         let (mut t0, mut area) = (0.0f32, 0.0f32);
         for layer in 0..MAX_LAYERS {
             let from = o + t0 * d;
-            let Some(raw) = self.0.intersect_solid(from, d, length - t0) else { break };
+            let Some(raw) = self.0.intersect_solid(from, d, length - t0) else {
+                break;
+            };
             area += self.facet_area(from, d, raw, n, layer);
             // Step past this facet (a thousandth of the slab: far below any layer spacing that matters).
             t0 += raw.t + 1e-3 * length;
@@ -80,12 +86,24 @@ impl SceneCoverage<'_> {
     /// the probes of a disc are parallel and close together, so a packet's rays share most of their way
     /// through the BVH. For scenes without media (whose invisible boundaries [`layers`](Self::layers)
     /// steps through one ray at a time). The same ray as there, its origin kept and `tnear` moved on.
-    fn layers_packed(&self, origins: &[Vec3; N_PROBES], d: Vec3, length: f32, n: Vec3, area: &mut [f32; N_PROBES]) {
+    fn layers_packed(
+        &self,
+        origins: &[Vec3; N_PROBES],
+        d: Vec3,
+        length: f32,
+        n: Vec3,
+        area: &mut [f32; N_PROBES],
+    ) {
         let mut t0 = [0.0f32; N_PROBES];
         // Probes still crossing the slab: the first `n_open` of `open`, compacted in place each layer.
         let mut open: [usize; N_PROBES] = std::array::from_fn(|i| i);
         let mut n_open = N_PROBES;
-        let mut rays = [PacketRay { origin: Vec3::ZERO, dir: d, tnear: 0.0, tfar: length }; 8];
+        let mut rays = [PacketRay {
+            origin: Vec3::ZERO,
+            dir: d,
+            tnear: 0.0,
+            tfar: length,
+        }; 8];
         let mut hits = [None; 8];
         for layer in 0..MAX_LAYERS {
             let mut kept = 0;
@@ -94,7 +112,12 @@ impl SceneCoverage<'_> {
                 let mut lanes = [0usize; 8];
                 lanes[..len].copy_from_slice(&open[start..start + len]);
                 for (ray, &i) in rays.iter_mut().zip(&lanes[..len]) {
-                    *ray = PacketRay { origin: origins[i], dir: d, tnear: t0[i], tfar: length };
+                    *ray = PacketRay {
+                        origin: origins[i],
+                        dir: d,
+                        tnear: t0[i],
+                        tfar: length,
+                    };
                 }
                 self.0.bvh.intersect8(&rays[..len], &mut hits);
                 for (hit, &i) in hits.iter().zip(&lanes[..len]) {
@@ -118,11 +141,18 @@ impl SceneCoverage<'_> {
 impl photon::Coverage for SceneCoverage<'_> {
     fn measure(&self, p: Vec3, n: Vec3, r: f32, half_thickness: f32) -> Disc {
         if !(r > 0.0 && half_thickness > 0.0) || !p.is_finite() || !n.is_finite() {
-            return Disc { half_thickness, fraction: 1.0 };
+            return Disc {
+                half_thickness,
+                fraction: 1.0,
+            };
         }
         let half_thickness = half_thickness.min(0.5 * self.gap(p, n, half_thickness));
         let (t, b) = n.any_orthonormal_pair();
-        let key = hash_keys(&[p.x.to_bits() as u64, p.y.to_bits() as u64, p.z.to_bits() as u64]);
+        let key = hash_keys(&[
+            p.x.to_bits() as u64,
+            p.y.to_bits() as u64,
+            p.z.to_bits() as u64,
+        ]);
         let turn = (key >> 40) as f32 / (1u64 << 24) as f32 * std::f32::consts::TAU;
         let origins: [Vec3; N_PROBES] = std::array::from_fn(|i| {
             let rho = r * ((i as f32 + 0.5) / PROBES as f32).sqrt();
@@ -139,6 +169,9 @@ impl photon::Coverage for SceneCoverage<'_> {
         }
         let surface: f32 = area.iter().sum();
         // The query point is on a surface: never less than one probe's worth.
-        Disc { half_thickness, fraction: surface.max(1.0) / PROBES as f32 }
+        Disc {
+            half_thickness,
+            fraction: surface.max(1.0) / PROBES as f32,
+        }
     }
 }

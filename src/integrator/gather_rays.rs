@@ -45,23 +45,47 @@ const NOISE_PIXELS: u32 = 4096;
 /// The mean over a lattice of pixels of Var / (L² + 0.01): the variance of a pixel's radiance L (as
 /// luminance) that the records' gather noise gives the interpolation, next to the direct light there.
 /// Pixels that see no surface, or no record, add 0.
-pub fn predicted_noise(ctx: &PmContext, camera: &Camera, cache: &IrradianceCache, width: u32, height: u32) -> f64 {
-    let step = ((width as f64 * height as f64 / NOISE_PIXELS as f64).sqrt().ceil() as u32).max(1);
-    let pixels: Vec<(u32, u32)> = (0..height).step_by(step as usize).flat_map(|y| (0..width).step_by(step as usize).map(move |x| (x, y))).collect();
+pub fn predicted_noise(
+    ctx: &PmContext,
+    camera: &Camera,
+    cache: &IrradianceCache,
+    width: u32,
+    height: u32,
+) -> f64 {
+    let step = ((width as f64 * height as f64 / NOISE_PIXELS as f64)
+        .sqrt()
+        .ceil() as u32)
+        .max(1);
+    let pixels: Vec<(u32, u32)> = (0..height)
+        .step_by(step as usize)
+        .flat_map(|y| (0..width).step_by(step as usize).map(move |x| (x, y)))
+        .collect();
     // Summed in pixel order: the same total whatever the thread count.
     let terms: Vec<f64> = pixels
         .par_iter()
         .map(|&(x, y)| {
-            let Some((sp, hit)) = shading_hits(ctx, camera, x, y).into_iter().next() else { return 0.0 };
-            let Some((lookup, sd)) = cache.lookup_with_noise(sp.pos, sp.normal, Pass::B) else { return 0.0 };
+            let Some((sp, hit)) = shading_hits(ctx, camera, x, y).into_iter().next() else {
+                return 0.0;
+            };
+            let Some((lookup, sd)) = cache.lookup_with_noise(sp.pos, sp.normal, Pass::B) else {
+                return 0.0;
+            };
             let albedo_pi = ctx.scene.albedo(&hit) / std::f32::consts::PI;
             let seed = hash_keys(&[ctx.seed, 0x6a75, x as u64, y as u64]);
             let direct = direct_irradiance(ctx.scene, hit.tri, hit.p, sp.normal, seed, true, true);
             let l = luminance(albedo_pi * (direct + lookup.e)) as f64;
             let e = luminance(lookup.e);
-            let sd_l = if e > 0.0 { (sd * luminance(albedo_pi * lookup.e) / e) as f64 } else { 0.0 };
+            let sd_l = if e > 0.0 {
+                (sd * luminance(albedo_pi * lookup.e) / e) as f64
+            } else {
+                0.0
+            };
             let term = sd_l * sd_l / (l * l + 0.01);
-            if term.is_finite() { term } else { 0.0 }
+            if term.is_finite() {
+                term
+            } else {
+                0.0
+            }
         })
         .collect();
     terms.iter().sum::<f64>() / pixels.len().max(1) as f64
@@ -71,7 +95,11 @@ pub fn predicted_noise(ctx: &PmContext, camera: &Camera, cache: &IrradianceCache
 /// [`MAX_ROUNDS`].
 pub fn rounds_for(noise: f64) -> u32 {
     let wanted = (noise / NOISE_TARGET).ceil();
-    if wanted.is_finite() { (wanted as u32).clamp(1, MAX_ROUNDS) } else { MAX_ROUNDS }
+    if wanted.is_finite() {
+        (wanted as u32).clamp(1, MAX_ROUNDS)
+    } else {
+        MAX_ROUNDS
+    }
 }
 
 /// Records gathered again per batch: progress and Ctrl-C are looked at between batches.
@@ -85,11 +113,25 @@ pub fn rays_for_rounds(rounds: u32) -> usize {
 /// Rounds 2..=`rounds` for every record of `cache` that knows its pixel (pass A's): a gather of
 /// [`BASE_RAYS`] there with that round's jitter, folded in with the share of the rays it brings.
 /// Returns early, leaving records half refined, once `cancel` is set (the render is then interrupted).
-pub fn refine_records(ctx: &PmContext, camera: &Camera, cache: &mut IrradianceCache, rounds: u32, progress: &dyn Progress, cancel: &AtomicBool) -> SampleCounters {
+pub fn refine_records(
+    ctx: &PmContext,
+    camera: &Camera,
+    cache: &mut IrradianceCache,
+    rounds: u32,
+    progress: &dyn Progress,
+    cancel: &AtomicBool,
+) -> SampleCounters {
     // Each record's shading point, traced again once for all its rounds.
-    let points: Vec<Option<Point>> = cache.records().par_iter().map(|rec| shading_point(ctx, camera, rec)).collect();
+    let points: Vec<Option<Point>> = cache
+        .records()
+        .par_iter()
+        .map(|rec| shading_point(ctx, camera, rec))
+        .collect();
     let mut total = SampleCounters::default();
-    progress.start("gathers again", points.len() as u64 * rounds.saturating_sub(1) as u64);
+    progress.start(
+        "gathers again",
+        points.len() as u64 * rounds.saturating_sub(1) as u64,
+    );
     let mut done = 0u64;
     for round in 2..=rounds {
         for (batch, chunk) in points.chunks(REFINE_BATCH).enumerate() {
@@ -98,9 +140,17 @@ pub fn refine_records(ctx: &PmContext, camera: &Camera, cache: &mut IrradianceCa
             }
             let more: Vec<Option<(NewRecord, SampleCounters)>> = chunk
                 .par_iter()
-                .map(|point| point.as_ref().map(|(at, sp, hit)| gather_record_round(ctx, at[0], at[1], at[2] as usize, round - 1, sp, hit)))
+                .map(|point| {
+                    point.as_ref().map(|(at, sp, hit)| {
+                        gather_record_round(ctx, at[0], at[1], at[2] as usize, round - 1, sp, hit)
+                    })
+                })
                 .collect();
-            for (k, (new, c)) in more.into_iter().enumerate().filter_map(|(k, m)| m.map(|m| (k, m))) {
+            for (k, (new, c)) in more
+                .into_iter()
+                .enumerate()
+                .filter_map(|(k, m)| m.map(|m| (k, m)))
+            {
                 cache.refine(batch * REFINE_BATCH + k, &new, 1.0 / round as f32);
                 total += c;
             }
@@ -121,7 +171,9 @@ fn shading_point(ctx: &PmContext, camera: &Camera, rec: &Record) -> Option<Point
         return None;
     }
     let [x, y, i] = rec.at;
-    let (sp, hit) = shading_hits(ctx, camera, x, y).into_iter().nth(i as usize)?;
+    let (sp, hit) = shading_hits(ctx, camera, x, y)
+        .into_iter()
+        .nth(i as usize)?;
     (sp.pos == rec.pos).then_some((rec.at, sp, hit))
 }
 

@@ -21,10 +21,23 @@ const UNCACHED_STRIDE: u32 = 4;
 /// (single, multiple) scattered radiance reaching the origin `o` of a ray travelling along `d` through
 /// medium `m` (id `medium`) over `[0, t_end)`, attenuated on the way back to `o`.
 #[allow(clippy::too_many_arguments)]
-pub fn in_scattered(ctx: &PmContext, o: Vec3, d: Vec3, t_end: f32, medium: MediumId, m: &Medium, rng: &mut Rng, c: &mut SampleCounters) -> (Vec3, Vec3) {
+pub fn in_scattered(
+    ctx: &PmContext,
+    o: Vec3,
+    d: Vec3,
+    t_end: f32,
+    medium: MediumId,
+    m: &Medium,
+    rng: &mut Rng,
+    c: &mut SampleCounters,
+) -> (Vec3, Vec3) {
     c.monte_carlo += 1;
     let step_len = ctx.scene.diagonal() / 32.0;
-    let n = if step_len > 0.0 { ((t_end / step_len).ceil() as u32).clamp(MIN_STEPS, MAX_STEPS) } else { MIN_STEPS };
+    let n = if step_len > 0.0 {
+        ((t_end / step_len).ceil() as u32).clamp(MIN_STEPS, MAX_STEPS)
+    } else {
+        MIN_STEPS
+    };
     let dt = t_end / n as f32;
     let scene = ctx.scene;
     let mut single = Vec3::ZERO;
@@ -73,10 +86,17 @@ pub fn in_scattered(ctx: &PmContext, o: Vec3, d: Vec3, t_end: f32, medium: Mediu
         // Without a media cache (`pm-fg`, `photons`) each step is a k-NN estimate of the volume map:
         // at every UNCACHED_STRIDE-th step only (jittered over the ray), four times fewer for little
         // more noise — the multiple scattering is smooth.
-        let (m_steps, m_dt) = if ctx.photons.media_cache.is_some() { (n, dt) } else { let k = n.div_ceil(UNCACHED_STRIDE); (k, t_end / k as f32) };
+        let (m_steps, m_dt) = if ctx.photons.media_cache.is_some() {
+            (n, dt)
+        } else {
+            let k = n.div_ceil(UNCACHED_STRIDE);
+            (k, t_end / k as f32)
+        };
         for i in 0..m_steps {
             let t = (i as f32 + rng.uniform()) * m_dt;
-            multiple += m.transmittance(t) * ctx.photons.cached_multiple(o + d * t, d, m.g, c) * (m_dt / dt);
+            multiple += m.transmittance(t)
+                * ctx.photons.cached_multiple(o + d * t, d, m.g, c)
+                * (m_dt / dt);
         }
         multiple *= dt;
     }
@@ -87,7 +107,17 @@ pub fn in_scattered(ctx: &PmContext, o: Vec3, d: Vec3, t_end: f32, medium: Mediu
 /// lights, delta lights on the ray's line, one area-light sample), weighted by the phase function
 /// toward a ray from `o` travelling along `d` for `t_end`.
 #[allow(clippy::too_many_arguments)]
-fn light_at(ctx: &PmContext, x: Vec3, d: Vec3, g: f32, medium: MediumId, o: Vec3, t_end: f32, rng: &mut Rng, c: &mut SampleCounters) -> Vec3 {
+fn light_at(
+    ctx: &PmContext,
+    x: Vec3,
+    d: Vec3,
+    g: f32,
+    medium: MediumId,
+    o: Vec3,
+    t_end: f32,
+    rng: &mut Rng,
+    c: &mut SampleCounters,
+) -> Vec3 {
     let scene = ctx.scene;
     let mut l = Vec3::ZERO;
     for (i, light) in scene.lights.lights.iter().enumerate() {
@@ -99,7 +129,10 @@ fn light_at(ctx: &PmContext, x: Vec3, d: Vec3, g: f32, medium: MediumId, o: Vec3
             }
             Light::Area { .. } => false,
         };
-        if let Some(ls) = stepped.then(|| scene.lights.delta_sample(i, &scene.geometry, x)).flatten() {
+        if let Some(ls) = stepped
+            .then(|| scene.lights.delta_sample(i, &scene.geometry, x))
+            .flatten()
+        {
             l += arriving(ctx, x, d, g, medium, &ls, c);
         }
     }
@@ -111,10 +144,20 @@ fn light_at(ctx: &PmContext, x: Vec3, d: Vec3, g: f32, medium: MediumId, o: Vec3
 }
 
 /// One light sample's radiance at `x` (transmittance to the light included) times the phase function.
-fn arriving(ctx: &PmContext, x: Vec3, d: Vec3, g: f32, medium: MediumId, ls: &LightSample, c: &mut SampleCounters) -> Vec3 {
+fn arriving(
+    ctx: &PmContext,
+    x: Vec3,
+    d: Vec3,
+    g: f32,
+    medium: MediumId,
+    ls: &LightSample,
+    c: &mut SampleCounters,
+) -> Vec3 {
     if !(ls.pdf > 0.0) {
         return Vec3::ZERO;
     }
-    let tr = ctx.scene.visibility_from(x, ls.wi, ls.dist, medium, &mut c.shadow_rays);
+    let tr = ctx
+        .scene
+        .visibility_from(x, ls.wi, ls.dist, medium, &mut c.shadow_rays);
     tr * phase(g, d, ls.wi) * ls.li / ls.pdf
 }

@@ -67,18 +67,40 @@ pub fn lattice_stride(width: u32, height: u32) -> u32 {
 /// index 0 along its path, then those of index 1/2 of the way (bit-reversed index order), and so on —
 /// so that a wave of estimates seldom holds two points one record would cover (in ray order a third
 /// of fog-cornell's estimates were covered by an earlier one of their wave).
-pub fn media_points(scene: &Scene, camera: &Camera, width: u32, height: u32, stride: u32) -> Vec<MediaPoint> {
+pub fn media_points(
+    scene: &Scene,
+    camera: &Camera,
+    width: u32,
+    height: u32,
+    stride: u32,
+) -> Vec<MediaPoint> {
     let mut keyed = Vec::new();
     let mut out = Vec::new();
     let step = scene.diagonal() / 32.0 / POINTS_PER_STEP as f32;
-    for (x, y) in icache::order::HierarchicalOrder::new(width, height).filter(|&(x, y)| x % stride == 0 && y % stride == 0) {
+    for (x, y) in icache::order::HierarchicalOrder::new(width, height)
+        .filter(|&(x, y)| x % stride == 0 && y % stride == 0)
+    {
         if keyed.len() >= MAX_POINTS {
             break;
         }
         let d = camera.ray(x as f32 + 0.5, y as f32 + 0.5);
         let pixel = |dist: f32| camera.pixel_world(d, dist, 1.0);
-        follow(scene, camera.eye, d, scene.camera_medium(), 0.0, 0, step, &pixel, &mut out);
-        keyed.extend(out.drain(..).enumerate().map(|(k, p)| ((k as u32).reverse_bits(), p)));
+        follow(
+            scene,
+            camera.eye,
+            d,
+            scene.camera_medium(),
+            0.0,
+            0,
+            step,
+            &pixel,
+            &mut out,
+        );
+        keyed.extend(
+            out.drain(..)
+                .enumerate()
+                .map(|(k, p)| ((k as u32).reverse_bits(), p)),
+        );
     }
     // Stable: equal keys keep the rays' hierarchical order.
     keyed.sort_by_key(|(key, _)| *key);
@@ -86,7 +108,17 @@ pub fn media_points(scene: &Scene, camera: &Camera, width: u32, height: u32, str
 }
 
 #[allow(clippy::too_many_arguments)]
-fn follow(scene: &Scene, o: Vec3, d: Vec3, medium: MediumId, dist: f32, depth: u32, step: f32, pixel: &dyn Fn(f32) -> f32, out: &mut Vec<MediaPoint>) {
+fn follow(
+    scene: &Scene,
+    o: Vec3,
+    d: Vec3,
+    medium: MediumId,
+    dist: f32,
+    depth: u32,
+    step: f32,
+    pixel: &dyn Fn(f32) -> f32,
+    out: &mut Vec<MediaPoint>,
+) {
     let mut rays = 0;
     let max_radius = |sigma_t: Vec3| (1.0 / sigma_t.max_element()).min(0.25 * scene.diagonal());
     let end = scene.intersect_through(o, d, medium, &mut rays, |start, len, m, _| {
@@ -97,7 +129,11 @@ fn follow(scene: &Scene, o: Vec3, d: Vec3, medium: MediumId, dist: f32, depth: u
         let along = dist + (start - o).length();
         for k in 0..n {
             let t = (k as f32 + 0.5) / n as f32 * len;
-            out.push(MediaPoint { pos: start + d * t, pixel_world: pixel(along + t), max_radius: max_radius(m.sigma_t) });
+            out.push(MediaPoint {
+                pos: start + d * t,
+                pixel_world: pixel(along + t),
+                max_radius: max_radius(m.sigma_t),
+            });
         }
     });
     let Some((hit, _, medium)) = end else { return };
@@ -110,13 +146,33 @@ fn follow(scene: &Scene, o: Vec3, d: Vec3, medium: MediumId, dist: f32, depth: u
         Bsdf::Glass { ior, transmittance } => {
             for (wi, w) in glass_lobes(ior, transmittance, frame.n, -d, frame.front) {
                 if w != Vec3::ZERO {
-                    follow(scene, spawn(&hit, wi), wi, scene.medium_after(&hit, wi, medium), dist, depth + 1, step, pixel, out);
+                    follow(
+                        scene,
+                        spawn(&hit, wi),
+                        wi,
+                        scene.medium_after(&hit, wi, medium),
+                        dist,
+                        depth + 1,
+                        step,
+                        pixel,
+                        out,
+                    );
                 }
             }
         }
         Bsdf::Mirror { .. } => {
             let wi = d - 2.0 * d.dot(frame.n) * frame.n;
-            follow(scene, spawn(&hit, wi), wi, scene.medium_after(&hit, wi, medium), dist, depth + 1, step, pixel, out);
+            follow(
+                scene,
+                spawn(&hit, wi),
+                wi,
+                scene.medium_after(&hit, wi, medium),
+                dist,
+                depth + 1,
+                step,
+                pixel,
+                out,
+            );
         }
         _ => {}
     }
@@ -124,20 +180,49 @@ fn follow(scene: &Scene, o: Vec3, d: Vec3, medium: MediumId, dist: f32, depth: u
 
 /// The record for `p`: the estimate over the photons camera rays read (with its gradient) and its
 /// radius (see the module header); `stride` is the pixel lattice's.
-pub fn media_record(scene: &Scene, photons: &PhotonData, p: &MediaPoint, stride: u32) -> VolumeRecord {
-    let Some(map) = &photons.maps.volume else { return VolumeRecord::default() };
+pub fn media_record(
+    scene: &Scene,
+    photons: &PhotonData,
+    p: &MediaPoint,
+    stride: u32,
+) -> VolumeRecord {
+    let Some(map) = &photons.maps.volume else {
+        return VolumeRecord::default();
+    };
     let around = Surroundings::measure(|dir| match scene.intersect_after(p.pos, dir, 0.0) {
         Some(h) => (h.t, !scene.material(&h).bsdf.is_null(), h.ng),
         None => (f32::INFINITY, false, Vec3::ZERO),
     });
     let (k, cap) = (photons.settings.lookup, photons.settings.max_radius_volume);
-    let (rec, r_kernel) = estimate_within(map, p.pos, k, cap, photons.camera_photons, true, scene.settings.icache.media_visibility().then_some(&around));
-    let mut radius = p.max_radius.min(HARMONIC_SCALE * around.harmonic_mean(p.max_radius));
+    let (rec, r_kernel) = estimate_within(
+        map,
+        p.pos,
+        k,
+        cap,
+        photons.camera_photons,
+        true,
+        scene.settings.icache.media_visibility().then_some(&around),
+    );
+    let mut radius = p
+        .max_radius
+        .min(HARMONIC_SCALE * around.harmonic_mean(p.max_radius));
     let lum = |v: Vec3| v.dot(Vec3::new(0.2126, 0.7152, 0.0722));
-    let grad = Vec3::new(lum(rec.grad[0][0]), lum(rec.grad[0][1]), lum(rec.grad[0][2])).length();
+    let grad = Vec3::new(
+        lum(rec.grad[0][0]),
+        lum(rec.grad[0][1]),
+        lum(rec.grad[0][2]),
+    )
+    .length();
     if grad > 0.0 {
         radius = radius.min(GRADIENT_CHANGE * lum(rec.s[0]) / grad);
     }
-    radius = radius.max(KERNEL_REACH * r_kernel).max(LATTICE_REACH * stride as f32 * p.pixel_world);
-    VolumeRecord { pos: p.pos, radius, value: rec.s, grad: rec.grad }
+    radius = radius
+        .max(KERNEL_REACH * r_kernel)
+        .max(LATTICE_REACH * stride as f32 * p.pixel_world);
+    VolumeRecord {
+        pos: p.pos,
+        radius,
+        value: rec.s,
+        grad: rec.grad,
+    }
 }

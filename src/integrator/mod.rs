@@ -82,7 +82,9 @@ const MEMO_SURFACES: usize = 4;
 
 /// The most a pixel's memo holds while its pixel takes samples: the vector, its entries (grown one at a
 /// time) and the allocator's overhead. Below pass A's per-pixel bytes, which are freed before shading.
-pub const MEMO_BYTES_PER_PIXEL: u64 = (std::mem::size_of::<PixelMemo>() + 16 + MEMO_SURFACES * std::mem::size_of::<MemoEntry>()) as u64;
+pub const MEMO_BYTES_PER_PIXEL: u64 =
+    (std::mem::size_of::<PixelMemo>() + 16 + MEMO_SURFACES * std::mem::size_of::<MemoEntry>())
+        as u64;
 
 impl PixelMemo {
     /// Surfaces remembered.
@@ -106,17 +108,38 @@ impl PixelMemo {
 
     /// (caustic if reusable, indirect) irradiance on side `front` of triangle `tri`, if computed; its
     /// cache lookups are counted again in `c`.
-    pub fn get(&self, tri: u32, front: bool, c: &mut SampleCounters) -> Option<(Option<Vec3>, Vec3)> {
-        let e = self.entries.iter().find(|e| e.tri == tri && e.front == front)?;
+    pub fn get(
+        &self,
+        tri: u32,
+        front: bool,
+        c: &mut SampleCounters,
+    ) -> Option<(Option<Vec3>, Vec3)> {
+        let e = self
+            .entries
+            .iter()
+            .find(|e| e.tri == tri && e.front == front)?;
         c.lookups.replay(&e.lookups.stats());
         Some((e.caustic, e.indirect))
     }
 
-    pub fn put(&mut self, tri: u32, front: bool, caustic: Option<Vec3>, indirect: Vec3, lookups: icache::LookupStats) {
+    pub fn put(
+        &mut self,
+        tri: u32,
+        front: bool,
+        caustic: Option<Vec3>,
+        indirect: Vec3,
+        lookups: icache::LookupStats,
+    ) {
         if self.entries.len() < MEMO_SURFACES {
             // One surface is the common case: no room for four.
             self.entries.reserve_exact(1);
-            self.entries.push(MemoEntry { tri, front, caustic, indirect, lookups: Replay::of(&lookups) });
+            self.entries.push(MemoEntry {
+                tri,
+                front,
+                caustic,
+                indirect,
+                lookups: Replay::of(&lookups),
+            });
         }
     }
 }
@@ -149,7 +172,9 @@ pub struct SampleCounters {
 }
 
 /// Upper edges of [`GatherNoise`]'s bins (relative standard error of a gather's E); the last bin is open.
-pub const GATHER_NOISE_EDGES: [f32; 12] = [0.005, 0.01, 0.015, 0.02, 0.03, 0.04, 0.05, 0.07, 0.1, 0.15, 0.2, 0.3];
+pub const GATHER_NOISE_EDGES: [f32; 12] = [
+    0.005, 0.01, 0.015, 0.02, 0.03, 0.04, 0.05, 0.07, 0.1, 0.15, 0.2, 0.3,
+];
 
 /// How noisy the final gathers were: a histogram of their estimated relative standard errors, their sum
 /// and their largest. Tells whether more gather rays (`[render.icache] rays`) would pay: the cache's records carry this
@@ -167,7 +192,10 @@ impl GatherNoise {
         if !rel_err.is_finite() {
             return;
         }
-        let bin = GATHER_NOISE_EDGES.iter().position(|&e| rel_err <= e).unwrap_or(GATHER_NOISE_EDGES.len());
+        let bin = GATHER_NOISE_EDGES
+            .iter()
+            .position(|&e| rel_err <= e)
+            .unwrap_or(GATHER_NOISE_EDGES.len());
         self.bins[bin] += 1;
         self.sum += rel_err as f64;
         self.n += 1;
@@ -210,7 +238,14 @@ impl std::ops::AddAssign for GatherNoise {
 impl SampleCounters {
     /// The rays and gathers alone (work done, whatever became of its result).
     pub fn work(&self) -> SampleCounters {
-        SampleCounters { rays: self.rays, shadow_rays: self.shadow_rays, gathers: self.gathers, gather_rays: self.gather_rays, gather_noise: self.gather_noise, ..SampleCounters::default() }
+        SampleCounters {
+            rays: self.rays,
+            shadow_rays: self.shadow_rays,
+            gathers: self.gathers,
+            gather_rays: self.gather_rays,
+            gather_noise: self.gather_noise,
+            ..SampleCounters::default()
+        }
     }
 }
 
@@ -245,7 +280,11 @@ impl Frame {
     pub fn new(hit: &Hit, wo: Vec3) -> Frame {
         let front = wo.dot(hit.ng) >= 0.0;
         let s = if front { 1.0 } else { -1.0 };
-        Frame { n: hit.ns * s, ng: hit.ng * s, front }
+        Frame {
+            n: hit.ns * s,
+            ng: hit.ng * s,
+            front,
+        }
     }
 
     /// Reflection must stay on `wo`'s geometric side, or light leaks through shading normals.

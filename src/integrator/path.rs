@@ -15,7 +15,15 @@ use crate::warp::power_heuristic;
 /// media this is a volumetric path tracer: free flights between surfaces, next-event estimation with
 /// transmittance at every scattering event, Henyey–Greenstein sampling, null boundaries crossed without
 /// counting a bounce. Without media it draws exactly the numbers it always drew.
-pub fn radiance(scene: &Scene, origin: Vec3, dir: Vec3, medium: MediumId, max_depth: u32, rng: &mut Rng, c: &mut SampleCounters) -> Vec3 {
+pub fn radiance(
+    scene: &Scene,
+    origin: Vec3,
+    dir: Vec3,
+    medium: MediumId,
+    max_depth: u32,
+    rng: &mut Rng,
+    c: &mut SampleCounters,
+) -> Vec3 {
     c.monte_carlo += 1;
     let mut l = Vec3::ZERO;
     let mut beta = Vec3::ONE;
@@ -39,7 +47,11 @@ pub fn radiance(scene: &Scene, origin: Vec3, dir: Vec3, medium: MediumId, max_de
         if let Some(m) = scene.medium(medium) {
             let h = *hero.get_or_insert_with(|| ((rng.uniform() * 3.0) as usize).min(2));
             match m.sample_flight(hit.map_or(f32::INFINITY, |h| h.t - t0), h, rng.uniform()) {
-                Flight::Scatter { t, weight, ratio: r } => {
+                Flight::Scatter {
+                    t,
+                    weight,
+                    ratio: r,
+                } => {
                     (beta, ratio) = spectral_mis(beta, ratio, weight, r);
                     let p = o + d * (t0 + t);
                     l += beta * medium_direct(scene, m.g, p, d, medium, rng, c);
@@ -52,7 +64,9 @@ pub fn radiance(scene: &Scene, origin: Vec3, dir: Vec3, medium: MediumId, max_de
                     depth += 1;
                     continue;
                 }
-                Flight::Through { weight, ratio: r } => (beta, ratio) = spectral_mis(beta, ratio, weight, r),
+                Flight::Through { weight, ratio: r } => {
+                    (beta, ratio) = spectral_mis(beta, ratio, weight, r)
+                }
             }
         }
         let Some(hit) = hit else { break };
@@ -69,7 +83,11 @@ pub fn radiance(scene: &Scene, origin: Vec3, dir: Vec3, medium: MediumId, max_de
         let wo = -d;
         let le = scene.emitted(&hit, wo);
         if le != Vec3::ZERO {
-            let w = if delta_bounce { 1.0 } else { power_heuristic(prev_pdf, scene.lights.pdf_hit(hit.tri, prev_p, hit.p)) };
+            let w = if delta_bounce {
+                1.0
+            } else {
+                power_heuristic(prev_pdf, scene.lights.pdf_hit(hit.tri, prev_p, hit.p))
+            };
             l += beta * le * w;
         }
         let frame = Frame::new(&hit, wo);
@@ -130,9 +148,19 @@ fn roulette(depth: u32, beta: &mut Vec3, rng: &mut Rng) -> bool {
 /// Single scattering at a point `p` of a medium (asymmetry `g`) reached travelling along `d`: one light
 /// sample, times the phase function and the transmittance to the light, MIS against phase sampling for
 /// area lights. In-scattered radiance per unit σs (the caller's throughput holds σs).
-pub fn medium_direct(scene: &Scene, g: f32, p: Vec3, d: Vec3, medium: MediumId, rng: &mut Rng, c: &mut SampleCounters) -> Vec3 {
+pub fn medium_direct(
+    scene: &Scene,
+    g: f32,
+    p: Vec3,
+    d: Vec3,
+    medium: MediumId,
+    rng: &mut Rng,
+    c: &mut SampleCounters,
+) -> Vec3 {
     let u = [rng.uniform(), rng.uniform(), rng.uniform()];
-    let Some(ls) = scene.lights.sample(&scene.geometry, p, u) else { return Vec3::ZERO };
+    let Some(ls) = scene.lights.sample(&scene.geometry, p, u) else {
+        return Vec3::ZERO;
+    };
     if ls.pdf <= 0.0 {
         return Vec3::ZERO;
     }
@@ -141,16 +169,31 @@ pub fn medium_direct(scene: &Scene, g: f32, p: Vec3, d: Vec3, medium: MediumId, 
     if tr == Vec3::ZERO {
         return Vec3::ZERO;
     }
-    let w = if ls.delta { 1.0 } else { power_heuristic(ls.pdf, f) };
+    let w = if ls.delta {
+        1.0
+    } else {
+        power_heuristic(ls.pdf, f)
+    };
     tr * f * ls.li * w / ls.pdf
 }
 
 /// One light sample with MIS against BSDF sampling (area lights) — reflected radiance toward `wo`.
 #[allow(clippy::too_many_arguments)]
-pub fn direct_light(scene: &Scene, hit: &crate::geometry::Hit, frame: &Frame, wo: Vec3, kd: Vec3, medium: MediumId, rng: &mut Rng, c: &mut SampleCounters) -> Vec3 {
+pub fn direct_light(
+    scene: &Scene,
+    hit: &crate::geometry::Hit,
+    frame: &Frame,
+    wo: Vec3,
+    kd: Vec3,
+    medium: MediumId,
+    rng: &mut Rng,
+    c: &mut SampleCounters,
+) -> Vec3 {
     let bsdf = &scene.material(hit).bsdf;
     let u = [rng.uniform(), rng.uniform(), rng.uniform()];
-    let Some(ls) = scene.lights.sample(&scene.geometry, hit.p, u) else { return Vec3::ZERO };
+    let Some(ls) = scene.lights.sample(&scene.geometry, hit.p, u) else {
+        return Vec3::ZERO;
+    };
     if ls.pdf <= 0.0 || !frame.same_side(ls.wi) {
         return Vec3::ZERO;
     }

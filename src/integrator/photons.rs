@@ -47,8 +47,12 @@ impl PhotonSettings {
     /// the caustic radius half the global one (or less, with more caustic photons).
     pub fn resolve(scene: &Scene) -> PhotonSettings {
         let d = &scene.settings.photons;
-        let global = d.global.unwrap_or_else(|| photon::defaults::default_global_photons(scene.geometry.triangles.len()));
-        let caustic = d.caustic.unwrap_or(if scene.has_specular() { 100_000 } else { 0 });
+        let global = d.global.unwrap_or_else(|| {
+            photon::defaults::default_global_photons(scene.geometry.triangles.len())
+        });
+        let caustic = d
+            .caustic
+            .unwrap_or(if scene.has_specular() { 100_000 } else { 0 });
         let lookup = d.lookup.unwrap_or(100);
         let precompute_every = d.precompute_every.unwrap_or(DEFAULT_PHOTONS_PER_TEXEL);
         let (max_radius_global, max_radius_caustic) = match d.max_radius {
@@ -61,7 +65,12 @@ impl PhotonSettings {
                     // Caustics are concentrated light: their estimates reach no farther than half the
                     // global map's. Sized from the caustic count alone, Sibenik's sparse red-pane photons
                     // (0.1 % of the image) were looked up 1.5 m around nearly every shading sample.
-                    photon::defaults::max_radius_for_area(area, diag, caustic.max(global).max(1), lookup) * 0.5,
+                    photon::defaults::max_radius_for_area(
+                        area,
+                        diag,
+                        caustic.max(global).max(1),
+                        lookup,
+                    ) * 0.5,
                 )
             }
         };
@@ -70,15 +79,33 @@ impl PhotonSettings {
         let (volume, max_radius_volume) = match &scene.media {
             Some(m) => {
                 let v = m.volume().max(1e-30);
-                let r = (3.0 * lookup as f64 * v / (4.0 * std::f64::consts::PI * global.max(1) as f64)).cbrt() as f32;
+                let r = (3.0 * lookup as f64 * v
+                    / (4.0 * std::f64::consts::PI * global.max(1) as f64))
+                    .cbrt() as f32;
                 (global, (2.0 * r).min(scene.diagonal() * 0.25))
             }
             None => (0, 0.0),
         };
         // The volume caustic map as the surface one: 100 k photons, half the radius.
-        let volume_caustic = if volume > 0 && scene.has_specular() { 100_000 } else { 0 };
+        let volume_caustic = if volume > 0 && scene.has_specular() {
+            100_000
+        } else {
+            0
+        };
         let max_radius_volume_caustic = max_radius_volume * 0.5;
-        PhotonSettings { global, caustic, lookup, max_radius_global, max_radius_caustic, precompute_every, caustic_filter: d.caustic_filter, volume, max_radius_volume, volume_caustic, max_radius_volume_caustic }
+        PhotonSettings {
+            global,
+            caustic,
+            lookup,
+            max_radius_global,
+            max_radius_caustic,
+            precompute_every,
+            caustic_filter: d.caustic_filter,
+            volume,
+            max_radius_volume,
+            volume_caustic,
+            max_radius_volume_caustic,
+        }
     }
 }
 
@@ -121,15 +148,31 @@ pub struct PhotonData<'a> {
 
 impl<'a> PhotonData<'a> {
     /// Both maps; `Interrupted` soon after `cancel` is set.
-    pub fn trace(scene: &Scene, settings: &PhotonSettings, seed: u64, progress: &(dyn Fn(u64, u64) + Sync), cancel: &AtomicBool) -> Result<(PhotonMaps, TraceStats)> {
-        match photon::trace_photons_cancellable(&PhotonView(scene), &Self::targets(settings), seed, progress, cancel) {
+    pub fn trace(
+        scene: &Scene,
+        settings: &PhotonSettings,
+        seed: u64,
+        progress: &(dyn Fn(u64, u64) + Sync),
+        cancel: &AtomicBool,
+    ) -> Result<(PhotonMaps, TraceStats)> {
+        match photon::trace_photons_cancellable(
+            &PhotonView(scene),
+            &Self::targets(settings),
+            seed,
+            progress,
+            cancel,
+        ) {
             Ok(r) => Ok(r),
             Err(photon::Error::Cancelled) => Err(crate::error::Error::Interrupted),
             // No light reaches any non-specular surface: there is no caustic or indirect light to
             // estimate, so the render goes on with empty maps (counted in the statistics).
-            Err(photon::Error::NothingStored { n_paths_emitted }) => {
-                Ok((PhotonMaps::default(), TraceStats { n_paths_emitted, ..Default::default() }))
-            }
+            Err(photon::Error::NothingStored { n_paths_emitted }) => Ok((
+                PhotonMaps::default(),
+                TraceStats {
+                    n_paths_emitted,
+                    ..Default::default()
+                },
+            )),
             Err(e) => Err(crate::error::runtime(format!("photon pass: {e}"))),
         }
     }
@@ -141,7 +184,11 @@ impl<'a> PhotonData<'a> {
             t.volume = settings.volume;
             t.volume_caustic = settings.volume_caustic;
             let more = settings.volume.saturating_add(settings.volume_caustic);
-            t.max_paths = photon::defaults::default_targets(settings.global.saturating_add(more), settings.caustic).max_paths;
+            t.max_paths = photon::defaults::default_targets(
+                settings.global.saturating_add(more),
+                settings.caustic,
+            )
+            .max_paths;
         }
         t
     }
@@ -158,22 +205,45 @@ impl<'a> PhotonData<'a> {
     /// In-scattered radiance σs·Li at `x` toward a ray travelling along `d` (asymmetry `g`) from the
     /// volume caustic map: Jensen & Christensen's Σ p·ΔΦ / (4/3 π r³) over the k nearest photons, at
     /// full resolution where the beam is (zero where the map has no photon within reach).
-    pub fn volume_caustic_radiance(&self, x: Vec3, d: Vec3, g: f32, c: &mut super::SampleCounters) -> Vec3 {
-        let Some(map) = &self.maps.volume_caustic else { return Vec3::ZERO };
-        if self.volume_caustic_reach.as_ref().is_some_and(|r| !r.may_reach(x)) {
+    pub fn volume_caustic_radiance(
+        &self,
+        x: Vec3,
+        d: Vec3,
+        g: f32,
+        c: &mut super::SampleCounters,
+    ) -> Vec3 {
+        let Some(map) = &self.maps.volume_caustic else {
+            return Vec3::ZERO;
+        };
+        if self
+            .volume_caustic_reach
+            .as_ref()
+            .is_some_and(|r| !r.may_reach(x))
+        {
             return Vec3::ZERO;
         }
         c.photon_estimates += 1;
-        let (k, cap) = (self.settings.lookup, self.settings.max_radius_volume_caustic);
+        let (k, cap) = (
+            self.settings.lookup,
+            self.settings.max_radius_volume_caustic,
+        );
         NEIGHBORS.with(|nb| {
             let mut nb = nb.borrow_mut();
             map.tree().knn(x, k, cap, &mut nb);
-            let r2 = if nb.len() >= k { nb.last().map_or(0.0, |n| n.dist2) } else { cap * cap };
+            let r2 = if nb.len() >= k {
+                nb.last().map_or(0.0, |n| n.dist2)
+            } else {
+                cap * cap
+            };
             if nb.is_empty() || r2.is_nan() || r2 <= 0.0 {
                 return Vec3::ZERO;
             }
             let photons = map.photons();
-            let sum: Vec3 = nb.iter().map(|n| &photons[n.index as usize]).map(|ph| ph.power * crate::medium::phase(g, d, ph.wi)).sum();
+            let sum: Vec3 = nb
+                .iter()
+                .map(|n| &photons[n.index as usize])
+                .map(|ph| ph.power * crate::medium::phase(g, d, ph.wi))
+                .sum();
             sum / (4.0 / 3.0 * std::f32::consts::PI * r2 * r2.sqrt())
         })
     }
@@ -181,7 +251,9 @@ impl<'a> PhotonData<'a> {
     /// Multiply scattered radiance σs·Li at `x` toward a camera ray travelling along `d` (asymmetry
     /// `g`): the media radiance cache's where it has records there, else the volume map's estimate.
     pub fn cached_multiple(&self, x: Vec3, d: Vec3, g: f32, c: &mut super::SampleCounters) -> Vec3 {
-        let Some(map) = &self.maps.volume else { return Vec3::ZERO };
+        let Some(map) = &self.maps.volume else {
+            return Vec3::ZERO;
+        };
         let cached = self.media_cache.as_ref().and_then(|cache| {
             c.media_lookups += 1;
             let found = cache.lookup(x);
@@ -191,18 +263,40 @@ impl<'a> PhotonData<'a> {
         let s = cached.unwrap_or_else(|| {
             c.photon_estimates += 1;
             let (k, cap) = (self.settings.lookup, self.settings.max_radius_volume);
-            super::volume_grid::estimate(map, x, k, cap, self.camera_photons, false).0.s
+            super::volume_grid::estimate(map, x, k, cap, self.camera_photons, false)
+                .0
+                .s
         });
         super::volume_grid::phase_moments(s, d, g)
     }
 
-
     /// Wraps the maps for the render: the caustic map's reach grid is built here.
-    pub fn new(maps: PhotonMaps, precomputed: Option<PrecomputedIrradiance>, settings: PhotonSettings, scene: &'a Scene) -> Self {
-        let caustic_reach =
-            maps.caustic.as_ref().map(|m| ReachGrid::build(m.photons().iter().map(|ph| ph.pos), settings.max_radius_caustic));
-        let atlas = maps.global.as_ref().map(|g| IrradianceAtlas::new(&scene.geometry, g.len(), settings.precompute_every, atlas_k(settings.lookup), settings.max_radius_global));
-        let atlas = if maps.caustic.is_some() { atlas.map(IrradianceAtlas::with_caustic) } else { atlas };
+    pub fn new(
+        maps: PhotonMaps,
+        precomputed: Option<PrecomputedIrradiance>,
+        settings: PhotonSettings,
+        scene: &'a Scene,
+    ) -> Self {
+        let caustic_reach = maps.caustic.as_ref().map(|m| {
+            ReachGrid::build(
+                m.photons().iter().map(|ph| ph.pos),
+                settings.max_radius_caustic,
+            )
+        });
+        let atlas = maps.global.as_ref().map(|g| {
+            IrradianceAtlas::new(
+                &scene.geometry,
+                g.len(),
+                settings.precompute_every,
+                atlas_k(settings.lookup),
+                settings.max_radius_global,
+            )
+        });
+        let atlas = if maps.caustic.is_some() {
+            atlas.map(IrradianceAtlas::with_caustic)
+        } else {
+            atlas
+        };
         let volume_grid = match (&maps.volume, &scene.media) {
             (Some(_), Some(m)) => Some(super::volume_grid::VolumeGrid::new(
                 m.bounds(),
@@ -212,22 +306,56 @@ impl<'a> PhotonData<'a> {
             )),
             _ => None,
         };
-        let volume_caustic_reach = maps.volume_caustic.as_ref().map(|m| ReachGrid::build(m.photons().iter().map(|ph| ph.pos), settings.max_radius_volume_caustic));
-        let camera_photons = if maps.volume_caustic.is_some() { Photons::Indirect } else { Photons::NotDirect };
-        PhotonData { maps, precomputed, settings, coverage: SceneCoverage(scene), caustic_reach, atlas, volume_grid, media_cache: None, camera_photons, volume_caustic_reach }
+        let volume_caustic_reach = maps.volume_caustic.as_ref().map(|m| {
+            ReachGrid::build(
+                m.photons().iter().map(|ph| ph.pos),
+                settings.max_radius_volume_caustic,
+            )
+        });
+        let camera_photons = if maps.volume_caustic.is_some() {
+            Photons::Indirect
+        } else {
+            Photons::NotDirect
+        };
+        PhotonData {
+            maps,
+            precomputed,
+            settings,
+            coverage: SceneCoverage(scene),
+            caustic_reach,
+            atlas,
+            volume_grid,
+            media_cache: None,
+            camera_photons,
+            volume_caustic_reach,
+        }
     }
 
-    pub fn caustic_irradiance(&self, hit: &Hit, front: bool, n: Vec3, c: &mut super::SampleCounters) -> Vec3 {
+    pub fn caustic_irradiance(
+        &self,
+        hit: &Hit,
+        front: bool,
+        n: Vec3,
+        c: &mut super::SampleCounters,
+    ) -> Vec3 {
         let p = hit.p;
         if self.caustic_reach.as_ref().is_some_and(|g| !g.may_reach(p)) {
             return Vec3::ZERO;
         }
-        let Some(m) = &self.maps.caustic else { return Vec3::ZERO };
-        let (k, r, filter) = (self.settings.lookup, self.settings.max_radius_caustic, self.settings.caustic_filter);
+        let Some(m) = &self.maps.caustic else {
+            return Vec3::ZERO;
+        };
+        let (k, r, filter) = (
+            self.settings.lookup,
+            self.settings.max_radius_caustic,
+            self.settings.caustic_filter,
+        );
         // A faint caustic's sparse photons make wide discs: one estimate per atlas texel serves it.
         let smooth = self.atlas.as_ref().and_then(|a| {
             let ng = self.coverage.0.geometry.triangles[hit.tri as usize].ng;
-            a.caustic(hit.tri, ng, front, p, |middle, n| m.irradiance(middle, n, k, r, filter, &self.coverage))
+            a.caustic(hit.tri, ng, front, p, |middle, n| {
+                m.irradiance(middle, n, k, r, filter, &self.coverage)
+            })
         });
         smooth.unwrap_or_else(|| {
             c.photon_estimates += 1;
@@ -238,11 +366,18 @@ impl<'a> PhotonData<'a> {
     /// Diffuse radiance where a final-gather ray ends (point `p` on the `front` or back side of triangle
     /// `tri`): the atlas texel's mean albedo / π × all of its irradiance.
     pub fn gather_radiance(&self, tri: u32, front: bool, p: Vec3) -> Vec3 {
-        self.texel(tri, front, p).map_or(Vec3::ZERO, |t| self.texel_radiance(&t, tri, front, p))
+        self.texel(tri, front, p)
+            .map_or(Vec3::ZERO, |t| self.texel_radiance(&t, tri, front, p))
     }
 
     /// A texel's radiance at point `p` of it: an edge texel's direct light is `p`'s own.
-    fn texel_radiance(&self, t: &super::atlas::TexelIrradiance, tri: u32, front: bool, p: Vec3) -> Vec3 {
+    fn texel_radiance(
+        &self,
+        t: &super::atlas::TexelIrradiance,
+        tri: u32,
+        front: bool,
+        p: Vec3,
+    ) -> Vec3 {
         if t.albedo_pi == Vec3::ZERO {
             t.radiance
         } else {
@@ -257,14 +392,20 @@ impl<'a> PhotonData<'a> {
             out.extend(ends.iter().map(|_| Vec3::ZERO));
             return;
         };
-        let texels: Vec<_> = ends.iter().map(|&(tri, front, p)| atlas.texel(tri, front, p)).collect();
-        out.extend(texels.into_iter().zip(ends).map(|(t, &(tri, front, p))| self.texel_radiance(&atlas.read(&self.coverage, global, t), tri, front, p)));
+        let texels: Vec<_> = ends
+            .iter()
+            .map(|&(tri, front, p)| atlas.texel(tri, front, p))
+            .collect();
+        out.extend(texels.into_iter().zip(ends).map(|(t, &(tri, front, p))| {
+            self.texel_radiance(&atlas.read(&self.coverage, global, t), tri, front, p)
+        }));
     }
 
     /// Soft indirect irradiance (direct and caustic photons left out) at a point that has its own
     /// direct and caustic terms (one reached through a glossy lobe): the atlas texel's.
     pub fn indirect_irradiance(&self, tri: u32, front: bool, p: Vec3) -> Vec3 {
-        self.texel(tri, front, p).map_or(Vec3::ZERO, |t| t.e_indirect)
+        self.texel(tri, front, p)
+            .map_or(Vec3::ZERO, |t| t.e_indirect)
     }
 
     fn texel(&self, tri: u32, front: bool, p: Vec3) -> Option<super::atlas::TexelIrradiance> {
@@ -274,8 +415,19 @@ impl<'a> PhotonData<'a> {
 
     /// Radiance leaving a glossy surface toward `wo` through its specular lobe, estimated from the global
     /// map with the lobe as BRDF (Jensen's estimate at final-gather hits); zero for other materials.
-    pub fn glossy_radiance(&self, bsdf: &crate::material::Bsdf, hit: &crate::geometry::Hit, frame: &super::Frame, wo: Vec3) -> Vec3 {
-        let crate::material::Bsdf::Glossy { specular, exponent, .. } = *bsdf else { return Vec3::ZERO };
+    pub fn glossy_radiance(
+        &self,
+        bsdf: &crate::material::Bsdf,
+        hit: &crate::geometry::Hit,
+        frame: &super::Frame,
+        wo: Vec3,
+    ) -> Vec3 {
+        let crate::material::Bsdf::Glossy {
+            specular, exponent, ..
+        } = *bsdf
+        else {
+            return Vec3::ZERO;
+        };
         if specular == Vec3::ZERO {
             return Vec3::ZERO;
         }
@@ -285,14 +437,34 @@ impl<'a> PhotonData<'a> {
             let cos_a = r.dot(wi).max(0.0);
             specular * ((exponent + 2.0) / (2.0 * std::f32::consts::PI) * cos_a.powf(exponent))
         };
-        self.global(|m| m.radiance_with(hit.p, n, self.settings.lookup, self.settings.max_radius_global, Filter::None, &self.coverage, lobe).e)
+        self.global(|m| {
+            m.radiance_with(
+                hit.p,
+                n,
+                self.settings.lookup,
+                self.settings.max_radius_global,
+                Filter::None,
+                &self.coverage,
+                lobe,
+            )
+            .e
+        })
     }
 
     /// Indirect-only irradiance read straight from the global map (method `photons`): photons that came
     /// straight from a light, or through specular bounces only, are left out — direct and caustic
     /// light have their own terms.
     pub fn global_indirect_irradiance(&self, p: Vec3, n: Vec3) -> Vec3 {
-        self.global(|m| m.irradiance_indirect(p, n, self.settings.lookup, self.settings.max_radius_global, &self.coverage).e)
+        self.global(|m| {
+            m.irradiance_indirect(
+                p,
+                n,
+                self.settings.lookup,
+                self.settings.max_radius_global,
+                &self.coverage,
+            )
+            .e
+        })
     }
 
     fn global(&self, f: impl Fn(&PhotonMap) -> Vec3) -> Vec3 {

@@ -6,8 +6,8 @@
 use std::f32::consts::PI;
 use std::sync::atomic::{AtomicBool, Ordering};
 
-use glam::Vec3;
 use gather::{GatherParams, GatherRay, GatherResult};
+use glam::Vec3;
 use icache::{IrradianceCache, Pass};
 use photon::sampling::{hash_keys, Rng};
 
@@ -68,22 +68,64 @@ impl PmContext<'_> {
     /// Radiance along a camera ray, split into terms. With a `memo`, the caustic and soft indirect
     /// irradiance of the surface the ray hits first come from the pixel's earlier samples on that
     /// surface when there are some (not for `pm-fg`, whose per-sample gathers are what it averages).
-    pub fn shade(&self, origin: Vec3, dir: Vec3, memo: Option<&mut super::PixelMemo>, rng: &mut Rng, c: &mut SampleCounters) -> Terms {
-        let memo = if matches!(self.source, IndirectSource::Gather) { None } else { memo };
-        self.shade_ray(origin, dir, 0.0, 0, 1.0, Via::Delta, memo, self.scene.camera_medium(), rng, c)
+    pub fn shade(
+        &self,
+        origin: Vec3,
+        dir: Vec3,
+        memo: Option<&mut super::PixelMemo>,
+        rng: &mut Rng,
+        c: &mut SampleCounters,
+    ) -> Terms {
+        let memo = if matches!(self.source, IndirectSource::Gather) {
+            None
+        } else {
+            memo
+        };
+        self.shade_ray(
+            origin,
+            dir,
+            0.0,
+            0,
+            1.0,
+            Via::Delta,
+            memo,
+            self.scene.camera_medium(),
+            rng,
+            c,
+        )
     }
 
     /// The terms along one ray travelling in `medium`: in a participating medium, the light it scatters
     /// toward the ray up to the surface, plus the surface's terms times the transmittance; invisible
     /// boundaries are crossed (not a bounce), the ray going on along its line beyond `t0`.
     #[allow(clippy::too_many_arguments)]
-    fn shade_ray(&self, o: Vec3, d: Vec3, t0: f32, depth: u32, beta: f32, via: Via, memo: Option<&mut super::PixelMemo>, medium: MediumId, rng: &mut Rng, c: &mut SampleCounters) -> Terms {
+    fn shade_ray(
+        &self,
+        o: Vec3,
+        d: Vec3,
+        t0: f32,
+        depth: u32,
+        beta: f32,
+        via: Via,
+        memo: Option<&mut super::PixelMemo>,
+        medium: MediumId,
+        rng: &mut Rng,
+        c: &mut SampleCounters,
+    ) -> Terms {
         c.rays += 1;
         let hit = self.scene.intersect_after(o, d, t0);
-        let Some(m) = self.scene.medium(medium) else { return self.shade_hit(o, hit, d, depth, beta, via, memo, medium, rng, c) };
+        let Some(m) = self.scene.medium(medium) else {
+            return self.shade_hit(o, hit, d, depth, beta, via, memo, medium, rng, c);
+        };
         let t_end = hit.map_or(f32::INFINITY, |h| h.t - t0);
-        let (single, multiple) = if t_end.is_finite() { media::in_scattered(self, o + d * t0, d, t_end, medium, m, rng, c) } else { (Vec3::ZERO, Vec3::ZERO) };
-        let mut t = self.shade_hit(o, hit, d, depth, beta, via, memo, medium, rng, c).scaled(m.transmittance(t_end));
+        let (single, multiple) = if t_end.is_finite() {
+            media::in_scattered(self, o + d * t0, d, t_end, medium, m, rng, c)
+        } else {
+            (Vec3::ZERO, Vec3::ZERO)
+        };
+        let mut t = self
+            .shade_hit(o, hit, d, depth, beta, via, memo, medium, rng, c)
+            .scaled(m.transmittance(t_end));
         t.media_single += single;
         t.media_multiple += multiple;
         t
@@ -91,7 +133,19 @@ impl PmContext<'_> {
 
     /// The terms at the end of a ray from `o` (`hit`, reached travelling along `d` in `medium`).
     #[allow(clippy::too_many_arguments)]
-    fn shade_hit(&self, o: Vec3, hit: Option<Hit>, d: Vec3, depth: u32, beta: f32, via: Via, memo: Option<&mut super::PixelMemo>, medium: MediumId, rng: &mut Rng, c: &mut SampleCounters) -> Terms {
+    fn shade_hit(
+        &self,
+        o: Vec3,
+        hit: Option<Hit>,
+        d: Vec3,
+        depth: u32,
+        beta: f32,
+        via: Via,
+        memo: Option<&mut super::PixelMemo>,
+        medium: MediumId,
+        rng: &mut Rng,
+        c: &mut SampleCounters,
+    ) -> Terms {
         let mut t = Terms::default();
         let Some(hit) = hit else { return t };
         if self.scene.material(&hit).bsdf.is_null() {
@@ -102,7 +156,9 @@ impl PmContext<'_> {
         let le = self.scene.emitted(&hit, wo);
         t.emission = match via {
             Via::Delta => le,
-            Via::Glossy { from, pdf } if le != Vec3::ZERO => le * power_heuristic(pdf, self.scene.lights.pdf_hit_area(hit.tri, from, hit.p)),
+            Via::Glossy { from, pdf } if le != Vec3::ZERO => {
+                le * power_heuristic(pdf, self.scene.lights.pdf_hit_area(hit.tri, from, hit.p))
+            }
             Via::Glossy { .. } => Vec3::ZERO,
         };
         let frame = Frame::new(&hit, wo);
@@ -114,23 +170,48 @@ impl PmContext<'_> {
                 // ways, reflected and refracted, weighted by Fresnel: no choice, no noise. Deeper, one
                 // way is chosen (Fresnel's odds), a Monte Carlo estimate where the path still carries
                 // MONTE_CARLO_MIN_THROUGHPUT of the sample.
-                if let (&Bsdf::Glass { ior, transmittance }, true) = (bsdf, depth < GLASS_SPLIT_DEPTH) {
+                if let (&Bsdf::Glass { ior, transmittance }, true) =
+                    (bsdf, depth < GLASS_SPLIT_DEPTH)
+                {
                     for (wi, weight) in glass_lobes(ior, transmittance, frame.n, wo, frame.front) {
                         if weight == Vec3::ZERO {
                             continue;
                         }
                         let next = self.scene.medium_after(&hit, wi, medium);
-                        let sub = self.shade_ray(spawn(&hit, wi), wi, 0.0, depth + 1, beta * weight.max_element(), Via::Delta, None, next, rng, c);
+                        let sub = self.shade_ray(
+                            spawn(&hit, wi),
+                            wi,
+                            0.0,
+                            depth + 1,
+                            beta * weight.max_element(),
+                            Via::Delta,
+                            None,
+                            next,
+                            rng,
+                            c,
+                        );
                         t.specular += weight * sub.sum();
                     }
                     return t;
                 }
-                c.monte_carlo += (matches!(bsdf, Bsdf::Glass { .. }) && beta >= MONTE_CARLO_MIN_THROUGHPUT) as u64;
+                c.monte_carlo += (matches!(bsdf, Bsdf::Glass { .. })
+                    && beta >= MONTE_CARLO_MIN_THROUGHPUT) as u64;
                 let u = [rng.uniform(), rng.uniform(), rng.uniform()];
                 match bsdf.sample(kd, frame.n, wo, frame.front, u, Transport::Radiance) {
                     Some(s) => {
                         let next = self.scene.medium_after(&hit, s.wi, medium);
-                        let sub = self.shade_ray(spawn(&hit, s.wi), s.wi, 0.0, depth + 1, beta * s.weight.max_element(), Via::Delta, None, next, rng, c);
+                        let sub = self.shade_ray(
+                            spawn(&hit, s.wi),
+                            s.wi,
+                            0.0,
+                            depth + 1,
+                            beta * s.weight.max_element(),
+                            Via::Delta,
+                            None,
+                            next,
+                            rng,
+                            c,
+                        );
                         t.specular = s.weight * sub.sum();
                     }
                     None => c.zero_pdf += 1,
@@ -144,14 +225,27 @@ impl PmContext<'_> {
             let remembered = memo.as_ref().and_then(|m| m.get(hit.tri, frame.front, c));
             let (caustic, indirect) = match remembered {
                 Some((Some(caustic), indirect)) => (caustic, indirect),
-                Some((None, indirect)) => (self.photons.caustic_irradiance(&hit, frame.front, frame.n, c), indirect),
+                Some((None, indirect)) => (
+                    self.photons
+                        .caustic_irradiance(&hit, frame.front, frame.n, c),
+                    indirect,
+                ),
                 None => {
-                    let caustic = self.photons.caustic_irradiance(&hit, frame.front, frame.n, c);
+                    let caustic = self
+                        .photons
+                        .caustic_irradiance(&hit, frame.front, frame.n, c);
                     let before = c.lookups;
-                    let indirect = self.indirect(&hit, &frame, matches!(via, Via::Glossy { .. }), rng, c);
+                    let indirect =
+                        self.indirect(&hit, &frame, matches!(via, Via::Glossy { .. }), rng, c);
                     if let Some(m) = memo {
                         let faint = caustic.max_element() <= FAINT_CAUSTIC * indirect.max_element();
-                        m.put(hit.tri, frame.front, faint.then_some(caustic), indirect, c.lookups.since(&before));
+                        m.put(
+                            hit.tri,
+                            frame.front,
+                            faint.then_some(caustic),
+                            indirect,
+                            c.lookups.since(&before),
+                        );
                     }
                     (caustic, indirect)
                 }
@@ -159,9 +253,14 @@ impl PmContext<'_> {
             t.caustic = rho_d * caustic;
             t.indirect = rho_d * indirect;
         }
-        if let Bsdf::Glossy { specular, exponent, .. } = *bsdf {
+        if let Bsdf::Glossy {
+            specular, exponent, ..
+        } = *bsdf
+        {
             if depth + 1 < self.max_depth && specular.max_element() > 0.0 {
-                t.specular = self.glossy_lobe(&hit, &frame, wo, specular, exponent, depth, beta, medium, rng, c);
+                t.specular = self.glossy_lobe(
+                    &hit, &frame, wo, specular, exponent, depth, beta, medium, rng, c,
+                );
             }
         }
         t
@@ -172,7 +271,17 @@ impl PmContext<'_> {
     /// one sample of the area lights. For glossy surfaces the area sample's specular part is MIS-weighted
     /// against the glossy-lobe ray of `glossy_lobe` (the diffuse part has no other strategy: weight 1).
     #[allow(clippy::too_many_arguments)]
-    fn direct(&self, hit: &Hit, frame: &Frame, wo: Vec3, kd: Vec3, bsdf: &Bsdf, medium: MediumId, rng: &mut Rng, c: &mut SampleCounters) -> Vec3 {
+    fn direct(
+        &self,
+        hit: &Hit,
+        frame: &Frame,
+        wo: Vec3,
+        kd: Vec3,
+        bsdf: &Bsdf,
+        medium: MediumId,
+        rng: &mut Rng,
+        c: &mut SampleCounters,
+    ) -> Vec3 {
         let lights = &self.scene.lights;
         let mut l = Vec3::ZERO;
         for ls in lights.delta_samples(&self.scene.geometry, hit.p) {
@@ -183,14 +292,25 @@ impl PmContext<'_> {
         for _ in 0..AREA_LIGHT_SAMPLES {
             let u = [rng.uniform(), rng.uniform(), rng.uniform()];
             if let Some(ls) = lights.sample_area(&self.scene.geometry, hit.p, u) {
-                l += self.light_contribution(hit, frame, wo, kd, bsdf, &ls, medium, c) / AREA_LIGHT_SAMPLES as f32;
+                l += self.light_contribution(hit, frame, wo, kd, bsdf, &ls, medium, c)
+                    / AREA_LIGHT_SAMPLES as f32;
             }
         }
         l
     }
 
     #[allow(clippy::too_many_arguments)]
-    fn light_contribution(&self, hit: &Hit, frame: &Frame, wo: Vec3, kd: Vec3, bsdf: &Bsdf, ls: &crate::light::LightSample, medium: MediumId, c: &mut SampleCounters) -> Vec3 {
+    fn light_contribution(
+        &self,
+        hit: &Hit,
+        frame: &Frame,
+        wo: Vec3,
+        kd: Vec3,
+        bsdf: &Bsdf,
+        ls: &crate::light::LightSample,
+        medium: MediumId,
+        c: &mut SampleCounters,
+    ) -> Vec3 {
         if !(ls.pdf > 0.0) {
             c.zero_pdf += 1;
             return Vec3::ZERO;
@@ -203,14 +323,18 @@ impl PmContext<'_> {
         if f == Vec3::ZERO || cos == 0.0 {
             return Vec3::ZERO;
         }
-        let vis = self.scene.visibility(hit, ls.wi, ls.dist, medium, &mut c.shadow_rays);
+        let vis = self
+            .scene
+            .visibility(hit, ls.wi, ls.dist, medium, &mut c.shadow_rays);
         if vis == Vec3::ZERO {
             return Vec3::ZERO;
         }
         let f_diffuse = bsdf.diffuse_albedo(kd) / PI;
         let f_spec = f - f_diffuse;
         let w = match *bsdf {
-            Bsdf::Glossy { exponent, .. } if !ls.delta => power_heuristic(ls.pdf, phong_pdf(reflect(wo, frame.n), ls.wi, exponent)),
+            Bsdf::Glossy { exponent, .. } if !ls.delta => {
+                power_heuristic(ls.pdf, phong_pdf(reflect(wo, frame.n), ls.wi, exponent))
+            }
             _ => 1.0,
         };
         (f_diffuse + f_spec * w) * ls.li * cos / ls.pdf * vis
@@ -218,7 +342,19 @@ impl PmContext<'_> {
 
     /// The glossy lobe of modified Phong, sampled exactly; its light is all of the next hit's radiance.
     #[allow(clippy::too_many_arguments)]
-    fn glossy_lobe(&self, hit: &Hit, frame: &Frame, wo: Vec3, ks: Vec3, exponent: f32, depth: u32, beta: f32, medium: MediumId, rng: &mut Rng, c: &mut SampleCounters) -> Vec3 {
+    fn glossy_lobe(
+        &self,
+        hit: &Hit,
+        frame: &Frame,
+        wo: Vec3,
+        ks: Vec3,
+        exponent: f32,
+        depth: u32,
+        beta: f32,
+        medium: MediumId,
+        rng: &mut Rng,
+        c: &mut SampleCounters,
+    ) -> Vec3 {
         let r = reflect(wo, frame.n);
         c.monte_carlo += 1;
         let (u0, u1) = (rng.uniform(), rng.uniform());
@@ -234,16 +370,36 @@ impl PmContext<'_> {
         let weight = ks * ((exponent + 2.0) / (exponent + 1.0) * cos_i);
         let pdf = phong_pdf(r, wi, exponent);
         let next = self.scene.medium_after(hit, wi, medium);
-        let sub = self.shade_ray(spawn(hit, wi), wi, 0.0, depth + 1, beta * weight.max_element(), Via::Glossy { from: hit.p, pdf }, None, next, rng, c);
+        let sub = self.shade_ray(
+            spawn(hit, wi),
+            wi,
+            0.0,
+            depth + 1,
+            beta * weight.max_element(),
+            Via::Glossy { from: hit.p, pdf },
+            None,
+            next,
+            rng,
+            c,
+        );
         weight * sub.sum()
     }
 
     /// Soft indirect irradiance at a non-specular point.
-    fn indirect(&self, hit: &Hit, frame: &Frame, via_glossy: bool, rng: &mut Rng, c: &mut SampleCounters) -> Vec3 {
+    fn indirect(
+        &self,
+        hit: &Hit,
+        frame: &Frame,
+        via_glossy: bool,
+        rng: &mut Rng,
+        c: &mut SampleCounters,
+    ) -> Vec3 {
         // Points reached through glossy lobes are blurred by the lobe: the photon map suffices there. The
         // point has its own direct and caustic terms, so only the photons that are neither count.
         if via_glossy {
-            return self.photons.indirect_irradiance(hit.tri, frame.front, hit.p);
+            return self
+                .photons
+                .indirect_irradiance(hit.tri, frame.front, hit.p);
         }
         match self.source {
             IndirectSource::PhotonMap => {
@@ -259,9 +415,21 @@ impl PmContext<'_> {
                     let len = d.length();
                     !(len > 0.0) || !self.scene.bvh.occluded(o, d / len, len)
                 };
-                self.cached(|pass| cache.lookup_first_visible(hit.p, frame.n, pass, n, visible), hit, frame, rng, c)
+                self.cached(
+                    |pass| cache.lookup_first_visible(hit.p, frame.n, pass, n, visible),
+                    hit,
+                    frame,
+                    rng,
+                    c,
+                )
             }
-            IndirectSource::CacheUpTo(cache, n) => self.cached(|pass| cache.lookup_first(hit.p, frame.n, pass, n), hit, frame, rng, c),
+            IndirectSource::CacheUpTo(cache, n) => self.cached(
+                |pass| cache.lookup_first(hit.p, frame.n, pass, n),
+                hit,
+                frame,
+                rng,
+                c,
+            ),
             IndirectSource::Gather => {
                 c.monte_carlo += 1;
                 self.final_gather(hit, frame, rng.next_u32() as u64, c).e
@@ -273,7 +441,14 @@ impl PmContext<'_> {
     /// normal differs more (a curved silhouette) extrapolate; only where there is none either, this sample
     /// gathers for itself, creating no record (a miss, counted). With `defer_misses`, a miss is counted
     /// and answers zero: the sample will be taken again.
-    fn cached(&self, lookup: impl Fn(Pass) -> Option<icache::Lookup>, hit: &Hit, frame: &Frame, rng: &mut Rng, c: &mut SampleCounters) -> Vec3 {
+    fn cached(
+        &self,
+        lookup: impl Fn(Pass) -> Option<icache::Lookup>,
+        hit: &Hit,
+        frame: &Frame,
+        rng: &mut Rng,
+        c: &mut SampleCounters,
+    ) -> Vec3 {
         let found = lookup(Pass::B);
         c.lookups.record(found.as_ref());
         if let Some(l) = found {
@@ -298,13 +473,26 @@ impl PmContext<'_> {
     /// One final gather from `hit`: each ray reads the global map's irradiance where it ends (its atlas
     /// texel).
     /// A gather that sees the stop flag traces no more rays and returns at once (its result is never used).
-    pub fn final_gather(&self, hit: &Hit, frame: &Frame, seed: u64, c: &mut SampleCounters) -> GatherResult {
+    pub fn final_gather(
+        &self,
+        hit: &Hit,
+        frame: &Frame,
+        seed: u64,
+        c: &mut SampleCounters,
+    ) -> GatherResult {
         self.final_gather_round(hit, frame, seed, 0, c)
     }
 
     /// [`final_gather`](Self::final_gather) as round `round` of gathers from the same `seed` (see
     /// `gather::gather_batch_round`); round 0 is that gather.
-    pub fn final_gather_round(&self, hit: &Hit, frame: &Frame, seed: u64, round: u32, c: &mut SampleCounters) -> GatherResult {
+    pub fn final_gather_round(
+        &self,
+        hit: &Hit,
+        frame: &Frame,
+        seed: u64,
+        round: u32,
+        c: &mut SampleCounters,
+    ) -> GatherResult {
         if self.cancel.load(Ordering::Relaxed) {
             return interrupted_gather(frame);
         }
@@ -312,28 +500,50 @@ impl PmContext<'_> {
         let mut rng = Rng::new(hash_keys(if round == 0 { &keys[..3] } else { &keys }));
         let mut rays = 0u64;
         // In a scene with media, the medium on the gather's side of the surface.
-        let medium = self.scene.media.as_ref().map(|m| m.medium_at(spawn(hit, frame.n)));
+        let medium = self
+            .scene
+            .media
+            .as_ref()
+            .map(|m| m.medium_at(spawn(hit, frame.n)));
         // Every ray is traced to its end first (in order: specular chains draw from `rng`), then the
         // texels of the diffuse ends are read together.
-        let result = gather::gather_batch_round(hit.p, frame.n, &self.gather, seed, round, &mut |dirs: &[Vec3], out: &mut Vec<GatherRay>| {
-            let mut ends = Vec::with_capacity(dirs.len());
-            for &dir in dirs {
-                if self.cancel.load(Ordering::Relaxed) {
-                    ends.push(GatherEnd::MISS);
-                    continue;
+        let result = gather::gather_batch_round(
+            hit.p,
+            frame.n,
+            &self.gather,
+            seed,
+            round,
+            &mut |dirs: &[Vec3], out: &mut Vec<GatherRay>| {
+                let mut ends = Vec::with_capacity(dirs.len());
+                for &dir in dirs {
+                    if self.cancel.load(Ordering::Relaxed) {
+                        ends.push(GatherEnd::MISS);
+                        continue;
+                    }
+                    rays += 1;
+                    ends.push(self.gather_ray(hit, dir, medium, &mut rng, &mut rays));
                 }
-                rays += 1;
-                ends.push(self.gather_ray(hit, dir, medium, &mut rng, &mut rays));
-            }
-            let diffuse: Vec<(u32, bool, Vec3)> = ends.iter().filter(|e| e.weight != Vec3::ZERO).map(|e| (e.tri, e.front, e.p)).collect();
-            let mut texels = Vec::with_capacity(diffuse.len());
-            self.photons.gather_radiance_batch(&diffuse, &mut texels);
-            let mut texels = texels.into_iter();
-            out.extend(ends.iter().map(|end| {
-                let lit = if end.weight != Vec3::ZERO { end.weight * texels.next().unwrap_or(Vec3::ZERO) } else { Vec3::ZERO };
-                GatherRay { radiance: lit + end.glossy + end.scattered, distance: end.distance }
-            }));
-        });
+                let diffuse: Vec<(u32, bool, Vec3)> = ends
+                    .iter()
+                    .filter(|e| e.weight != Vec3::ZERO)
+                    .map(|e| (e.tri, e.front, e.p))
+                    .collect();
+                let mut texels = Vec::with_capacity(diffuse.len());
+                self.photons.gather_radiance_batch(&diffuse, &mut texels);
+                let mut texels = texels.into_iter();
+                out.extend(ends.iter().map(|end| {
+                    let lit = if end.weight != Vec3::ZERO {
+                        end.weight * texels.next().unwrap_or(Vec3::ZERO)
+                    } else {
+                        Vec3::ZERO
+                    };
+                    GatherRay {
+                        radiance: lit + end.glossy + end.scattered,
+                        distance: end.distance,
+                    }
+                }));
+            },
+        );
         if self.cancel.load(Ordering::Relaxed) {
             return interrupted_gather(frame);
         }
@@ -351,7 +561,14 @@ impl PmContext<'_> {
     /// In a scene with media (`medium` is then the one the ray starts in), the ray crosses invisible
     /// boundaries and its throughput holds the transmittance; the light the media scatter into it is not
     /// counted yet.
-    fn gather_ray(&self, from: &Hit, dir: Vec3, medium: Option<MediumId>, rng: &mut Rng, rays: &mut u64) -> GatherEnd {
+    fn gather_ray(
+        &self,
+        from: &Hit,
+        dir: Vec3,
+        medium: Option<MediumId>,
+        rng: &mut Rng,
+        rays: &mut u64,
+    ) -> GatherEnd {
         const MAX_SPECULAR: u32 = 4;
         // The light media scatter into the ray: one point per stretch, uniform along it (a gather
         // averages hundreds of rays).
@@ -359,17 +576,34 @@ impl PmContext<'_> {
         let mut in_scatter = |o: Vec3, len: f32, m: &crate::medium::Medium, tr: Vec3| {
             if len.is_finite() && m.sigma_s != Vec3::ZERO {
                 let t = rng.uniform() * len;
-                scattered += tr * m.transmittance(t) * self.photons.gather_volume_radiance(o + dir * t, dir, m.g) * len;
+                scattered += tr
+                    * m.transmittance(t)
+                    * self.photons.gather_volume_radiance(o + dir * t, dir, m.g)
+                    * len;
             }
         };
         let (first, mut beta, mut medium) = match medium {
-            None => (self.scene.intersect_gather(spawn(from, dir), dir), Vec3::ONE, crate::medium::VACUUM),
-            Some(m) => match self.scene.intersect_through(spawn(from, dir), dir, m, rays, &mut in_scatter) {
-                Some((h, tr, m)) => (Some(h), tr, m),
-                None => (None, Vec3::ONE, m),
-            },
+            None => (
+                self.scene.intersect_gather(spawn(from, dir), dir),
+                Vec3::ONE,
+                crate::medium::VACUUM,
+            ),
+            Some(m) => {
+                match self
+                    .scene
+                    .intersect_through(spawn(from, dir), dir, m, rays, &mut in_scatter)
+                {
+                    Some((h, tr, m)) => (Some(h), tr, m),
+                    None => (None, Vec3::ONE, m),
+                }
+            }
         };
-        let Some(first) = first else { return GatherEnd { scattered, ..GatherEnd::MISS } };
+        let Some(first) = first else {
+            return GatherEnd {
+                scattered,
+                ..GatherEnd::MISS
+            };
+        };
         let distance = first.t;
         let (mut hit, mut d) = (first, dir);
         for bounce in 0..=MAX_SPECULAR {
@@ -377,25 +611,37 @@ impl PmContext<'_> {
             let bsdf = &self.scene.material(&hit).bsdf;
             if !bsdf.is_specular() {
                 let glossy = self.photons.glossy_radiance(bsdf, &hit, &frame, -d) * beta;
-                return GatherEnd { p: hit.p, tri: hit.tri, front: frame.front, weight: beta, glossy, scattered, distance };
+                return GatherEnd {
+                    p: hit.p,
+                    tri: hit.tri,
+                    front: frame.front,
+                    weight: beta,
+                    glossy,
+                    scattered,
+                    distance,
+                };
             }
             let kd = self.scene.albedo(&hit);
             if bounce == MAX_SPECULAR {
                 break;
             }
             let u = [rng.uniform(), rng.uniform(), rng.uniform()];
-            let Some(s) = bsdf.sample(kd, frame.n, -d, frame.front, u, Transport::Radiance) else { break };
+            let Some(s) = bsdf.sample(kd, frame.n, -d, frame.front, u, Transport::Radiance) else {
+                break;
+            };
             beta *= s.weight;
             *rays += 1;
             let next = match self.scene.media {
                 None => self.scene.intersect(spawn(&hit, s.wi), s.wi),
                 Some(_) => {
                     medium = self.scene.medium_after(&hit, s.wi, medium);
-                    self.scene.intersect_through(spawn(&hit, s.wi), s.wi, medium, rays, |_, _, _, _| {}).map(|(h, tr, m)| {
-                        beta *= tr;
-                        medium = m;
-                        h
-                    })
+                    self.scene
+                        .intersect_through(spawn(&hit, s.wi), s.wi, medium, rays, |_, _, _, _| {})
+                        .map(|(h, tr, m)| {
+                            beta *= tr;
+                            medium = m;
+                            h
+                        })
                 }
             };
             match next {
@@ -406,7 +652,11 @@ impl PmContext<'_> {
                 None => break,
             }
         }
-        GatherEnd { distance, scattered, ..GatherEnd::MISS }
+        GatherEnd {
+            distance,
+            scattered,
+            ..GatherEnd::MISS
+        }
     }
 }
 
@@ -426,7 +676,15 @@ struct GatherEnd {
 }
 
 impl GatherEnd {
-    const MISS: GatherEnd = GatherEnd { p: Vec3::ZERO, tri: 0, front: true, weight: Vec3::ZERO, glossy: Vec3::ZERO, scattered: Vec3::ZERO, distance: f32::INFINITY };
+    const MISS: GatherEnd = GatherEnd {
+        p: Vec3::ZERO,
+        tri: 0,
+        front: true,
+        weight: Vec3::ZERO,
+        glossy: Vec3::ZERO,
+        scattered: Vec3::ZERO,
+        distance: f32::INFINITY,
+    };
 }
 
 /// Glass at the first this many bounces of a camera path is followed both ways (see `shade_hit`).
@@ -445,5 +703,14 @@ fn phong_pdf(r: Vec3, wi: Vec3, exponent: f32) -> f32 {
 /// What a final gather returns once the render is interrupted (its result is discarded): skipping the
 /// strata loops and the batched lookups keeps a 1M-ray gather from delaying the stop.
 fn interrupted_gather(frame: &Frame) -> GatherResult {
-    GatherResult { e: Vec3::ZERO, grad_r: [Vec3::ZERO; 3], grad_t: [Vec3::ZERO; 3], r_harmonic: f32::INFINITY, r_min: f32::INFINITY, dir: frame.n, n_rays: 0, rel_err: 0.0 }
+    GatherResult {
+        e: Vec3::ZERO,
+        grad_r: [Vec3::ZERO; 3],
+        grad_t: [Vec3::ZERO; 3],
+        r_harmonic: f32::INFINITY,
+        r_min: f32::INFINITY,
+        dir: frame.n,
+        n_rays: 0,
+        rel_err: 0.0,
+    }
 }

@@ -5,7 +5,15 @@
 use glam::Vec3;
 
 pub const TERM_NAMES: [&str; 5] = ["emission", "direct", "specular", "caustic", "indirect"];
-pub const MEDIA_TERM_NAMES: [&str; 7] = ["emission", "direct", "specular", "caustic", "indirect", "media_single", "media_multiple"];
+pub const MEDIA_TERM_NAMES: [&str; 7] = [
+    "emission",
+    "direct",
+    "specular",
+    "caustic",
+    "indirect",
+    "media_single",
+    "media_multiple",
+];
 
 /// The layer names of a render with (or without) media.
 pub fn term_names(media: bool) -> &'static [&'static str] {
@@ -51,8 +59,19 @@ impl Terms {
     }
 
     pub fn to_layers(self, media: bool) -> LayerValues {
-        let values = [self.emission, self.direct, self.specular, self.caustic, self.indirect, self.media_single, self.media_multiple];
-        LayerValues { values, len: if media { 7 } else { 5 } }
+        let values = [
+            self.emission,
+            self.direct,
+            self.specular,
+            self.caustic,
+            self.indirect,
+            self.media_single,
+            self.media_multiple,
+        ];
+        LayerValues {
+            values,
+            len: if media { 7 } else { 5 },
+        }
     }
 }
 

@@ -66,7 +66,15 @@ impl VolumeGrid {
         };
         let n = (dims.x * dims.y * dims.z) as usize;
         let all = (0..n).map(|_| OnceLock::new()).collect();
-        VolumeGrid { lo: bounds.0, cell, dims, all, k, max_radius, gradients }
+        VolumeGrid {
+            lo: bounds.0,
+            cell,
+            dims,
+            all,
+            k,
+            max_radius,
+            gradients,
+        }
     }
 
     /// σs·Li toward a ray travelling along `d` at `x` in a medium of asymmetry `g`: all the light the
@@ -86,7 +94,9 @@ impl VolumeGrid {
         for corner in 0..8 {
             let o = IVec3::new(corner & 1, (corner >> 1) & 1, (corner >> 2) & 1);
             let c = (base + o).clamp(IVec3::ZERO, max);
-            let w = (if o.x == 1 { t.x } else { 1.0 - t.x }) * (if o.y == 1 { t.y } else { 1.0 - t.y }) * (if o.z == 1 { t.z } else { 1.0 - t.z });
+            let w = (if o.x == 1 { t.x } else { 1.0 - t.x })
+                * (if o.y == 1 { t.y } else { 1.0 - t.y })
+                * (if o.z == 1 { t.z } else { 1.0 - t.z });
             if w == 0.0 {
                 continue;
             }
@@ -106,18 +116,23 @@ impl VolumeGrid {
 
     fn record(&self, map: &PhotonMap, c: UVec3, centre: Vec3) -> MediaRecord {
         let i = ((c.z * self.dims.y + c.y) * self.dims.x + c.x) as usize;
-        *self.all[i].get_or_init(|| estimate(map, centre, self.k, self.max_radius, Photons::All, true).0)
+        *self.all[i]
+            .get_or_init(|| estimate(map, centre, self.k, self.max_radius, Photons::All, true).0)
     }
 
     /// Records created so far, of all.
     pub fn filled(&self) -> (usize, usize) {
-        (self.all.iter().filter(|c| c.get().is_some()).count(), self.all.len())
+        (
+            self.all.iter().filter(|c| c.get().is_some()).count(),
+            self.all.len(),
+        )
     }
 }
 
 /// σs·Li toward direction of travel `d` from the moments: (S0 + 3g S1·d) / 4π, never negative.
 pub fn phase_moments(s: [Vec3; 4], d: Vec3, g: f32) -> Vec3 {
-    ((s[0] + (s[1] * d.x + s[2] * d.y + s[3] * d.z) * (3.0 * g)) / (4.0 * std::f32::consts::PI)).max(Vec3::ZERO)
+    ((s[0] + (s[1] * d.x + s[2] * d.y + s[3] * d.z) * (3.0 * g)) / (4.0 * std::f32::consts::PI))
+        .max(Vec3::ZERO)
 }
 
 /// How much wider than the value's kernel the gradient's is: a density estimate's derivative is far
@@ -129,7 +144,14 @@ const GRADIENT_WIDTH: f32 = 2.0;
 /// cap when fewer are found) and its gradient, the derivative of the same kernel estimate at radius
 /// [`GRADIENT_WIDTH`]·r (at fixed radius; left zero without `gradient`), and r. Normalisation: ∫ K over
 /// the ball = 32π r³/105.
-pub fn estimate(map: &PhotonMap, p: Vec3, k: usize, max_radius: f32, which: Photons, gradient: bool) -> (MediaRecord, f32) {
+pub fn estimate(
+    map: &PhotonMap,
+    p: Vec3,
+    k: usize,
+    max_radius: f32,
+    which: Photons,
+    gradient: bool,
+) -> (MediaRecord, f32) {
     estimate_within(map, p, k, max_radius, which, gradient, None)
 }
 
@@ -176,7 +198,12 @@ impl Surroundings {
     /// Measures the distances with `dist(direction)`: the first surface's (infinite where nothing is
     /// hit), whether it is an occluder, and its normal.
     pub fn measure(mut dist: impl FnMut(Vec3) -> (f32, bool, Vec3)) -> Surroundings {
-        let mut s = Surroundings { dist: [0.0; CUBE_CELLS], solid: [false; CUBE_CELLS], plane: [(Vec3::ZERO, f32::INFINITY); CUBE_CELLS], weight: [0.0; CUBE_CELLS] };
+        let mut s = Surroundings {
+            dist: [0.0; CUBE_CELLS],
+            solid: [false; CUBE_CELLS],
+            plane: [(Vec3::ZERO, f32::INFINITY); CUBE_CELLS],
+            weight: [0.0; CUBE_CELLS],
+        };
         let mut total = 0.0;
         for c in 0..CUBE_CELLS {
             let (d, w) = cell_direction(c, 0.5, 0.5);
@@ -229,7 +256,11 @@ impl Surroundings {
             }
             let (mut fc, mut gc, mut wsum) = (0.0, Vec3::ZERO, 0.0);
             for k in 0..SUB_N * SUB_N {
-                let (d, w) = cell_direction(c, ((k / SUB_N) as f32 + 0.5) / SUB_N as f32, ((k % SUB_N) as f32 + 0.5) / SUB_N as f32);
+                let (d, w) = cell_direction(
+                    c,
+                    ((k / SUB_N) as f32 + 0.5) / SUB_N as f32,
+                    ((k % SUB_N) as f32 + 0.5) / SUB_N as f32,
+                );
                 let cos = d.dot(n);
                 wsum += w;
                 if cos <= 0.0 {
@@ -248,7 +279,12 @@ impl Surroundings {
 
     /// Harmonic mean of the distances, each cut at `cap`.
     pub fn harmonic_mean(&self, cap: f32) -> f32 {
-        let inv: f32 = self.dist.iter().zip(&self.weight).map(|(d, w)| w / d.min(cap).max(1e-9)).sum();
+        let inv: f32 = self
+            .dist
+            .iter()
+            .zip(&self.weight)
+            .map(|(d, w)| w / d.min(cap).max(1e-9))
+            .sum();
         1.0 / inv
     }
 }
@@ -259,7 +295,10 @@ fn cell_direction(c: usize, fi: f32, fj: f32) -> (Vec3, f32) {
     let (face, i, j) = (c / (CUBE_N * CUBE_N), (c / CUBE_N) % CUBE_N, c % CUBE_N);
     let a = 2.0 * (i as f32 + fi) / CUBE_N as f32 - 1.0;
     let b = 2.0 * (j as f32 + fj) / CUBE_N as f32 - 1.0;
-    (face_vector(face, a, b).normalize(), (1.0 + a * a + b * b).powf(-1.5))
+    (
+        face_vector(face, a, b).normalize(),
+        (1.0 + a * a + b * b).powf(-1.5),
+    )
 }
 
 /// The direction of cube face `face` at face coordinates (a, b) in [−1, 1]².
@@ -283,10 +322,22 @@ const MIN_SHARE: f32 = 0.25;
 /// plain kernel estimate counts the empty space beyond it and comes out low (half at the boundary).
 /// The gradient is that of the ratio, the share's own derivative included (the occlusion-aware
 /// gradient of Jarosz, Zwicker & Jensen 2008 in the form a density estimate takes).
-pub fn estimate_within(map: &PhotonMap, p: Vec3, k: usize, max_radius: f32, which: Photons, gradient: bool, around: Option<&Surroundings>) -> (MediaRecord, f32) {
+pub fn estimate_within(
+    map: &PhotonMap,
+    p: Vec3,
+    k: usize,
+    max_radius: f32,
+    which: Photons,
+    gradient: bool,
+    around: Option<&Surroundings>,
+) -> (MediaRecord, f32) {
     let mut nb = Vec::new();
     map.tree().knn(p, k, max_radius, &mut nb);
-    let r2 = if nb.len() >= k { nb.last().map_or(0.0, |n| n.dist2) } else { max_radius * max_radius };
+    let r2 = if nb.len() >= k {
+        nb.last().map_or(0.0, |n| n.dist2)
+    } else {
+        max_radius * max_radius
+    };
     let mut rec = MediaRecord::default();
     if nb.is_empty() || r2.is_nan() || r2 <= 0.0 {
         return (rec, max_radius);
@@ -294,7 +345,12 @@ pub fn estimate_within(map: &PhotonMap, p: Vec3, k: usize, max_radius: f32, whic
     let photons = map.photons();
     let moments = |i: u32| {
         let ph = &photons[i as usize];
-        [ph.power, ph.power * ph.wi.x, ph.power * ph.wi.y, ph.power * ph.wi.z]
+        [
+            ph.power,
+            ph.power * ph.wi.x,
+            ph.power * ph.wi.y,
+            ph.power * ph.wi.z,
+        ]
     };
     let kept = |i: u32| {
         let ph = &photons[i as usize];
@@ -316,7 +372,12 @@ pub fn estimate_within(map: &PhotonMap, p: Vec3, k: usize, max_radius: f32, whic
             }
         }
     }
-    let share = |r: f32| around.map_or((1.0, Vec3::ZERO), |a| a.share(r)).0.max(MIN_SHARE);
+    let share = |r: f32| {
+        around
+            .map_or((1.0, Vec3::ZERO), |a| a.share(r))
+            .0
+            .max(MIN_SHARE)
+    };
     let f0 = share(r2.sqrt());
     rec.s.iter_mut().for_each(|s| *s /= f0);
     if !gradient {
@@ -341,7 +402,11 @@ pub fn estimate_within(map: &PhotonMap, p: Vec3, k: usize, max_radius: f32, whic
         // ∇(S/F) = (∇S − (S/F)·∇F) / F at the gradient's radius; S/F there is taken as the value's
         // (both estimate the same light). Below MIN_SHARE the share is held constant.
         let (f, df) = a.share(GRADIENT_WIDTH * r2.sqrt());
-        let (f, df) = if f < MIN_SHARE { (MIN_SHARE, Vec3::ZERO) } else { (f, df) };
+        let (f, df) = if f < MIN_SHARE {
+            (MIN_SHARE, Vec3::ZERO)
+        } else {
+            (f, df)
+        };
         for (g, v) in rec.grad.iter_mut().zip(rec.s) {
             for ax in 0..3 {
                 g[ax] = (g[ax] - v * df[ax]) / f;
@@ -367,7 +432,14 @@ mod tests {
                 continue;
             }
             let wi = Vec3::new(rng.uniform() - 0.5, rng.uniform() - 0.5, 1.0).normalize();
-            photons.push(Photon { pos: p, wi, power: Vec3::new(1.0, 0.5, 0.25), normal: Vec3::ZERO, indirect: true, direct: false });
+            photons.push(Photon {
+                pos: p,
+                wi,
+                power: Vec3::new(1.0, 0.5, 0.25),
+                normal: Vec3::ZERO,
+                indirect: true,
+                direct: false,
+            });
         }
         PhotonMap::new(photons).unwrap()
     }
@@ -389,7 +461,11 @@ mod tests {
             e[a] = h;
             let fd = (fixed(p + e)[0] - fixed(p - e)[0]) / (2.0 * h);
             let g = rec.grad[0][a];
-            assert!((fd - g).abs().max_element() <= 0.02 * g.abs().max_element().max(fd.abs().max_element()) + 1e-3, "axis {a}: gradient {g} vs finite difference {fd}");
+            assert!(
+                (fd - g).abs().max_element()
+                    <= 0.02 * g.abs().max_element().max(fd.abs().max_element()) + 1e-3,
+                "axis {a}: gradient {g} vs finite difference {fd}"
+            );
         }
         // The density grows along x: the gradient says so.
         assert!(rec.grad[0][0].x > 0.0 && rec.grad[0][0].x.abs() > 3.0 * rec.grad[0][1].x.abs());
@@ -399,7 +475,15 @@ mod tests {
     /// An occluder when it is the wall; the face's normal.
     fn box_distance(p: Vec3, d: Vec3, wall: f32) -> (f32, bool, Vec3) {
         let hi = Vec3::new(wall, 1.0, 1.0);
-        let t = |a: usize| if d[a] > 0.0 { (hi[a] - p[a]) / d[a] } else if d[a] < 0.0 { -p[a] / d[a] } else { f32::INFINITY };
+        let t = |a: usize| {
+            if d[a] > 0.0 {
+                (hi[a] - p[a]) / d[a]
+            } else if d[a] < 0.0 {
+                -p[a] / d[a]
+            } else {
+                f32::INFINITY
+            }
+        };
         let a = (0..3).min_by(|&i, &j| t(i).total_cmp(&t(j))).unwrap();
         let mut n = Vec3::ZERO;
         n[a] = -d[a].signum();
@@ -415,7 +499,14 @@ mod tests {
             if p.x > 0.5 && rng.uniform() < 0.5 {
                 continue;
             }
-            photons.push(Photon { pos: p, wi: Vec3::Z, power: Vec3::ONE, normal: Vec3::ZERO, indirect: true, direct: false });
+            photons.push(Photon {
+                pos: p,
+                wi: Vec3::Z,
+                power: Vec3::ONE,
+                normal: Vec3::ZERO,
+                indirect: true,
+                direct: false,
+            });
         }
         // Photons per unit volume on the left: n = d·(0.5 + 0.5·0.5) ⇒ d = n / 0.75.
         (PhotonMap::new(photons).unwrap(), 300_000.0 / 0.75)
@@ -429,8 +520,16 @@ mod tests {
         let plain = estimate(&map, p, 3000, 0.3, Photons::All, true).0;
         let around = Surroundings::measure(|d| box_distance(p, d, 1.0));
         let seen = estimate_within(&map, p, 3000, 0.3, Photons::All, true, Some(&around)).0;
-        assert!(plain.s[0].x < 0.8 * left, "plain {} vs {left}", plain.s[0].x);
-        assert!((seen.s[0].x / left - 1.0).abs() < 0.05, "boundary-aware {} vs {left}", seen.s[0].x);
+        assert!(
+            plain.s[0].x < 0.8 * left,
+            "plain {} vs {left}",
+            plain.s[0].x
+        );
+        assert!(
+            (seen.s[0].x / left - 1.0).abs() < 0.05,
+            "boundary-aware {} vs {left}",
+            seen.s[0].x
+        );
         // Along the face the density is flat; across it, the plain gradient points into the medium.
         // (A sixth of the gradient's radius from the face: nearer, the share's slope from 16
         // directions per cell is up to 2× off — grazing directions dominate it.)
@@ -439,32 +538,60 @@ mod tests {
         let around = Surroundings::measure(|d| box_distance(p, d, 1.0));
         let seen = estimate_within(&map, p, 3000, 0.3, Photons::All, true, Some(&around)).0;
         assert!(plain.grad[0][0].x > 0.0);
-        assert!(seen.grad[0][0].x.abs() < 0.3 * plain.grad[0][0].x, "gradient across the face: {} vs plain {}", seen.grad[0][0].x, plain.grad[0][0].x);
+        assert!(
+            seen.grad[0][0].x.abs() < 0.3 * plain.grad[0][0].x,
+            "gradient across the face: {} vs plain {}",
+            seen.grad[0][0].x,
+            plain.grad[0][0].x
+        );
         // Just left of a wall at x = 0.5 (the sparser photons behind it are hidden): the density of
         // this side, where a plain kernel mixes both.
         let q = Vec3::new(0.49, 0.5, 0.5);
         let around = Surroundings::measure(|d| box_distance(q, d, 0.5));
-        let seen = estimate_within(&map, q, 3000, 0.3, Photons::All, false, Some(&around)).0.s[0].x;
+        let seen = estimate_within(&map, q, 3000, 0.3, Photons::All, false, Some(&around))
+            .0
+            .s[0]
+            .x;
         let plain = estimate(&map, q, 3000, 0.3, Photons::All, false).0.s[0].x;
-        assert!((seen / left - 1.0).abs() < 0.05 && plain < 0.85 * left, "behind a wall: aware {seen}, plain {plain}, density {left}");
+        assert!(
+            (seen / left - 1.0).abs() < 0.05 && plain < 0.85 * left,
+            "behind a wall: aware {seen}, plain {plain}, density {left}"
+        );
         // Far from any surface the two agree.
         let c = Vec3::splat(0.25);
         let around = Surroundings::measure(|d| box_distance(c, d, 0.5));
-        let (a, b) = (estimate(&map, c, 400, 0.3, Photons::All, true).0, estimate_within(&map, c, 400, 0.3, Photons::All, true, Some(&around)).0);
+        let (a, b) = (
+            estimate(&map, c, 400, 0.3, Photons::All, true).0,
+            estimate_within(&map, c, 400, 0.3, Photons::All, true, Some(&around)).0,
+        );
         assert!((a.s[0].x - b.s[0].x).abs() < 1e-3 * a.s[0].x);
     }
 
     #[test]
     fn the_kernel_share_is_the_biweight_integral() {
-        assert!((kernel_share(1.0) - 1.0).abs() < 1e-5 && kernel_share(0.0) == 0.0 && (kernel_share(2.0) - 1.0).abs() < 1e-5);
+        assert!(
+            (kernel_share(1.0) - 1.0).abs() < 1e-5
+                && kernel_share(0.0) == 0.0
+                && (kernel_share(2.0) - 1.0).abs() < 1e-5
+        );
         let h = 1e-3;
         for u in [0.2f32, 0.5, 0.8] {
             let fd = (kernel_share(u + h) - kernel_share(u - h)) / (2.0 * h);
-            assert!((fd - kernel_share_slope(u)).abs() < 1e-2, "slope at {u}: {fd} vs {}", kernel_share_slope(u));
+            assert!(
+                (fd - kernel_share_slope(u)).abs() < 1e-2,
+                "slope at {u}: {fd} vs {}",
+                kernel_share_slope(u)
+            );
         }
         // A point on a plane sees half the sphere: half the kernel.
-        let around = Surroundings::measure(|d| (if d.z < 0.0 { 0.0 } else { f32::INFINITY }, false, Vec3::Z));
-        assert!((around.share(1.0).0 - 0.5).abs() < 1e-3, "{}", around.share(1.0).0);
+        let around = Surroundings::measure(|d| {
+            (if d.z < 0.0 { 0.0 } else { f32::INFINITY }, false, Vec3::Z)
+        });
+        assert!(
+            (around.share(1.0).0 - 0.5).abs() < 1e-3,
+            "{}",
+            around.share(1.0).0
+        );
     }
 
     /// The kernel estimate's power moment at `q` with radius `r` fixed.
@@ -490,12 +617,23 @@ mod tests {
         let (mut err_with, mut err_without) = (0.0f32, 0.0f32);
         let mut rng = Rng::new(5);
         for _ in 0..200 {
-            let x = Vec3::new(0.3 + 0.4 * rng.uniform(), 0.3 + 0.4 * rng.uniform(), 0.3 + 0.4 * rng.uniform());
+            let x = Vec3::new(
+                0.3 + 0.4 * rng.uniform(),
+                0.3 + 0.4 * rng.uniform(),
+                0.3 + 0.4 * rng.uniform(),
+            );
             let truth = estimate(&map, x, 1000, 0.4, Photons::All, true).0.s[0].x;
             err_with += (with.interpolate(&map, x)[0].x - truth).abs() / truth;
             err_without += (without.interpolate(&map, x)[0].x - truth).abs() / truth;
         }
-        assert!(err_with / 200.0 < 0.05, "mean relative error with gradients {}", err_with / 200.0);
-        assert!(err_with <= err_without * 1.05, "gradients: {err_with} vs none: {err_without}");
+        assert!(
+            err_with / 200.0 < 0.05,
+            "mean relative error with gradients {}",
+            err_with / 200.0
+        );
+        assert!(
+            err_with <= err_without * 1.05,
+            "gradients: {err_with} vs none: {err_without}"
+        );
     }
 }

@@ -15,7 +15,10 @@ static NEXT_TEMP: AtomicU64 = AtomicU64::new(0);
 /// is a short image extension (image writers pick the format from it). At most ~40 bytes, so it stays
 /// under NAME_MAX whatever the target's own name.
 pub fn temp_path(target: &Path) -> PathBuf {
-    let ext = target.extension().map(|e| e.to_string_lossy().to_ascii_lowercase()).filter(|e| e.len() <= 8 && e.chars().all(|c| c.is_ascii_alphanumeric()));
+    let ext = target
+        .extension()
+        .map(|e| e.to_string_lossy().to_ascii_lowercase())
+        .filter(|e| e.len() <= 8 && e.chars().all(|c| c.is_ascii_alphanumeric()));
     let n = NEXT_TEMP.fetch_add(1, Ordering::Relaxed);
     let name = match ext {
         Some(e) => format!(".pmr-{}-{n}.tmp.{e}", std::process::id()),
@@ -38,7 +41,11 @@ impl OutputSet {
 
     /// Runs `write` on a temporary path beside `target`. On failure the temporary file is removed (and
     /// the whole set will be, when dropped).
-    pub fn stage(&mut self, target: &Path, write: impl FnOnce(&Path) -> std::result::Result<(), String>) -> Result<()> {
+    pub fn stage(
+        &mut self,
+        target: &Path,
+        write: impl FnOnce(&Path) -> std::result::Result<(), String>,
+    ) -> Result<()> {
         let tmp = temp_path(target);
         if let Err(e) = write(&tmp) {
             let _ = std::fs::remove_file(&tmp);
@@ -49,7 +56,9 @@ impl OutputSet {
     }
 
     pub fn stage_bytes(&mut self, target: &Path, bytes: &[u8]) -> Result<()> {
-        self.stage(target, |tmp| std::fs::write(tmp, bytes).map_err(|e| e.to_string()))
+        self.stage(target, |tmp| {
+            std::fs::write(tmp, bytes).map_err(|e| e.to_string())
+        })
     }
 
     /// Renames every staged file onto its target. If one rename fails, the targets already renamed are
@@ -80,14 +89,19 @@ impl Drop for OutputSet {
 }
 
 /// One file written atomically (a set of one).
-pub fn write_atomically(target: &Path, write: impl FnOnce(&Path) -> std::result::Result<(), String>) -> Result<()> {
+pub fn write_atomically(
+    target: &Path,
+    write: impl FnOnce(&Path) -> std::result::Result<(), String>,
+) -> Result<()> {
     let mut set = OutputSet::new();
     set.stage(target, write)?;
     set.commit()
 }
 
 pub fn write_bytes(target: &Path, bytes: &[u8]) -> Result<()> {
-    write_atomically(target, |tmp| std::fs::write(tmp, bytes).map_err(|e| e.to_string()))
+    write_atomically(target, |tmp| {
+        std::fs::write(tmp, bytes).map_err(|e| e.to_string())
+    })
 }
 
 #[cfg(test)]
@@ -106,7 +120,11 @@ mod tests {
         });
         assert!(r.is_err());
         drop(set);
-        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0, "no output, no temporary file");
+        assert_eq!(
+            std::fs::read_dir(dir.path()).unwrap().count(),
+            0,
+            "no output, no temporary file"
+        );
     }
 
     #[test]
@@ -134,7 +152,10 @@ mod tests {
         set.stage_bytes(&a, b"1").unwrap();
         set.stage_bytes(&blocked, b"2").unwrap(); // renaming a file over a non-empty directory fails
         assert!(set.commit().is_err());
-        let names: Vec<_> = std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().file_name()).collect();
+        let names: Vec<_> = std::fs::read_dir(dir.path())
+            .unwrap()
+            .map(|e| e.unwrap().file_name())
+            .collect();
         assert_eq!(names, vec![std::ffi::OsString::from("sub")]);
     }
 }

@@ -25,22 +25,43 @@ extern "C" {
         err: *mut c_char,
         errlen: usize,
     ) -> c_int;
-    fn pm_image_channels(path: *const c_char, names: *mut c_char, len: usize, err: *mut c_char, errlen: usize) -> c_int;
-    fn pm_image_size(path: *const c_char, width: *mut c_int, height: *mut c_int, nchannels: *mut c_int, err: *mut c_char, errlen: usize) -> c_int;
+    fn pm_image_channels(
+        path: *const c_char,
+        names: *mut c_char,
+        len: usize,
+        err: *mut c_char,
+        errlen: usize,
+    ) -> c_int;
+    fn pm_image_size(
+        path: *const c_char,
+        width: *mut c_int,
+        height: *mut c_int,
+        nchannels: *mut c_int,
+        err: *mut c_char,
+        errlen: usize,
+    ) -> c_int;
     fn pm_free_image(data: *mut f32);
 }
 
 fn c_path(path: &Path) -> Result<CString, String> {
-    CString::new(path.to_string_lossy().as_bytes()).map_err(|_| "path contains a NUL byte".to_string())
+    CString::new(path.to_string_lossy().as_bytes())
+        .map_err(|_| "path contains a NUL byte".to_string())
 }
 
 fn c_text(buf: &[u8]) -> String {
-    CStr::from_bytes_until_nul(buf).map(|c| c.to_string_lossy().into_owned()).unwrap_or_default()
+    CStr::from_bytes_until_nul(buf)
+        .map(|c| c.to_string_lossy().into_owned())
+        .unwrap_or_default()
 }
 
 /// An error from the shim on one line (OpenImageIO joins several with newlines).
 fn err_text(buf: &[u8]) -> String {
-    c_text(buf).lines().map(str::trim).filter(|l| !l.is_empty()).collect::<Vec<_>>().join("; ")
+    c_text(buf)
+        .lines()
+        .map(str::trim)
+        .filter(|l| !l.is_empty())
+        .collect::<Vec<_>>()
+        .join("; ")
 }
 
 /// Pixel data handed to the writer: float (EXR) or 8-bit (PNG), interleaved by channel.
@@ -50,7 +71,13 @@ pub enum Pixels<'a> {
 }
 
 /// Writes an image with the given channel names; the format follows the extension.
-pub fn write(path: &Path, width: u32, height: u32, names: &[&str], pixels: Pixels) -> Result<(), String> {
+pub fn write(
+    path: &Path,
+    width: u32,
+    height: u32,
+    names: &[&str],
+    pixels: Pixels,
+) -> Result<(), String> {
     let n = width as usize * height as usize * names.len();
     let (ptr, len, is_u8) = match pixels {
         Pixels::F32(d) => (d.as_ptr() as *const std::ffi::c_void, d.len(), 0),
@@ -60,7 +87,10 @@ pub fn write(path: &Path, width: u32, height: u32, names: &[&str], pixels: Pixel
         return Err(format!("internal: {len} values for {n} channels×pixels"));
     }
     let cpath = c_path(path)?;
-    let cnames: Vec<CString> = names.iter().map(|s| CString::new(*s).unwrap_or_default()).collect();
+    let cnames: Vec<CString> = names
+        .iter()
+        .map(|s| CString::new(*s).unwrap_or_default())
+        .collect();
     let name_ptrs: Vec<*const c_char> = cnames.iter().map(|c| c.as_ptr()).collect();
     let mut err = vec![0u8; 1024];
     // SAFETY: all pointers are valid for the call; `ptr` covers width×height×nchannels values of the
@@ -100,14 +130,27 @@ pub fn read(path: &Path) -> Result<ImageData, String> {
     let mut err = vec![0u8; 1024];
     // SAFETY: out-pointers are valid; on success the shim allocated w*h*c floats that we copy and free.
     unsafe {
-        let rc = pm_read_image(cpath.as_ptr(), &mut w, &mut h, &mut c, &mut data, err.as_mut_ptr() as *mut c_char, err.len());
+        let rc = pm_read_image(
+            cpath.as_ptr(),
+            &mut w,
+            &mut h,
+            &mut c,
+            &mut data,
+            err.as_mut_ptr() as *mut c_char,
+            err.len(),
+        );
         if rc != 0 || data.is_null() {
             return Err(err_text(&err));
         }
         let n = w as usize * h as usize * c as usize;
         let v = std::slice::from_raw_parts(data, n).to_vec();
         pm_free_image(data);
-        Ok(ImageData { width: w as u32, height: h as u32, channels: c as u32, data: v })
+        Ok(ImageData {
+            width: w as u32,
+            height: h as u32,
+            channels: c as u32,
+            data: v,
+        })
     }
 }
 
@@ -117,11 +160,22 @@ pub fn image_size(path: &Path) -> Result<(u32, u32, u32), String> {
     let (mut w, mut h, mut c) = (0, 0, 0);
     let mut err = vec![0u8; 1024];
     // SAFETY: out-pointers and the error buffer are valid for the call; its length is passed.
-    let rc = unsafe { pm_image_size(cpath.as_ptr(), &mut w, &mut h, &mut c, err.as_mut_ptr() as *mut c_char, err.len()) };
+    let rc = unsafe {
+        pm_image_size(
+            cpath.as_ptr(),
+            &mut w,
+            &mut h,
+            &mut c,
+            err.as_mut_ptr() as *mut c_char,
+            err.len(),
+        )
+    };
     if rc != 0 {
         return Err(err_text(&err));
     }
-    let dim = |v: c_int| u32::try_from(v).map_err(|_| format!("image header gives a negative size ({w}×{h}×{c})"));
+    let dim = |v: c_int| {
+        u32::try_from(v).map_err(|_| format!("image header gives a negative size ({w}×{h}×{c})"))
+    };
     Ok((dim(w)?, dim(h)?, dim(c)?))
 }
 
@@ -132,7 +186,13 @@ pub fn channel_names(path: &Path) -> Result<Vec<String>, String> {
     let mut err = vec![0u8; 1024];
     // SAFETY: buffers are valid and their lengths are passed.
     let rc = unsafe {
-        pm_image_channels(cpath.as_ptr(), names.as_mut_ptr() as *mut c_char, names.len(), err.as_mut_ptr() as *mut c_char, err.len())
+        pm_image_channels(
+            cpath.as_ptr(),
+            names.as_mut_ptr() as *mut c_char,
+            names.len(),
+            err.as_mut_ptr() as *mut c_char,
+            err.len(),
+        )
     };
     if rc != 0 {
         return Err(err_text(&err));

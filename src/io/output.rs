@@ -19,7 +19,11 @@ pub struct Image {
 
 impl Image {
     pub fn new(width: u32, height: u32) -> Image {
-        Image { width, height, pixels: vec![Vec3::ZERO; width as usize * height as usize] }
+        Image {
+            width,
+            height,
+            pixels: vec![Vec3::ZERO; width as usize * height as usize],
+        }
     }
 }
 
@@ -38,7 +42,9 @@ pub fn stage_exr(set: &mut OutputSet, path: &Path, layers: &Layers) -> Result<()
             names.push(format!("{n}.{c}"));
         }
     }
-    let images: Vec<&Image> = std::iter::once(layers.beauty).chain(layers.named.iter().map(|(_, i)| *i)).collect();
+    let images: Vec<&Image> = std::iter::once(layers.beauty)
+        .chain(layers.named.iter().map(|(_, i)| *i))
+        .collect();
     let mut data = Vec::with_capacity(w as usize * h as usize * names.len());
     for i in 0..(w as usize * h as usize) {
         for img in &images {
@@ -46,25 +52,59 @@ pub fn stage_exr(set: &mut OutputSet, path: &Path, layers: &Layers) -> Result<()
         }
     }
     let name_refs: Vec<&str> = names.iter().map(String::as_str).collect();
-    set.stage(path, |tmp| oiio::write(tmp, w, h, &name_refs, Pixels::F32(&data)))
+    set.stage(path, |tmp| {
+        oiio::write(tmp, w, h, &name_refs, Pixels::F32(&data))
+    })
 }
 
 fn srgb_encode(x: f32) -> u8 {
-    let x = if x.is_finite() { x.clamp(0.0, 1.0) } else { 0.0 };
-    let s = if x <= 0.003_130_8 { 12.92 * x } else { 1.055 * x.powf(1.0 / 2.4) - 0.055 };
+    let x = if x.is_finite() {
+        x.clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    let s = if x <= 0.003_130_8 {
+        12.92 * x
+    } else {
+        1.055 * x.powf(1.0 / 2.4) - 0.055
+    };
     (s * 255.0 + 0.5) as u8
 }
 
 /// Stages the sRGB PNG of `image` in `set`.
 pub fn stage_png(set: &mut OutputSet, path: &Path, image: &Image) -> Result<()> {
-    let data: Vec<u8> = image.pixels.iter().flat_map(|p| p.to_array().map(srgb_encode)).collect();
-    set.stage(path, |tmp| oiio::write(tmp, image.width, image.height, &["R", "G", "B"], Pixels::U8(&data)))
+    let data: Vec<u8> = image
+        .pixels
+        .iter()
+        .flat_map(|p| p.to_array().map(srgb_encode))
+        .collect();
+    set.stage(path, |tmp| {
+        oiio::write(
+            tmp,
+            image.width,
+            image.height,
+            &["R", "G", "B"],
+            Pixels::U8(&data),
+        )
+    })
 }
 
 /// Writes one PNG on its own (charts), atomically.
 pub fn write_png(path: &Path, image: &Image) -> Result<()> {
-    let data: Vec<u8> = image.pixels.iter().flat_map(|p| p.to_array().map(srgb_encode)).collect();
-    write_atomically(path, |tmp| oiio::write(tmp, image.width, image.height, &["R", "G", "B"], Pixels::U8(&data)))
+    let data: Vec<u8> = image
+        .pixels
+        .iter()
+        .flat_map(|p| p.to_array().map(srgb_encode))
+        .collect();
+    write_atomically(path, |tmp| {
+        oiio::write(
+            tmp,
+            image.width,
+            image.height,
+            &["R", "G", "B"],
+            Pixels::U8(&data),
+        )
+    })
 }
 
 /// Reads an EXR written by us (or any RGB image): the beauty layer, or the layer `name` (`name.R` …).
@@ -76,7 +116,10 @@ pub fn read_layer(path: &Path, name: Option<&str>) -> std::result::Result<Image,
             Some(n) => format!("{n}.{c}"),
             None => c.to_string(),
         };
-        names.iter().position(|x| *x == full).ok_or_else(|| format!("{}: no channel '{full}'", path.display()))
+        names
+            .iter()
+            .position(|x| *x == full)
+            .ok_or_else(|| format!("{}: no channel '{full}'", path.display()))
     };
     let (r, g, b) = (find("R")?, find("G")?, find("B")?);
     let nc = img.channels as usize;
@@ -85,5 +128,9 @@ pub fn read_layer(path: &Path, name: Option<&str>) -> std::result::Result<Image,
         .chunks_exact(nc)
         .map(|px| Vec3::new(px[r], px[g], px[b]))
         .collect();
-    Ok(Image { width: img.width, height: img.height, pixels })
+    Ok(Image {
+        width: img.width,
+        height: img.height,
+        pixels,
+    })
 }

@@ -60,23 +60,38 @@ pub fn budget(opts: &Options) -> (u64, String) {
     if let Some(b) = opts.max_memory {
         return (b, "--max-memory".into());
     }
-    if let Some(b) = std::env::var("PMRENDER_MAX_MEMORY").ok().and_then(|v| parse_size(&v)) {
+    if let Some(b) = std::env::var("PMRENDER_MAX_MEMORY")
+        .ok()
+        .and_then(|v| parse_size(&v))
+    {
         return (b, "PMRENDER_MAX_MEMORY".into());
     }
     match physical_memory() {
-        Some(ram) => ((ram as f64 * DEFAULT_FRACTION) as u64, format!("75 % of {} RAM; raise it with --max-memory", human(ram))),
+        Some(ram) => (
+            (ram as f64 * DEFAULT_FRACTION) as u64,
+            format!("75 % of {} RAM; raise it with --max-memory", human(ram)),
+        ),
         None => (8 << 30, "RAM unknown; raise it with --max-memory".into()),
     }
 }
 
 fn physical_memory() -> Option<u64> {
     let meminfo = std::fs::read_to_string("/proc/meminfo").ok()?;
-    let kib: u64 = meminfo.lines().find(|l| l.starts_with("MemTotal:"))?.split_whitespace().nth(1)?.parse().ok()?;
+    let kib: u64 = meminfo
+        .lines()
+        .find(|l| l.starts_with("MemTotal:"))?
+        .split_whitespace()
+        .nth(1)?
+        .parse()
+        .ok()?;
     let ram = kib.saturating_mul(1024);
-    let cgroup = ["/sys/fs/cgroup/memory.max", "/sys/fs/cgroup/memory/memory.limit_in_bytes"]
-        .iter()
-        .filter_map(|p| std::fs::read_to_string(p).ok()?.trim().parse::<u64>().ok())
-        .min();
+    let cgroup = [
+        "/sys/fs/cgroup/memory.max",
+        "/sys/fs/cgroup/memory/memory.limit_in_bytes",
+    ]
+    .iter()
+    .filter_map(|p| std::fs::read_to_string(p).ok()?.trim().parse::<u64>().ok())
+    .min();
     Some(cgroup.map_or(ram, |c| c.min(ram)))
 }
 
@@ -90,43 +105,71 @@ pub fn human(bytes: u64) -> String {
 }
 
 fn file_len(path: Option<&Path>) -> u64 {
-    path.and_then(|p| std::fs::metadata(p).ok()).map_or(0, |m| m.len())
+    path.and_then(|p| std::fs::metadata(p).ok())
+        .map_or(0, |m| m.len())
 }
 
 /// What the render will need, item by item (name, bytes).
 /// A media record in its lazily filled slot.
-const MEDIA_RECORD_BYTES: u64 = std::mem::size_of::<std::sync::OnceLock<crate::integrator::volume_grid::MediaRecord>>() as u64;
+const MEDIA_RECORD_BYTES: u64 =
+    std::mem::size_of::<std::sync::OnceLock<crate::integrator::volume_grid::MediaRecord>>() as u64;
 
 pub fn estimate(scene: &Scene, plan: &Plan, opts: &Options) -> Vec<(String, u64)> {
     let pixels = plan.width as u64 * plan.height as u64;
     let photon_method = plan.method != Method::Path;
-    let n_images: u64 = if photon_method { 1 + crate::integrator::terms::term_names(scene.media.is_some()).len() as u64 } else { 1 };
+    let n_images: u64 = if photon_method {
+        1 + crate::integrator::terms::term_names(scene.media.is_some()).len() as u64
+    } else {
+        1
+    };
     // Layers (12 B) + the EXR's interleaved floats (12 B per image) + PNG (3 B) + cache image (15 B) +
     // adaptive sampling's sums.
     let image = pixels.saturating_mul(24 * n_images + 18 + super::tiles::SUMS_BYTES_PER_PIXEL);
-    let mut items = vec![(format!("image {}×{} with {n_images} layer(s)", plan.width, plan.height), image)];
+    let mut items = vec![(
+        format!(
+            "image {}×{} with {n_images} layer(s)",
+            plan.width, plan.height
+        ),
+        image,
+    )];
     if photon_method {
         let photons = match &opts.files.load_photons {
             Some(p) => file_len(Some(p)).saturating_mul(3),
             None => {
                 let s = &plan.photons;
-                (s.global as u64 + s.caustic as u64 + s.volume as u64 + s.volume_caustic as u64 + 4 * photon::trace::MAX_DEPTH as u64).saturating_mul(PHOTON_PEAK_BYTES)
+                (s.global as u64
+                    + s.caustic as u64
+                    + s.volume as u64
+                    + s.volume_caustic as u64
+                    + 4 * photon::trace::MAX_DEPTH as u64)
+                    .saturating_mul(PHOTON_PEAK_BYTES)
             }
         };
         items.push(("photon maps".into(), photons));
         // The irradiance atlas: at most MAX_TEXEL_SLOTS slots (and as many caustic slots with a caustic
         // map), and a grid per triangle.
-        let slot = std::mem::size_of::<std::sync::OnceLock<crate::integrator::atlas::TexelIrradiance>>() as u64;
+        let slot =
+            std::mem::size_of::<std::sync::OnceLock<crate::integrator::atlas::TexelIrradiance>>()
+                as u64;
         let caustic_slot = std::mem::size_of::<std::sync::OnceLock<(glam::Vec3, bool)>>() as u64;
-        let slot_bytes = if plan.photons.caustic > 0 { slot + caustic_slot } else { slot };
-        let atlas = crate::integrator::atlas::MAX_TEXEL_SLOTS * slot_bytes + scene.geometry.triangles.len() as u64 * 64;
+        let slot_bytes = if plan.photons.caustic > 0 {
+            slot + caustic_slot
+        } else {
+            slot
+        };
+        let atlas = crate::integrator::atlas::MAX_TEXEL_SLOTS * slot_bytes
+            + scene.geometry.triangles.len() as u64 * 64;
         items.push(("irradiance atlas".into(), atlas));
         if scene.media.is_some() {
             // The final-gather rays' lattice of at most MAX_RECORDS (a record and its lock), and for `pm`
             // the media cache's records (each with a few index entries) and pass A's points.
-            items.push(("media records".into(), crate::integrator::volume_grid::MAX_RECORDS * MEDIA_RECORD_BYTES));
+            items.push((
+                "media records".into(),
+                crate::integrator::volume_grid::MAX_RECORDS * MEDIA_RECORD_BYTES,
+            ));
             if plan.method == Method::Pm {
-                let cache = icache::media::MAX_RECORDS as u64 * (std::mem::size_of::<icache::media::VolumeRecord>() as u64 + 64);
+                let cache = icache::media::MAX_RECORDS as u64
+                    * (std::mem::size_of::<icache::media::VolumeRecord>() as u64 + 64);
                 // Points are gathered with a sort key, then copied out: both lists at the peak.
                 let point = std::mem::size_of::<icache::media::MediaPoint>() as u64;
                 let points = crate::integrator::media_cache::MAX_POINTS as u64 * (2 * point + 4);
@@ -140,7 +183,10 @@ pub fn estimate(scene: &Scene, plan: &Plan, opts: &Options) -> Vec<(String, u64)
             Some(p) => file_len(Some(p)).saturating_mul(3),
             None => pixels.saturating_mul(FILL_BYTES_PER_PIXEL),
         };
-        items.push(("irradiance cache fill, then shading memos".into(), cache.max(memos)));
+        items.push((
+            "irradiance cache fill, then shading memos".into(),
+            cache.max(memos),
+        ));
     } else if plan.method == Method::Photons {
         items.push(("shading memos".into(), memos));
     }
@@ -155,7 +201,11 @@ pub fn check(scene: &Scene, plan: &Plan, opts: &Options) -> Result<()> {
     if total <= limit {
         return Ok(());
     }
-    let parts: Vec<String> = items.iter().filter(|(_, b)| *b > 0).map(|(n, b)| format!("{n}: {}", human(*b))).collect();
+    let parts: Vec<String> = items
+        .iter()
+        .filter(|(_, b)| *b > 0)
+        .map(|(n, b)| format!("{n}: {}", human(*b)))
+        .collect();
     Err(Error::Input(format!(
         "memory: the render needs about {} ({}), over the memory budget of {} ({source})",
         human(total),

@@ -33,33 +33,42 @@ pub struct PhotonOutput {
 }
 
 pub fn load_photons(path: &Path, fingerprint: u64) -> Result<photon::LoadedMaps> {
-    photon::file::load(path, fingerprint).map_err(|e| option("--load-photons", format!("{}: {e}", path.display())))
+    photon::file::load(path, fingerprint)
+        .map_err(|e| option("--load-photons", format!("{}: {e}", path.display())))
 }
 
 pub fn save_photons(set: &mut OutputSet, path: &Path, p: &PhotonOutput) -> Result<()> {
     set.stage(path, |tmp| {
         let file = std::fs::File::create(tmp).map_err(|e| e.to_string())?;
         let mut w = std::io::BufWriter::new(file);
-        photon::file::write_maps(&mut w, &p.info, &p.maps, p.precomputed.as_ref()).map_err(|e| e.to_string())?;
+        photon::file::write_maps(&mut w, &p.info, &p.maps, p.precomputed.as_ref())
+            .map_err(|e| e.to_string())?;
         std::io::Write::flush(&mut w).map_err(|e| e.to_string())
     })
 }
 
 pub fn load_cache(path: &Path, fingerprint: u64) -> Result<IrradianceCache> {
-    IrradianceCache::load(path, fingerprint).map_err(|e| option("--load-cache", format!("{}: {e}", path.display())))
+    IrradianceCache::load(path, fingerprint)
+        .map_err(|e| option("--load-cache", format!("{}: {e}", path.display())))
 }
 
-pub fn save_cache(set: &mut OutputSet, path: &Path, cache: &IrradianceCache, fingerprint: u64) -> Result<()> {
+pub fn save_cache(
+    set: &mut OutputSet,
+    path: &Path,
+    cache: &IrradianceCache,
+    fingerprint: u64,
+) -> Result<()> {
     set.stage_bytes(path, &cache.to_bytes(fingerprint))
 }
 
 /// ASCII PLY of both maps: position, normal, power (W) and the map (0 global, 1 caustic), streamed to
 /// the file (a text copy of millions of photons would double the memory).
 pub fn dump_photons(set: &mut OutputSet, path: &Path, maps: &PhotonMaps) -> Result<()> {
-    let lists: Vec<(u8, &[photon::Photon])> = [(0u8, maps.global.as_ref()), (1, maps.caustic.as_ref())]
-        .into_iter()
-        .filter_map(|(k, m)| m.map(|m| (k, m.photons())))
-        .collect();
+    let lists: Vec<(u8, &[photon::Photon])> =
+        [(0u8, maps.global.as_ref()), (1, maps.caustic.as_ref())]
+            .into_iter()
+            .filter_map(|(k, m)| m.map(|m| (k, m.photons())))
+            .collect();
     let n: usize = lists.iter().map(|(_, l)| l.len()).sum();
     set.stage(path, |tmp| {
         let file = std::fs::File::create(tmp).map_err(|e| e.to_string())?;
@@ -68,7 +77,11 @@ pub fn dump_photons(set: &mut OutputSet, path: &Path, maps: &PhotonMaps) -> Resu
     })
 }
 
-fn write_ply(w: &mut impl Write, n: usize, lists: &[(u8, &[photon::Photon])]) -> std::io::Result<()> {
+fn write_ply(
+    w: &mut impl Write,
+    n: usize,
+    lists: &[(u8, &[photon::Photon])],
+) -> std::io::Result<()> {
     write!(
         w,
         "ply\nformat ascii 1.0\ncomment pmrender photon maps\nelement vertex {n}\nproperty float x\nproperty float y\nproperty float z\n\
@@ -77,7 +90,19 @@ fn write_ply(w: &mut impl Write, n: usize, lists: &[(u8, &[photon::Photon])]) ->
     )?;
     for (k, list) in lists {
         for p in *list {
-            writeln!(w, "{} {} {} {} {} {} {:e} {:e} {:e} {k}", p.pos.x, p.pos.y, p.pos.z, p.normal.x, p.normal.y, p.normal.z, p.power.x, p.power.y, p.power.z)?;
+            writeln!(
+                w,
+                "{} {} {} {} {} {} {:e} {:e} {:e} {k}",
+                p.pos.x,
+                p.pos.y,
+                p.pos.z,
+                p.normal.x,
+                p.normal.y,
+                p.normal.z,
+                p.power.x,
+                p.power.y,
+                p.power.z
+            )?;
         }
     }
     w.flush()
@@ -86,7 +111,14 @@ fn write_ply(w: &mut impl Write, n: usize, lists: &[(u8, &[photon::Photon])]) ->
 /// The beauty with a dot at every record, coloured by its radius in pixels (blue small → red large,
 /// log scale between the cache's min and max spacing); in scenes with media, a white pixel at every
 /// media record in view (drawn first: surface records stay on top).
-pub fn cache_image(set: &mut OutputSet, path: &Path, beauty: &Image, cache: &IrradianceCache, camera: &Camera, media_records: &[Vec3]) -> Result<()> {
+pub fn cache_image(
+    set: &mut OutputSet,
+    path: &Path,
+    beauty: &Image,
+    cache: &IrradianceCache,
+    camera: &Camera,
+    media_records: &[Vec3],
+) -> Result<()> {
     let mut img = beauty.clone();
     for &q in media_records {
         if let Some((x, y)) = camera.project(q) {
@@ -96,9 +128,14 @@ pub fn cache_image(set: &mut OutputSet, path: &Path, beauty: &Image, cache: &Irr
         }
     }
     let p = cache.params();
-    let (lo, hi) = (p.min_spacing_px.max(1e-3).ln(), p.max_spacing_px.max(1e-3).ln());
+    let (lo, hi) = (
+        p.min_spacing_px.max(1e-3).ln(),
+        p.max_spacing_px.max(1e-3).ln(),
+    );
     for r in cache.records() {
-        let Some((x, y)) = camera.project(r.pos) else { continue };
+        let Some((x, y)) = camera.project(r.pos) else {
+            continue;
+        };
         let t = ((r.radius_px().max(1e-3).ln() - lo) / (hi - lo).max(1e-6)).clamp(0.0, 1.0);
         let colour = Vec3::new(t, 1.0 - (2.0 * t - 1.0).abs(), 1.0 - t);
         for dy in -1i32..=1 {

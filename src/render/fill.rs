@@ -31,7 +31,13 @@ pub struct CacheFill {
 /// Each pixel's shading points are traced once, with their hits, and a gather starts from the hit it is
 /// given. `cancel` is read before every chunk of pixels (two-pass) or row (one-pass), and by every
 /// gather ray.
-pub fn fill_cache(scene: &Scene, plan: &Plan, photons: &PhotonData, progress: &dyn Progress, cancel: &AtomicBool) -> Result<(CacheFill, CacheFillStats)> {
+pub fn fill_cache(
+    scene: &Scene,
+    plan: &Plan,
+    photons: &PhotonData,
+    progress: &dyn Progress,
+    cancel: &AtomicBool,
+) -> Result<(CacheFill, CacheFillStats)> {
     let t = Instant::now();
     let ctx = plan.pm_context(scene, photons, IndirectSource::PhotonMap, cancel);
     let (lo, hi) = scene.bounds;
@@ -44,39 +50,87 @@ pub fn fill_cache(scene: &Scene, plan: &Plan, photons: &PhotonData, progress: &d
     let mut rays_choice = None;
     let (fill, counters, one_pass) = match scene.settings.icache.fill {
         FillMode::TwoPass => {
-            let (fill, mut counters) = icache::fill_pass_a_cancellable(&mut cache, w, h, plan.pass_a_stride, &points, &gather, &report_progress, cancel);
+            let (fill, mut counters) = icache::fill_pass_a_cancellable(
+                &mut cache,
+                w,
+                h,
+                plan.pass_a_stride,
+                &points,
+                &gather,
+                &report_progress,
+                cancel,
+            );
             cache.end_stage();
             if plan.choose_rays {
                 let noise = gather_rays::predicted_noise(&ctx, &plan.camera, &cache, w, h);
                 let rounds = gather_rays::rounds_for(noise);
                 if rounds > 1 {
-                    counters += gather_rays::refine_records(&ctx, &plan.camera, &mut cache, rounds, progress, cancel);
+                    counters += gather_rays::refine_records(
+                        &ctx,
+                        &plan.camera,
+                        &mut cache,
+                        rounds,
+                        progress,
+                        cancel,
+                    );
                 }
                 rays_choice = Some((noise, rounds));
             }
             (fill, counters, None)
         }
         FillMode::OnePass => {
-            let (fill, counters, order) = icache::fill_one_pass_cancellable(&mut cache, w, h, &points, &gather, &report_progress, cancel);
+            let (fill, counters, order) = icache::fill_one_pass_cancellable(
+                &mut cache,
+                w,
+                h,
+                &points,
+                &gather,
+                &report_progress,
+                cancel,
+            );
             (fill, counters, Some(order))
         }
     };
     progress.finish();
-    let stats = CacheFillStats { time_s: Some(t.elapsed().as_secs_f64()), one_pass: one_pass.is_some(), fill, counters, n_loaded: 0, rays_choice };
+    let stats = CacheFillStats {
+        time_s: Some(t.elapsed().as_secs_f64()),
+        one_pass: one_pass.is_some(),
+        fill,
+        counters,
+        n_loaded: 0,
+        rays_choice,
+    };
     Ok((CacheFill { cache, one_pass }, stats))
 }
 
 /// A `--save-cache` file of the same scene, instead of `fill_cache` (pass B only).
 pub fn load_cache(scene: &Scene, path: &Path) -> Result<(CacheFill, CacheFillStats)> {
     let cache = files::load_cache(path, scene.fingerprint)?;
-    let stats = CacheFillStats { n_loaded: cache.len() as u64, ..Default::default() };
-    Ok((CacheFill { cache, one_pass: None }, stats))
+    let stats = CacheFillStats {
+        n_loaded: cache.len() as u64,
+        ..Default::default()
+    };
+    Ok((
+        CacheFill {
+            cache,
+            one_pass: None,
+        },
+        stats,
+    ))
 }
 
 /// `pm`'s pass A in participating media (scenes with a volume photon map): the media radiance cache
 /// filled at the points where the camera rays of a pixel lattice cross a medium.
-pub fn fill_media_cache(scene: &Scene, plan: &Plan, photons: &mut PhotonData, progress: &dyn Progress, cancel: &AtomicBool) -> MediaFillStats {
-    let (Some(media), Some(_)) = (&scene.media, &photons.maps.volume) else { return MediaFillStats::default() };
+pub fn fill_media_cache(
+    scene: &Scene,
+    plan: &Plan,
+    photons: &mut PhotonData,
+    progress: &dyn Progress,
+    cancel: &AtomicBool,
+) -> MediaFillStats {
+    let (Some(media), Some(_)) = (&scene.media, &photons.maps.volume) else {
+        return MediaFillStats::default();
+    };
     let (lo, hi) = media.bounds();
     let mut cache = MediaCache::new(lo, hi, scene.settings.icache.media_gradients());
     let stride = media_cache::lattice_stride(plan.width, plan.height);
@@ -84,7 +138,13 @@ pub fn fill_media_cache(scene: &Scene, plan: &Plan, photons: &mut PhotonData, pr
     progress.start("media cache", points.len() as u64);
     let data: &PhotonData = photons;
     let estimate = |p: &MediaPoint| media_cache::media_record(scene, data, p, stride);
-    let stats = icache::media::fill_media(&mut cache, &points, &estimate, &|done, _| progress.set(done), cancel);
+    let stats = icache::media::fill_media(
+        &mut cache,
+        &points,
+        &estimate,
+        &|done, _| progress.set(done),
+        cancel,
+    );
     progress.finish();
     photons.media_cache = Some(cache);
     MediaFillStats { stride, ..stats }

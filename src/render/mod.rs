@@ -73,7 +73,12 @@ pub struct RenderOutput {
 }
 
 /// Renders `scene` without writing anything; `Interrupted` soon after `cancel` is set, in any phase.
-pub fn render(scene: &Scene, opts: &Options, progress: &dyn Progress, cancel: &AtomicBool) -> Result<(RenderOutput, RenderStats)> {
+pub fn render(
+    scene: &Scene,
+    opts: &Options,
+    progress: &dyn Progress,
+    cancel: &AtomicBool,
+) -> Result<(RenderOutput, RenderStats)> {
     let start = Instant::now();
     let mut plan = plan(scene, opts)?;
     budget::check(scene, &plan, opts)?;
@@ -85,7 +90,10 @@ pub fn render(scene: &Scene, opts: &Options, progress: &dyn Progress, cancel: &A
             None => trace_photons(scene, &plan, &opts.files, progress, cancel)?,
         };
         stats.photons = Some(s);
-        (Some(build_maps(scene, &plan, traced.maps, traced.precomputed)), traced.info)
+        (
+            Some(build_maps(scene, &plan, traced.maps, traced.precomputed)),
+            traced.info,
+        )
     } else {
         (None, None)
     };
@@ -93,7 +101,9 @@ pub fn render(scene: &Scene, opts: &Options, progress: &dyn Progress, cancel: &A
 
     if let (Method::Pm, Some(photons)) = (plan.method, photons.as_mut()) {
         if photons.maps.volume.is_some() {
-            stats.media_fill = Some(fill::fill_media_cache(scene, &plan, photons, progress, cancel));
+            stats.media_fill = Some(fill::fill_media_cache(
+                scene, &plan, photons, progress, cancel,
+            ));
             interrupted(cancel)?;
         }
     }
@@ -122,11 +132,33 @@ pub fn render(scene: &Scene, opts: &Options, progress: &dyn Progress, cancel: &A
     let (beauty, layers) = beauty(&plan, scene.media.is_some(), layers);
     stats.finish(start, photons.as_ref(), cache.as_ref().map(|c| &c.cache));
 
-    let media_records = photons.as_ref().and_then(|p| p.media_cache.as_ref()).map_or(Vec::new(), |c| c.records().iter().map(|r| r.pos).collect());
-    let photons = photons.zip(photon_info).map(|(p, info)| files::PhotonOutput { info, maps: p.maps, precomputed: p.precomputed });
-    Ok((RenderOutput { beauty, layers, cache: cache.map(|c| c.cache), photons, media_records }, stats))
+    let media_records = photons
+        .as_ref()
+        .and_then(|p| p.media_cache.as_ref())
+        .map_or(Vec::new(), |c| c.records().iter().map(|r| r.pos).collect());
+    let photons = photons
+        .zip(photon_info)
+        .map(|(p, info)| files::PhotonOutput {
+            info,
+            maps: p.maps,
+            precomputed: p.precomputed,
+        });
+    Ok((
+        RenderOutput {
+            beauty,
+            layers,
+            cache: cache.map(|c| c.cache),
+            photons,
+            media_records,
+        },
+        stats,
+    ))
 }
 
 fn interrupted(cancel: &AtomicBool) -> Result<()> {
-    if cancel.load(Ordering::Relaxed) { Err(Error::Interrupted) } else { Ok(()) }
+    if cancel.load(Ordering::Relaxed) {
+        Err(Error::Interrupted)
+    } else {
+        Ok(())
+    }
 }

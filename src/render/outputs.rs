@@ -19,30 +19,46 @@ pub fn check_output(opt: &str, path: &Path) -> Result<()> {
     let raw = path.as_os_str().as_bytes();
     let name = path.file_name();
     if raw.is_empty() || raw.ends_with(b"/") || name.is_none() || raw.ends_with(b"/.") {
-        return Err(option(opt, format!("'{}' does not name a file", path.display())));
+        return Err(option(
+            opt,
+            format!("'{}' does not name a file", path.display()),
+        ));
     }
     let dir = match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
         _ => PathBuf::from("."),
     };
     if !dir.is_dir() {
-        return Err(option(opt, format!("directory '{}' does not exist", dir.display())));
+        return Err(option(
+            opt,
+            format!("directory '{}' does not exist", dir.display()),
+        ));
     }
     if let Ok(meta) = std::fs::metadata(path) {
         if meta.is_dir() {
             return Err(option(opt, format!("'{}' is a directory", path.display())));
         }
         if !meta.is_file() {
-            return Err(option(opt, format!("'{}' is not a regular file", path.display())));
+            return Err(option(
+                opt,
+                format!("'{}' is not a regular file", path.display()),
+            ));
         }
     }
     let probe = temp_path(path);
-    match std::fs::OpenOptions::new().write(true).create_new(true).open(&probe) {
+    match std::fs::OpenOptions::new()
+        .write(true)
+        .create_new(true)
+        .open(&probe)
+    {
         Ok(_) => {
             let _ = std::fs::remove_file(&probe);
             Ok(())
         }
-        Err(e) => Err(option(opt, format!("cannot write in '{}': {e}", dir.display()))),
+        Err(e) => Err(option(
+            opt,
+            format!("cannot write in '{}': {e}", dir.display()),
+        )),
     }
 }
 
@@ -67,7 +83,8 @@ impl Identity {
     }
 
     fn same(&self, other: &Identity) -> bool {
-        (self.canonical.is_some() && self.canonical == other.canonical) || (self.inode.is_some() && self.inode == other.inode)
+        (self.canonical.is_some() && self.canonical == other.canonical)
+            || (self.inode.is_some() && self.inode == other.inode)
     }
 }
 
@@ -76,11 +93,25 @@ pub fn check_distinct(outputs: &[Output], inputs: &[(String, PathBuf)]) -> Resul
     let ids: Vec<Identity> = outputs.iter().map(|(_, p)| Identity::of(p)).collect();
     for (i, (opt, path)) in outputs.iter().enumerate() {
         if let Some(j) = (0..i).find(|&j| ids[j].same(&ids[i])) {
-            return Err(option(opt, format!("'{}' is also the output of {}", path.display(), outputs[j].0)));
+            return Err(option(
+                opt,
+                format!(
+                    "'{}' is also the output of {}",
+                    path.display(),
+                    outputs[j].0
+                ),
+            ));
         }
         for (what, input) in inputs {
             if ids[i].same(&Identity::of(input)) {
-                return Err(option(opt, format!("'{}' would overwrite the {what} '{}'", path.display(), input.display())));
+                return Err(option(
+                    opt,
+                    format!(
+                        "'{}' would overwrite the {what} '{}'",
+                        path.display(),
+                        input.display()
+                    ),
+                ));
             }
         }
     }
@@ -92,23 +123,37 @@ pub fn check_distinct(outputs: &[Output], inputs: &[(String, PathBuf)]) -> Resul
 /// name that cannot be resolved is left out (the loader would have refused a missing file).
 pub fn scene_inputs(scene_path: &Path) -> Vec<(String, PathBuf)> {
     let mut inputs = vec![("scene file".to_string(), scene_path.to_path_buf())];
-    let Ok(text) = std::fs::read_to_string(scene_path) else { return inputs };
-    let Ok(desc) = crate::scene::file::parse(scene_path, &text) else { return inputs };
+    let Ok(text) = std::fs::read_to_string(scene_path) else {
+        return inputs;
+    };
+    let Ok(desc) = crate::scene::file::parse(scene_path, &text) else {
+        return inputs;
+    };
     let scene_dir = scene_path.parent().unwrap_or(Path::new(".")).to_path_buf();
     for m in &desc.materials {
-        if let Some(t) = m.1.texture.as_deref().and_then(|t| crate::texture::resolve(&scene_dir, t).ok()) {
+        if let Some(t) =
+            m.1.texture
+                .as_deref()
+                .and_then(|t| crate::texture::resolve(&scene_dir, t).ok())
+        {
             inputs.push(("texture".into(), t));
         }
     }
     for mesh in &desc.mesh {
         let obj = relative_to(scene_path, &mesh.obj);
-        let obj_text = std::fs::read(&obj).map(|b| String::from_utf8_lossy(&b).into_owned()).unwrap_or_default();
+        let obj_text = std::fs::read(&obj)
+            .map(|b| String::from_utf8_lossy(&b).into_owned())
+            .unwrap_or_default();
         inputs.push(("OBJ file".into(), obj.clone()));
         for name in directive_args(&obj_text, |k| k == "mtllib") {
             let mtl = relative_to(&obj, &name);
-            let mtl_text = std::fs::read(&mtl).map(|b| String::from_utf8_lossy(&b).into_owned()).unwrap_or_default();
+            let mtl_text = std::fs::read(&mtl)
+                .map(|b| String::from_utf8_lossy(&b).into_owned())
+                .unwrap_or_default();
             let mtl_dir = mtl.parent().unwrap_or(Path::new(".")).to_path_buf();
-            for tex in directive_args(&mtl_text, |k| k.starts_with("map_") || matches!(k, "bump" | "disp" | "decal" | "refl")) {
+            for tex in directive_args(&mtl_text, |k| {
+                k.starts_with("map_") || matches!(k, "bump" | "disp" | "decal" | "refl")
+            }) {
                 if let Ok(t) = crate::texture::resolve(&mtl_dir, &tex) {
                     inputs.push(("texture".into(), t));
                 }

@@ -25,17 +25,46 @@ pub struct Maps {
     pub info: Option<MapsInfo>,
 }
 
-pub fn trace_photons(scene: &Scene, plan: &Plan, files: &FileOptions, progress: &dyn Progress, cancel: &AtomicBool) -> Result<(Maps, PhotonStats)> {
+pub fn trace_photons(
+    scene: &Scene,
+    plan: &Plan,
+    files: &FileOptions,
+    progress: &dyn Progress,
+    cancel: &AtomicBool,
+) -> Result<(Maps, PhotonStats)> {
     let t = Instant::now();
     let settings = &plan.photons;
-    progress.start("photons", (settings.global + settings.caustic + settings.volume + settings.volume_caustic) as u64);
-    let (maps, trace) = PhotonData::trace(scene, settings, plan.seed, &|done, _| progress.set(done), cancel)?;
+    progress.start(
+        "photons",
+        (settings.global + settings.caustic + settings.volume + settings.volume_caustic) as u64,
+    );
+    let (maps, trace) = PhotonData::trace(
+        scene,
+        settings,
+        plan.seed,
+        &|done, _| progress.set(done),
+        cancel,
+    )?;
     progress.finish();
     let time_s = t.elapsed().as_secs_f64();
     let keep = files.save_photons.is_some() || files.dump_photons.is_some();
-    let info = keep.then(|| MapsInfo::new(scene.fingerprint, plan.seed, PhotonData::targets(settings), &trace));
+    let info = keep.then(|| {
+        MapsInfo::new(
+            scene.fingerprint,
+            plan.seed,
+            PhotonData::targets(settings),
+            &trace,
+        )
+    });
     let stats = photon_stats(plan, time_s, false, trace, None);
-    Ok((Maps { maps, precomputed: None, info }, stats))
+    Ok((
+        Maps {
+            maps,
+            precomputed: None,
+            info,
+        },
+        stats,
+    ))
 }
 
 /// The maps of a `--save-photons` file of the same scene, instead of `trace_photons`.
@@ -44,7 +73,12 @@ pub fn load_photons(scene: &Scene, plan: &Plan, path: &Path) -> Result<(Maps, Ph
     let loaded = files::load_photons(path, scene.fingerprint)?;
     let time_s = t.elapsed().as_secs_f64();
     let m = &loaded.maps;
-    let (global, caustic, volume, volume_caustic) = (m.global.as_ref(), m.caustic.as_ref(), m.volume.as_ref(), m.volume_caustic.as_ref());
+    let (global, caustic, volume, volume_caustic) = (
+        m.global.as_ref(),
+        m.caustic.as_ref(),
+        m.volume.as_ref(),
+        m.volume_caustic.as_ref(),
+    );
     let len = |m: Option<&photon::PhotonMap>| m.map_or(0, |m| m.len() as u64);
     let bytes = |m: Option<&photon::PhotonMap>| m.map_or(0, |m| m.memory_bytes() as u64);
     let trace = photon::TraceStats {
@@ -63,17 +97,47 @@ pub fn load_photons(scene: &Scene, plan: &Plan, path: &Path) -> Result<(Maps, Ph
         volume_caustic_memory_bytes: bytes(volume_caustic),
         ..Default::default()
     };
-    let precomputed = loaded.precomputed.as_ref().map(|p| (p.points().len() as u64, p.memory_bytes() as u64));
+    let precomputed = loaded
+        .precomputed
+        .as_ref()
+        .map(|p| (p.points().len() as u64, p.memory_bytes() as u64));
     let stats = photon_stats(plan, time_s, true, trace, precomputed);
-    Ok((Maps { maps: loaded.maps, precomputed: loaded.precomputed, info: None }, stats))
+    Ok((
+        Maps {
+            maps: loaded.maps,
+            precomputed: loaded.precomputed,
+            info: None,
+        },
+        stats,
+    ))
 }
 
-fn photon_stats(plan: &Plan, time_s: f64, loaded: bool, trace: photon::TraceStats, precomputed: Option<(u64, u64)>) -> PhotonStats {
+fn photon_stats(
+    plan: &Plan,
+    time_s: f64,
+    loaded: bool,
+    trace: photon::TraceStats,
+    precomputed: Option<(u64, u64)>,
+) -> PhotonStats {
     let s = &plan.photons;
-    PhotonStats { time_s, loaded, trace, precomputed, lookup: s.lookup, max_radius_global: s.max_radius_global, max_radius_caustic: s.max_radius_caustic, max_radius_volume: s.max_radius_volume }
+    PhotonStats {
+        time_s,
+        loaded,
+        trace,
+        precomputed,
+        lookup: s.lookup,
+        max_radius_global: s.max_radius_global,
+        max_radius_caustic: s.max_radius_caustic,
+        max_radius_volume: s.max_radius_volume,
+    }
 }
 
 /// The maps wrapped for the render (see [`PhotonData::new`]); nothing here is counted.
-pub fn build_maps<'a>(scene: &'a Scene, plan: &Plan, maps: PhotonMaps, precomputed: Option<PrecomputedIrradiance>) -> PhotonData<'a> {
+pub fn build_maps<'a>(
+    scene: &'a Scene,
+    plan: &Plan,
+    maps: PhotonMaps,
+    precomputed: Option<PrecomputedIrradiance>,
+) -> PhotonData<'a> {
     PhotonData::new(maps, precomputed, plan.photons.clone(), scene)
 }

@@ -52,12 +52,31 @@ pub const DEFAULT_AA_SPP: u32 = 32;
 
 impl Plan {
     pub fn sampling(&self) -> Sampling {
-        Sampling { spp: self.spp, noise: self.noise, aa_spp: self.aa_spp }
+        Sampling {
+            spp: self.spp,
+            noise: self.noise,
+            aa_spp: self.aa_spp,
+        }
     }
 
     /// The photon-map methods' integrator, reading soft indirect light from `source`.
-    pub fn pm_context<'a>(&self, scene: &'a Scene, photons: &'a PhotonData<'a>, source: IndirectSource<'a>, cancel: &'a AtomicBool) -> PmContext<'a> {
-        PmContext { scene, photons, source, gather: self.gather, max_depth: scene.settings.max_depth, seed: self.seed, cancel, defer_misses: false }
+    pub fn pm_context<'a>(
+        &self,
+        scene: &'a Scene,
+        photons: &'a PhotonData<'a>,
+        source: IndirectSource<'a>,
+        cancel: &'a AtomicBool,
+    ) -> PmContext<'a> {
+        PmContext {
+            scene,
+            photons,
+            source,
+            gather: self.gather,
+            max_depth: scene.settings.max_depth,
+            seed: self.seed,
+            cancel,
+            defer_misses: false,
+        }
     }
 }
 
@@ -71,7 +90,11 @@ pub fn plan(scene: &Scene, opts: &Options) -> Result<Plan> {
         Method::Pm | Method::Photons => 128,
         Method::PmFg => 4,
     });
-    let aa_spp = opts.aa_spp.or(scene.settings.aa_spp).unwrap_or(DEFAULT_AA_SPP).min(spp);
+    let aa_spp = opts
+        .aa_spp
+        .or(scene.settings.aa_spp)
+        .unwrap_or(DEFAULT_AA_SPP)
+        .min(spp);
     // Adaptive sampling by default for the photon-map methods, whose pixels mostly converge in a few
     // samples (point lights, diffuse walls, smooth cached irradiance); `path` keeps fixed sample counts
     // (it is the reference, and its charts are drawn per spp).
@@ -85,13 +108,22 @@ pub fn plan(scene: &Scene, opts: &Options) -> Result<Plan> {
         None => Window::full(width, height),
         Some(w) => {
             if w.x0 >= w.x1 || w.y0 >= w.y1 || w.x1 > width || w.y1 > height {
-                return Err(option("--crop", format!("window {} {} {} {} is empty or outside the {width}×{height} image", w.x0, w.y0, w.x1, w.y1)));
+                return Err(option(
+                    "--crop",
+                    format!(
+                        "window {} {} {} {} is empty or outside the {width}×{height} image",
+                        w.x0, w.y0, w.x1, w.y1
+                    ),
+                ));
             }
             w
         }
     };
     let icache = &scene.settings.icache;
-    let choose_rays = method == Method::Pm && !icache.rays_given && icache.fill == crate::scene::FillMode::TwoPass && opts.files.load_cache.is_none();
+    let choose_rays = method == Method::Pm
+        && !icache.rays_given
+        && icache.fill == crate::scene::FillMode::TwoPass
+        && opts.files.load_cache.is_none();
     Ok(Plan {
         method,
         spp,
@@ -105,7 +137,13 @@ pub fn plan(scene: &Scene, opts: &Options) -> Result<Plan> {
         photons: PhotonSettings::resolve(scene),
         cache: icache.for_image(width, height),
         pass_a_stride: icache.pass_a_stride(width, height),
-        gather: GatherParams { rays: if choose_rays { crate::integrator::gather_rays::BASE_RAYS } else { icache.rays } },
+        gather: GatherParams {
+            rays: if choose_rays {
+                crate::integrator::gather_rays::BASE_RAYS
+            } else {
+                icache.rays
+            },
+        },
         choose_rays,
     })
 }

@@ -24,33 +24,81 @@ use crate::scene::{Method, Scene};
 use icache::{IrradianceCache, ShadingPoint};
 
 /// `n_layers` images of the plan's window, by `sampler`. `cancel` is read before every sample.
-pub fn shade(plan: &Plan, n_layers: usize, sampler: &mut dyn Sampler, progress: &dyn Progress, cancel: &AtomicBool) -> Result<(Vec<Image>, ShadeStats)> {
+pub fn shade(
+    plan: &Plan,
+    n_layers: usize,
+    sampler: &mut dyn Sampler,
+    progress: &dyn Progress,
+    cancel: &AtomicBool,
+) -> Result<(Vec<Image>, ShadeStats)> {
     let t = Instant::now();
     progress.start("shade", plan.window.n_pixels());
-    let (layers, mut counters, samples) = render_tiles(plan.width, plan.height, plan.window, plan.sampling(), plan.seed, n_layers, sampler, &|n| progress.set(n), cancel)?;
+    let (layers, mut counters, samples) = render_tiles(
+        plan.width,
+        plan.height,
+        plan.window,
+        plan.sampling(),
+        plan.seed,
+        n_layers,
+        sampler,
+        &|n| progress.set(n),
+        cancel,
+    )?;
     progress.finish();
     // The gathers of records made between rounds are rays of the shading.
     let grown = sampler.grown();
     counters += grown.counters.work();
-    Ok((layers, ShadeStats { time_s: t.elapsed().as_secs_f64(), counters, samples, grown }))
+    Ok((
+        layers,
+        ShadeStats {
+            time_s: t.elapsed().as_secs_f64(),
+            counters,
+            samples,
+            grown,
+        },
+    ))
 }
 
 /// The method's sampler and its number of layers: `path`'s radiance without photon maps; with them,
 /// the terms of the split, soft indirect light read from `cache` when there is one (which grows
 /// between rounds where samples find no record, except a one-pass cache).
-pub fn sampler<'a>(scene: &'a Scene, plan: &'a Plan, photons: Option<&'a PhotonData<'a>>, cache: Option<&'a mut CacheFill>, cancel: &'a AtomicBool) -> (Box<dyn Sampler + 'a>, usize) {
-    let Some(photons) = photons else { return (path_sample(scene, &plan.camera), 1) };
+pub fn sampler<'a>(
+    scene: &'a Scene,
+    plan: &'a Plan,
+    photons: Option<&'a PhotonData<'a>>,
+    cache: Option<&'a mut CacheFill>,
+    cancel: &'a AtomicBool,
+) -> (Box<dyn Sampler + 'a>, usize) {
+    let Some(photons) = photons else {
+        return (path_sample(scene, &plan.camera), 1);
+    };
     let n_layers = term_names(scene.media.is_some()).len();
     let ctx = plan.pm_context(scene, photons, IndirectSource::PhotonMap, cancel);
     match cache {
-        Some(fill) if fill.one_pass.is_none() => (Box::new(GrowingCache::new(ctx, plan, fill)), n_layers),
+        Some(fill) if fill.one_pass.is_none() => {
+            (Box::new(GrowingCache::new(ctx, plan, fill)), n_layers)
+        }
         Some(fill) => {
             let fill: &'a CacheFill = fill;
-            (pm_sample(ctx, &plan.camera, fill.one_pass.as_ref().map(|order| (&fill.cache, order))), n_layers)
+            (
+                pm_sample(
+                    ctx,
+                    &plan.camera,
+                    fill.one_pass.as_ref().map(|order| (&fill.cache, order)),
+                ),
+                n_layers,
+            )
         }
         None => {
-            let source = if plan.method == Method::PmFg { IndirectSource::Gather } else { IndirectSource::PhotonMap };
-            (pm_sample(PmContext { source, ..ctx }, &plan.camera, None), n_layers)
+            let source = if plan.method == Method::PmFg {
+                IndirectSource::Gather
+            } else {
+                IndirectSource::PhotonMap
+            };
+            (
+                pm_sample(PmContext { source, ..ctx }, &plan.camera, None),
+                n_layers,
+            )
         }
     }
 }
@@ -77,13 +125,33 @@ impl<'a> GrowingCache<'a> {
             fill.cache.end_stage();
         }
         let view = fill.cache.stages()[0] as usize;
-        GrowingCache { ctx, plan, fill, grown: GrowStats::default(), view, round: 0 }
+        GrowingCache {
+            ctx,
+            plan,
+            fill,
+            grown: GrowStats::default(),
+            view,
+            round: 0,
+        }
     }
 }
 
 impl Sampler for GrowingCache<'_> {
-    fn sample(&self, x: u32, y: u32, off: [f32; 2], memo: &mut PixelMemo, rng: &mut Rng, c: &mut SampleCounters, defer_misses: bool) -> LayerValues {
-        let ctx = PmContext { source: IndirectSource::CacheUpTo(&self.fill.cache, self.view), defer_misses, ..self.ctx };
+    fn sample(
+        &self,
+        x: u32,
+        y: u32,
+        off: [f32; 2],
+        memo: &mut PixelMemo,
+        rng: &mut Rng,
+        c: &mut SampleCounters,
+        defer_misses: bool,
+    ) -> LayerValues {
+        let ctx = PmContext {
+            source: IndirectSource::CacheUpTo(&self.fill.cache, self.view),
+            defer_misses,
+            ..self.ctx
+        };
         camera_sample(&ctx, &self.plan.camera, x, y, off, memo, rng, c)
     }
 
@@ -101,16 +169,33 @@ impl Sampler for GrowingCache<'_> {
         let cache = &mut self.fill.cache;
         if !missed.is_empty() {
             let (ctx, camera) = (self.ctx, &self.plan.camera);
-            let pixels: Vec<(u32, u32)> = missed.chunk_by(|a, b| (a.x, a.y) == (b.x, b.y)).map(|m| (m[0].x, m[0].y)).collect();
+            let pixels: Vec<(u32, u32)> = missed
+                .chunk_by(|a, b| (a.x, a.y) == (b.x, b.y))
+                .map(|m| (m[0].x, m[0].y))
+                .collect();
             let points = |x: u32, y: u32| {
                 let from = missed.partition_point(|m| (m.y, m.x) < (y, x));
-                let offsets: Vec<[f32; 2]> = missed[from..].iter().take_while(|m| (m.x, m.y) == (x, y)).map(|m| m.offset).collect();
+                let offsets: Vec<[f32; 2]> = missed[from..]
+                    .iter()
+                    .take_while(|m| (m.x, m.y) == (x, y))
+                    .map(|m| m.offset)
+                    .collect();
                 sample_hits(&ctx, camera, x, y, &offsets)
             };
             // Seeds apart from pass A's gathers at the same pixel, and from other rounds'.
             let first = self.round << 16;
-            let gather = |x, y, i, sp: &ShadingPoint, hit: &Hit| gather_record(&ctx, x, y, first + i, sp, hit);
-            let (fill, counters) = icache::fill_pixels_cancellable(cache, self.plan.width, self.plan.height, &pixels, &points, &gather, ctx.cancel);
+            let gather = |x, y, i, sp: &ShadingPoint, hit: &Hit| {
+                gather_record(&ctx, x, y, first + i, sp, hit)
+            };
+            let (fill, counters) = icache::fill_pixels_cancellable(
+                cache,
+                self.plan.width,
+                self.plan.height,
+                &pixels,
+                &points,
+                &gather,
+                ctx.cancel,
+            );
             self.grown.rounds += (fill.insert.n_inserted > 0) as u64;
             self.grown.fill += fill;
             self.grown.counters += counters;
@@ -127,33 +212,78 @@ impl Sampler for GrowingCache<'_> {
 
 fn path_sample<'a>(scene: &'a Scene, camera: &'a Camera) -> Box<dyn Sampler + 'a> {
     let max_depth = scene.settings.max_depth;
-    Box::new(move |x: u32, y: u32, off: [f32; 2], _: &mut PixelMemo, rng: &mut Rng, c: &mut SampleCounters| -> LayerValues {
-        let d = camera.ray(x as f32 + off[0], y as f32 + off[1]);
-        LayerValues::one(path::radiance(scene, camera.eye, d, scene.camera_medium(), max_depth, rng, c))
-    })
+    Box::new(
+        move |x: u32,
+              y: u32,
+              off: [f32; 2],
+              _: &mut PixelMemo,
+              rng: &mut Rng,
+              c: &mut SampleCounters|
+              -> LayerValues {
+            let d = camera.ray(x as f32 + off[0], y as f32 + off[1]);
+            LayerValues::one(path::radiance(
+                scene,
+                camera.eye,
+                d,
+                scene.camera_medium(),
+                max_depth,
+                rng,
+                c,
+            ))
+        },
+    )
 }
 
 /// With a one-pass cache, each pixel sees only the records made before the fill reached it.
-fn pm_sample<'a>(ctx: PmContext<'a>, camera: &'a Camera, one_pass: Option<(&'a IrradianceCache, &'a icache::OnePassFill)>) -> Box<dyn Sampler + 'a> {
-    Box::new(move |x: u32, y: u32, off: [f32; 2], memo: &mut PixelMemo, rng: &mut Rng, c: &mut SampleCounters| -> LayerValues {
-        let ctx = match one_pass {
-            Some((cache, order)) => PmContext { source: IndirectSource::CacheUpTo(cache, order.visible_records(x, y)), ..ctx },
-            None => ctx,
-        };
-        camera_sample(&ctx, camera, x, y, off, memo, rng, c)
-    })
+fn pm_sample<'a>(
+    ctx: PmContext<'a>,
+    camera: &'a Camera,
+    one_pass: Option<(&'a IrradianceCache, &'a icache::OnePassFill)>,
+) -> Box<dyn Sampler + 'a> {
+    Box::new(
+        move |x: u32,
+              y: u32,
+              off: [f32; 2],
+              memo: &mut PixelMemo,
+              rng: &mut Rng,
+              c: &mut SampleCounters|
+              -> LayerValues {
+            let ctx = match one_pass {
+                Some((cache, order)) => PmContext {
+                    source: IndirectSource::CacheUpTo(cache, order.visible_records(x, y)),
+                    ..ctx
+                },
+                None => ctx,
+            };
+            camera_sample(&ctx, camera, x, y, off, memo, rng, c)
+        },
+    )
 }
 
 /// One camera sample of the photon-map methods: the terms of the split along the ray through (x, y) + off.
 #[allow(clippy::too_many_arguments)]
-fn camera_sample(ctx: &PmContext, camera: &Camera, x: u32, y: u32, off: [f32; 2], memo: &mut PixelMemo, rng: &mut Rng, c: &mut SampleCounters) -> LayerValues {
+fn camera_sample(
+    ctx: &PmContext,
+    camera: &Camera,
+    x: u32,
+    y: u32,
+    off: [f32; 2],
+    memo: &mut PixelMemo,
+    rng: &mut Rng,
+    c: &mut SampleCounters,
+) -> LayerValues {
     let d = camera.ray(x as f32 + off[0], y as f32 + off[1]);
-    ctx.shade(camera.eye, d, Some(memo), rng, c).to_layers(ctx.scene.media.is_some())
+    ctx.shade(camera.eye, d, Some(memo), rng, c)
+        .to_layers(ctx.scene.media.is_some())
 }
 
 /// The beauty and the named layers: `path`'s one image is the beauty; the photon-map methods' beauty
 /// is the sum of their terms.
-pub fn beauty(plan: &Plan, media: bool, mut layers: Vec<Image>) -> (Image, Vec<(&'static str, Image)>) {
+pub fn beauty(
+    plan: &Plan,
+    media: bool,
+    mut layers: Vec<Image>,
+) -> (Image, Vec<(&'static str, Image)>) {
     if !plan.method.uses_photon_maps() {
         return (layers.remove(0), Vec::new());
     }
@@ -163,5 +293,8 @@ pub fn beauty(plan: &Plan, media: bool, mut layers: Vec<Image>) -> (Image, Vec<(
             *b += *v;
         }
     }
-    (beauty, term_names(media).iter().copied().zip(layers).collect())
+    (
+        beauty,
+        term_names(media).iter().copied().zip(layers).collect(),
+    )
 }

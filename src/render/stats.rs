@@ -105,18 +105,44 @@ impl RenderStats {
             n_degenerate: scene.geometry.n_degenerate as u64,
             n_lights: scene.lights.len() as u64,
         };
-        RenderStats { setup, photons: None, fill: None, shade: ShadeStats::default(), atlas: None, volume_grid: None, media_fill: None, media_cache: None, cache: None, total_s: 0.0, write_outputs_s: None, peak_rss_bytes: 0 }
+        RenderStats {
+            setup,
+            photons: None,
+            fill: None,
+            shade: ShadeStats::default(),
+            atlas: None,
+            volume_grid: None,
+            media_fill: None,
+            media_cache: None,
+            cache: None,
+            total_s: 0.0,
+            write_outputs_s: None,
+            peak_rss_bytes: 0,
+        }
     }
 
     /// What is read once the phases are done: the atlas and the cache as shading left them, the time
     /// since `start`, the peak memory.
-    pub fn finish(&mut self, start: Instant, photons: Option<&PhotonData>, cache: Option<&IrradianceCache>) {
+    pub fn finish(
+        &mut self,
+        start: Instant,
+        photons: Option<&PhotonData>,
+        cache: Option<&IrradianceCache>,
+    ) {
         self.atlas = photons.and_then(|p| p.atlas.as_ref()).map(|a| a.stats());
-        self.volume_grid = photons.and_then(|p| p.volume_grid.as_ref()).map(|g| g.filled());
-        self.media_cache = photons.and_then(|p| p.media_cache.as_ref()).map(|c| (c.len() as u64, c.memory_bytes() as u64));
+        self.volume_grid = photons
+            .and_then(|p| p.volume_grid.as_ref())
+            .map(|g| g.filled());
+        self.media_cache = photons
+            .and_then(|p| p.media_cache.as_ref())
+            .map(|c| (c.len() as u64, c.memory_bytes() as u64));
         let fill = self.fill.as_ref();
         self.cache = cache.map(|c| {
-            let mut s = CacheStats::collect(c, &fill.map(|f| f.fill).unwrap_or_default(), &self.shade.counters.lookups);
+            let mut s = CacheStats::collect(
+                c,
+                &fill.map(|f| f.fill).unwrap_or_default(),
+                &self.shade.counters.lookups,
+            );
             let n_loaded = fill.map_or(0, |f| f.n_loaded);
             s.records_pass_b -= n_loaded.min(s.records_pass_b);
             s
@@ -139,18 +165,32 @@ impl RenderStats {
     /// The report: pbrt-style rows, in the order of the printed table.
     pub fn report(&self) -> Report {
         let mut r = Report::default();
-        r.text("Render", "Method", "render.method", self.setup.method.name());
+        r.text(
+            "Render",
+            "Method",
+            "render.method",
+            self.setup.method.name(),
+        );
         if let Some(p) = &self.photons {
             photon_rows(&mut r, p);
         }
         if let Some(f) = &self.fill {
             if let Some(t) = f.time_s {
-                let label = if f.one_pass { "Fill cache (one pass)" } else { "Fill cache (pass A)" };
+                let label = if f.one_pass {
+                    "Fill cache (one pass)"
+                } else {
+                    "Fill cache (pass A)"
+                };
                 r.seconds("Time", label, "time.fill_cache_s", t);
             }
         }
         if let Some(m) = &self.media_fill {
-            r.seconds("Time", "Fill media cache (pass A)", "time.fill_media_s", m.time_s);
+            r.seconds(
+                "Time",
+                "Fill media cache (pass A)",
+                "time.fill_media_s",
+                m.time_s,
+            );
         }
         r.seconds("Time", "Shade", "time.shade_s", self.shade.time_s);
         if self.photons.is_some() {
@@ -160,12 +200,37 @@ impl RenderStats {
         self.ray_rows(&mut r);
         self.image_rows(&mut r);
         let c = self.counters();
-        r.count("Rare events", "NaN or negative radiance", "rare.nan_or_negative", c.nan_or_negative);
-        r.count("Rare events", "Zero-pdf samples", "rare.zero_pdf", c.zero_pdf);
-        r.count("Scene", "Triangles", "scene.triangles", self.setup.n_triangles);
-        r.count("Scene", "Degenerate triangles dropped", "scene.degenerate_triangles", self.setup.n_degenerate);
+        r.count(
+            "Rare events",
+            "NaN or negative radiance",
+            "rare.nan_or_negative",
+            c.nan_or_negative,
+        );
+        r.count(
+            "Rare events",
+            "Zero-pdf samples",
+            "rare.zero_pdf",
+            c.zero_pdf,
+        );
+        r.count(
+            "Scene",
+            "Triangles",
+            "scene.triangles",
+            self.setup.n_triangles,
+        );
+        r.count(
+            "Scene",
+            "Degenerate triangles dropped",
+            "scene.degenerate_triangles",
+            self.setup.n_degenerate,
+        );
         r.count("Scene", "Lights", "scene.lights", self.setup.n_lights);
-        r.bytes("Memory", "Peak resident set", "memory.peak_rss_bytes", self.peak_rss_bytes);
+        r.bytes(
+            "Memory",
+            "Peak resident set",
+            "memory.peak_rss_bytes",
+            self.peak_rss_bytes,
+        );
         if let Some(t) = self.write_outputs_s {
             r.seconds("Time", "Write outputs", "time.write_outputs_s", t);
         }
@@ -176,43 +241,142 @@ impl RenderStats {
     fn photon_method_rows(&self, r: &mut Report) {
         let (shade, fill) = (&self.shade.counters, self.fill_counters());
         if let Some(s) = &self.atlas {
-            r.count("Photons", "Irradiance atlas texels", "photons.atlas_texels", s.slots);
-            r.count("Photons", "Irradiance atlas texels estimated", "photons.atlas_estimates", s.estimates);
-            r.count("Photons", "Edge texels (direct light shaded where each ray lands)", "photons.atlas_edge_texels", s.edges);
-            r.count("Photons", "Caustic estimates at texel middles (smooth caustics)", "photons.caustic_texel_estimates", s.caustic_estimates);
-            r.bytes("Photons", "Memory, irradiance atlas", "photons.atlas_memory_bytes", s.memory_bytes);
+            r.count(
+                "Photons",
+                "Irradiance atlas texels",
+                "photons.atlas_texels",
+                s.slots,
+            );
+            r.count(
+                "Photons",
+                "Irradiance atlas texels estimated",
+                "photons.atlas_estimates",
+                s.estimates,
+            );
+            r.count(
+                "Photons",
+                "Edge texels (direct light shaded where each ray lands)",
+                "photons.atlas_edge_texels",
+                s.edges,
+            );
+            r.count(
+                "Photons",
+                "Caustic estimates at texel middles (smooth caustics)",
+                "photons.caustic_texel_estimates",
+                s.caustic_estimates,
+            );
+            r.bytes(
+                "Photons",
+                "Memory, irradiance atlas",
+                "photons.atlas_memory_bytes",
+                s.memory_bytes,
+            );
         }
         if let Some((estimated, cells)) = self.volume_grid {
-            r.count("Photons", "Volume grid cells (for final-gather rays)", "photons.volume_grid_cells", cells as u64);
-            r.count("Photons", "Volume grid cells estimated", "photons.volume_grid_estimates", estimated as u64);
+            r.count(
+                "Photons",
+                "Volume grid cells (for final-gather rays)",
+                "photons.volume_grid_cells",
+                cells as u64,
+            );
+            r.count(
+                "Photons",
+                "Volume grid cells estimated",
+                "photons.volume_grid_estimates",
+                estimated as u64,
+            );
         }
         if let (Some(f), Some((records, bytes))) = (&self.media_fill, self.media_cache) {
             media_cache_rows(r, f, records, bytes, shade);
         }
         if let (Some(cs), Some(f)) = (&self.cache, &self.fill) {
             if f.n_loaded > 0 {
-                r.count("Irradiance cache", "Records loaded from file", "icache.records_loaded", f.n_loaded);
+                r.count(
+                    "Irradiance cache",
+                    "Records loaded from file",
+                    "icache.records_loaded",
+                    f.n_loaded,
+                );
             }
-            cache_rows(r, cs, &f.fill, fill.gather_rays + shade.gather_rays, &self.shade);
+            cache_rows(
+                r,
+                cs,
+                &f.fill,
+                fill.gather_rays + shade.gather_rays,
+                &self.shade,
+            );
         }
-        r.count("Final gather", "Gathers", "gather.gathers", fill.gathers + shade.gathers);
-        r.count("Final gather", "Gather rays", "gather.rays", fill.gather_rays + shade.gather_rays);
-        r.count("Final gather", "Gather rays in the cache fill", "gather.rays_fill", fill.gather_rays);
+        r.count(
+            "Final gather",
+            "Gathers",
+            "gather.gathers",
+            fill.gathers + shade.gathers,
+        );
+        r.count(
+            "Final gather",
+            "Gather rays",
+            "gather.rays",
+            fill.gather_rays + shade.gather_rays,
+        );
+        r.count(
+            "Final gather",
+            "Gather rays in the cache fill",
+            "gather.rays_fill",
+            fill.gather_rays,
+        );
         if let Some((noise, rounds)) = self.fill.as_ref().and_then(|f| f.rays_choice) {
             let base = crate::integrator::gather_rays::BASE_RAYS;
             let title = format!("Pixels' relative variance from gather noise, at {base} rays (predicted; target {:.0e})", crate::integrator::gather_rays::NOISE_TARGET);
-            r.value("Final gather", &title, "gather.predicted_noise", serde_json::Value::from(noise), format!("{noise:.2e}"));
-            r.count("Final gather", "Rays per gather (chosen from that prediction)", "gather.rays_chosen", crate::integrator::gather_rays::rays_for_rounds(rounds) as u64);
+            r.value(
+                "Final gather",
+                &title,
+                "gather.predicted_noise",
+                serde_json::Value::from(noise),
+                format!("{noise:.2e}"),
+            );
+            r.count(
+                "Final gather",
+                "Rays per gather (chosen from that prediction)",
+                "gather.rays_chosen",
+                crate::integrator::gather_rays::rays_for_rounds(rounds) as u64,
+            );
         }
         let mut noise = fill.gather_noise;
         noise += shade.gather_noise;
-        if let (Some(mean), Some(p50), Some(p90)) = (noise.mean(), noise.quantile(0.5), noise.quantile(0.9)) {
-            r.number("Final gather", "Gather noise: mean relative std error of E (own rays)", "gather.rel_err_mean", mean);
-            r.number("Final gather", "Gather noise: median, at most", "gather.rel_err_p50", p50 as f64);
-            r.number("Final gather", "Gather noise: 90th percentile, at most", "gather.rel_err_p90", p90 as f64);
+        if let (Some(mean), Some(p50), Some(p90)) =
+            (noise.mean(), noise.quantile(0.5), noise.quantile(0.9))
+        {
+            r.number(
+                "Final gather",
+                "Gather noise: mean relative std error of E (own rays)",
+                "gather.rel_err_mean",
+                mean,
+            );
+            r.number(
+                "Final gather",
+                "Gather noise: median, at most",
+                "gather.rel_err_p50",
+                p50 as f64,
+            );
+            r.number(
+                "Final gather",
+                "Gather noise: 90th percentile, at most",
+                "gather.rel_err_p90",
+                p90 as f64,
+            );
         }
-        r.count("Rays", "Rays while shading (camera, bounce, shadow, pass-B gathers)", "rays.shade", shade.rays + shade.shadow_rays);
-        r.count("Photons", "k-NN estimates while rendering (caustic, indirect)", "photons.estimates", fill.photon_estimates + shade.photon_estimates);
+        r.count(
+            "Rays",
+            "Rays while shading (camera, bounce, shadow, pass-B gathers)",
+            "rays.shade",
+            shade.rays + shade.shadow_rays,
+        );
+        r.count(
+            "Photons",
+            "k-NN estimates while rendering (caustic, indirect)",
+            "photons.estimates",
+            fill.photon_estimates + shade.photon_estimates,
+        );
     }
 
     /// Rays of the cache fill and the shading; their rate over the time of those two phases (the photon
@@ -224,21 +388,56 @@ impl RenderStats {
         r.count("Rays", "Total", "rays.total", rays);
         r.count("Rays", "Camera and bounce rays", "rays.closest_hit", c.rays);
         r.count("Rays", "Shadow rays", "rays.shadow", c.shadow_rays);
-        r.number("Rays", "Rays per second", "rays.per_s", rays as f64 / seconds.max(1e-9));
+        r.number(
+            "Rays",
+            "Rays per second",
+            "rays.per_s",
+            rays as f64 / seconds.max(1e-9),
+        );
     }
 
     fn image_rows(&self, r: &mut Report) {
         let (s, n) = (&self.setup, &self.shade.samples);
         r.count("Image", "Width", "image.width", s.width as u64);
         r.count("Image", "Height", "image.height", s.height as u64);
-        r.count("Image", "Samples per pixel (most)", "image.spp", s.spp as u64);
-        r.number("Image", "Noise target (0: fixed spp)", "image.noise", s.noise as f64);
+        r.count(
+            "Image",
+            "Samples per pixel (most)",
+            "image.spp",
+            s.spp as u64,
+        );
+        r.number(
+            "Image",
+            "Noise target (0: fixed spp)",
+            "image.noise",
+            s.noise as f64,
+        );
         if s.noise > 0.0 {
-            r.count("Image", "Samples per pixel without Monte Carlo estimates (most)", "image.aa_spp", s.aa_spp as u64);
-            r.count("Image", "Pixels with Monte Carlo estimates (area lights, glass, glossy, media)", "image.pixels_monte_carlo", n.monte_carlo_pixels);
+            r.count(
+                "Image",
+                "Samples per pixel without Monte Carlo estimates (most)",
+                "image.aa_spp",
+                s.aa_spp as u64,
+            );
+            r.count(
+                "Image",
+                "Pixels with Monte Carlo estimates (area lights, glass, glossy, media)",
+                "image.pixels_monte_carlo",
+                n.monte_carlo_pixels,
+            );
         }
-        r.number("Image", "Samples per pixel (mean)", "image.spp_mean", n.samples as f64 / n.pixels.max(1) as f64);
-        r.count("Image", "Pixels at the sample limit", "image.pixels_at_limit", n.at_limit);
+        r.number(
+            "Image",
+            "Samples per pixel (mean)",
+            "image.spp_mean",
+            n.samples as f64 / n.pixels.max(1) as f64,
+        );
+        r.count(
+            "Image",
+            "Pixels at the sample limit",
+            "image.pixels_at_limit",
+            n.at_limit,
+        );
         r.count("Image", "Samples", "image.samples", n.samples);
     }
 }
@@ -250,58 +449,268 @@ fn photon_rows(r: &mut Report, p: &PhotonStats) {
         r.seconds("Time", "Trace photons", "time.trace_photons_s", p.time_s);
     }
     let s = &p.trace;
-    r.count("Photons", "Paths emitted", "photons.paths_emitted", s.n_paths_emitted);
-    r.count("Photons", "Global photons stored", "photons.global_stored", s.n_global_stored);
-    r.count("Photons", "Caustic photons stored", "photons.caustic_stored", s.n_caustic_stored);
+    r.count(
+        "Photons",
+        "Paths emitted",
+        "photons.paths_emitted",
+        s.n_paths_emitted,
+    );
+    r.count(
+        "Photons",
+        "Global photons stored",
+        "photons.global_stored",
+        s.n_global_stored,
+    );
+    r.count(
+        "Photons",
+        "Caustic photons stored",
+        "photons.caustic_stored",
+        s.n_caustic_stored,
+    );
     r.seconds("Photons", "Trace time", "photons.trace_s", s.trace_s);
-    r.seconds("Photons", "Build time (kd-trees)", "photons.build_s", s.global_build_s + s.caustic_build_s + s.volume_build_s);
-    r.bytes("Photons", "Memory, global map", "photons.global_memory_bytes", s.global_memory_bytes);
-    r.bytes("Photons", "Memory, caustic map", "photons.caustic_memory_bytes", s.caustic_memory_bytes);
+    r.seconds(
+        "Photons",
+        "Build time (kd-trees)",
+        "photons.build_s",
+        s.global_build_s + s.caustic_build_s + s.volume_build_s,
+    );
+    r.bytes(
+        "Photons",
+        "Memory, global map",
+        "photons.global_memory_bytes",
+        s.global_memory_bytes,
+    );
+    r.bytes(
+        "Photons",
+        "Memory, caustic map",
+        "photons.caustic_memory_bytes",
+        s.caustic_memory_bytes,
+    );
     let precomputed_bytes = p.precomputed.map_or(0, |(_, bytes)| bytes);
     if p.max_radius_volume > 0.0 {
-        r.count("Photons", "Volume photons stored", "photons.volume_stored", s.n_volume_stored);
-        r.count("Photons", "Volume caustic photons stored (L S+ V)", "photons.volume_caustic_stored", s.n_volume_caustic_stored);
-        r.bytes("Photons", "Memory, volume caustic map", "photons.volume_caustic_memory_bytes", s.volume_caustic_memory_bytes);
-        r.bytes("Photons", "Memory, volume map", "photons.volume_memory_bytes", s.volume_memory_bytes);
-        r.number("Photons", "Max radius (volume)", "photons.max_radius_volume", p.max_radius_volume as f64);
-        r.count("Photons", "Global or volume map stopped by its path budget", "photons.media_cut", s.n_media_cut);
+        r.count(
+            "Photons",
+            "Volume photons stored",
+            "photons.volume_stored",
+            s.n_volume_stored,
+        );
+        r.count(
+            "Photons",
+            "Volume caustic photons stored (L S+ V)",
+            "photons.volume_caustic_stored",
+            s.n_volume_caustic_stored,
+        );
+        r.bytes(
+            "Photons",
+            "Memory, volume caustic map",
+            "photons.volume_caustic_memory_bytes",
+            s.volume_caustic_memory_bytes,
+        );
+        r.bytes(
+            "Photons",
+            "Memory, volume map",
+            "photons.volume_memory_bytes",
+            s.volume_memory_bytes,
+        );
+        r.number(
+            "Photons",
+            "Max radius (volume)",
+            "photons.max_radius_volume",
+            p.max_radius_volume as f64,
+        );
+        r.count(
+            "Photons",
+            "Global or volume map stopped by its path budget",
+            "photons.media_cut",
+            s.n_media_cut,
+        );
     }
-    r.bytes("Photons", "Memory", "photons.memory_bytes", s.global_memory_bytes + s.caustic_memory_bytes + s.volume_memory_bytes + s.volume_caustic_memory_bytes + precomputed_bytes);
-    r.count("Photons", "Paths dropped (non-finite)", "rare.photon_paths_dropped", s.n_paths_dropped);
-    r.count("Photons", "Caustic map stopped by its path budget", "photons.caustic_cut", s.n_caustic_cut);
+    r.bytes(
+        "Photons",
+        "Memory",
+        "photons.memory_bytes",
+        s.global_memory_bytes
+            + s.caustic_memory_bytes
+            + s.volume_memory_bytes
+            + s.volume_caustic_memory_bytes
+            + precomputed_bytes,
+    );
+    r.count(
+        "Photons",
+        "Paths dropped (non-finite)",
+        "rare.photon_paths_dropped",
+        s.n_paths_dropped,
+    );
+    r.count(
+        "Photons",
+        "Caustic map stopped by its path budget",
+        "photons.caustic_cut",
+        s.n_caustic_cut,
+    );
     r.count("Photons", "Lookup k", "photons.lookup", p.lookup as u64);
-    r.number("Photons", "Max radius (global)", "photons.max_radius_global", p.max_radius_global as f64);
-    r.number("Photons", "Max radius (caustic)", "photons.max_radius_caustic", p.max_radius_caustic as f64);
+    r.number(
+        "Photons",
+        "Max radius (global)",
+        "photons.max_radius_global",
+        p.max_radius_global as f64,
+    );
+    r.number(
+        "Photons",
+        "Max radius (caustic)",
+        "photons.max_radius_caustic",
+        p.max_radius_caustic as f64,
+    );
     if let Some((points, _)) = p.precomputed {
-        r.count("Photons", "Precomputed irradiance points", "photons.precomputed", points);
+        r.count(
+            "Photons",
+            "Precomputed irradiance points",
+            "photons.precomputed",
+            points,
+        );
     }
 }
 
-fn cache_rows(r: &mut Report, s: &CacheStats, fill: &icache::FillStats, gather_rays: u64, shade: &ShadeStats) {
-    r.count("Irradiance cache", "Records created in pass A", "icache.records_pass_a", s.records_pass_a);
-    r.count("Irradiance cache", "Records created in pass B (between rounds, for missed samples)", "icache.records_pass_b", s.records_pass_b);
-    r.count("Irradiance cache", "Pass-B rounds that made records", "icache.rounds_with_records", shade.grown.rounds);
-    r.count("Irradiance cache", "Pass-B samples taken again with the new records", "icache.samples_redone", shade.samples.redone);
-    r.count("Irradiance cache", "Pass-B pixel rounds taken again", "icache.pixel_rounds_redone", shade.samples.redone_pixels);
+fn cache_rows(
+    r: &mut Report,
+    s: &CacheStats,
+    fill: &icache::FillStats,
+    gather_rays: u64,
+    shade: &ShadeStats,
+) {
+    r.count(
+        "Irradiance cache",
+        "Records created in pass A",
+        "icache.records_pass_a",
+        s.records_pass_a,
+    );
+    r.count(
+        "Irradiance cache",
+        "Records created in pass B (between rounds, for missed samples)",
+        "icache.records_pass_b",
+        s.records_pass_b,
+    );
+    r.count(
+        "Irradiance cache",
+        "Pass-B rounds that made records",
+        "icache.rounds_with_records",
+        shade.grown.rounds,
+    );
+    r.count(
+        "Irradiance cache",
+        "Pass-B samples taken again with the new records",
+        "icache.samples_redone",
+        shade.samples.redone,
+    );
+    r.count(
+        "Irradiance cache",
+        "Pass-B pixel rounds taken again",
+        "icache.pixel_rounds_redone",
+        shade.samples.redone_pixels,
+    );
     r.count("Irradiance cache", "Lookups", "icache.lookups", s.lookups);
-    r.count("Irradiance cache", "Pass-B lookups", "icache.lookups_pass_b", s.lookups_pass_b);
-    r.count("Irradiance cache", "Pass-B misses (no record interpolates)", "icache.misses_pass_b", s.misses_pass_b);
-    r.count("Irradiance cache", "Pass-B misses extrapolated across normals", "icache.extrapolated_pass_b", s.extrapolated_pass_b);
-    r.count("Irradiance cache", "Pass-B misses gathered (no record at all)", "icache.gathered_pass_b", s.gathered_pass_b);
-    r.count("Irradiance cache", "Pass-B lookups from one record", "icache.single_record_pass_b", s.single_record_pass_b);
-    r.count("Irradiance cache", "Pass-B lookups reused within a pixel", "icache.reused_pass_b", s.reused_pass_b);
-    r.number("Irradiance cache", "Mean usable records per lookup", "icache.mean_records_per_lookup", s.mean_records_per_lookup());
-    r.count("Irradiance cache", "Gather rays", "icache.gather_rays", gather_rays);
+    r.count(
+        "Irradiance cache",
+        "Pass-B lookups",
+        "icache.lookups_pass_b",
+        s.lookups_pass_b,
+    );
+    r.count(
+        "Irradiance cache",
+        "Pass-B misses (no record interpolates)",
+        "icache.misses_pass_b",
+        s.misses_pass_b,
+    );
+    r.count(
+        "Irradiance cache",
+        "Pass-B misses extrapolated across normals",
+        "icache.extrapolated_pass_b",
+        s.extrapolated_pass_b,
+    );
+    r.count(
+        "Irradiance cache",
+        "Pass-B misses gathered (no record at all)",
+        "icache.gathered_pass_b",
+        s.gathered_pass_b,
+    );
+    r.count(
+        "Irradiance cache",
+        "Pass-B lookups from one record",
+        "icache.single_record_pass_b",
+        s.single_record_pass_b,
+    );
+    r.count(
+        "Irradiance cache",
+        "Pass-B lookups reused within a pixel",
+        "icache.reused_pass_b",
+        s.reused_pass_b,
+    );
+    r.number(
+        "Irradiance cache",
+        "Mean usable records per lookup",
+        "icache.mean_records_per_lookup",
+        s.mean_records_per_lookup(),
+    );
+    r.count(
+        "Irradiance cache",
+        "Gather rays",
+        "icache.gather_rays",
+        gather_rays,
+    );
     radius_row(r, "Irradiance cache", "icache.radius_px", &s.radius_px);
-    r.count("Irradiance cache", "Shrunk by neighbor clamping", "icache.shrunk_by_clamping", s.shrunk_by_clamping);
-    r.count("Irradiance cache", "Shrunk by the gradient limit", "icache.shrunk_by_gradient", s.shrunk_by_gradient);
-    r.count("Irradiance cache", "Shrunk by adaptive caching (halvings)", "icache.shrunk_adaptive", s.shrunk_adaptive);
-    r.count("Irradiance cache", "Clamped to min spacing", "icache.clamped_min", s.clamped_min);
-    r.count("Irradiance cache", "Clamped to max spacing", "icache.clamped_max", s.clamped_max);
-    r.count("Irradiance cache", "Pass-A pixel lattice (every n-th pixel in x and y)", "icache.pass_a_stride", fill.pass_a_stride as u64);
-    r.count("Irradiance cache", "Pass-A waves", "icache.waves", fill.n_waves);
-    r.count("Irradiance cache", "Points left uncovered after pass A", "icache.uncovered_after_fill", fill.n_uncovered_after);
-    r.bytes("Irradiance cache", "Memory", "icache.memory_bytes", s.memory_bytes);
+    r.count(
+        "Irradiance cache",
+        "Shrunk by neighbor clamping",
+        "icache.shrunk_by_clamping",
+        s.shrunk_by_clamping,
+    );
+    r.count(
+        "Irradiance cache",
+        "Shrunk by the gradient limit",
+        "icache.shrunk_by_gradient",
+        s.shrunk_by_gradient,
+    );
+    r.count(
+        "Irradiance cache",
+        "Shrunk by adaptive caching (halvings)",
+        "icache.shrunk_adaptive",
+        s.shrunk_adaptive,
+    );
+    r.count(
+        "Irradiance cache",
+        "Clamped to min spacing",
+        "icache.clamped_min",
+        s.clamped_min,
+    );
+    r.count(
+        "Irradiance cache",
+        "Clamped to max spacing",
+        "icache.clamped_max",
+        s.clamped_max,
+    );
+    r.count(
+        "Irradiance cache",
+        "Pass-A pixel lattice (every n-th pixel in x and y)",
+        "icache.pass_a_stride",
+        fill.pass_a_stride as u64,
+    );
+    r.count(
+        "Irradiance cache",
+        "Pass-A waves",
+        "icache.waves",
+        fill.n_waves,
+    );
+    r.count(
+        "Irradiance cache",
+        "Points left uncovered after pass A",
+        "icache.uncovered_after_fill",
+        fill.n_uncovered_after,
+    );
+    r.bytes(
+        "Irradiance cache",
+        "Memory",
+        "icache.memory_bytes",
+        s.memory_bytes,
+    );
 }
 
 /// A radius histogram as one row: mean [min–max] shown, the bins in the JSON.
@@ -316,19 +725,75 @@ fn radius_row(r: &mut Report, category: &str, key: &str, h: &icache::RadiusHisto
 }
 
 /// The media radiance cache: pass A's work, pass B's lookups and misses, the radii.
-fn media_cache_rows(r: &mut Report, f: &icache::media::MediaFillStats, records: u64, bytes: u64, shade: &SampleCounters) {
+fn media_cache_rows(
+    r: &mut Report,
+    f: &icache::media::MediaFillStats,
+    records: u64,
+    bytes: u64,
+    shade: &SampleCounters,
+) {
     let c = "Media cache";
-    r.count(c, "Records (pass A; pass B makes none)", "media.records", records);
-    r.count(c, "Pass-A points along camera rays", "media.points", f.n_points);
-    r.count(c, "Pass-A pixel lattice (every n-th pixel in x and y)", "media.lattice_stride", f.stride as u64);
-    r.count(c, "Estimates made in pass A", "media.estimates", f.n_estimates);
-    r.count(c, "Estimates covered by an earlier one of their wave", "media.skipped_covered", f.n_skipped_covered);
-    r.count(c, "Shrunk by neighbour clamping", "media.shrunk_by_clamping", f.n_shrunk_by_neighbours);
-    r.count(c, "Repair sweeps", "media.repair_sweeps", f.n_repair_sweeps as u64);
-    r.count(c, "Points left uncovered after pass A", "media.uncovered_after_fill", f.n_uncovered_after);
+    r.count(
+        c,
+        "Records (pass A; pass B makes none)",
+        "media.records",
+        records,
+    );
+    r.count(
+        c,
+        "Pass-A points along camera rays",
+        "media.points",
+        f.n_points,
+    );
+    r.count(
+        c,
+        "Pass-A pixel lattice (every n-th pixel in x and y)",
+        "media.lattice_stride",
+        f.stride as u64,
+    );
+    r.count(
+        c,
+        "Estimates made in pass A",
+        "media.estimates",
+        f.n_estimates,
+    );
+    r.count(
+        c,
+        "Estimates covered by an earlier one of their wave",
+        "media.skipped_covered",
+        f.n_skipped_covered,
+    );
+    r.count(
+        c,
+        "Shrunk by neighbour clamping",
+        "media.shrunk_by_clamping",
+        f.n_shrunk_by_neighbours,
+    );
+    r.count(
+        c,
+        "Repair sweeps",
+        "media.repair_sweeps",
+        f.n_repair_sweeps as u64,
+    );
+    r.count(
+        c,
+        "Points left uncovered after pass A",
+        "media.uncovered_after_fill",
+        f.n_uncovered_after,
+    );
     r.count(c, "Pass-B lookups", "media.lookups", shade.media_lookups);
-    r.count(c, "Pass-B misses (estimated from the volume map)", "media.misses", shade.media_misses);
-    r.percent(c, "Pass-B miss ratio", "media.miss_ratio", shade.media_misses as f64 / shade.media_lookups.max(1) as f64);
+    r.count(
+        c,
+        "Pass-B misses (estimated from the volume map)",
+        "media.misses",
+        shade.media_misses,
+    );
+    r.percent(
+        c,
+        "Pass-B miss ratio",
+        "media.miss_ratio",
+        shade.media_misses as f64 / shade.media_lookups.max(1) as f64,
+    );
     radius_row(r, c, "media.radius_px", &f.radius_px);
     r.bytes(c, "Memory", "media.memory_bytes", bytes);
 }

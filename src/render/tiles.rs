@@ -50,7 +50,12 @@ pub struct Window {
 
 impl Window {
     pub fn full(width: u32, height: u32) -> Window {
-        Window { x0: 0, y0: 0, x1: width, y1: height }
+        Window {
+            x0: 0,
+            y0: 0,
+            x1: width,
+            y1: height,
+        }
     }
 
     pub fn n_pixels(&self) -> u64 {
@@ -61,7 +66,9 @@ impl Window {
 /// What a method computes for one pixel sample at image position (x + offset[0], y + offset[1]): beauty is
 /// the sum of `layers` (or `layers[0]` when the method has a single layer).
 /// `memo` is the pixel's, cleared before each round of its samples.
-pub type SampleFn<'a> = dyn Fn(u32, u32, [f32; 2], &mut PixelMemo, &mut Rng, &mut SampleCounters) -> LayerValues + Sync + 'a;
+pub type SampleFn<'a> = dyn Fn(u32, u32, [f32; 2], &mut PixelMemo, &mut Rng, &mut SampleCounters) -> LayerValues
+    + Sync
+    + 'a;
 
 /// A sample whose shading found no cache record for a surface it reached (a pass-B miss).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -77,7 +84,16 @@ pub trait Sampler: Sync {
     /// With `defer_misses` (a round's first attempt, when [`Self::adds_records`]), a lookup that finds
     /// no record may answer anything cheap: every pixel with a miss takes the round again.
     #[allow(clippy::too_many_arguments)]
-    fn sample(&self, x: u32, y: u32, offset: [f32; 2], memo: &mut PixelMemo, rng: &mut Rng, c: &mut SampleCounters, defer_misses: bool) -> LayerValues;
+    fn sample(
+        &self,
+        x: u32,
+        y: u32,
+        offset: [f32; 2],
+        memo: &mut PixelMemo,
+        rng: &mut Rng,
+        c: &mut SampleCounters,
+        defer_misses: bool,
+    ) -> LayerValues;
 
     /// Whether [`Self::end_round`] can add records (then each round keeps what it needs to take a
     /// pixel's samples again).
@@ -106,8 +122,22 @@ pub struct GrowStats {
     pub counters: SampleCounters,
 }
 
-impl<F: Fn(u32, u32, [f32; 2], &mut PixelMemo, &mut Rng, &mut SampleCounters) -> LayerValues + Sync + ?Sized> Sampler for F {
-    fn sample(&self, x: u32, y: u32, offset: [f32; 2], memo: &mut PixelMemo, rng: &mut Rng, c: &mut SampleCounters, _: bool) -> LayerValues {
+impl<
+        F: Fn(u32, u32, [f32; 2], &mut PixelMemo, &mut Rng, &mut SampleCounters) -> LayerValues
+            + Sync
+            + ?Sized,
+    > Sampler for F
+{
+    fn sample(
+        &self,
+        x: u32,
+        y: u32,
+        offset: [f32; 2],
+        memo: &mut PixelMemo,
+        rng: &mut Rng,
+        c: &mut SampleCounters,
+        _: bool,
+    ) -> LayerValues {
         self(x, y, offset, memo, rng, c)
     }
 }
@@ -260,7 +290,11 @@ fn rounds(spp: u32, aa_spp: u32, adaptive: bool) -> Vec<u32> {
     while *r.last().unwrap_or(&spp) < spp {
         let last = r[r.len() - 1];
         let next = (last * 2).min(spp);
-        r.push(if last < aa_spp && aa_spp < next { aa_spp } else { next });
+        r.push(if last < aa_spp && aa_spp < next {
+            aa_spp
+        } else {
+            next
+        });
     }
     r
 }
@@ -295,19 +329,38 @@ pub fn render_tiles(
     let mut tiles = Vec::new();
     for ty in (window.y0..window.y1).step_by(TILE as usize) {
         for tx in (window.x0..window.x1).step_by(TILE as usize) {
-            let w = Window { x0: tx, y0: ty, x1: (tx + TILE).min(window.x1), y1: (ty + TILE).min(window.y1) };
+            let w = Window {
+                x0: tx,
+                y0: ty,
+                x1: (tx + TILE).min(window.x1),
+                y1: (ty + TILE).min(window.y1),
+            };
             let n = w.n_pixels() as usize;
-            tiles.push(TileState { window: w, pixels: vec![PixelSums::default(); n], layers: vec![vec![Vec3::ZERO; n]; n_layers], memos: vec![PixelMemo::default(); n], redo: Vec::new() });
+            tiles.push(TileState {
+                window: w,
+                pixels: vec![PixelSums::default(); n],
+                layers: vec![vec![Vec3::ZERO; n]; n_layers],
+                memos: vec![PixelMemo::default(); n],
+                redo: Vec::new(),
+            });
         }
     }
-    let (ww, wh) = ((window.x1 - window.x0) as usize, (window.y1 - window.y0) as usize);
+    let (ww, wh) = (
+        (window.x1 - window.x0) as usize,
+        (window.y1 - window.y0) as usize,
+    );
     // Pixels (window row-major) that take the next round's samples.
     let mut active = vec![true; ww * wh];
     let rounds = rounds(spp, aa_spp, adaptive);
     let done = AtomicU64::new(0);
     let mut total = SampleCounters::default();
     let mut count = SampleCount::default();
-    let round_of = RoundSpec { width, spp, seed, adaptive };
+    let round_of = RoundSpec {
+        width,
+        spp,
+        seed,
+        adaptive,
+    };
     for (round, &target) in rounds.iter().enumerate() {
         let active_ref = &active;
         let sampler_ref: &dyn Sampler = sampler;
@@ -325,7 +378,16 @@ pub fn render_tiles(
                         if !active_ref[(y - window.y0) as usize * ww + (x - window.x0) as usize] {
                             continue;
                         }
-                        if !round_of.take(t, x, y, target, sampler_ref, keep_redo, &mut counters, cancel) {
+                        if !round_of.take(
+                            t,
+                            x,
+                            y,
+                            target,
+                            sampler_ref,
+                            keep_redo,
+                            &mut counters,
+                            cancel,
+                        ) {
                             return counters;
                         }
                     }
@@ -343,7 +405,9 @@ pub fn render_tiles(
             return Err(Error::Interrupted);
         }
         if keep_redo {
-            redo_missed(&mut tiles, &round_of, target, sampler, &mut total, &mut count, cancel)?;
+            redo_missed(
+                &mut tiles, &round_of, target, sampler, &mut total, &mut count, cancel,
+            )?;
         }
         if round + 1 == rounds.len() {
             break;
@@ -368,14 +432,20 @@ pub fn render_tiles(
         }
         for y in 0..wh {
             for x in 0..ww {
-                active[y * ww + x] = allowed[y * ww + x] && (y.saturating_sub(1)..(y + 2).min(wh)).any(|yy| (x.saturating_sub(1)..(x + 2).min(ww)).any(|xx| open[yy * ww + xx]));
+                active[y * ww + x] = allowed[y * ww + x]
+                    && (y.saturating_sub(1)..(y + 2).min(wh)).any(|yy| {
+                        (x.saturating_sub(1)..(x + 2).min(ww)).any(|xx| open[yy * ww + xx])
+                    });
             }
         }
         // A pixel that stops sampling needs its memo no more.
         for t in &mut tiles {
             let w = t.window;
             for (k, memo) in t.memos.iter_mut().enumerate() {
-                let (x, y) = (w.x0 + k as u32 % (w.x1 - w.x0), w.y0 + k as u32 / (w.x1 - w.x0));
+                let (x, y) = (
+                    w.x0 + k as u32 % (w.x1 - w.x0),
+                    w.y0 + k as u32 / (w.x1 - w.x0),
+                );
                 if !active[(y - window.y0) as usize * ww + (x - window.x0) as usize] {
                     memo.clear();
                 }
@@ -415,7 +485,17 @@ impl RoundSpec {
     /// samples missed keeps its state from before them (and their counters) in `t.redo` instead of
     /// adding the counters to `counters`. False when `cancel` stopped it.
     #[allow(clippy::too_many_arguments)]
-    fn take(&self, t: &mut TileState, x: u32, y: u32, target: u32, sampler: &dyn Sampler, keep_redo: bool, counters: &mut SampleCounters, cancel: &AtomicBool) -> bool {
+    fn take(
+        &self,
+        t: &mut TileState,
+        x: u32,
+        y: u32,
+        target: u32,
+        sampler: &dyn Sampler,
+        keep_redo: bool,
+        counters: &mut SampleCounters,
+        cancel: &AtomicBool,
+    ) -> bool {
         let w = t.window;
         let k = ((y - w.y0) * (w.x1 - w.x0) + (x - w.x0)) as usize;
         let before = keep_redo.then(|| {
@@ -423,7 +503,14 @@ impl RoundSpec {
             for (l, layer) in layers.iter_mut().zip(&t.layers) {
                 *l = layer[k];
             }
-            Redo { k, sums: t.pixels[k].clone(), layers, memo_len: t.memos[k].len(), counters: SampleCounters::default(), missed: Vec::new() }
+            Redo {
+                k,
+                sums: t.pixels[k].clone(),
+                layers,
+                memo_len: t.memos[k].len(),
+                counters: SampleCounters::default(),
+                missed: Vec::new(),
+            }
         });
         let mut own = SampleCounters::default();
         let mut missed = Vec::new();
@@ -458,7 +545,11 @@ impl RoundSpec {
             px.n += 1;
         }
         match before {
-            Some(before) if !missed.is_empty() => t.redo.push(Redo { counters: own, missed, ..before }),
+            Some(before) if !missed.is_empty() => t.redo.push(Redo {
+                counters: own,
+                missed,
+                ..before
+            }),
             _ => *counters += own,
         }
         true
@@ -468,12 +559,23 @@ impl RoundSpec {
 /// After a round: the samples that missed go to the sampler, which may add records for them; then their
 /// pixels go back to where they stood before the round and take it again, misses answered in full this
 /// time (the first attempt's rays count in `total`, its lookups do not).
-fn redo_missed(tiles: &mut [TileState], round: &RoundSpec, target: u32, sampler: &mut dyn Sampler, total: &mut SampleCounters, count: &mut SampleCount, cancel: &AtomicBool) -> Result<()> {
+fn redo_missed(
+    tiles: &mut [TileState],
+    round: &RoundSpec,
+    target: u32,
+    sampler: &mut dyn Sampler,
+    total: &mut SampleCounters,
+    count: &mut SampleCount,
+    cancel: &AtomicBool,
+) -> Result<()> {
     let mut missed = Vec::new();
     for t in tiles.iter() {
         let w = t.window;
         for r in &t.redo {
-            let (x, y) = (w.x0 + r.k as u32 % (w.x1 - w.x0), w.y0 + r.k as u32 / (w.x1 - w.x0));
+            let (x, y) = (
+                w.x0 + r.k as u32 % (w.x1 - w.x0),
+                w.y0 + r.k as u32 / (w.x1 - w.x0),
+            );
             missed.extend(r.missed.iter().map(|&offset| MissedSample { x, y, offset }));
         }
     }
@@ -503,7 +605,10 @@ fn redo_missed(tiles: &mut [TileState], round: &RoundSpec, target: u32, sampler:
             let redo = std::mem::take(&mut t.redo);
             let w = t.window;
             for r in redo {
-                let (x, y) = (w.x0 + r.k as u32 % (w.x1 - w.x0), w.y0 + r.k as u32 / (w.x1 - w.x0));
+                let (x, y) = (
+                    w.x0 + r.k as u32 % (w.x1 - w.x0),
+                    w.y0 + r.k as u32 / (w.x1 - w.x0),
+                );
                 if !round.take(t, x, y, target, sampler_ref, false, &mut counters, cancel) {
                     break;
                 }
@@ -531,7 +636,10 @@ mod tests {
         for s in 0..8 {
             let [x, y] = offset(s, 8, 0.999, 0.0);
             let cell = s % 4;
-            assert!((x - (cell % 2) as f32 * 0.5 - 0.4995).abs() < 1e-6 && (y - (cell / 2) as f32 * 0.5).abs() < 1e-6);
+            assert!(
+                (x - (cell % 2) as f32 * 0.5 - 0.4995).abs() < 1e-6
+                    && (y - (cell / 2) as f32 * 0.5).abs() < 1e-6
+            );
         }
         // spp 1 and the tail of spp 6: anywhere in the pixel.
         assert_eq!(offset(0, 1, 0.7, 0.8), [0.7, 0.8]);
@@ -543,14 +651,35 @@ mod tests {
     fn pixels_without_monte_carlo_estimates_stop_at_aa_spp() {
         // 8 × 1 pixels, every sample a coin flip between 0 and 1 (never converges at noise 0.01); pixels
         // 0–3 count a Monte Carlo estimate in each sample, pixels 4–7 none.
-        let sampler = |x: u32, _y: u32, _off: [f32; 2], _m: &mut PixelMemo, rng: &mut Rng, c: &mut SampleCounters| {
+        let sampler = |x: u32,
+                       _y: u32,
+                       _off: [f32; 2],
+                       _m: &mut PixelMemo,
+                       rng: &mut Rng,
+                       c: &mut SampleCounters| {
             c.monte_carlo += (x < 4) as u64;
             LayerValues::one(Vec3::splat((rng.uniform() < 0.5) as u32 as f32))
         };
         let run = |spp, aa_spp| {
             let mut s = sampler;
-            let sampling = Sampling { spp, noise: 0.01, aa_spp };
-            render_tiles(8, 1, Window::full(8, 1), sampling, 1, 1, &mut s, &|_| {}, &AtomicBool::new(false)).unwrap().2
+            let sampling = Sampling {
+                spp,
+                noise: 0.01,
+                aa_spp,
+            };
+            render_tiles(
+                8,
+                1,
+                Window::full(8, 1),
+                sampling,
+                1,
+                1,
+                &mut s,
+                &|_| {},
+                &AtomicBool::new(false),
+            )
+            .unwrap()
+            .2
         };
         let count = run(128, 32);
         // 4 pixels × 128 + 4 × 32, every one at its limit.
@@ -560,7 +689,23 @@ mod tests {
         assert_eq!(run(64, 64).samples, 8 * 64);
         // Fixed sampling (no noise target) ignores aa_spp.
         let mut s = sampler;
-        let fixed = render_tiles(8, 1, Window::full(8, 1), Sampling { spp: 16, noise: 0.0, aa_spp: 4 }, 1, 1, &mut s, &|_| {}, &AtomicBool::new(false)).unwrap().2;
+        let fixed = render_tiles(
+            8,
+            1,
+            Window::full(8, 1),
+            Sampling {
+                spp: 16,
+                noise: 0.0,
+                aa_spp: 4,
+            },
+            1,
+            1,
+            &mut s,
+            &|_| {},
+            &AtomicBool::new(false),
+        )
+        .unwrap()
+        .2;
         assert_eq!(fixed.samples, 8 * 16);
     }
 
@@ -595,7 +740,11 @@ mod tests {
         // Without the pair, the plain variance of the first group (relative 0.32 per channel) would not
         // stop at 0.2.
         let px = pixel(&varied, 32);
-        assert!(!super::converged(&PixelSums { pairs: 0, ..px }, Vec3::splat(0.5), 0.2));
+        assert!(!super::converged(
+            &PixelSums { pairs: 0, ..px },
+            Vec3::splat(0.5),
+            0.2
+        ));
         // Samples past the last whole group (spp 6) are in no quarter: they leave the pairs alone.
         assert_eq!(pixel(&[0.0, 1.0, 0.0, 1.0, 0.0, 1.0], 6).pairs, 0);
         assert_eq!(rounds(32, 32, true), [4, 8, 16, 32]);

@@ -28,12 +28,27 @@ pub struct OutputPaths {
 
 /// Writes every output, all or nothing; returns the report of `stats` with this phase's time added (the
 /// one saved as `--stats`). `cancel` is read between files.
-pub fn write_outputs(paths: &OutputPaths, scene: &Scene, out: RenderOutput, mut stats: RenderStats, cancel: &AtomicBool) -> Result<Report> {
-    let interrupted = || if cancel.load(Ordering::SeqCst) { Err(Error::Interrupted) } else { Ok(()) };
+pub fn write_outputs(
+    paths: &OutputPaths,
+    scene: &Scene,
+    out: RenderOutput,
+    mut stats: RenderStats,
+    cancel: &AtomicBool,
+) -> Result<Report> {
+    let interrupted = || {
+        if cancel.load(Ordering::SeqCst) {
+            Err(Error::Interrupted)
+        } else {
+            Ok(())
+        }
+    };
     let t = Instant::now();
     let mut set = OutputSet::new();
     interrupted()?;
-    let layers = Layers { beauty: &out.beauty, named: out.layers.iter().map(|(n, i)| (*n, i)).collect() };
+    let layers = Layers {
+        beauty: &out.beauty,
+        named: out.layers.iter().map(|(n, i)| (*n, i)).collect(),
+    };
     stage_exr(&mut set, &paths.exr, &layers)?;
     interrupted()?;
     if let Some(p) = &paths.png {
@@ -51,7 +66,9 @@ pub fn write_outputs(paths: &OutputPaths, scene: &Scene, out: RenderOutput, mut 
                 interrupted()?;
             }
             if let Some(p) = &paths.cache_image {
-                let cam = scene.camera.with_resolution(out.beauty.width, out.beauty.height);
+                let cam = scene
+                    .camera
+                    .with_resolution(out.beauty.width, out.beauty.height);
                 cache_image(&mut set, p, &out.beauty, c, &cam, &out.media_records)?;
                 interrupted()?;
             }
@@ -70,7 +87,8 @@ pub fn write_outputs(paths: &OutputPaths, scene: &Scene, out: RenderOutput, mut 
     stats.write_outputs_s = Some(t.elapsed().as_secs_f64());
     let report = stats.report();
     if let Some(p) = &paths.stats {
-        let json = serde_json::to_string_pretty(&report.to_json()).map_err(|e| Error::Runtime(e.to_string()))?;
+        let json = serde_json::to_string_pretty(&report.to_json())
+            .map_err(|e| Error::Runtime(e.to_string()))?;
         set.stage_bytes(p, json.as_bytes())?;
     }
     interrupted()?;

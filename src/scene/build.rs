@@ -27,7 +27,11 @@ pub(super) struct Ctx<'a> {
 impl Ctx<'_> {
     pub fn err(&self, table: &str, index: usize, key: &str, msg: impl std::fmt::Display) -> Error {
         let line = line_of_key(self.text, table, index, key);
-        let dotted = if table.is_empty() { key.to_string() } else { format!("{table}.{key}") };
+        let dotted = if table.is_empty() {
+            key.to_string()
+        } else {
+            format!("{table}.{key}")
+        };
         at_line(self.path, line, format!("{dotted}: {msg}"))
     }
 }
@@ -42,7 +46,12 @@ pub fn load(path: &Path) -> Result<Scene> {
     let cx = Ctx { path, text: &text };
     if let Some(v) = desc.version {
         if v != 1 {
-            return Err(cx.err("", 0, "version", format!("unsupported version {v} (this renderer reads 1)")));
+            return Err(cx.err(
+                "",
+                0,
+                "version",
+                format!("unsupported version {v} (this renderer reads 1)"),
+            ));
         }
     }
     let camera = camera(&cx, &desc)?;
@@ -51,13 +60,45 @@ pub fn load(path: &Path) -> Result<Scene> {
     let textures = textures(&cx, &mut materials, tex_paths)?;
     let bounds = geometry.bounds();
     let lights = lights(&cx, &desc, &geometry, &materials, &emission_at)?;
-    let media = media(&cx, &desc, &geometry, &materials, &mesh_tris, &lights.lights)?;
-    let bvh = Bvh::build(&geometry.positions, &geometry.triangles.iter().map(|t| t.v).collect::<Vec<_>>())
-        .map_err(runtime)?;
-    let specular: Vec<[u32; 3]> = geometry.triangles.iter().filter(|t| materials[t.material as usize].bsdf.is_specular()).map(|t| t.v).collect();
-    let specular_bvh = if specular.is_empty() { None } else { Some(Bvh::build(&geometry.positions, &specular).map_err(runtime)?) };
+    let media = media(
+        &cx,
+        &desc,
+        &geometry,
+        &materials,
+        &mesh_tris,
+        &lights.lights,
+    )?;
+    let bvh = Bvh::build(
+        &geometry.positions,
+        &geometry.triangles.iter().map(|t| t.v).collect::<Vec<_>>(),
+    )
+    .map_err(runtime)?;
+    let specular: Vec<[u32; 3]> = geometry
+        .triangles
+        .iter()
+        .filter(|t| materials[t.material as usize].bsdf.is_specular())
+        .map(|t| t.v)
+        .collect();
+    let specular_bvh = if specular.is_empty() {
+        None
+    } else {
+        Some(Bvh::build(&geometry.positions, &specular).map_err(runtime)?)
+    };
     let fingerprint = fingerprint(&geometry, &materials, &lights, media.as_ref());
-    Ok(Scene { path: path.to_path_buf(), camera, geometry, materials, textures, lights, bvh, specular_bvh, settings, bounds, fingerprint, media })
+    Ok(Scene {
+        path: path.to_path_buf(),
+        camera,
+        geometry,
+        materials,
+        textures,
+        lights,
+        bvh,
+        specular_bvh,
+        settings,
+        bounds,
+        fingerprint,
+        media,
+    })
 }
 
 fn transform(cx: &Ctx, index: usize, m: &file::MeshDesc) -> Result<Mat4> {
@@ -77,13 +118,21 @@ fn transform(cx: &Ctx, index: usize, m: &file::MeshDesc) -> Result<Mat4> {
     if let Some(p) = limits::position(Vec3::from(t)) {
         return Err(cx.err("mesh", index, "translate", p));
     }
-    let rot = Mat4::from_rotation_z(r[2].to_radians()) * Mat4::from_rotation_y(r[1].to_radians()) * Mat4::from_rotation_x(r[0].to_radians());
+    let rot = Mat4::from_rotation_z(r[2].to_radians())
+        * Mat4::from_rotation_y(r[1].to_radians())
+        * Mat4::from_rotation_x(r[0].to_radians());
     Ok(Mat4::from_translation(Vec3::from(t)) * rot * Mat4::from_scale(s))
 }
 
 type TexPaths = Vec<Option<(std::path::PathBuf, String)>>;
 
-type Meshes = (Geometry, Vec<Material>, TexPaths, Vec<Origin>, Vec<std::ops::Range<usize>>);
+type Meshes = (
+    Geometry,
+    Vec<Material>,
+    TexPaths,
+    Vec<Origin>,
+    Vec<std::ops::Range<usize>>,
+);
 
 /// Every mesh's triangles (transformed), the materials (MTL, then the scene's overrides), their texture
 /// paths, where each material's emission was set, and each mesh's triangles.
@@ -101,19 +150,37 @@ fn meshes(cx: &Ctx, desc: &SceneFile) -> Result<Meshes> {
         let nxf = Mat3::from_mat4(xf).inverse().transpose();
         let obj_path = relative_to(cx.path, &m.obj);
         if !obj_path.exists() {
-            return Err(cx.err("mesh", mi, "obj", format!("file '{}' not found", obj_path.display())));
+            return Err(cx.err(
+                "mesh",
+                mi,
+                "obj",
+                format!("file '{}' not found", obj_path.display()),
+            ));
         }
         if !obj_path.is_file() {
-            return Err(cx.err("mesh", mi, "obj", format!("'{}' is not a regular file", obj_path.display())));
+            return Err(cx.err(
+                "mesh",
+                mi,
+                "obj",
+                format!("'{}' is not a regular file", obj_path.display()),
+            ));
         }
         let data = obj::load(&obj_path)?;
         let base = materials.len();
         let mesh_line = line_of_key(cx.text, "mesh", mi, "obj");
         for tm in &data.materials {
             let (mat, tex) = mtl::from_mtl(tm);
-            by_name.entry(mat.name.clone()).or_default().push(materials.len());
+            by_name
+                .entry(mat.name.clone())
+                .or_default()
+                .push(materials.len());
             tex_paths.push(tex.map(|t| (data.mtl_dir.clone(), t)));
-            emission_at.push(data.ke_at.get(&mat.name).cloned().unwrap_or_else(|| (cx.path.to_path_buf(), mesh_line)));
+            emission_at.push(
+                data.ke_at
+                    .get(&mat.name)
+                    .cloned()
+                    .unwrap_or_else(|| (cx.path.to_path_buf(), mesh_line)),
+            );
             materials.push(mat);
         }
         let first_vertex = geo.positions.len();
@@ -121,7 +188,14 @@ fn meshes(cx: &Ctx, desc: &SceneFile) -> Result<Meshes> {
             let mat_index = match model.material {
                 Some(k) if k < data.materials.len() => (base + k) as u32,
                 _ => *default_material.get_or_insert_with(|| {
-                    materials.push(Material { name: "default".into(), bsdf: Bsdf::Diffuse { albedo: Vec3::splat(0.8), texture: None }, emission: Vec3::ZERO });
+                    materials.push(Material {
+                        name: "default".into(),
+                        bsdf: Bsdf::Diffuse {
+                            albedo: Vec3::splat(0.8),
+                            texture: None,
+                        },
+                        emission: Vec3::ZERO,
+                    });
                     tex_paths.push(None);
                     emission_at.push((cx.path.to_path_buf(), 1));
                     (materials.len() - 1) as u32
@@ -129,18 +203,37 @@ fn meshes(cx: &Ctx, desc: &SceneFile) -> Result<Meshes> {
             };
             append_model(&mut geo, model, &xf, &nxf, mat_index);
         }
-        if let Some(p) = geo.positions[first_vertex..].iter().find_map(|p| limits::position(*p)) {
-            return Err(cx.err("mesh", mi, "obj", format!("a vertex of '{}' at {p} after scale, rotate and translate", m.obj)));
+        if let Some(p) = geo.positions[first_vertex..]
+            .iter()
+            .find_map(|p| limits::position(*p))
+        {
+            return Err(cx.err(
+                "mesh",
+                mi,
+                "obj",
+                format!(
+                    "a vertex of '{}' at {p} after scale, rotate and translate",
+                    m.obj
+                ),
+            ));
         }
         mesh_tris.push(first_tri..geo.triangles.len());
     }
     if geo.triangles.is_empty() {
-        return Err(at_line(cx.path, 1, "the scene has no triangles (add a [[mesh]] with faces)"));
+        return Err(at_line(
+            cx.path,
+            1,
+            "the scene has no triangles (add a [[mesh]] with faces)",
+        ));
     }
     for (name, d) in &desc.materials {
         let line_of_mat = |key: &str| line_of(cx.text, &["materials", name, key], 0);
         let Some(idx) = by_name.get(name) else {
-            return Err(at_line(cx.path, line_of_mat("type"), format!("materials.{name}: no mesh uses a material named '{name}'")));
+            return Err(at_line(
+                cx.path,
+                line_of_mat("type"),
+                format!("materials.{name}: no mesh uses a material named '{name}'"),
+            ));
         };
         for &i in idx {
             let was_diffuse = matches!(materials[i].bsdf, Bsdf::Diffuse { .. });
@@ -169,18 +262,37 @@ fn append_model(geo: &mut Geometry, model: &obj::ObjModel, xf: &Mat4, nxf: &Mat3
     let has_uv = model.uvs.len() == model.positions.len() && !model.uvs.is_empty();
     for (k, p) in model.positions.iter().enumerate() {
         geo.positions.push(xf.transform_point3(*p));
-        let n = if has_normals { (*nxf * model.normals[k]).normalize_or_zero() } else { Vec3::ZERO };
+        let n = if has_normals {
+            (*nxf * model.normals[k]).normalize_or_zero()
+        } else {
+            Vec3::ZERO
+        };
         geo.normals.push(n);
-        geo.uvs.push(if has_uv { model.uvs[k] } else { glam::Vec2::ZERO });
+        geo.uvs.push(if has_uv {
+            model.uvs[k]
+        } else {
+            glam::Vec2::ZERO
+        });
     }
     for f in model.indices.chunks_exact(3) {
-        let v = if mirrored { [base + f[0], base + f[2], base + f[1]] } else { [base + f[0], base + f[1], base + f[2]] };
+        let v = if mirrored {
+            [base + f[0], base + f[2], base + f[1]]
+        } else {
+            [base + f[0], base + f[1], base + f[2]]
+        };
         let [a, b, c] = v.map(|i| geo.positions[i as usize]);
         let Some((ng, area)) = normal_and_area(a, b, c) else {
             geo.n_degenerate += 1;
             continue;
         };
-        geo.triangles.push(Triangle { v, material, ng, area, has_normals, has_uv });
+        geo.triangles.push(Triangle {
+            v,
+            material,
+            ng,
+            area,
+            has_normals,
+            has_uv,
+        });
     }
 }
 
@@ -204,12 +316,18 @@ fn textures(cx: &Ctx, materials: &mut [Material], tex_paths: TexPaths) -> Result
     let mut loaded: HashMap<std::path::PathBuf, usize> = HashMap::new();
     for (mat, tp) in materials.iter_mut().zip(tex_paths) {
         let Some((dir, name)) = tp else { continue };
-        let resolved = texture::resolve(&dir, &name).map_err(|why| in_file(cx.path, format!("material '{}': texture '{}' {why}", mat.name, name)))?;
+        let resolved = texture::resolve(&dir, &name).map_err(|why| {
+            in_file(
+                cx.path,
+                format!("material '{}': texture '{}' {why}", mat.name, name),
+            )
+        })?;
         let idx = match loaded.get(&resolved) {
             Some(&i) => i,
             None => {
                 input::check_regular(&resolved, "texture", MAX_TEXTURE_BYTES)?;
-                let t = Texture::load(&resolved).map_err(|e| in_file(&resolved, format!("cannot read texture: {e}")))?;
+                let t = Texture::load(&resolved)
+                    .map_err(|e| in_file(&resolved, format!("cannot read texture: {e}")))?;
                 textures.push(t);
                 loaded.insert(resolved, textures.len() - 1);
                 textures.len() - 1
@@ -223,13 +341,23 @@ fn textures(cx: &Ctx, materials: &mut [Material], tex_paths: TexPaths) -> Result
 }
 
 /// FNV-1a (the cache file's checksum function) over positions, triangles, materials and lights.
-fn fingerprint(geo: &Geometry, materials: &[Material], lights: &Lights, media: Option<&super::Media>) -> u64 {
-    let mut bytes: Vec<u8> = Vec::with_capacity(geo.positions.len() * 12 + geo.triangles.len() * 16);
+fn fingerprint(
+    geo: &Geometry,
+    materials: &[Material],
+    lights: &Lights,
+    media: Option<&super::Media>,
+) -> u64 {
+    let mut bytes: Vec<u8> =
+        Vec::with_capacity(geo.positions.len() * 12 + geo.triangles.len() * 16);
     for p in &geo.positions {
         bytes.extend(p.to_array().iter().flat_map(|x| x.to_le_bytes()));
     }
     for t in &geo.triangles {
-        bytes.extend(t.v.iter().chain([&t.material]).flat_map(|k| k.to_le_bytes()));
+        bytes.extend(
+            t.v.iter()
+                .chain([&t.material])
+                .flat_map(|k| k.to_le_bytes()),
+        );
     }
     for m in materials {
         bytes.extend(format!("{:?}{:?}", m.bsdf, m.emission).bytes());

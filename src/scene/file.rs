@@ -148,7 +148,11 @@ pub fn parse(path: &Path, text: &str) -> Result<SceneFile> {
 }
 
 pub fn line_of_offset(text: &str, offset: usize) -> usize {
-    text.as_bytes()[..offset.min(text.len())].iter().filter(|&&b| b == b'\n').count() + 1
+    text.as_bytes()[..offset.min(text.len())]
+        .iter()
+        .filter(|&&b| b == b'\n')
+        .count()
+        + 1
 }
 
 /// The line on which `key` is set inside the table `table` (dotted, e.g. `render.icache`; entry `index`
@@ -186,7 +190,9 @@ pub fn line_of(text: &str, keys: &[&str], index: usize) -> usize {
             Item::None => Node::Leaf,
         }
     }
-    let Ok(doc) = toml_edit::ImDocument::parse(text) else { return 1 };
+    let Ok(doc) = toml_edit::ImDocument::parse(text) else {
+        return 1;
+    };
     let mut node = Node::Table(doc.as_table());
     let mut offset = None;
     for key in keys {
@@ -209,7 +215,9 @@ pub fn line_of(text: &str, keys: &[&str], index: usize) -> usize {
             other => other,
         };
         let Node::Table(t) = node else { break };
-        let Some((k, item)) = t.get_key_value(key) else { break };
+        let Some((k, item)) = t.get_key_value(key) else {
+            break;
+        };
         offset = k.span().or_else(|| item.span()).map(|s| s.start).or(offset);
         node = of_item(item);
     }

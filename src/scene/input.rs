@@ -27,12 +27,20 @@ pub fn bytes_text(n: u64) -> String {
 /// Checks that `path` is a regular file (not a directory, device or FIFO, which could block or never
 /// end) of at most `cap` bytes. `what` names the file's role in messages.
 pub fn check_regular(path: &Path, what: &str, cap: u64) -> Result<()> {
-    let meta = std::fs::metadata(path).map_err(|e| in_file(path, format!("cannot read {what}: {e}")))?;
+    let meta =
+        std::fs::metadata(path).map_err(|e| in_file(path, format!("cannot read {what}: {e}")))?;
     if !meta.is_file() {
         return Err(in_file(path, format!("{what} is not a regular file")));
     }
     if meta.len() > cap {
-        return Err(in_file(path, format!("{what} is {} bytes, larger than the limit of {}", meta.len(), bytes_text(cap))));
+        return Err(in_file(
+            path,
+            format!(
+                "{what} is {} bytes, larger than the limit of {}",
+                meta.len(),
+                bytes_text(cap)
+            ),
+        ));
     }
     Ok(())
 }
@@ -41,12 +49,18 @@ pub fn check_regular(path: &Path, what: &str, cap: u64) -> Result<()> {
 /// `comment` as in [`decode`].
 pub fn read_text(path: &Path, what: &str, cap: u64, comment: Option<u8>) -> Result<String> {
     check_regular(path, what, cap)?;
-    let file = std::fs::File::open(path).map_err(|e| in_file(path, format!("cannot read {what}: {e}")))?;
+    let file =
+        std::fs::File::open(path).map_err(|e| in_file(path, format!("cannot read {what}: {e}")))?;
     let mut bytes = Vec::new();
     // The file may have grown since the check: never read more than the cap.
-    file.take(cap + 1).read_to_end(&mut bytes).map_err(|e| in_file(path, format!("cannot read {what}: {e}")))?;
+    file.take(cap + 1)
+        .read_to_end(&mut bytes)
+        .map_err(|e| in_file(path, format!("cannot read {what}: {e}")))?;
     if bytes.len() as u64 > cap {
-        return Err(in_file(path, format!("{what} is larger than the limit of {}", bytes_text(cap))));
+        return Err(in_file(
+            path,
+            format!("{what} is larger than the limit of {}", bytes_text(cap)),
+        ));
     }
     decode(path, &bytes, comment)
 }
@@ -87,9 +101,17 @@ mod tests {
     #[test]
     fn a_bom_is_dropped_and_latin1_is_kept_only_in_comments() {
         let p = Path::new("x.obj");
-        assert_eq!(decode(p, b"\xEF\xBB\xBFmtllib a.mtl\n", Some(b'#')).unwrap(), "mtllib a.mtl\n");
-        assert_eq!(decode(p, b"v 1 2 3\n# caf\xE9\n", Some(b'#')).unwrap(), "v 1 2 3\n# caf\u{FFFD}\n");
-        let e = decode(p, b"v 1 2 3\nusemtl caf\xE9\n", Some(b'#')).unwrap_err().to_string();
+        assert_eq!(
+            decode(p, b"\xEF\xBB\xBFmtllib a.mtl\n", Some(b'#')).unwrap(),
+            "mtllib a.mtl\n"
+        );
+        assert_eq!(
+            decode(p, b"v 1 2 3\n# caf\xE9\n", Some(b'#')).unwrap(),
+            "v 1 2 3\n# caf\u{FFFD}\n"
+        );
+        let e = decode(p, b"v 1 2 3\nusemtl caf\xE9\n", Some(b'#'))
+            .unwrap_err()
+            .to_string();
         assert!(e.starts_with("x.obj:2:") && e.contains("0xE9"), "{e}");
     }
 }

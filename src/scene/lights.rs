@@ -20,13 +20,24 @@ use crate::material::Material;
 pub(super) type Origin = (PathBuf, usize);
 
 /// All lights; `emission_at[m]` is where material `m`'s emission was set.
-pub(super) fn lights(cx: &Ctx, desc: &SceneFile, geo: &Geometry, materials: &[Material], emission_at: &[Origin]) -> Result<Lights> {
+pub(super) fn lights(
+    cx: &Ctx,
+    desc: &SceneFile,
+    geo: &Geometry,
+    materials: &[Material],
+    emission_at: &[Origin],
+) -> Result<Lights> {
     let mut lights = Vec::new();
     let mut origins = Vec::new();
     for (i, t) in geo.triangles.iter().enumerate() {
         let le = materials[t.material as usize].emission;
         if le.max_element() > 0.0 {
-            lights.push(Light::Area { tri: i as u32, le, n: geo.emit_normal(i as u32), area: t.area });
+            lights.push(Light::Area {
+                tri: i as u32,
+                le,
+                n: geo.emit_normal(i as u32),
+                area: t.area,
+            });
             origins.push(emission_at[t.material as usize].clone());
         }
     }
@@ -36,11 +47,19 @@ pub(super) fn lights(cx: &Ctx, desc: &SceneFile, geo: &Geometry, materials: &[Ma
     let radius = ((bounds.1.as_dvec3() - bounds.0.as_dvec3()).length() * 0.5).max(1e-6) as f32;
     for (i, l) in desc.light.iter().enumerate() {
         lights.push(light(cx, i, l, center, radius)?);
-        let key = if l.kind == "directional" { "irradiance" } else { "intensity" };
-        origins.push((cx.path.to_path_buf(), super::file::line_of_key(cx.text, "light", i, key)));
+        let key = if l.kind == "directional" {
+            "irradiance"
+        } else {
+            "intensity"
+        };
+        origins.push((
+            cx.path.to_path_buf(),
+            super::file::line_of_key(cx.text, "light", i, key),
+        ));
     }
     if lights.is_empty() {
-        let zero_area_emitters = materials.iter().any(|m| m.emission.max_element() > 0.0) && n_emissive == 0;
+        let zero_area_emitters =
+            materials.iter().any(|m| m.emission.max_element() > 0.0) && n_emissive == 0;
         let msg = if zero_area_emitters {
             "the only emitters are triangles of zero area: the scene has no light"
         } else {
@@ -49,7 +68,8 @@ pub(super) fn lights(cx: &Ctx, desc: &SceneFile, geo: &Geometry, materials: &[Ma
         return Err(at_line(cx.path, 1, msg));
     }
     check_power(&lights, &origins)?;
-    Lights::new(lights, geo.triangles.len()).ok_or_else(|| at_line(cx.path, 1, "every light has zero power"))
+    Lights::new(lights, geo.triangles.len())
+        .ok_or_else(|| at_line(cx.path, 1, "every light has zero power"))
 }
 
 /// Emitted power in f64, where the f32 product could overflow.
@@ -60,7 +80,9 @@ fn power_f64(l: &Light) -> f64 {
         Light::Area { le, area, .. } => max(le) * pi * area as f64,
         Light::Point { intensity, .. } => max(intensity) * 4.0 * pi,
         Light::Spot { intensity, .. } => max(intensity) * 4.0 * pi,
-        Light::Directional { irradiance, radius, .. } => max(irradiance) * pi * (radius as f64).powi(2),
+        Light::Directional {
+            irradiance, radius, ..
+        } => max(irradiance) * pi * (radius as f64).powi(2),
     }
 }
 
@@ -74,13 +96,24 @@ fn check_power(lights: &[Light], origins: &[Origin]) -> Result<()> {
     if total <= MAX_POWER {
         return Ok(());
     }
-    let (origin, power) = by_origin.into_iter().fold((&origins[0], -1.0), |best, (o, p)| if p > best.1 { (o, p) } else { best });
+    let (origin, power) =
+        by_origin.into_iter().fold(
+            (&origins[0], -1.0),
+            |best, (o, p)| if p > best.1 { (o, p) } else { best },
+        );
     Err(at_line(&origin.0, origin.1, format!("emitted power {power:.3e} W (scene total {total:.3e} W) exceeds the limit of {MAX_POWER:e} W")))
 }
 
 fn light(cx: &Ctx, i: usize, l: &LightDesc, center: Vec3, radius: f32) -> Result<Light> {
     let need = |k: &str, v: Option<[f32; 3]>| -> Result<Vec3> {
-        let v = v.ok_or_else(|| cx.err("light", i, "type", format!("a {} light needs '{k}'", l.kind)))?;
+        let v = v.ok_or_else(|| {
+            cx.err(
+                "light",
+                i,
+                "type",
+                format!("a {} light needs '{k}'", l.kind),
+            )
+        })?;
         if !v.iter().all(|x| x.is_finite()) {
             return Err(cx.err("light", i, k, "must be finite"));
         }
@@ -96,9 +129,22 @@ fn light(cx: &Ctx, i: usize, l: &LightDesc, center: Vec3, radius: f32) -> Result
     };
     let allowed: &[&str] = match l.kind.as_str() {
         "point" => &["position", "intensity"],
-        "spot" => &["position", "target", "intensity", "cone_angle", "falloff_start"],
+        "spot" => &[
+            "position",
+            "target",
+            "intensity",
+            "cone_angle",
+            "falloff_start",
+        ],
         "directional" => &["direction", "irradiance"],
-        other => return Err(cx.err("light", i, "type", format!("unknown light type '{other}' (point | spot | directional)"))),
+        other => {
+            return Err(cx.err(
+                "light",
+                i,
+                "type",
+                format!("unknown light type '{other}' (point | spot | directional)"),
+            ))
+        }
     };
     let given = [
         ("position", l.position.is_some()),
@@ -110,10 +156,18 @@ fn light(cx: &Ctx, i: usize, l: &LightDesc, center: Vec3, radius: f32) -> Result
         ("irradiance", l.irradiance.is_some()),
     ];
     if let Some((k, _)) = given.iter().find(|(k, g)| *g && !allowed.contains(k)) {
-        return Err(cx.err("light", i, k, format!("does not apply to a {} light", l.kind)));
+        return Err(cx.err(
+            "light",
+            i,
+            k,
+            format!("does not apply to a {} light", l.kind),
+        ));
     }
     Ok(match l.kind.as_str() {
-        "point" => Light::Point { pos: position("position", l.position)?, intensity: emission("intensity", l.intensity)? },
+        "point" => Light::Point {
+            pos: position("position", l.position)?,
+            intensity: emission("intensity", l.intensity)?,
+        },
         "spot" => {
             let pos = position("position", l.position)?;
             // Only the direction toward the target matters: any finite point will do.
@@ -122,20 +176,41 @@ fn light(cx: &Ctx, i: usize, l: &LightDesc, center: Vec3, radius: f32) -> Result
             };
             let cone = l.cone_angle.unwrap_or(30.0);
             if !(cone > 0.0 && cone <= 180.0) {
-                return Err(cx.err("light", i, "cone_angle", format!("{cone} must be in (0, 180]")));
+                return Err(cx.err(
+                    "light",
+                    i,
+                    "cone_angle",
+                    format!("{cone} must be in (0, 180]"),
+                ));
             }
             let falloff = l.falloff_start.unwrap_or(cone * 0.75);
             if !(falloff >= 0.0 && falloff <= cone) {
-                return Err(cx.err("light", i, "falloff_start", format!("{falloff} must be in [0, cone_angle]")));
+                return Err(cx.err(
+                    "light",
+                    i,
+                    "falloff_start",
+                    format!("{falloff} must be in [0, cone_angle]"),
+                ));
             }
             let intensity = emission("intensity", l.intensity)?;
-            Light::Spot { pos, dir, intensity, cone: cone.to_radians().min(PI), falloff: falloff.to_radians() }
+            Light::Spot {
+                pos,
+                dir,
+                intensity,
+                cone: cone.to_radians().min(PI),
+                falloff: falloff.to_radians(),
+            }
         }
         _ => {
             let Some(dir) = limits::direction(need("direction", l.direction)?) else {
                 return Err(cx.err("light", i, "direction", "must be non-zero"));
             };
-            Light::Directional { dir, irradiance: emission("irradiance", l.irradiance)?, center, radius }
+            Light::Directional {
+                dir,
+                irradiance: emission("irradiance", l.irradiance)?,
+                center,
+                radius,
+            }
         }
     })
 }

@@ -18,7 +18,9 @@ pub const MAX_IOR: f32 = 10.0;
 
 /// Why a reflectance-like colour (albedo, Kd, Ks, reflectance, transmittance, Tf) is out of [0, 1].
 pub fn unit_interval(v: [f32; 3]) -> Option<String> {
-    v.iter().find(|x| !(**x >= 0.0 && **x <= 1.0)).map(|x| format!("{x} is outside [0, 1] (a fraction of the light that arrives)"))
+    v.iter()
+        .find(|x| !(**x >= 0.0 && **x <= 1.0))
+        .map(|x| format!("{x} is outside [0, 1] (a fraction of the light that arrives)"))
 }
 
 /// Why an emission-like colour is not finite, negative, or above [`MAX_EMISSION`].
@@ -33,7 +35,10 @@ pub fn position(v: Vec3) -> Option<String> {
     if v.is_finite() && v.abs().max_element() <= MAX_COORD {
         None
     } else {
-        Some(format!("({}, {}, {}) is beyond the coordinate limit ±{MAX_COORD:e}", v.x, v.y, v.z))
+        Some(format!(
+            "({}, {}, {}) is beyond the coordinate limit ±{MAX_COORD:e}",
+            v.x, v.y, v.z
+        ))
     }
 }
 
@@ -64,8 +69,15 @@ mod tests {
         let d = direction_between(Vec3::new(0.0, 0.0, 3e38), Vec3::new(0.0, 0.0, -3e38)).unwrap();
         assert_eq!(d, Vec3::new(0.0, 0.0, -1.0));
         assert!(direction(Vec3::ZERO).is_none());
-        assert!(position(Vec3::new(0.0, 1e19, 0.0)).is_some() && position(Vec3::splat(1e15)).is_none());
-        assert!(unit_interval([0.0, 1.0, 0.5]).is_none() && unit_interval([0.0, 1.0001, 0.5]).is_some());
-        assert!(unit_interval([f32::NAN, 0.0, 0.0]).is_some() && emission([f32::INFINITY, 0.0, 0.0]).is_some());
+        assert!(
+            position(Vec3::new(0.0, 1e19, 0.0)).is_some() && position(Vec3::splat(1e15)).is_none()
+        );
+        assert!(
+            unit_interval([0.0, 1.0, 0.5]).is_none() && unit_interval([0.0, 1.0001, 0.5]).is_some()
+        );
+        assert!(
+            unit_interval([f32::NAN, 0.0, 0.0]).is_some()
+                && emission([f32::INFINITY, 0.0, 0.0]).is_some()
+        );
     }
 }

@@ -43,7 +43,12 @@ pub struct Media {
 /// What the scene fingerprint hashes: the media and which sides they fill.
 impl std::fmt::Debug for Media {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("Media").field("list", &self.list).field("sides", &self.sides).field("camera", &self.camera).field("lights", &self.lights).finish()
+        f.debug_struct("Media")
+            .field("list", &self.list)
+            .field("sides", &self.sides)
+            .field("camera", &self.camera)
+            .field("lights", &self.lights)
+            .finish()
     }
 }
 
@@ -85,20 +90,34 @@ impl Media {
     /// The medium at point `p` (not on a boundary): the innermost boundary mesh around it, found by the
     /// parity of a ray's crossings with each boundary mesh (through the boundaries' own BVH).
     pub fn medium_at(&self, p: Vec3) -> MediumId {
-        innermost_by_bvh(&self.boundaries, &self.boundary_bvh, &self.boundary_of, p, None)
+        innermost_by_bvh(
+            &self.boundaries,
+            &self.boundary_bvh,
+            &self.boundary_of,
+            p,
+            None,
+        )
     }
 }
 
 /// The medium of the smallest boundary mesh (other than `skip`) around `p`, by the parity of a ray's
 /// crossings with each boundary mesh through their BVH; vacuum if none.
-fn innermost_by_bvh(boundaries: &[Boundary], bvh: &Bvh, boundary_of: &[u32], p: Vec3, skip: Option<usize>) -> MediumId {
+fn innermost_by_bvh(
+    boundaries: &[Boundary],
+    bvh: &Bvh,
+    boundary_of: &[u32],
+    p: Vec3,
+    skip: Option<usize>,
+) -> MediumId {
     {
         let d = Vec3::new(0.5711, 0.6353, 0.5198).normalize();
         let mut inside = vec![false; boundaries.len()];
         let mut o = p;
         // Every crossing counts: a ray crosses each boundary face at most once.
         for _ in 0..=boundary_of.len() {
-            let Some(raw) = bvh.intersect(o, d, f32::INFINITY) else { break };
+            let Some(raw) = bvh.intersect(o, d, f32::INFINITY) else {
+                break;
+            };
             let b = boundary_of[raw.prim as usize] as usize;
             inside[b] = !inside[b];
             let q = o + d * raw.t;
@@ -107,7 +126,10 @@ fn innermost_by_bvh(boundaries: &[Boundary], bvh: &Bvh, boundary_of: &[u32], p: 
                 o = q + d * (q.abs().max_element() * 1e-6).max(1e-6);
             }
         }
-        (0..boundaries.len()).filter(|&b| inside[b] && Some(b) != skip).min_by(|&a, &b| boundaries[a].volume.total_cmp(&boundaries[b].volume)).map_or(VACUUM, |b| boundaries[b].medium)
+        (0..boundaries.len())
+            .filter(|&b| inside[b] && Some(b) != skip)
+            .min_by(|&a, &b| boundaries[a].volume.total_cmp(&boundaries[b].volume))
+            .map_or(VACUUM, |b| boundaries[b].medium)
     }
 }
 
@@ -124,61 +146,132 @@ struct Boundary {
 
 /// Builds the media from the scene file, or `None` when it has no `[[medium]]` (then nothing else may
 /// name one). `mesh_tris[i]` are the triangles of `[[mesh]]` entry `i`.
-pub(super) fn media(cx: &Ctx, desc: &SceneFile, geo: &Geometry, materials: &[Material], mesh_tris: &[Range<usize>], lights: &[Light]) -> Result<Option<Media>> {
+pub(super) fn media(
+    cx: &Ctx,
+    desc: &SceneFile,
+    geo: &Geometry,
+    materials: &[Material],
+    mesh_tris: &[Range<usize>],
+    lights: &[Light],
+) -> Result<Option<Media>> {
     let mut list: Vec<Medium> = Vec::new();
     for (i, m) in desc.medium.iter().enumerate() {
         if m.name.is_empty() || list.iter().any(|o| o.name == m.name) {
-            return Err(cx.err("medium", i, "name", format!("'{}' is empty or names an earlier medium too", m.name)));
+            return Err(cx.err(
+                "medium",
+                i,
+                "name",
+                format!("'{}' is empty or names an earlier medium too", m.name),
+            ));
         }
         for (k, v) in [("sigma_a", m.sigma_a), ("sigma_s", m.sigma_s)] {
             if let Some(x) = v.iter().find(|x| !(**x >= 0.0 && **x <= MAX_SIGMA)) {
-                return Err(cx.err("medium", i, k, format!("{x} is outside [0, {MAX_SIGMA:e}] (per scene unit)")));
+                return Err(cx.err(
+                    "medium",
+                    i,
+                    k,
+                    format!("{x} is outside [0, {MAX_SIGMA:e}] (per scene unit)"),
+                ));
             }
         }
         let g = m.g.unwrap_or(0.0);
         if !(g > -1.0 && g < 1.0) {
             return Err(cx.err("medium", i, "g", format!("{g} is outside (-1, 1)")));
         }
-        list.push(Medium::new(m.name.clone(), Vec3::from(m.sigma_a), Vec3::from(m.sigma_s), g));
+        list.push(Medium::new(
+            m.name.clone(),
+            Vec3::from(m.sigma_a),
+            Vec3::from(m.sigma_s),
+            g,
+        ));
     }
     if list.len() >= VACUUM as usize {
-        return Err(cx.err("medium", VACUUM as usize, "name", format!("more than {} media", VACUUM - 1)));
+        return Err(cx.err(
+            "medium",
+            VACUUM as usize,
+            "name",
+            format!("more than {} media", VACUUM - 1),
+        ));
     }
-    let id_of = |name: &str| list.iter().position(|m| m.name == name).map(|i| i as MediumId);
+    let id_of = |name: &str| {
+        list.iter()
+            .position(|m| m.name == name)
+            .map(|i| i as MediumId)
+    };
     let mut boundaries = Vec::new();
     for (mi, m) in desc.mesh.iter().enumerate() {
         let Some(name) = &m.interior else { continue };
         let Some(medium) = id_of(name) else {
-            return Err(cx.err("mesh", mi, "interior", format!("no [[medium]] is named '{name}'")));
+            return Err(cx.err(
+                "mesh",
+                mi,
+                "interior",
+                format!("no [[medium]] is named '{name}'"),
+            ));
         };
         let tris = mesh_tris[mi].clone();
         if let Some(why) = not_closed(geo, tris.clone()) {
-            return Err(cx.err("mesh", mi, "interior", format!("'{}' cannot bound a medium: {why}", m.obj)));
+            return Err(cx.err(
+                "mesh",
+                mi,
+                "interior",
+                format!("'{}' cannot bound a medium: {why}", m.obj),
+            ));
         }
         let volume = signed_volume(geo, tris.clone());
-        boundaries.push(Boundary { medium, tris, volume: volume.abs(), outward: volume > 0.0 });
+        boundaries.push(Boundary {
+            medium,
+            tris,
+            volume: volume.abs(),
+            outward: volume > 0.0,
+        });
     }
     let camera_line = || super::file::line_of_key(cx.text, "camera", 0, "medium");
     if boundaries.is_empty() {
         if let Some(name) = &desc.camera.medium {
-            let why = if id_of(name).is_some() { format!("no [[mesh]] has interior = '{name}'") } else { format!("no [[medium]] is named '{name}'") };
-            return Err(at_line(cx.path, camera_line(), format!("camera.medium: {why}")));
+            let why = if id_of(name).is_some() {
+                format!("no [[mesh]] has interior = '{name}'")
+            } else {
+                format!("no [[medium]] is named '{name}'")
+            };
+            return Err(at_line(
+                cx.path,
+                camera_line(),
+                format!("camera.medium: {why}"),
+            ));
         }
-        if let Some(t) = geo.triangles.iter().find(|t| materials[t.material as usize].bsdf.is_null()) {
+        if let Some(t) = geo
+            .triangles
+            .iter()
+            .find(|t| materials[t.material as usize].bsdf.is_null())
+        {
             return Err(null_error(cx, &materials[t.material as usize]));
         }
         return Ok(None);
     }
-    let boundary_tris: Vec<[u32; 3]> = boundaries.iter().flat_map(|b| geo.triangles[b.tris.clone()].iter().map(|t| t.v)).collect();
-    let boundary_of: Vec<u32> = boundaries.iter().enumerate().flat_map(|(i, b)| std::iter::repeat_n(i as u32, b.tris.len())).collect();
+    let boundary_tris: Vec<[u32; 3]> = boundaries
+        .iter()
+        .flat_map(|b| geo.triangles[b.tris.clone()].iter().map(|t| t.v))
+        .collect();
+    let boundary_of: Vec<u32> = boundaries
+        .iter()
+        .enumerate()
+        .flat_map(|(i, b)| std::iter::repeat_n(i as u32, b.tris.len()))
+        .collect();
     let boundary_bvh = Bvh::build(&geo.positions, &boundary_tris).map_err(runtime)?;
-    let innermost = |p: Vec3, skip: Option<usize>| innermost_by_bvh(&boundaries, &boundary_bvh, &boundary_of, p, skip);
+    let innermost = |p: Vec3, skip: Option<usize>| {
+        innermost_by_bvh(&boundaries, &boundary_bvh, &boundary_of, p, skip)
+    };
     // Each boundary mesh's outside: the innermost other boundary containing a point just inside it.
     let mut sides = vec![None; geo.triangles.len()];
     for (bi, b) in boundaries.iter().enumerate() {
         let outside = innermost(point_inside(geo, b), Some(bi));
         for t in b.tris.clone() {
-            sides[t] = Some(if b.outward { [outside, b.medium] } else { [b.medium, outside] });
+            sides[t] = Some(if b.outward {
+                [outside, b.medium]
+            } else {
+                [b.medium, outside]
+            });
         }
     }
     for (t, tri) in geo.triangles.iter().enumerate() {
@@ -190,16 +283,44 @@ pub(super) fn media(cx: &Ctx, desc: &SceneFile, geo: &Geometry, materials: &[Mat
     let camera = innermost(desc.camera.eye.into(), None);
     if let Some(name) = &desc.camera.medium {
         let Some(given) = id_of(name) else {
-            return Err(at_line(cx.path, camera_line(), format!("camera.medium: no [[medium]] is named '{name}'")));
+            return Err(at_line(
+                cx.path,
+                camera_line(),
+                format!("camera.medium: no [[medium]] is named '{name}'"),
+            ));
         };
         if given != camera {
-            let is_in = if camera == VACUUM { "no medium".to_string() } else { format!("medium '{}'", list[camera as usize].name) };
+            let is_in = if camera == VACUUM {
+                "no medium".to_string()
+            } else {
+                format!("medium '{}'", list[camera as usize].name)
+            };
             return Err(at_line(cx.path, camera_line(), format!("camera.medium: the eye is inside {is_in} (by the boundary meshes), not '{name}'")));
         }
     }
-    let lights = lights.iter().map(|l| innermost(light_point(geo, l), None)).collect();
-    let bounds = boundary_tris.iter().flatten().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &k| (lo.min(geo.positions[k as usize]), hi.max(geo.positions[k as usize])));
-    Ok(Some(Media { list, sides, camera, lights, boundaries, boundary_bvh, boundary_of, bounds }))
+    let lights = lights
+        .iter()
+        .map(|l| innermost(light_point(geo, l), None))
+        .collect();
+    let bounds = boundary_tris.iter().flatten().fold(
+        (Vec3::INFINITY, Vec3::NEG_INFINITY),
+        |(lo, hi), &k| {
+            (
+                lo.min(geo.positions[k as usize]),
+                hi.max(geo.positions[k as usize]),
+            )
+        },
+    );
+    Ok(Some(Media {
+        list,
+        sides,
+        camera,
+        lights,
+        boundaries,
+        boundary_bvh,
+        boundary_of,
+        bounds,
+    }))
 }
 
 fn null_error(cx: &Ctx, m: &Material) -> crate::error::Error {
@@ -212,16 +333,26 @@ fn light_point(geo: &Geometry, l: &Light) -> Vec3 {
     match *l {
         Light::Area { tri, n, .. } => {
             let c = geo.point_on(tri, 1.0 / 3.0, 1.0 / 3.0);
-            c + n * (1e-4 * geo.triangles[tri as usize].area.sqrt()).max(c.abs().max_element() * 1e-6)
+            c + n
+                * (1e-4 * geo.triangles[tri as usize].area.sqrt()).max(c.abs().max_element() * 1e-6)
         }
         Light::Point { pos, .. } | Light::Spot { pos, .. } => pos,
-        Light::Directional { center, radius, dir, .. } => center - dir * (2.0 * radius),
+        Light::Directional {
+            center,
+            radius,
+            dir,
+            ..
+        } => center - dir * (2.0 * radius),
     }
 }
 
 /// A point just inside a boundary mesh: the centre of its largest face, moved inward a little.
 fn point_inside(geo: &Geometry, b: &Boundary) -> Vec3 {
-    let t = b.tris.clone().max_by(|&i, &j| geo.triangles[i].area.total_cmp(&geo.triangles[j].area)).unwrap_or(b.tris.start);
+    let t = b
+        .tris
+        .clone()
+        .max_by(|&i, &j| geo.triangles[i].area.total_cmp(&geo.triangles[j].area))
+        .unwrap_or(b.tris.start);
     let tri = &geo.triangles[t];
     let c = geo.point_on(t as u32, 1.0 / 3.0, 1.0 / 3.0);
     let inward = if b.outward { -tri.ng } else { tri.ng };
@@ -252,7 +383,11 @@ struct Weld {
 
 impl Weld {
     fn new(eps: f32) -> Weld {
-        Weld { eps: eps.max(f32::MIN_POSITIVE), cells: HashMap::new(), points: Vec::new() }
+        Weld {
+            eps: eps.max(f32::MIN_POSITIVE),
+            cells: HashMap::new(),
+            points: Vec::new(),
+        }
     }
 
     fn id(&mut self, p: Vec3) -> u32 {
@@ -261,7 +396,10 @@ impl Weld {
             for dy in -1..=1 {
                 for dz in -1..=1 {
                     if let Some(ids) = self.cells.get(&[c[0] + dx, c[1] + dy, c[2] + dz]) {
-                        if let Some(&i) = ids.iter().find(|&&i| self.points[i as usize].distance(p) <= self.eps) {
+                        if let Some(&i) = ids
+                            .iter()
+                            .find(|&&i| self.points[i as usize].distance(p) <= self.eps)
+                        {
                             return i;
                         }
                     }
@@ -282,14 +420,21 @@ fn not_closed(geo: &Geometry, tris: Range<usize>) -> Option<String> {
     if tris.is_empty() {
         return Some("it has no faces".into());
     }
-    let (lo, hi) = geo.triangles[tris.clone()].iter().flat_map(|t| t.v).fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), k| {
-        let p = geo.positions[k as usize];
-        (lo.min(p), hi.max(p))
-    });
+    let (lo, hi) = geo.triangles[tris.clone()].iter().flat_map(|t| t.v).fold(
+        (Vec3::INFINITY, Vec3::NEG_INFINITY),
+        |(lo, hi), k| {
+            let p = geo.positions[k as usize];
+            (lo.min(p), hi.max(p))
+        },
+    );
     let mut weld = Weld::new(WELD_TOLERANCE * (hi - lo).length());
     let mut key = |k: u32| weld.id(geo.positions[k as usize]);
     // A sliver whose corners weld together (a pole triangle of a latitude–longitude sphere) is no face.
-    let faces: Vec<[u32; 3]> = geo.triangles[tris].iter().map(|t| t.v.map(&mut key)).filter(|v| v[0] != v[1] && v[1] != v[2] && v[2] != v[0]).collect();
+    let faces: Vec<[u32; 3]> = geo.triangles[tris]
+        .iter()
+        .map(|t| t.v.map(&mut key))
+        .filter(|v| v[0] != v[1] && v[1] != v[2] && v[2] != v[0])
+        .collect();
     let edges = |v: &[u32; 3]| [(v[0], v[1]), (v[1], v[2]), (v[2], v[0])];
     let mut directed: HashMap<(u32, u32), u32> = HashMap::new();
     for v in &faces {
@@ -305,7 +450,10 @@ fn not_closed(geo: &Geometry, tris: Range<usize>) -> Option<String> {
     let mut example = None;
     // In face order, so that the message names the same edge every time.
     for (a, b) in faces.iter().flat_map(edges) {
-        let (n, back) = (directed[&(a, b)], directed.get(&(b, a)).copied().unwrap_or(0));
+        let (n, back) = (
+            directed[&(a, b)],
+            directed.get(&(b, a)).copied().unwrap_or(0),
+        );
         if n + back != 2 {
             open += 1;
             example.get_or_insert((a, b, "is not shared by exactly two faces"));
@@ -315,6 +463,14 @@ fn not_closed(geo: &Geometry, tris: Range<usize>) -> Option<String> {
         }
     }
     let (a, b, what) = example?;
-    let summary = if open > 0 { format!("it is not closed ({open} face edges without exactly one opposite)") } else { format!("its faces are not consistently oriented ({flipped} edges)") };
-    Some(format!("{summary}; e.g. the edge {} – {} {what}", at(a), at(b)))
+    let summary = if open > 0 {
+        format!("it is not closed ({open} face edges without exactly one opposite)")
+    } else {
+        format!("its faces are not consistently oriented ({flipped} edges)")
+    };
+    Some(format!(
+        "{summary}; e.g. the edge {} – {} {what}",
+        at(a),
+        at(b)
+    ))
 }

@@ -1,14 +1,14 @@
 //! A loaded scene: camera, triangles in an Embree BVH, materials, textures, lights and render settings.
 
+mod build;
 pub mod file;
 pub mod input;
+mod lights;
 pub mod limits;
+mod media;
 mod mtl;
 mod obj;
 mod objcheck;
-mod build;
-mod lights;
-mod media;
 mod settings;
 
 use std::path::{Path, PathBuf};
@@ -16,8 +16,8 @@ use std::path::{Path, PathBuf};
 use glam::Vec3;
 
 pub use build::load;
-pub use media::{Media, MAX_SIGMA};
 pub use file::{IcacheDesc, PhotonsDesc};
+pub use media::{Media, MAX_SIGMA};
 pub use settings::{FillMode, IcacheSettings, PhotonConfig, MAX_PHOTONS, SPACING_REFERENCE_SIDE};
 
 use crate::accel::embree::Bvh;
@@ -115,12 +115,16 @@ pub struct Scene {
 
 impl Scene {
     pub fn intersect(&self, origin: Vec3, dir: Vec3) -> Option<Hit> {
-        self.bvh.intersect(origin, dir, f32::INFINITY).map(|raw| self.geometry.hit(origin, dir, raw))
+        self.bvh
+            .intersect(origin, dir, f32::INFINITY)
+            .map(|raw| self.geometry.hit(origin, dir, raw))
     }
 
     /// The closest hit beyond distance `t0` along the ray (its `t` measured from `origin`).
     pub fn intersect_after(&self, origin: Vec3, dir: Vec3, t0: f32) -> Option<Hit> {
-        self.bvh.intersect_range(origin, dir, t0, f32::INFINITY).map(|raw| self.geometry.hit(origin, dir, raw))
+        self.bvh
+            .intersect_range(origin, dir, t0, f32::INFINITY)
+            .map(|raw| self.geometry.hit(origin, dir, raw))
     }
 
     /// The first hit of a final-gather ray: on a plain diffuse surface the light hit of
@@ -137,7 +141,11 @@ impl Scene {
     /// Whether the segment from `hit` toward a light point is blocked.
     pub fn occluded(&self, hit: &Hit, wi: Vec3, dist: f32) -> bool {
         let o = spawn(hit, wi);
-        let tmax = if dist.is_finite() { (dist - (o - hit.p).length()) * (1.0 - 1e-4) } else { f32::INFINITY };
+        let tmax = if dist.is_finite() {
+            (dist - (o - hit.p).length()) * (1.0 - 1e-4)
+        } else {
+            f32::INFINITY
+        };
         tmax > 0.0 && self.bvh.occluded(o, wi, tmax)
     }
 
@@ -164,34 +172,91 @@ impl Scene {
     /// What reaches `hit` from a light point in direction `wi` at distance `dist`, per channel: 0 or 1
     /// without media; with media, the transmittance through the media on the way (in `medium`, the
     /// medium of the ray that arrived at `hit`), crossing null boundaries. Counts its rays in `rays`.
-    pub fn visibility(&self, hit: &Hit, wi: Vec3, dist: f32, medium: MediumId, rays: &mut u64) -> Vec3 {
+    pub fn visibility(
+        &self,
+        hit: &Hit,
+        wi: Vec3,
+        dist: f32,
+        medium: MediumId,
+        rays: &mut u64,
+    ) -> Vec3 {
         *rays += 1;
         let Some(media) = &self.media else {
-            return if self.occluded(hit, wi, dist) { Vec3::ZERO } else { Vec3::ONE };
+            return if self.occluded(hit, wi, dist) {
+                Vec3::ZERO
+            } else {
+                Vec3::ONE
+            };
         };
         let o = spawn(hit, wi);
-        let tmax = if dist.is_finite() { (dist - (o - hit.p).length()) * (1.0 - 1e-4) } else { f32::INFINITY };
+        let tmax = if dist.is_finite() {
+            (dist - (o - hit.p).length()) * (1.0 - 1e-4)
+        } else {
+            f32::INFINITY
+        };
         if !(tmax > 0.0) {
             return Vec3::ONE;
         }
-        self.transmittance(media, o, wi, tmax, media.after(hit.tri, hit.ng, wi, medium), rays)
+        self.transmittance(
+            media,
+            o,
+            wi,
+            tmax,
+            media.after(hit.tri, hit.ng, wi, medium),
+            rays,
+        )
     }
 
     /// [`visibility`](Self::visibility) from a point inside a medium (no surface to offset from).
-    pub fn visibility_from(&self, p: Vec3, wi: Vec3, dist: f32, medium: MediumId, rays: &mut u64) -> Vec3 {
+    pub fn visibility_from(
+        &self,
+        p: Vec3,
+        wi: Vec3,
+        dist: f32,
+        medium: MediumId,
+        rays: &mut u64,
+    ) -> Vec3 {
         *rays += 1;
         match &self.media {
-            Some(media) => self.transmittance(media, p, wi, if dist.is_finite() { dist * (1.0 - 1e-4) } else { dist }, medium, rays),
+            Some(media) => self.transmittance(
+                media,
+                p,
+                wi,
+                if dist.is_finite() {
+                    dist * (1.0 - 1e-4)
+                } else {
+                    dist
+                },
+                medium,
+                rays,
+            ),
             None => {
-                let blocked = self.bvh.occluded(p, wi, if dist.is_finite() { dist * (1.0 - 1e-4) } else { dist });
-                if blocked { Vec3::ZERO } else { Vec3::ONE }
+                let blocked = self.bvh.occluded(
+                    p,
+                    wi,
+                    if dist.is_finite() {
+                        dist * (1.0 - 1e-4)
+                    } else {
+                        dist
+                    },
+                );
+                if blocked {
+                    Vec3::ZERO
+                } else {
+                    Vec3::ONE
+                }
             }
         }
     }
 
     /// Embree's closest hit in (0, tmax) that is not an invisible medium boundary (its `t` from
     /// `origin`): what probes of the geometry (photon-disc coverage) see.
-    pub fn intersect_solid(&self, origin: Vec3, dir: Vec3, tmax: f32) -> Option<crate::accel::embree::RawHit> {
+    pub fn intersect_solid(
+        &self,
+        origin: Vec3,
+        dir: Vec3,
+        tmax: f32,
+    ) -> Option<crate::accel::embree::RawHit> {
         let mut t0 = 0.0f32;
         for _ in 0..MAX_NULL_CROSSINGS {
             let raw = self.bvh.intersect_range(origin, dir, t0, tmax)?;
@@ -206,7 +271,8 @@ impl Scene {
 
     /// The first hit that is not an invisible medium boundary (its `t` from `origin`).
     pub fn intersect_visible(&self, origin: Vec3, dir: Vec3) -> Option<Hit> {
-        self.intersect_solid(origin, dir, f32::INFINITY).map(|raw| self.geometry.hit(origin, dir, raw))
+        self.intersect_solid(origin, dir, f32::INFINITY)
+            .map(|raw| self.geometry.hit(origin, dir, raw))
     }
 
     /// The first surface other than a null boundary along a ray starting in `medium` (scenes with
@@ -214,7 +280,14 @@ impl Scene {
     /// reached in. Counts the rays after the first in `rays`. `segment(start, length, medium,
     /// transmittance before it)` is called for each stretch in a participating medium (a miss's last
     /// one is infinite).
-    pub fn intersect_through(&self, origin: Vec3, dir: Vec3, medium: MediumId, rays: &mut u64, segment: impl FnMut(Vec3, f32, &Medium, Vec3)) -> Option<(Hit, Vec3, MediumId)> {
+    pub fn intersect_through(
+        &self,
+        origin: Vec3,
+        dir: Vec3,
+        medium: MediumId,
+        rays: &mut u64,
+        segment: impl FnMut(Vec3, f32, &Medium, Vec3),
+    ) -> Option<(Hit, Vec3, MediumId)> {
         let media = self.media.as_ref()?;
         let (raw, tr, medium) = self.walk(media, origin, dir, f32::INFINITY, medium, rays, segment);
         raw.map(|raw| (self.geometry.hit(origin, dir, raw), tr, medium))
@@ -222,7 +295,15 @@ impl Scene {
 
     /// Transmittance from `o` along `dir` over `(0, tmax)` starting in `medium`: through null boundaries
     /// (each crossing changes the medium), zero at any other surface.
-    fn transmittance(&self, media: &Media, o: Vec3, dir: Vec3, tmax: f32, medium: MediumId, rays: &mut u64) -> Vec3 {
+    fn transmittance(
+        &self,
+        media: &Media,
+        o: Vec3,
+        dir: Vec3,
+        tmax: f32,
+        medium: MediumId,
+        rays: &mut u64,
+    ) -> Vec3 {
         match self.walk(media, o, dir, tmax, medium, rays, |_, _, _, _| {}) {
             (None, tr, _) => tr,
             (Some(_), _, _) => Vec3::ZERO,
@@ -234,7 +315,16 @@ impl Scene {
     /// transmittance before it and the medium it is in there. `segment` sees each stretch in a
     /// participating medium (start, length, medium, transmittance before it).
     #[allow(clippy::too_many_arguments)]
-    fn walk(&self, media: &Media, o: Vec3, dir: Vec3, tmax: f32, mut medium: MediumId, rays: &mut u64, mut segment: impl FnMut(Vec3, f32, &Medium, Vec3)) -> (Option<crate::accel::embree::RawHit>, Vec3, MediumId) {
+    fn walk(
+        &self,
+        media: &Media,
+        o: Vec3,
+        dir: Vec3,
+        tmax: f32,
+        mut medium: MediumId,
+        rays: &mut u64,
+        mut segment: impl FnMut(Vec3, f32, &Medium, Vec3),
+    ) -> (Option<crate::accel::embree::RawHit>, Vec3, MediumId) {
         let (mut tr, mut t0) = (Vec3::ONE, 0.0f32);
         for crossing in 0..MAX_NULL_CROSSINGS {
             if crossing > 0 {
@@ -246,7 +336,9 @@ impl Scene {
                 segment(o + dir * t0, len, m, tr);
                 tr *= m.transmittance(len);
             }
-            let Some(raw) = raw else { return (None, tr, medium) };
+            let Some(raw) = raw else {
+                return (None, tr, medium);
+            };
             let tri = &self.geometry.triangles[raw.prim as usize];
             if !self.materials[tri.material as usize].bsdf.is_null() {
                 return (Some(raw), tr, medium);

@@ -15,7 +15,10 @@ fn v3(a: Option<[f32; 3]>) -> Option<Vec3> {
 
 fn param3(m: &tobj::Material, key: &str) -> Option<Vec3> {
     let s = m.unknown_param.get(key)?;
-    let v: Vec<f32> = s.split_whitespace().filter_map(|t| t.parse().ok()).collect();
+    let v: Vec<f32> = s
+        .split_whitespace()
+        .filter_map(|t| t.parse().ok())
+        .collect();
     match v.len() {
         1 => Some(Vec3::splat(v[0])),
         n if n >= 3 => Some(Vec3::new(v[0], v[1], v[2])),
@@ -29,7 +32,9 @@ pub fn from_mtl(m: &tobj::Material) -> (Material, Option<String>) {
     let kd = v3(m.diffuse).unwrap_or(Vec3::splat(0.8));
     let ks = v3(m.specular).unwrap_or(Vec3::ZERO);
     // The MTL check has put every colour in its range already.
-    let emission = v3(m.emissive).or_else(|| param3(m, "Ke")).unwrap_or(Vec3::ZERO);
+    let emission = v3(m.emissive)
+        .or_else(|| param3(m, "Ke"))
+        .unwrap_or(Vec3::ZERO);
     let ns = m.shininess.unwrap_or(0.0);
     let bsdf = match m.illumination_model {
         Some(3) | Some(5) => Bsdf::Mirror { reflectance: ks },
@@ -41,20 +46,34 @@ pub fn from_mtl(m: &tobj::Material) -> (Material, Option<String>) {
             }
         }
         _ if ks.max_element() > 0.0 && ns > 1.0 => glossy(kd, ks, ns),
-        _ => Bsdf::Diffuse { albedo: kd, texture: None },
+        _ => Bsdf::Diffuse {
+            albedo: kd,
+            texture: None,
+        },
     };
     let texture = match bsdf {
         Bsdf::Diffuse { .. } => m.diffuse_texture.clone().filter(|t| !t.trim().is_empty()),
         _ => None,
     };
-    (Material { name: m.name.clone(), bsdf, emission }, texture)
+    (
+        Material {
+            name: m.name.clone(),
+            bsdf,
+            emission,
+        },
+        texture,
+    )
 }
 
 /// Modified Phong, scaled down where kd + ks would reflect more than it receives.
 fn glossy(kd: Vec3, ks: Vec3, exponent: f32) -> Bsdf {
     let total = (kd + ks).max_element();
     let s = if total > 1.0 { 1.0 / total } else { 1.0 };
-    Bsdf::Glossy { albedo: kd * s, specular: ks * s, exponent }
+    Bsdf::Glossy {
+        albedo: kd * s,
+        specular: ks * s,
+        exponent,
+    }
 }
 
 /// Applies `[materials.NAME]` on top of the MTL material. Returns the new texture path, if set.
@@ -66,11 +85,23 @@ pub fn apply_override(
     d: &MaterialDesc,
 ) -> Result<Option<String>> {
     let name = mat.name.clone();
-    let key_err = |key: &str, msg: String| -> Error { at_line(scene, line_of(key), format!("materials.{name}.{key}: {msg}")) };
-    let err = |msg: String| -> Error { at_line(scene, line_of("type"), format!("materials.{name}: {msg}")) };
+    let key_err = |key: &str, msg: String| -> Error {
+        at_line(
+            scene,
+            line_of(key),
+            format!("materials.{name}.{key}: {msg}"),
+        )
+    };
+    let err = |msg: String| -> Error {
+        at_line(scene, line_of("type"), format!("materials.{name}: {msg}"))
+    };
     let (kd, ks, ns) = match &mat.bsdf {
         Bsdf::Diffuse { albedo, .. } => (*albedo, Vec3::ZERO, 1.0),
-        Bsdf::Glossy { albedo, specular, exponent } => (*albedo, *specular, *exponent),
+        Bsdf::Glossy {
+            albedo,
+            specular,
+            exponent,
+        } => (*albedo, *specular, *exponent),
         _ => (Vec3::splat(0.8), Vec3::ZERO, 1.0),
     };
     // Keys not given keep the material's own values when it already has that type.
@@ -95,7 +126,11 @@ pub fn apply_override(
         "glass" => &["ior", "transmittance"],
         "glossy" => &["albedo", "specular", "exponent"],
         "null" => &[],
-        other => return Err(err(format!("unknown type '{other}' (diffuse | mirror | glass | glossy | null)"))),
+        other => {
+            return Err(err(format!(
+                "unknown type '{other}' (diffuse | mirror | glass | glossy | null)"
+            )))
+        }
     };
     let given = [
         ("albedo", d.albedo.is_some()),
@@ -109,7 +144,12 @@ pub fn apply_override(
     if let Some((k, _)) = given.iter().find(|(k, g)| *g && !allowed.contains(k)) {
         return Err(err(format!("key '{k}' does not apply to type '{kind}'")));
     }
-    for (k, v) in [("albedo", d.albedo), ("reflectance", d.reflectance), ("transmittance", d.transmittance), ("specular", d.specular)] {
+    for (k, v) in [
+        ("albedo", d.albedo),
+        ("reflectance", d.reflectance),
+        ("transmittance", d.transmittance),
+        ("specular", d.specular),
+    ] {
         if let Some(p) = v.and_then(limits::unit_interval) {
             return Err(key_err(k, p));
         }
@@ -118,31 +158,52 @@ pub fn apply_override(
         return Err(key_err("emission", p));
     }
     if kind == "null" && v3(d.emission).unwrap_or(mat.emission) != Vec3::ZERO {
-        return Err(err("a 'null' medium boundary cannot emit (set no emission, and no Ke in the MTL)".into()));
+        return Err(err(
+            "a 'null' medium boundary cannot emit (set no emission, and no Ke in the MTL)".into(),
+        ));
     }
     let mut texture = None;
     mat.bsdf = match kind.as_str() {
         "null" => Bsdf::Null,
         "diffuse" => {
             texture = d.texture.clone();
-            Bsdf::Diffuse { albedo: v3(d.albedo).unwrap_or(kd), texture: None }
+            Bsdf::Diffuse {
+                albedo: v3(d.albedo).unwrap_or(kd),
+                texture: None,
+            }
         }
         "mirror" => Bsdf::Mirror {
-            reflectance: v3(d.reflectance).or(mirror_r).unwrap_or(if ks.max_element() > 0.0 { ks } else { Vec3::ONE }),
+            reflectance: v3(d.reflectance)
+                .or(mirror_r)
+                .unwrap_or(if ks.max_element() > 0.0 {
+                    ks
+                } else {
+                    Vec3::ONE
+                }),
         },
         "glass" => {
             let ior = d.ior.or(glass_ior).unwrap_or(1.5);
             if !(ior > 1.0 && ior <= MAX_IOR) {
                 return Err(key_err("ior", format!("{ior} is outside (1, {MAX_IOR}]")));
             }
-            Bsdf::Glass { ior, transmittance: v3(d.transmittance).or(glass_t).unwrap_or(Vec3::ONE) }
+            Bsdf::Glass {
+                ior,
+                transmittance: v3(d.transmittance).or(glass_t).unwrap_or(Vec3::ONE),
+            }
         }
         _ => {
             let exponent = d.exponent.unwrap_or(ns.max(1.0));
             if !(exponent >= 0.0 && exponent <= MAX_EXPONENT) {
-                return Err(key_err("exponent", format!("{exponent} is outside [0, {MAX_EXPONENT:e}]")));
+                return Err(key_err(
+                    "exponent",
+                    format!("{exponent} is outside [0, {MAX_EXPONENT:e}]"),
+                ));
             }
-            glossy(v3(d.albedo).unwrap_or(kd), v3(d.specular).unwrap_or(ks), exponent)
+            glossy(
+                v3(d.albedo).unwrap_or(kd),
+                v3(d.specular).unwrap_or(ks),
+                exponent,
+            )
         }
     };
     if let Some(e) = d.emission {
@@ -157,21 +218,68 @@ mod tests {
 
     #[test]
     fn overrides_keep_the_values_they_do_not_set() {
-        let mut glass = Material { name: "g".into(), bsdf: Bsdf::Glass { ior: 2.5, transmittance: Vec3::splat(0.1) }, emission: Vec3::ZERO };
-        let d = MaterialDesc { transmittance: Some([1.0; 3]), ..Default::default() };
+        let mut glass = Material {
+            name: "g".into(),
+            bsdf: Bsdf::Glass {
+                ior: 2.5,
+                transmittance: Vec3::splat(0.1),
+            },
+            emission: Vec3::ZERO,
+        };
+        let d = MaterialDesc {
+            transmittance: Some([1.0; 3]),
+            ..Default::default()
+        };
         apply_override(Path::new("s.toml"), &|_| 1, &mut glass, &d).unwrap();
-        assert_eq!(glass.bsdf, Bsdf::Glass { ior: 2.5, transmittance: Vec3::ONE });
-        let mut mirror = Material { name: "m".into(), bsdf: Bsdf::Mirror { reflectance: Vec3::splat(0.9) }, emission: Vec3::ZERO };
-        let d = MaterialDesc { emission: Some([1.0; 3]), ..Default::default() };
+        assert_eq!(
+            glass.bsdf,
+            Bsdf::Glass {
+                ior: 2.5,
+                transmittance: Vec3::ONE
+            }
+        );
+        let mut mirror = Material {
+            name: "m".into(),
+            bsdf: Bsdf::Mirror {
+                reflectance: Vec3::splat(0.9),
+            },
+            emission: Vec3::ZERO,
+        };
+        let d = MaterialDesc {
+            emission: Some([1.0; 3]),
+            ..Default::default()
+        };
         apply_override(Path::new("s.toml"), &|_| 1, &mut mirror, &d).unwrap();
-        assert_eq!(mirror.bsdf, Bsdf::Mirror { reflectance: Vec3::splat(0.9) });
+        assert_eq!(
+            mirror.bsdf,
+            Bsdf::Mirror {
+                reflectance: Vec3::splat(0.9)
+            }
+        );
         assert_eq!(mirror.emission, Vec3::ONE);
-        let d = MaterialDesc { kind: Some("glass".into()), reflectance: Some([1.0; 3]), ..Default::default() };
+        let d = MaterialDesc {
+            kind: Some("glass".into()),
+            reflectance: Some([1.0; 3]),
+            ..Default::default()
+        };
         assert!(apply_override(Path::new("s.toml"), &|_| 1, &mut mirror, &d).is_err());
         for bad in [[10.0; 3], [-0.1, 0.5, 0.5], [f32::NAN, 0.0, 0.0]] {
-            let d = MaterialDesc { kind: Some("diffuse".into()), albedo: Some(bad), ..Default::default() };
-            let e = apply_override(Path::new("s.toml"), &|k| if k == "albedo" { 7 } else { 1 }, &mut mirror, &d).unwrap_err();
-            assert!(e.to_string().starts_with("s.toml:7: materials.m.albedo:"), "{e}");
+            let d = MaterialDesc {
+                kind: Some("diffuse".into()),
+                albedo: Some(bad),
+                ..Default::default()
+            };
+            let e = apply_override(
+                Path::new("s.toml"),
+                &|k| if k == "albedo" { 7 } else { 1 },
+                &mut mirror,
+                &d,
+            )
+            .unwrap_err();
+            assert!(
+                e.to_string().starts_with("s.toml:7: materials.m.albedo:"),
+                "{e}"
+            );
         }
     }
 }

@@ -32,30 +32,48 @@ pub struct ObjModel {
 pub fn load(path: &Path) -> Result<ObjData> {
     let text = read_text(path, "OBJ file", MAX_OBJ_BYTES, Some(b'#'))?;
     let checked = check_obj(path, &text)?;
-    let opts = tobj::LoadOptions { single_index: true, triangulate: true, ignore_points: true, ignore_lines: true };
+    let opts = tobj::LoadOptions {
+        single_index: true,
+        triangulate: true,
+        ignore_points: true,
+        ignore_lines: true,
+    };
     // The check rewrote `mtllib` statements to indices into the libraries it read.
     let libraries = &checked.libraries;
     let load_mtl = |name: &Path| {
-        let lib = name.to_str().and_then(|k| k.parse::<usize>().ok()).and_then(|k| libraries.get(k));
+        let lib = name
+            .to_str()
+            .and_then(|k| k.parse::<usize>().ok())
+            .and_then(|k| libraries.get(k));
         match lib {
             Some((_, mtl)) => tobj::load_mtl_buf(&mut Cursor::new(mtl.as_bytes())),
             None => Err(tobj::LoadError::OpenFileFailed),
         }
     };
     // tobj can panic on inputs the check does not foresee; that is still bad input, not a crash.
-    let loaded = std::panic::catch_unwind(|| tobj::load_obj_buf(&mut Cursor::new(checked.text.as_bytes()), &opts, load_mtl))
-        .map_err(|_| in_file(path, "OBJ/MTL could not be parsed (malformed statement)"))?;
+    let loaded = std::panic::catch_unwind(|| {
+        tobj::load_obj_buf(&mut Cursor::new(checked.text.as_bytes()), &opts, load_mtl)
+    })
+    .map_err(|_| in_file(path, "OBJ/MTL could not be parsed (malformed statement)"))?;
     let (models, materials) = loaded.map_err(|e| in_file(path, format!("OBJ: {e}")))?;
     let materials = materials.map_err(|e| in_file(path, format!("MTL: {e}")))?;
     let models = models
         .into_iter()
         .map(|m| {
             let mesh = m.mesh;
-            let v3 = |a: &[f32]| a.chunks_exact(3).map(|c| Vec3::new(c[0], c[1], c[2])).collect::<Vec<_>>();
+            let v3 = |a: &[f32]| {
+                a.chunks_exact(3)
+                    .map(|c| Vec3::new(c[0], c[1], c[2]))
+                    .collect::<Vec<_>>()
+            };
             ObjModel {
                 positions: v3(&mesh.positions),
                 normals: v3(&mesh.normals),
-                uvs: mesh.texcoords.chunks_exact(2).map(|c| Vec2::new(c[0], c[1])).collect(),
+                uvs: mesh
+                    .texcoords
+                    .chunks_exact(2)
+                    .map(|c| Vec2::new(c[0], c[1]))
+                    .collect(),
                 indices: mesh.indices,
                 material: mesh.material_id,
             }

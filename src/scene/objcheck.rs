@@ -23,7 +23,8 @@ pub struct CheckedObj {
 /// The statement without its comment: `#` at the start or after white space begins one.
 fn strip_comment(line: &str) -> &str {
     let bytes = line.as_bytes();
-    let cut = (0..bytes.len()).find(|&i| bytes[i] == b'#' && (i == 0 || bytes[i - 1].is_ascii_whitespace()));
+    let cut = (0..bytes.len())
+        .find(|&i| bytes[i] == b'#' && (i == 0 || bytes[i - 1].is_ascii_whitespace()));
     cut.map_or(line, |i| &line[..i])
 }
 
@@ -33,15 +34,27 @@ fn numbers(path: &Path, line_no: usize, tag: &str, words: &[&str]) -> Result<Vec
         .iter()
         .map(|tok| match tok.parse::<f32>() {
             Ok(x) if x.is_finite() => Ok(x),
-            Ok(_) => Err(at_line(path, line_no, format!("{tag}: non-finite number '{tok}'"))),
-            Err(_) => Err(at_line(path, line_no, format!("{tag}: '{tok}' is not a number"))),
+            Ok(_) => Err(at_line(
+                path,
+                line_no,
+                format!("{tag}: non-finite number '{tok}'"),
+            )),
+            Err(_) => Err(at_line(
+                path,
+                line_no,
+                format!("{tag}: '{tok}' is not a number"),
+            )),
         })
         .collect()
 }
 
 /// Checks an OBJ file and the material libraries it names.
 pub fn check_obj(path: &Path, text: &str) -> Result<CheckedObj> {
-    let mut out = CheckedObj { text: String::with_capacity(text.len()), libraries: Vec::new(), ke_at: HashMap::new() };
+    let mut out = CheckedObj {
+        text: String::with_capacity(text.len()),
+        libraries: Vec::new(),
+        ke_at: HashMap::new(),
+    };
     let mut counts = [0i64; 3];
     for (i, raw) in text.lines().enumerate() {
         let line_no = i + 1;
@@ -56,7 +69,12 @@ pub fn check_obj(path: &Path, text: &str) -> Result<CheckedObj> {
             "v" | "vt" | "vn" => {
                 let v = numbers(path, line_no, tag, args)?;
                 let ok = match tag {
-                    "v" => matches!(v.len(), 3 | 6) || (v.len() == 4 && v[3] != 0.0 && v[..3].iter().all(|x| (x / v[3]).is_finite())),
+                    "v" => {
+                        matches!(v.len(), 3 | 6)
+                            || (v.len() == 4
+                                && v[3] != 0.0
+                                && v[..3].iter().all(|x| (x / v[3]).is_finite()))
+                    }
                     "vt" => (1..=3).contains(&v.len()),
                     _ => v.len() == 3,
                 };
@@ -66,21 +84,31 @@ pub fn check_obj(path: &Path, text: &str) -> Result<CheckedObj> {
                         "vt" => "u, optionally v and w",
                         _ => "x y z",
                     };
-                    return Err(at_line(path, line_no, format!("'{tag}' needs {want}; found {} number(s)", v.len())));
+                    return Err(at_line(
+                        path,
+                        line_no,
+                        format!("'{tag}' needs {want}; found {} number(s)", v.len()),
+                    ));
                 }
-                counts[["v", "vt", "vn"].iter().position(|t| *t == tag).unwrap_or(0)] += 1;
+                counts[["v", "vt", "vn"]
+                    .iter()
+                    .position(|t| *t == tag)
+                    .unwrap_or(0)] += 1;
                 if tag == "vt" && v.len() == 1 {
                     out.text.push_str(&format!("vt {} 0\n", args[0]));
                     continue;
                 }
             }
             "f" => check_face(path, line_no, args, counts)?,
-            "usemtl" if args.is_empty() => return Err(at_line(path, line_no, "'usemtl' needs a material name")),
+            "usemtl" if args.is_empty() => {
+                return Err(at_line(path, line_no, "'usemtl' needs a material name"))
+            }
             "mtllib" => {
                 for lib in libraries(path, line_no, line)? {
                     let mtl_text = read_text(&lib, "material library", MAX_MTL_BYTES, Some(b'#'))?;
                     let (checked, ke_at) = check_mtl(&lib, &mtl_text)?;
-                    out.text.push_str(&format!("mtllib {}\n", out.libraries.len()));
+                    out.text
+                        .push_str(&format!("mtllib {}\n", out.libraries.len()));
                     out.libraries.push((lib, checked));
                     out.ke_at.extend(ke_at);
                 }
@@ -111,9 +139,17 @@ fn libraries(path: &Path, line_no: usize, line: &str) -> Result<Vec<PathBuf>> {
             if lib.is_file() {
                 Ok(lib)
             } else if lib.exists() {
-                Err(at_line(path, line_no, format!("material library '{}' is not a regular file", lib.display())))
+                Err(at_line(
+                    path,
+                    line_no,
+                    format!("material library '{}' is not a regular file", lib.display()),
+                ))
             } else {
-                Err(at_line(path, line_no, format!("material library '{}' not found", lib.display())))
+                Err(at_line(
+                    path,
+                    line_no,
+                    format!("material library '{}' not found", lib.display()),
+                ))
             }
         })
         .collect()
@@ -130,11 +166,17 @@ fn check_face(path: &Path, line_no: usize, corners: &[&str], counts: [i64; 3]) -
                 continue;
             }
             let count = counts.get(slot).copied().unwrap_or(0);
-            let idx: i64 = part.parse().map_err(|_| at_line(path, line_no, format!("bad face index '{part}'")))?;
+            let idx: i64 = part
+                .parse()
+                .map_err(|_| at_line(path, line_no, format!("bad face index '{part}'")))?;
             let resolved = if idx < 0 { count + idx + 1 } else { idx };
             if idx == 0 || resolved < 1 || resolved > count {
                 let what = ["vertex", "texture coordinate", "normal"][slot.min(2)];
-                return Err(at_line(path, line_no, format!("face {what} index {idx} out of range (1..={count} defined so far)")));
+                return Err(at_line(
+                    path,
+                    line_no,
+                    format!("face {what} index {idx} out of range (1..={count} defined so far)"),
+                ));
             }
         }
     }
@@ -190,7 +232,9 @@ pub fn check_mtl(path: &Path, text: &str) -> Result<(String, KeAt)> {
             }
             "Ns" | "Ni" | "d" | "Tr" => {
                 let v = numbers(path, line_no, tag, args)?;
-                let [x] = v[..] else { return Err(err(format!("needs 1 number, found {}", v.len()))) };
+                let [x] = v[..] else {
+                    return Err(err(format!("needs 1 number, found {}", v.len())));
+                };
                 let max = match tag {
                     "Ns" => MAX_EXPONENT,
                     "Ni" => MAX_IOR,
@@ -205,7 +249,12 @@ pub fn check_mtl(path: &Path, text: &str) -> Result<(String, KeAt)> {
                     return Err(err("needs one illumination model number 0..=10".into()));
                 }
             }
-            t if t.starts_with("map_") || t == "bump" || t == "disp" || t == "decal" || t == "refl" => {
+            t if t.starts_with("map_")
+                || t == "bump"
+                || t == "disp"
+                || t == "decal"
+                || t == "refl" =>
+            {
                 if args.is_empty() {
                     return Err(err("needs a file name".into()));
                 }
@@ -223,7 +272,10 @@ mod tests {
     use super::*;
 
     fn obj_err(text: &str) -> String {
-        check_obj(Path::new("m.obj"), text).err().map(|e| e.to_string()).unwrap_or_default()
+        check_obj(Path::new("m.obj"), text)
+            .err()
+            .map(|e| e.to_string())
+            .unwrap_or_default()
     }
 
     #[test]
@@ -232,15 +284,37 @@ mod tests {
         assert!(obj_err("v\n").starts_with("m.obj:1:"));
         assert!(obj_err("v 1 2 3 4 5 6 7\n").starts_with("m.obj:1:"));
         assert!(obj_err("v 1 2 3 0\n").starts_with("m.obj:1:"));
-        assert_eq!(obj_err("v 1 2 3 # a comment\nv 1 2 3 1\nv 1 2 3 0.5 0.5 0.5\nvt 0.5\nvt 0.5 0.5 0\n"), "");
-        let c = check_obj(Path::new("m.obj"), "vt 0.5\n").ok().map(|c| c.text);
+        assert_eq!(
+            obj_err("v 1 2 3 # a comment\nv 1 2 3 1\nv 1 2 3 0.5 0.5 0.5\nvt 0.5\nvt 0.5 0.5 0\n"),
+            ""
+        );
+        let c = check_obj(Path::new("m.obj"), "vt 0.5\n")
+            .ok()
+            .map(|c| c.text);
         assert_eq!(c.as_deref(), Some("vt 0.5 0\n"));
     }
 
     #[test]
     fn mtl_values_are_in_range() {
-        let mtl_err = |t: &str| check_mtl(Path::new("m.mtl"), t).err().map(|e| e.to_string()).unwrap_or_default();
-        for bad in ["Kd -1 -1 -1", "Kd 5 5 5", "Kd 1e30 0 0", "Ks -1 0 0", "Tf -2 1 1", "Ke 3e38 3e38 3e38", "Ke -1 0 0", "Ns 1e9", "Ni -1", "Kd 0.5 0.5", "illum x"] {
+        let mtl_err = |t: &str| {
+            check_mtl(Path::new("m.mtl"), t)
+                .err()
+                .map(|e| e.to_string())
+                .unwrap_or_default()
+        };
+        for bad in [
+            "Kd -1 -1 -1",
+            "Kd 5 5 5",
+            "Kd 1e30 0 0",
+            "Ks -1 0 0",
+            "Tf -2 1 1",
+            "Ke 3e38 3e38 3e38",
+            "Ke -1 0 0",
+            "Ns 1e9",
+            "Ni -1",
+            "Kd 0.5 0.5",
+            "illum x",
+        ] {
             let e = mtl_err(&format!("newmtl a\n{bad}\n"));
             assert!(e.starts_with("m.mtl:2:"), "{bad}: {e}");
         }

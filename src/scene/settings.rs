@@ -148,7 +148,12 @@ pub(super) fn camera(cx: &Ctx, desc: &SceneFile) -> Result<Camera> {
         return Err(cx.err("camera", 0, "eye", p));
     }
     if !(c.fov > 0.0 && c.fov < 180.0) {
-        return Err(cx.err("camera", 0, "fov", format!("{} is outside (0, 180) degrees", c.fov)));
+        return Err(cx.err(
+            "camera",
+            0,
+            "fov",
+            format!("{} is outside (0, 180) degrees", c.fov),
+        ));
     }
     for (k, v) in [("width", c.width), ("height", c.height)] {
         if !(1..=MAX_SIDE).contains(&v) {
@@ -165,34 +170,75 @@ pub(super) fn camera(cx: &Ctx, desc: &SceneFile) -> Result<Camera> {
     if fwd.cross(up_dir).length() < 1e-6 {
         return Err(cx.err("camera", 0, "up", "is parallel to the viewing direction"));
     }
-    Ok(Camera::new(eye, target, up_dir, c.fov, c.width as u32, c.height as u32))
+    Ok(Camera::new(
+        eye,
+        target,
+        up_dir,
+        c.fov,
+        c.width as u32,
+        c.height as u32,
+    ))
 }
 
 pub(super) fn settings(cx: &Ctx, desc: &SceneFile) -> Result<RenderSettings> {
     let r = &desc.render;
     let method = match &r.method {
-        Some(m) => Some(Method::parse(m).ok_or_else(|| cx.err("render", 0, "method", format!("unknown method '{m}' ({METHODS})")))?),
+        Some(m) => Some(Method::parse(m).ok_or_else(|| {
+            cx.err(
+                "render",
+                0,
+                "method",
+                format!("unknown method '{m}' ({METHODS})"),
+            )
+        })?),
         None => None,
     };
     let spp = match r.spp {
-        Some(s) if !(1..=MAX_SPP).contains(&s) => return Err(cx.err("render", 0, "spp", format!("{s} must be in 1..={MAX_SPP}"))),
+        Some(s) if !(1..=MAX_SPP).contains(&s) => {
+            return Err(cx.err("render", 0, "spp", format!("{s} must be in 1..={MAX_SPP}")))
+        }
         s => s.map(|s| s as u32),
     };
     let aa_spp = match r.aa_spp {
-        Some(s) if !(1..=MAX_SPP).contains(&s) => return Err(cx.err("render", 0, "aa_spp", format!("{s} must be in 1..={MAX_SPP}"))),
+        Some(s) if !(1..=MAX_SPP).contains(&s) => {
+            return Err(cx.err(
+                "render",
+                0,
+                "aa_spp",
+                format!("{s} must be in 1..={MAX_SPP}"),
+            ))
+        }
         s => s.map(|s| s as u32),
     };
     let noise = match r.noise {
-        Some(t) if !(0.0..=1.0).contains(&t) => return Err(cx.err("render", 0, "noise", format!("{t} must be in 0..=1"))),
+        Some(t) if !(0.0..=1.0).contains(&t) => {
+            return Err(cx.err("render", 0, "noise", format!("{t} must be in 0..=1")))
+        }
         t => t.map(|t| t as f32),
     };
     let max_depth = match r.max_depth {
-        Some(d) if !(1..=MAX_DEPTH).contains(&d) => return Err(cx.err("render", 0, "max_depth", format!("{d} must be in 1..={MAX_DEPTH}"))),
+        Some(d) if !(1..=MAX_DEPTH).contains(&d) => {
+            return Err(cx.err(
+                "render",
+                0,
+                "max_depth",
+                format!("{d} must be in 1..={MAX_DEPTH}"),
+            ))
+        }
         d => d.unwrap_or(64) as u32,
     };
     let icache = icache(cx, &r.icache.clone().unwrap_or_default())?;
     let photons = photons(cx, &r.photons.clone().unwrap_or_default())?;
-    Ok(RenderSettings { method, spp, aa_spp, noise, seed: r.seed.unwrap_or(0), max_depth, photons, icache })
+    Ok(RenderSettings {
+        method,
+        spp,
+        aa_spp,
+        noise,
+        seed: r.seed.unwrap_or(0),
+        max_depth,
+        photons,
+        icache,
+    })
 }
 
 /// `[render.photons]`: counts in range, a positive radius within the coordinate limit, a known filter.
@@ -200,7 +246,9 @@ fn photons(cx: &Ctx, d: &PhotonsDesc) -> Result<PhotonConfig> {
     let err = |key: &str, msg: String| cx.err("render.photons", 0, key, msg);
     let count = |key: &str, v: Option<i64>, min: i64| -> Result<Option<usize>> {
         match v {
-            Some(x) if x < min || x > MAX_PHOTONS => Err(err(key, format!("{x} must be in {min}..={MAX_PHOTONS}"))),
+            Some(x) if x < min || x > MAX_PHOTONS => {
+                Err(err(key, format!("{x} must be in {min}..={MAX_PHOTONS}")))
+            }
             x => Ok(x.map(|x| x as usize)),
         }
     };
@@ -210,15 +258,30 @@ fn photons(cx: &Ctx, d: &PhotonsDesc) -> Result<PhotonConfig> {
     let precompute_every = count("precompute_every", d.precompute_every, 1)?;
     if let Some(r) = d.max_radius {
         if !(r > 0.0 && r <= 2.0 * MAX_COORD) {
-            return Err(err("max_radius", format!("{r} is outside (0, {:e}]", 2.0 * MAX_COORD)));
+            return Err(err(
+                "max_radius",
+                format!("{r} is outside (0, {:e}]", 2.0 * MAX_COORD),
+            ));
         }
     }
     let caustic_filter = match d.caustic_filter.as_deref() {
         None | Some("cone") => Filter::Cone { k: 1.1 },
         Some("none") | Some("box") => Filter::None,
-        Some(other) => return Err(err("caustic_filter", format!("unknown filter '{other}' (cone | none)"))),
+        Some(other) => {
+            return Err(err(
+                "caustic_filter",
+                format!("unknown filter '{other}' (cone | none)"),
+            ))
+        }
     };
-    Ok(PhotonConfig { global, caustic, lookup, precompute_every, max_radius: d.max_radius, caustic_filter })
+    Ok(PhotonConfig {
+        global,
+        caustic,
+        lookup,
+        precompute_every,
+        max_radius: d.max_radius,
+        caustic_filter,
+    })
 }
 
 /// `[render.icache]`: the numbers (see [`check_icache`]), then the weighting and the fill by name.
@@ -230,12 +293,22 @@ fn icache(cx: &Ctx, d: &IcacheDesc) -> Result<IcacheSettings> {
         None => defaults.weight,
         Some("tl") => Weighting::TabellionLamorlette,
         Some("ward") => Weighting::Ward,
-        Some(other) => return Err(err("weight", format!("unknown weighting '{other}' (tl | ward)"))),
+        Some(other) => {
+            return Err(err(
+                "weight",
+                format!("unknown weighting '{other}' (tl | ward)"),
+            ))
+        }
     };
     let fill = match d.fill.as_deref() {
         None | Some("two-pass") => FillMode::TwoPass,
         Some("one-pass") => FillMode::OnePass,
-        Some(other) => return Err(err("fill", format!("unknown fill '{other}' (two-pass | one-pass)"))),
+        Some(other) => {
+            return Err(err(
+                "fill",
+                format!("unknown fill '{other}' (two-pass | one-pass)"),
+            ))
+        }
     };
     let accuracy = d.accuracy.unwrap_or(defaults.accuracy);
     let params = CacheParams {
@@ -245,21 +318,40 @@ fn icache(cx: &Ctx, d: &IcacheDesc) -> Result<IcacheSettings> {
         gradients: d.gradients.unwrap_or(defaults.gradients),
         min_spacing_px: d.min_spacing_px.unwrap_or(defaults.min_spacing_px),
         max_spacing_px: d.max_spacing_px.unwrap_or(defaults.max_spacing_px),
-        pass_b_accuracy: Some(d.pass_b_accuracy.unwrap_or(icache::params::PASS_B_REACH * accuracy)),
+        pass_b_accuracy: Some(
+            d.pass_b_accuracy
+                .unwrap_or(icache::params::PASS_B_REACH * accuracy),
+        ),
         // Adaptive caching: on with `adaptive = true` or a threshold; it lives in the two-pass fill.
         adaptive: match fill {
-            FillMode::TwoPass if d.adaptive.unwrap_or(d.adaptive_threshold.is_some()) => Some(d.adaptive_threshold.unwrap_or(icache::params::DEFAULT_WEBER)),
+            FillMode::TwoPass if d.adaptive.unwrap_or(d.adaptive_threshold.is_some()) => Some(
+                d.adaptive_threshold
+                    .unwrap_or(icache::params::DEFAULT_WEBER),
+            ),
             _ => None,
         },
     };
     // What `check_icache` has not caught yet (a check added to `CacheParams` later).
-    params.validate().map_err(|e| err("accuracy", e.to_string()))?;
+    params
+        .validate()
+        .map_err(|e| err("accuracy", e.to_string()))?;
     let rays = d.rays.map_or(gather::DEFAULT_RAYS, |r| r as usize);
     let media_gradients = d.media_gradients.unwrap_or(true);
     let media_visibility = d.media_visibility.unwrap_or(false);
     let pass_a_stride = d.pass_a_stride.map(|s| s as u32);
     let visibility = d.visibility.unwrap_or(false);
-    Ok(IcacheSettings { params, min_spacing_given: d.min_spacing_px.is_some(), max_spacing_given: d.max_spacing_px.is_some(), rays, rays_given: d.rays.is_some(), fill, media_gradients, media_visibility, pass_a_stride, visibility })
+    Ok(IcacheSettings {
+        params,
+        min_spacing_given: d.min_spacing_px.is_some(),
+        max_spacing_given: d.max_spacing_px.is_some(),
+        rays,
+        rays_given: d.rays.is_some(),
+        fill,
+        media_gradients,
+        media_visibility,
+        pass_a_stride,
+        visibility,
+    })
 }
 
 /// `[render.icache]` numbers, each blamed on its own key: accuracies and spacings positive and finite,
@@ -276,25 +368,39 @@ fn check_icache(cx: &Ctx, d: &IcacheDesc) -> Result<()> {
         ("adaptive_threshold", d.adaptive_threshold),
     ] {
         match v {
-            Some(x) if !(x.is_finite() && x > 0.0) => return Err(err(key, format!("{x} must be a positive number"))),
+            Some(x) if !(x.is_finite() && x > 0.0) => {
+                return Err(err(key, format!("{x} must be a positive number")))
+            }
             _ => {}
         }
     }
     let min = d.min_spacing_px.unwrap_or(defaults.min_spacing_px);
     let max = d.max_spacing_px.unwrap_or(defaults.max_spacing_px);
     if min > max {
-        let key = if d.min_spacing_px.is_some() { "min_spacing_px" } else { "max_spacing_px" };
-        return Err(err(key, format!("min_spacing_px = {min} is larger than max_spacing_px = {max}")));
+        let key = if d.min_spacing_px.is_some() {
+            "min_spacing_px"
+        } else {
+            "max_spacing_px"
+        };
+        return Err(err(
+            key,
+            format!("min_spacing_px = {min} is larger than max_spacing_px = {max}"),
+        ));
     }
     let a = d.accuracy.unwrap_or(defaults.accuracy);
     if let Some(b) = d.pass_b_accuracy.filter(|&b| b < a) {
-        return Err(err("pass_b_accuracy", format!("pass_b_accuracy = {b} is smaller than accuracy = {a}")));
+        return Err(err(
+            "pass_b_accuracy",
+            format!("pass_b_accuracy = {b} is smaller than accuracy = {a}"),
+        ));
     }
     if let Some(s) = d.pass_a_stride.filter(|s| !(1..=64).contains(s)) {
         return Err(err("pass_a_stride", format!("{s} must be in 1..=64")));
     }
     match d.rays {
-        Some(r) if !(4..=1_000_000).contains(&r) => Err(err("rays", format!("{r} must be in 4..=1000000"))),
+        Some(r) if !(4..=1_000_000).contains(&r) => {
+            Err(err("rays", format!("{r} must be in 4..=1000000")))
+        }
         _ => Ok(()),
     }
 }
@@ -305,15 +411,33 @@ mod tests {
 
     fn icache(min: Option<f32>, max: Option<f32>) -> IcacheSettings {
         let d = CacheParams::default();
-        let params = CacheParams { min_spacing_px: min.unwrap_or(d.min_spacing_px), max_spacing_px: max.unwrap_or(d.max_spacing_px), ..d };
-        IcacheSettings { params, min_spacing_given: min.is_some(), max_spacing_given: max.is_some(), rays: 500, rays_given: false, fill: FillMode::TwoPass, media_gradients: true, media_visibility: false, pass_a_stride: None, visibility: false }
+        let params = CacheParams {
+            min_spacing_px: min.unwrap_or(d.min_spacing_px),
+            max_spacing_px: max.unwrap_or(d.max_spacing_px),
+            ..d
+        };
+        IcacheSettings {
+            params,
+            min_spacing_given: min.is_some(),
+            max_spacing_given: max.is_some(),
+            rays: 500,
+            rays_given: false,
+            fill: FillMode::TwoPass,
+            media_gradients: true,
+            media_visibility: false,
+            pass_a_stride: None,
+            visibility: false,
+        }
     }
 
     #[test]
     fn default_spacings_grow_with_the_image_and_given_ones_stay() {
         let p = icache(None, None).for_image(1024, 256);
         assert_eq!((p.min_spacing_px, p.max_spacing_px), (6.0, 40.0));
-        assert_eq!(icache(None, None).for_image(512, 512), CacheParams::default());
+        assert_eq!(
+            icache(None, None).for_image(512, 512),
+            CacheParams::default()
+        );
         let p = icache(Some(2.0), None).for_image(2048, 2048);
         assert_eq!((p.min_spacing_px, p.max_spacing_px), (2.0, 80.0));
         // A given maximum below the grown default minimum lowers the minimum: valid at any size.

@@ -13,12 +13,20 @@ pub fn bin() -> PathBuf {
 }
 
 pub fn run(args: &[&str]) -> Output {
-    Command::new(bin()).args(args).output().expect("pmrender runs")
+    Command::new(bin())
+        .args(args)
+        .output()
+        .expect("pmrender runs")
 }
 
 /// Runs the binary, killing it after `limit` (a hang is a failure, not a stuck test run).
 pub fn run_bounded(args: &[&str], limit: Duration) -> Output {
-    let mut child = Command::new(bin()).args(args).stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().expect("pmrender runs");
+    let mut child = Command::new(bin())
+        .args(args)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("pmrender runs");
     let start = Instant::now();
     while child.try_wait().expect("wait").is_none() {
         if start.elapsed() > limit {
@@ -90,7 +98,11 @@ pub fn scene_dir(files: &[(&str, &str)]) -> tempfile::TempDir {
 }
 
 pub fn room() -> tempfile::TempDir {
-    scene_dir(&[("room.obj", ROOM_OBJ), ("room.mtl", ROOM_MTL), ("scene.toml", ROOM_TOML)])
+    scene_dir(&[
+        ("room.obj", ROOM_OBJ),
+        ("room.mtl", ROOM_MTL),
+        ("scene.toml", ROOM_TOML),
+    ])
 }
 
 pub fn p(dir: &Path, name: &str) -> String {
@@ -114,24 +126,47 @@ pub fn rel_mse(img: &Image, reference: &Image) -> f64 {
 /// Means over `b`×`b` blocks: bias shows through, per-pixel noise averages out.
 pub fn block_means(img: &Image, b: u32) -> Image {
     let (w, h) = (img.width / b, img.height / b);
-    let mut out = Image { width: w, height: h, pixels: vec![Vec3::ZERO; (w * h) as usize] };
+    let mut out = Image {
+        width: w,
+        height: h,
+        pixels: vec![Vec3::ZERO; (w * h) as usize],
+    };
     for y in 0..h * b {
         for x in 0..w * b {
-            out.pixels[((y / b) * w + x / b) as usize] += img.pixels[(y * img.width + x) as usize] / (b * b) as f32;
+            out.pixels[((y / b) * w + x / b) as usize] +=
+                img.pixels[(y * img.width + x) as usize] / (b * b) as f32;
         }
     }
     out
 }
 
 /// Renders the shipped caustic scene at the reference's 160×128 and returns (image, stats JSON).
-pub fn render_cornell(method: &str, spp: u32, dir: &Path, extra: &[&str]) -> (Image, serde_json::Value) {
+pub fn render_cornell(
+    method: &str,
+    spp: u32,
+    dir: &Path,
+    extra: &[&str],
+) -> (Image, serde_json::Value) {
     let scene = repo().join("scenes/cornell-caustics.toml");
     let out = dir.join(format!("{method}-{spp}.exr"));
     let stats = dir.join(format!("{method}-{spp}.json"));
     let spp_s = spp.to_string();
     let mut args = vec![
-        "render", scene.to_str().unwrap(), "-o", out.to_str().unwrap(), "--stats", stats.to_str().unwrap(),
-        "--method", method, "--spp", &spp_s, "--width", "160", "--height", "128", "--quiet",
+        "render",
+        scene.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--stats",
+        stats.to_str().unwrap(),
+        "--method",
+        method,
+        "--spp",
+        &spp_s,
+        "--width",
+        "160",
+        "--height",
+        "128",
+        "--quiet",
     ];
     args.extend_from_slice(extra);
     let r = run(&args);
@@ -151,7 +186,12 @@ pub fn inward_sphere(nu: usize, nv: usize) -> String {
         let th = std::f64::consts::PI * j as f64 / nv as f64;
         for i in 0..nu {
             let ph = 2.0 * std::f64::consts::PI * i as f64 / nu as f64;
-            s += &format!("v {} {} {}\n", th.sin() * ph.cos(), th.cos(), th.sin() * ph.sin());
+            s += &format!(
+                "v {} {} {}\n",
+                th.sin() * ph.cos(),
+                th.cos(),
+                th.sin() * ph.sin()
+            );
         }
     }
     let idx = |i: usize, j: usize| j * nu + (i % nu) + 1;

@@ -61,16 +61,68 @@ impl Obj {
     /// `skip` names faces to leave out: "-x", "+x", "-y", "+y", "-z", "+z".
     pub fn cuboid(&mut self, mat: &str, lo: Vec3, hi: Vec3, inward: bool, skip: &[&str]) {
         let c = |x: bool, y: bool, z: bool| {
-            Vec3::new(if x { hi.x } else { lo.x }, if y { hi.y } else { lo.y }, if z { hi.z } else { lo.z })
+            Vec3::new(
+                if x { hi.x } else { lo.x },
+                if y { hi.y } else { lo.y },
+                if z { hi.z } else { lo.z },
+            )
         };
         // Each face counter-clockwise seen from outside.
         let faces = [
-            ("-x", [c(false, false, false), c(false, false, true), c(false, true, true), c(false, true, false)]),
-            ("+x", [c(true, false, true), c(true, false, false), c(true, true, false), c(true, true, true)]),
-            ("-y", [c(false, false, false), c(true, false, false), c(true, false, true), c(false, false, true)]),
-            ("+y", [c(false, true, true), c(true, true, true), c(true, true, false), c(false, true, false)]),
-            ("-z", [c(true, false, false), c(false, false, false), c(false, true, false), c(true, true, false)]),
-            ("+z", [c(false, false, true), c(true, false, true), c(true, true, true), c(false, true, true)]),
+            (
+                "-x",
+                [
+                    c(false, false, false),
+                    c(false, false, true),
+                    c(false, true, true),
+                    c(false, true, false),
+                ],
+            ),
+            (
+                "+x",
+                [
+                    c(true, false, true),
+                    c(true, false, false),
+                    c(true, true, false),
+                    c(true, true, true),
+                ],
+            ),
+            (
+                "-y",
+                [
+                    c(false, false, false),
+                    c(true, false, false),
+                    c(true, false, true),
+                    c(false, false, true),
+                ],
+            ),
+            (
+                "+y",
+                [
+                    c(false, true, true),
+                    c(true, true, true),
+                    c(true, true, false),
+                    c(false, true, false),
+                ],
+            ),
+            (
+                "-z",
+                [
+                    c(true, false, false),
+                    c(false, false, false),
+                    c(false, true, false),
+                    c(true, true, false),
+                ],
+            ),
+            (
+                "+z",
+                [
+                    c(false, false, true),
+                    c(true, false, true),
+                    c(true, true, true),
+                    c(false, true, true),
+                ],
+            ),
         ];
         for (name, mut q) in faces {
             if skip.contains(&name) {
@@ -148,15 +200,45 @@ illum 7
 /// The open-front room of `tests/common` (x, z ∈ [−1, 1], y ∈ [0, 2], the +z wall missing) with red and
 /// green side walls and a 0.5 × 0.5 ceiling light of radiance 10 facing down.
 pub fn open_room(o: &mut Obj) {
-    o.cuboid("wall", v(-1.0, 0.0, -1.0), v(1.0, 2.0, 1.0), true, &["-x", "+x", "+z"]);
-    o.quad("red", [v(-1.0, 0.0, 1.0), v(-1.0, 0.0, -1.0), v(-1.0, 2.0, -1.0), v(-1.0, 2.0, 1.0)]);
-    o.quad("green", [v(1.0, 0.0, -1.0), v(1.0, 0.0, 1.0), v(1.0, 2.0, 1.0), v(1.0, 2.0, -1.0)]);
+    o.cuboid(
+        "wall",
+        v(-1.0, 0.0, -1.0),
+        v(1.0, 2.0, 1.0),
+        true,
+        &["-x", "+x", "+z"],
+    );
+    o.quad(
+        "red",
+        [
+            v(-1.0, 0.0, 1.0),
+            v(-1.0, 0.0, -1.0),
+            v(-1.0, 2.0, -1.0),
+            v(-1.0, 2.0, 1.0),
+        ],
+    );
+    o.quad(
+        "green",
+        [
+            v(1.0, 0.0, -1.0),
+            v(1.0, 0.0, 1.0),
+            v(1.0, 2.0, 1.0),
+            v(1.0, 2.0, -1.0),
+        ],
+    );
     ceiling_light(o, 0.25);
 }
 
 /// A square emitter of half-size `h` just below the ceiling, facing down.
 pub fn ceiling_light(o: &mut Obj, h: f32) {
-    o.quad("light", [v(-h, 1.99, -h), v(h, 1.99, -h), v(h, 1.99, h), v(-h, 1.99, h)]);
+    o.quad(
+        "light",
+        [
+            v(-h, 1.99, -h),
+            v(h, 1.99, -h),
+            v(h, 1.99, h),
+            v(-h, 1.99, h),
+        ],
+    );
 }
 
 /// The open room of [`open_room`] broken in every way a mesh can be while meaning the same surfaces
@@ -164,11 +246,19 @@ pub fn ceiling_light(o: &mut Obj, h: f32) {
 /// normals pointing out of the room, per-vertex normals that cancel, walls without normals.
 pub fn broken_room(o: &mut Obj) {
     // Floor: two triangles sharing duplicated vertices, plus three zero-area ones.
-    let f: Vec<usize> = [v(-1.0, 0.0, 1.0), v(1.0, 0.0, 1.0), v(1.0, 0.0, -1.0), v(-1.0, 0.0, -1.0)]
+    let f: Vec<usize> = [
+        v(-1.0, 0.0, 1.0),
+        v(1.0, 0.0, 1.0),
+        v(1.0, 0.0, -1.0),
+        v(-1.0, 0.0, -1.0),
+    ]
+    .iter()
+    .map(|&p| o.vertex(p))
+    .collect();
+    let g: Vec<usize> = [v(-1.0, 0.0, 1.0), v(1.0, 0.0, -1.0)]
         .iter()
         .map(|&p| o.vertex(p))
         .collect();
-    let g: Vec<usize> = [v(-1.0, 0.0, 1.0), v(1.0, 0.0, -1.0)].iter().map(|&p| o.vertex(p)).collect();
     o.face("wall", &[f[0], f[1], f[2]]);
     o.face("wall", &[g[0], g[1], f[3]]);
     o.face("wall", &[f[0], f[0], f[1]]);
@@ -176,27 +266,51 @@ pub fn broken_room(o: &mut Obj) {
     let mid = o.vertex(v(0.0, 0.0, 0.0));
     o.face("wall", &[f[0], mid, f[2]]);
     // Back wall wound clockwise (facing out of the room).
-    o.quad("wall", [v(-1.0, 0.0, -1.0), v(-1.0, 2.0, -1.0), v(1.0, 2.0, -1.0), v(1.0, 0.0, -1.0)]);
+    o.quad(
+        "wall",
+        [
+            v(-1.0, 0.0, -1.0),
+            v(-1.0, 2.0, -1.0),
+            v(1.0, 2.0, -1.0),
+            v(1.0, 0.0, -1.0),
+        ],
+    );
     // Ceiling with normals pointing up, out of the room.
     let up = o.normal(v(0.0, 1.0, 0.0));
-    let c: Vec<usize> = [v(-1.0, 2.0, 1.0), v(1.0, 2.0, 1.0), v(1.0, 2.0, -1.0), v(-1.0, 2.0, -1.0)]
-        .iter()
-        .map(|&p| o.vertex(p))
-        .collect();
+    let c: Vec<usize> = [
+        v(-1.0, 2.0, 1.0),
+        v(1.0, 2.0, 1.0),
+        v(1.0, 2.0, -1.0),
+        v(-1.0, 2.0, -1.0),
+    ]
+    .iter()
+    .map(|&p| o.vertex(p))
+    .collect();
     o.face_n("wall", &[(c[0], up), (c[1], up), (c[2], up), (c[3], up)]);
     // Left wall: per-vertex normals half in, half out.
     let (pin, pout) = (o.normal(v(1.0, 0.0, 0.0)), o.normal(v(-1.0, 0.0, 0.0)));
-    let l: Vec<usize> = [v(-1.0, 0.0, 1.0), v(-1.0, 0.0, -1.0), v(-1.0, 2.0, -1.0), v(-1.0, 2.0, 1.0)]
-        .iter()
-        .map(|&p| o.vertex(p))
-        .collect();
+    let l: Vec<usize> = [
+        v(-1.0, 0.0, 1.0),
+        v(-1.0, 0.0, -1.0),
+        v(-1.0, 2.0, -1.0),
+        v(-1.0, 2.0, 1.0),
+    ]
+    .iter()
+    .map(|&p| o.vertex(p))
+    .collect();
     o.face_n("red", &[(l[0], pin), (l[1], pout), (l[2], pout)]);
     o.face_n("red", &[(l[0], pin), (l[2], pout), (l[3], pin)]);
     // Right wall without normals, over a duplicate of its first corner.
-    let r: Vec<usize> = [v(1.0, 0.0, -1.0), v(1.0, 0.0, 1.0), v(1.0, 2.0, 1.0), v(1.0, 2.0, -1.0), v(1.0, 0.0, -1.0)]
-        .iter()
-        .map(|&p| o.vertex(p))
-        .collect();
+    let r: Vec<usize> = [
+        v(1.0, 0.0, -1.0),
+        v(1.0, 0.0, 1.0),
+        v(1.0, 2.0, 1.0),
+        v(1.0, 2.0, -1.0),
+        v(1.0, 0.0, -1.0),
+    ]
+    .iter()
+    .map(|&p| o.vertex(p))
+    .collect();
     o.face("green", &[r[0], r[1], r[2]]);
     o.face("green", &[r[4], r[2], r[3]]);
     ceiling_light(o, 0.25);
@@ -219,7 +333,11 @@ pub fn room_toml(extra: &str) -> String {
 /// The `newmtl` blocks of `mtl` that `obj` uses. An unused mirror or glass would still make the renderer
 /// chase a caustic map (`Scene::has_specular` looks at every material), costing 2M photon paths.
 pub fn used_materials(obj: &Obj, mtl: &str) -> String {
-    let used: Vec<&str> = obj.body.lines().filter_map(|l| l.strip_prefix("usemtl ")).collect();
+    let used: Vec<&str> = obj
+        .body
+        .lines()
+        .filter_map(|l| l.strip_prefix("usemtl "))
+        .collect();
     mtl.split_inclusive('\n')
         .fold((String::new(), false), |(mut out, keep), line| {
             let keep = match line.strip_prefix("newmtl ") {
@@ -237,21 +355,52 @@ pub fn used_materials(obj: &Obj, mtl: &str) -> String {
 /// A point light sealed in a closed diffuse box (bottom at `y0`) over a floor at y = 0, seen from outside.
 pub fn sealed_box_scene(y0: f32, extra: &str) -> tempfile::TempDir {
     let mut o = Obj::new();
-    o.quad("wall", [v(-2.0, 0.0, 2.0), v(2.0, 0.0, 2.0), v(2.0, 0.0, -2.0), v(-2.0, 0.0, -2.0)]);
+    o.quad(
+        "wall",
+        [
+            v(-2.0, 0.0, 2.0),
+            v(2.0, 0.0, 2.0),
+            v(2.0, 0.0, -2.0),
+            v(-2.0, 0.0, -2.0),
+        ],
+    );
     o.cuboid("wall", v(-0.5, y0, -0.5), v(0.5, y0 + 1.0, 0.5), false, &[]);
     let light = format!(
         "[[light]]\ntype = \"point\"\nposition = [0.0, {}, 0.0]\nintensity = [50.0, 50.0, 50.0]\n\n",
         y0 + 0.5
     );
-    write(&o, MTL, &toml(v(1.5, 1.8, 2.5), v(0.0, 0.4, 0.0), 45.0, (32, 32), &format!("{light}{extra}")))
+    write(
+        &o,
+        MTL,
+        &toml(
+            v(1.5, 1.8, 2.5),
+            v(0.0, 0.4, 0.0),
+            45.0,
+            (32, 32),
+            &format!("{light}{extra}"),
+        ),
+    )
 }
 
 /// The open room with its mesh scaled by `s` and the camera scaled with it.
 pub fn scaled_room(s: f32, extra: &str) -> tempfile::TempDir {
     let mut o = Obj::new();
     open_room(&mut o);
-    let t = toml(v(0.0, 1.0, 3.0) * s, v(0.0, 1.0, 0.0) * s, 45.0, (32, 32), extra);
-    write(&o, MTL, &t.replace("obj = \"scene.obj\"\n", &format!("obj = \"scene.obj\"\nscale = {s:e}\n")))
+    let t = toml(
+        v(0.0, 1.0, 3.0) * s,
+        v(0.0, 1.0, 0.0) * s,
+        45.0,
+        (32, 32),
+        extra,
+    );
+    write(
+        &o,
+        MTL,
+        &t.replace(
+            "obj = \"scene.obj\"\n",
+            &format!("obj = \"scene.obj\"\nscale = {s:e}\n"),
+        ),
+    )
 }
 
 /// A temp dir holding `scene.obj`, `scene.mtl` (the materials it uses) and `scene.toml`.

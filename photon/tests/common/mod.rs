@@ -31,7 +31,12 @@ impl PhotonScene for PlaneScene {
         let phi = 2.0 * std::f32::consts::PI * u[1];
         let dir = Vec3::new(s * phi.cos(), s * phi.sin(), z);
         // pdf = 1/(4π) over the sphere: power/pdf = 4π I.
-        Some(EmittedRay { origin: self.light, dir, power: Vec3::splat(4.0 * std::f32::consts::PI * self.intensity), medium: u16::MAX })
+        Some(EmittedRay {
+            origin: self.light,
+            dir,
+            power: Vec3::splat(4.0 * std::f32::consts::PI * self.intensity),
+            medium: u16::MAX,
+        })
     }
 
     fn intersect(&self, origin: Vec3, dir: Vec3) -> Option<SurfaceHit> {
@@ -48,7 +53,11 @@ impl PhotonScene for PlaneScene {
         }
         let (t, i) = best?;
         let pl = &self.planes[i];
-        let normal = if pl.normal.dot(dir) > 0.0 { -pl.normal } else { pl.normal };
+        let normal = if pl.normal.dot(dir) > 0.0 {
+            -pl.normal
+        } else {
+            pl.normal
+        };
         Some(SurfaceHit {
             pos: origin + t * dir,
             normal,
@@ -73,7 +82,11 @@ impl PhotonScene for PlaneScene {
             let phi = 2.0 * std::f32::consts::PI * u[1];
             (r * phi.cos() * t + r * phi.sin() * b + (1.0 - u[0]).max(0.0).sqrt() * n).normalize()
         };
-        Scatter::Continue { origin: hit.pos + EPS * n, dir, weight: Vec3::splat(pl.reflectance) }
+        Scatter::Continue {
+            origin: hit.pos + EPS * n,
+            dir,
+            weight: Vec3::splat(pl.reflectance),
+        }
     }
 
     fn has_specular(&self) -> bool {
@@ -86,7 +99,13 @@ pub fn lit_floor() -> PlaneScene {
     PlaneScene {
         light: Vec3::new(0.0, 0.0, 1.0),
         intensity: 1.0,
-        planes: vec![Plane { point: Vec3::ZERO, normal: Vec3::Z, contains: |_| true, mirror: false, reflectance: 0.5 }],
+        planes: vec![Plane {
+            point: Vec3::ZERO,
+            normal: Vec3::Z,
+            contains: |_| true,
+            mirror: false,
+            reflectance: 0.5,
+        }],
     }
 }
 
@@ -106,8 +125,20 @@ pub fn mirror_wall() -> PlaneScene {
         light: Vec3::new(0.0, 0.0, 1.0),
         intensity: 1.0,
         planes: vec![
-            Plane { point: Vec3::ZERO, normal: Vec3::Z, contains: |p| p.x < 1.0, mirror: false, reflectance: 0.5 },
-            Plane { point: Vec3::X, normal: -Vec3::X, contains: |p| p.z > 0.0, mirror: true, reflectance: MIRROR_R },
+            Plane {
+                point: Vec3::ZERO,
+                normal: Vec3::Z,
+                contains: |p| p.x < 1.0,
+                mirror: false,
+                reflectance: 0.5,
+            },
+            Plane {
+                point: Vec3::X,
+                normal: -Vec3::X,
+                contains: |p| p.z > 0.0,
+                mirror: true,
+                reflectance: MIRROR_R,
+            },
         ],
     }
 }
