@@ -5,7 +5,7 @@ DEB_PACKAGES := libembree-dev libflann-dev libopenimageio-dev libopenexr-dev pkg
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 BIN := target/release/pmrender
 
-.PHONY: deps build render test test-slow bench chart fuzz clean
+.PHONY: deps build lint render test test-slow bench chart fuzz clean
 
 deps:
 	@missing=""; for p in $(DEB_PACKAGES); do dpkg -s $$p >/dev/null 2>&1 || missing="$$missing $$p"; done; \
@@ -13,9 +13,22 @@ deps:
 	  echo "installing:$$missing"; \
 	  $(SUDO) apt-get update -qq && DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq $$missing; \
 	else echo "system packages present"; fi
+	@if $(CARGO) fmt --version >/dev/null 2>&1 && $(CARGO) clippy --version >/dev/null 2>&1; then \
+	  echo "rustfmt and clippy present"; \
+	elif command -v rustup >/dev/null 2>&1; then \
+	  rustup component add rustfmt clippy; \
+	else \
+	  echo "make lint needs cargo fmt and cargo clippy: install rustfmt and clippy for this toolchain" >&2; \
+	  exit 1; \
+	fi
 
 build:
 	$(CARGO) build --release --workspace
+
+# Format and lints as CI checks them; `cargo fmt --all` fixes the first.
+lint:
+	$(CARGO) fmt --all --check
+	$(CARGO) clippy --workspace --all-targets -- -D warnings
 
 render: deps build
 	mkdir -p out
