@@ -4,6 +4,8 @@
 mod common;
 use common::*;
 
+use std::os::unix::process::CommandExt;
+
 /// Runs a render that must fail; checks status 2, a one-line message containing `expect`, no output.
 fn fails(dir: &tempfile::TempDir, scene: &str, extra: &[&str], expect: &[&str]) {
     let out = p(dir.path(), "out.exr");
@@ -299,7 +301,21 @@ fn interrupted_render_leaves_no_output() {
     let scene = repo().join("scenes/cornell-caustics.toml");
     let d = tempfile::tempdir().unwrap();
     let out = d.path().join("big.exr");
-    let mut child = std::process::Command::new(bin())
+    let mut cmd = std::process::Command::new(bin());
+    // The child starts with SIGINT's default disposition whatever this test inherited: a test run
+    // started in the background by a script ignores SIGINT, the child would inherit that, and the
+    // renderer keeps an inherited SIG_IGN (as shells expect of background jobs).
+    // SAFETY: the closure runs in the forked child before `exec` and only calls `signal`, which is
+    // async-signal-safe.
+    unsafe {
+        cmd.pre_exec(|| {
+            if libc::signal(libc::SIGINT, libc::SIG_DFL) == libc::SIG_ERR {
+                return Err(std::io::Error::last_os_error());
+            }
+            Ok(())
+        });
+    }
+    let mut child = cmd
         .args([
             "render",
             scene.to_str().unwrap(),
