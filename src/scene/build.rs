@@ -5,6 +5,7 @@ use std::path::Path;
 
 use glam::{Mat3, Mat4, Vec3};
 
+use super::context::Ctx;
 use super::file::{self, line_of, line_of_key, SceneFile};
 use super::input::{self, read_text, MAX_SCENE_BYTES, MAX_TEXTURE_BYTES};
 use super::lights::{lights, Origin};
@@ -12,29 +13,11 @@ use super::media::media;
 use super::settings::{camera, settings};
 use super::{limits, mtl, obj, Scene};
 use crate::accel::embree::Bvh;
-use crate::error::{at_line, in_file, relative_to, runtime, Error, Result};
+use crate::error::{at_line, in_file, relative_to, runtime, Result};
 use crate::geometry::{Geometry, Triangle};
 use crate::light::Lights;
 use crate::material::{Bsdf, Material};
 use crate::texture::{self, Texture};
-
-/// The scene file being loaded, for messages that name a key and its line.
-pub(super) struct Ctx<'a> {
-    pub path: &'a Path,
-    pub text: &'a str,
-}
-
-impl Ctx<'_> {
-    pub fn err(&self, table: &str, index: usize, key: &str, msg: impl std::fmt::Display) -> Error {
-        let line = line_of_key(self.text, table, index, key);
-        let dotted = if table.is_empty() {
-            key.to_string()
-        } else {
-            format!("{table}.{key}")
-        };
-        at_line(self.path, line, format!("{dotted}: {msg}"))
-    }
-}
 
 fn finite3(v: [f32; 3]) -> bool {
     v.iter().all(|x| x.is_finite())

@@ -8,7 +8,7 @@ use std::path::PathBuf;
 
 use glam::Vec3;
 
-use super::build::Ctx;
+use super::context::Ctx;
 use super::file::{LightDesc, SceneFile};
 use super::limits::{self, MAX_POWER};
 use crate::error::{at_line, Result};

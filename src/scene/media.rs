@@ -11,7 +11,7 @@ use std::ops::Range;
 
 use glam::Vec3;
 
-use super::build::Ctx;
+use super::context::Ctx;
 use super::file::SceneFile;
 use crate::accel::embree::Bvh;
 use crate::error::{at_line, runtime, Result};

@@ -1,6 +1,7 @@
 //! A loaded scene: camera, triangles in an Embree BVH, materials, textures, lights and render settings.
 
 mod build;
+mod context;
 pub mod file;
 pub mod input;
 mod lights;

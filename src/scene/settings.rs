@@ -7,7 +7,7 @@ use glam::Vec3;
 use icache::{CacheParams, Weighting};
 use photon::Filter;
 
-use super::build::Ctx;
+use super::context::Ctx;
 use super::file::{IcacheDesc, PhotonsDesc, SceneFile};
 use super::limits::{self, MAX_COORD};
 use super::{Method, RenderSettings, METHODS};
