@@ -2,24 +2,44 @@
 //!
 //! The root crate loads scenes, wraps Embree, holds materials, lights and the camera, combines the terms
 //! of Jensen's split, and writes images and statistics. `photon`, `gather` and `icache` are its passes.
+//!
+//! `unsafe` lives only in the FFI modules — `accel` (Embree), `io::oiio` (OpenImageIO) and `signal`
+//! (`sigaction`) — each behind a safe interface; every other module forbids it.
 
 pub mod accel;
+#[forbid(unsafe_code)]
 pub mod camera;
+#[forbid(unsafe_code)]
 pub mod chart;
+#[forbid(unsafe_code)]
 mod chi2;
+#[forbid(unsafe_code)]
 pub mod converge;
+#[forbid(unsafe_code)]
 pub mod distribution;
+#[forbid(unsafe_code)]
 pub mod error;
+#[forbid(unsafe_code)]
 pub mod export;
+#[forbid(unsafe_code)]
 pub mod geometry;
+#[forbid(unsafe_code)]
 pub mod integrator;
 pub mod io;
+#[forbid(unsafe_code)]
 pub mod light;
+#[forbid(unsafe_code)]
 pub mod material;
+#[forbid(unsafe_code)]
 pub mod medium;
+#[forbid(unsafe_code)]
 pub mod render;
+#[forbid(unsafe_code)]
 pub mod scene;
 pub mod signal;
+#[forbid(unsafe_code)]
 pub mod stats;
+#[forbid(unsafe_code)]
 pub mod texture;
+#[forbid(unsafe_code)]
 pub mod warp;

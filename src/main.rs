@@ -1,5 +1,7 @@
 //! The `pmrender` command line.
 
+#![forbid(unsafe_code)]
+
 mod cli;
 
 fn main() {

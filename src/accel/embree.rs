@@ -1,8 +1,8 @@
 //! Thin FFI to Embree 3: one triangle-mesh BVH, closest-hit and occlusion queries.
 //!
-//! The only `unsafe` in the root crate besides the OpenImageIO shim. [`Bvh`] owns the device and the
-//! scene and releases them on drop; queries take `&self` and are safe to call from many threads
-//! (Embree's committed scenes are read-only).
+//! One of the root crate's three FFI modules (with `io::oiio` and `signal`). [`Bvh`] owns the device
+//! and the scene and releases them on drop; queries take `&self` and are safe to call from many
+//! threads (Embree's committed scenes are read-only).
 #![allow(non_camel_case_types)]
 
 use std::os::raw::{c_char, c_uint, c_void};

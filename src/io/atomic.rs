@@ -3,6 +3,7 @@
 //! place ([`OutputSet::commit`]). A set dropped before its commit — a failed write, an error, an
 //! interrupt — removes its temporary files, and a commit that fails half-way removes what it renamed:
 //! either every output appears, or none does.
+#![forbid(unsafe_code)]
 
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};

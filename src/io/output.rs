@@ -1,5 +1,6 @@
 //! The render's image outputs: a layered float EXR (beauty in R,G,B; each term as `name.R` …) and an
 //! sRGB PNG of the beauty, both written atomically.
+#![forbid(unsafe_code)]
 
 use std::path::Path;
 
