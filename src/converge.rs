@@ -137,14 +137,9 @@ fn write_outputs(rows: &[ConvergeRow], terms_from_reference: bool, out_dir: &Pat
             .unwrap_or_default()
             .as_bytes(),
     )?;
-    let mk = |name: &str, f: &dyn Fn(&ConvergeRow) -> f64| Series {
-        name: name.into(),
+    let mk = |f: &dyn Fn(&ConvergeRow) -> f64| Series {
         points: rows.iter().map(|r| (r.photons as f64, f(r))).collect(),
     };
-    let series = [
-        mk("beauty", &|r| r.beauty),
-        mk("caustic", &|r| r.caustic),
-        mk("indirect", &|r| r.indirect),
-    ];
+    let series = [mk(&|r| r.beauty), mk(&|r| r.caustic), mk(&|r| r.indirect)];
     log_log_png(&out_dir.join("converge.png"), &series, &[])
 }

@@ -32,18 +32,6 @@ impl Distribution {
         let lo = if i == 0 { 0.0 } else { self.cdf[i - 1] };
         ((self.cdf[i] - lo) / self.total) as f32
     }
-
-    pub fn total(&self) -> f64 {
-        self.total
-    }
-
-    pub fn len(&self) -> usize {
-        self.cdf.len()
-    }
-
-    pub fn is_empty(&self) -> bool {
-        self.cdf.is_empty()
-    }
 }
 
 #[cfg(test)]

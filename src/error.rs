@@ -24,12 +24,12 @@ impl Error {
 }
 
 /// An input error at `file:line`.
-pub fn at_line(file: &Path, line: usize, msg: impl std::fmt::Display) -> Error {
+pub(crate) fn at_line(file: &Path, line: usize, msg: impl std::fmt::Display) -> Error {
     Error::Input(format!("{}:{}: {}", file.display(), line, msg))
 }
 
 /// An input error about a whole file.
-pub fn in_file(file: &Path, msg: impl std::fmt::Display) -> Error {
+pub(crate) fn in_file(file: &Path, msg: impl std::fmt::Display) -> Error {
     Error::Input(format!("{}: {}", file.display(), msg))
 }
 
@@ -38,11 +38,11 @@ pub fn option(name: &str, msg: impl std::fmt::Display) -> Error {
     Error::Input(format!("option {name}: {msg}"))
 }
 
-pub fn runtime(msg: impl std::fmt::Display) -> Error {
+pub(crate) fn runtime(msg: impl std::fmt::Display) -> Error {
     Error::Runtime(msg.to_string())
 }
 
 /// Resolves `rel` against the directory holding `base`.
-pub fn relative_to(base: &Path, rel: &str) -> PathBuf {
+pub(crate) fn relative_to(base: &Path, rel: &str) -> PathBuf {
     base.parent().unwrap_or(Path::new(".")).join(rel)
 }

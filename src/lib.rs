@@ -6,17 +6,17 @@
 //! `unsafe` lives only in the FFI modules — `accel` (Embree), `io::oiio` (OpenImageIO) and `signal`
 //! (`sigaction`) — each behind a safe interface; every other module forbids it.
 
-pub mod accel;
+pub(crate) mod accel;
 #[forbid(unsafe_code)]
-pub mod camera;
+pub(crate) mod camera;
 #[forbid(unsafe_code)]
-pub mod chart;
+pub(crate) mod chart;
 #[forbid(unsafe_code)]
 mod chi2;
 #[forbid(unsafe_code)]
 pub mod converge;
 #[forbid(unsafe_code)]
-pub mod distribution;
+pub(crate) mod distribution;
 #[forbid(unsafe_code)]
 pub mod error;
 #[forbid(unsafe_code)]
@@ -27,9 +27,9 @@ pub mod geometry;
 pub mod integrator;
 pub mod io;
 #[forbid(unsafe_code)]
-pub mod light;
+pub(crate) mod light;
 #[forbid(unsafe_code)]
-pub mod material;
+pub(crate) mod material;
 #[forbid(unsafe_code)]
 pub mod medium;
 #[forbid(unsafe_code)]
@@ -38,8 +38,8 @@ pub mod render;
 pub mod scene;
 pub mod signal;
 #[forbid(unsafe_code)]
-pub mod stats;
+pub(crate) mod stats;
 #[forbid(unsafe_code)]
-pub mod texture;
+pub(crate) mod texture;
 #[forbid(unsafe_code)]
 pub mod warp;

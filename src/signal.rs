@@ -18,7 +18,7 @@ static SIGNAL: AtomicI32 = AtomicI32::new(0);
 static ARMED: Mutex<bool> = Mutex::new(false);
 
 /// How long the watchdog lets cooperative cancellation work before it ends the process.
-pub const GRACE: Duration = Duration::from_millis(800);
+pub(crate) const GRACE: Duration = Duration::from_millis(800);
 
 extern "C" fn on_signal(sig: libc::c_int) {
     // Only atomic stores: async-signal-safe.

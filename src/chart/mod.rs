@@ -11,8 +11,8 @@ use glam::Vec3;
 use crate::error::Result;
 use crate::io::output::{write_png, Image};
 
+/// One polyline; its name goes in the table beside the chart, with its colour from [`PALETTE`].
 pub struct Series {
-    pub name: String,
     pub points: Vec<(f64, f64)>,
 }
 

@@ -19,7 +19,7 @@ pub struct Image {
 }
 
 impl Image {
-    pub fn new(width: u32, height: u32) -> Image {
+    pub(crate) fn new(width: u32, height: u32) -> Image {
         Image {
             width,
             height,
@@ -29,13 +29,13 @@ impl Image {
 }
 
 /// Beauty plus named layers (e.g. `direct`, `caustic`).
-pub struct Layers<'a> {
+pub(crate) struct Layers<'a> {
     pub beauty: &'a Image,
     pub named: Vec<(&'a str, &'a Image)>,
 }
 
 /// Stages the layered EXR in `set` (renamed into place when the set commits).
-pub fn stage_exr(set: &mut OutputSet, path: &Path, layers: &Layers) -> Result<()> {
+pub(crate) fn stage_exr(set: &mut OutputSet, path: &Path, layers: &Layers) -> Result<()> {
     let (w, h) = (layers.beauty.width, layers.beauty.height);
     let mut names: Vec<String> = vec!["R".into(), "G".into(), "B".into()];
     for (n, _) in &layers.named {
@@ -73,7 +73,7 @@ fn srgb_encode(x: f32) -> u8 {
 }
 
 /// Stages the sRGB PNG of `image` in `set`.
-pub fn stage_png(set: &mut OutputSet, path: &Path, image: &Image) -> Result<()> {
+pub(crate) fn stage_png(set: &mut OutputSet, path: &Path, image: &Image) -> Result<()> {
     let data: Vec<u8> = image
         .pixels
         .iter()
@@ -91,7 +91,7 @@ pub fn stage_png(set: &mut OutputSet, path: &Path, image: &Image) -> Result<()> 
 }
 
 /// Writes one PNG on its own (charts), atomically.
-pub fn write_png(path: &Path, image: &Image) -> Result<()> {
+pub(crate) fn write_png(path: &Path, image: &Image) -> Result<()> {
     let data: Vec<u8> = image
         .pixels
         .iter()

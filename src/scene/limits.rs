@@ -8,30 +8,30 @@ use glam::{DVec3, Vec3};
 /// Two such points differ by at most 2e15 per axis; the extent squared (≈ 1.2e31) stays finite.
 pub const MAX_COORD: f32 = 1e15;
 /// Largest emission (`Ke`, `emission`), point or spot `intensity` or directional `irradiance`, per channel.
-pub const MAX_EMISSION: f32 = 1e20;
+pub(crate) const MAX_EMISSION: f32 = 1e20;
 /// Largest total emitted power of the scene (W), so that photon powers and their sums stay finite.
-pub const MAX_POWER: f64 = 1e35;
+pub(crate) const MAX_POWER: f64 = 1e35;
 /// Largest Phong exponent (`Ns`, `exponent`); the lobe is a delta well before.
-pub const MAX_EXPONENT: f32 = 1e6;
+pub(crate) const MAX_EXPONENT: f32 = 1e6;
 /// Largest index of refraction (`Ni`, `ior`); diamond is 2.42.
-pub const MAX_IOR: f32 = 10.0;
+pub(crate) const MAX_IOR: f32 = 10.0;
 
 /// Why a reflectance-like colour (albedo, Kd, Ks, reflectance, transmittance, Tf) is out of [0, 1].
-pub fn unit_interval(v: [f32; 3]) -> Option<String> {
+pub(crate) fn unit_interval(v: [f32; 3]) -> Option<String> {
     v.iter()
         .find(|x| !(**x >= 0.0 && **x <= 1.0))
         .map(|x| format!("{x} is outside [0, 1] (a fraction of the light that arrives)"))
 }
 
 /// Why an emission-like colour is not finite, negative, or above [`MAX_EMISSION`].
-pub fn emission(v: [f32; 3]) -> Option<String> {
+pub(crate) fn emission(v: [f32; 3]) -> Option<String> {
     v.iter()
         .find(|x| !(**x >= 0.0 && **x <= MAX_EMISSION))
         .map(|x| format!("{x} is outside [0, {MAX_EMISSION:e}]"))
 }
 
 /// Why a position is not finite or beyond ±[`MAX_COORD`].
-pub fn position(v: Vec3) -> Option<String> {
+pub(crate) fn position(v: Vec3) -> Option<String> {
     if v.is_finite() && v.abs().max_element() <= MAX_COORD {
         None
     } else {
@@ -44,12 +44,12 @@ pub fn position(v: Vec3) -> Option<String> {
 
 /// `b − a` normalised in f64, so that any two finite f32 points give a unit vector (their difference or
 /// its square may overflow f32); `None` when they are equal or not finite.
-pub fn direction_between(a: Vec3, b: Vec3) -> Option<Vec3> {
+pub(crate) fn direction_between(a: Vec3, b: Vec3) -> Option<Vec3> {
     unit(b.as_dvec3() - a.as_dvec3())
 }
 
 /// `v` normalised in f64 (`[0, -1e20, -1e20]` is fine); `None` for a zero or non-finite vector.
-pub fn direction(v: Vec3) -> Option<Vec3> {
+pub(crate) fn direction(v: Vec3) -> Option<Vec3> {
     unit(v.as_dvec3())
 }
 

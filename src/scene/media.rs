@@ -55,7 +55,7 @@ impl std::fmt::Debug for Media {
 impl Media {
     /// The medium a ray leaving triangle `tri` (geometric normal `ng`) in direction `dir` travels in,
     /// when it was in `current` before: changed only at a boundary.
-    pub fn after(&self, tri: u32, ng: Vec3, dir: Vec3, current: MediumId) -> MediumId {
+    pub(crate) fn after(&self, tri: u32, ng: Vec3, dir: Vec3, current: MediumId) -> MediumId {
         match self.sides[tri as usize] {
             Some([front, back]) => {
                 if dir.dot(ng) >= 0.0 {
@@ -68,28 +68,28 @@ impl Media {
         }
     }
 
-    pub fn get(&self, id: MediumId) -> Option<&Medium> {
+    pub(crate) fn get(&self, id: MediumId) -> Option<&Medium> {
         self.list.get(id as usize).filter(|m| !m.is_clear())
     }
 
     /// `[medium on the side ng points to, medium behind]` of a boundary triangle; `None` elsewhere.
-    pub fn sides(&self, tri: u32) -> Option<[MediumId; 2]> {
+    pub(crate) fn sides(&self, tri: u32) -> Option<[MediumId; 2]> {
         self.sides[tri as usize]
     }
 
     /// The bounding box of the boundary meshes.
-    pub fn bounds(&self) -> (Vec3, Vec3) {
+    pub(crate) fn bounds(&self) -> (Vec3, Vec3) {
         self.bounds
     }
 
     /// The summed volume of the boundary meshes (nested ones counted again).
-    pub fn volume(&self) -> f64 {
+    pub(crate) fn volume(&self) -> f64 {
         self.boundaries.iter().map(|b| b.volume).sum()
     }
 
     /// The medium at point `p` (not on a boundary): the innermost boundary mesh around it, found by the
     /// parity of a ray's crossings with each boundary mesh (through the boundaries' own BVH).
-    pub fn medium_at(&self, p: Vec3) -> MediumId {
+    pub(crate) fn medium_at(&self, p: Vec3) -> MediumId {
         innermost_by_bvh(
             &self.boundaries,
             &self.boundary_bvh,

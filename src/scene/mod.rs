@@ -2,8 +2,8 @@
 
 mod build;
 mod context;
-pub mod file;
-pub mod input;
+pub(crate) mod file;
+pub(crate) mod input;
 mod lights;
 pub mod limits;
 mod media;
@@ -12,12 +12,11 @@ mod obj;
 mod objcheck;
 mod settings;
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use glam::Vec3;
 
 pub use build::load;
-pub use file::{IcacheDesc, PhotonsDesc};
 pub use media::{Media, MAX_SIGMA};
 pub use settings::{FillMode, IcacheSettings, PhotonConfig, MAX_PHOTONS, SPACING_REFERENCE_SIDE};
 
@@ -50,11 +49,11 @@ impl Method {
     }
 
     /// Whether the method traces photon maps (every method but `path`).
-    pub fn uses_photon_maps(self) -> bool {
+    pub(crate) fn uses_photon_maps(self) -> bool {
         self != Method::Path
     }
 
-    pub fn name(self) -> &'static str {
+    pub(crate) fn name(self) -> &'static str {
         match self {
             Method::Path => "path",
             Method::Pm => "pm",
@@ -68,7 +67,7 @@ pub const METHODS: &str = "path | pm | pm-fg | photons";
 
 /// Null boundaries a ray may cross before it is given up (nested boundaries are a handful deep; this
 /// only stops a pathological mesh from trapping a ray).
-pub const MAX_NULL_CROSSINGS: u32 = 256;
+pub(crate) const MAX_NULL_CROSSINGS: u32 = 256;
 
 /// Where a ray continues after crossing an invisible boundary at distance `t` from its origin: just
 /// past it on the same line. Moving the origin off the boundary instead (as after a bounce) shifts a
@@ -76,7 +75,7 @@ pub const MAX_NULL_CROSSINGS: u32 = 256;
 /// light 1 cm above a fog boundary then hit the light's own triangle (the fogged Cornell box lost 17 %
 /// of the direct light near its ceiling).
 #[inline]
-pub fn past(t: f32, origin: Vec3) -> f32 {
+pub(crate) fn past(t: f32, origin: Vec3) -> f32 {
     t + (t + origin.abs().max_element()) * 4e-7
 }
 
@@ -122,7 +121,7 @@ impl Scene {
     }
 
     /// The closest hit beyond distance `t0` along the ray (its `t` measured from `origin`).
-    pub fn intersect_after(&self, origin: Vec3, dir: Vec3, t0: f32) -> Option<Hit> {
+    pub(crate) fn intersect_after(&self, origin: Vec3, dir: Vec3, t0: f32) -> Option<Hit> {
         self.bvh
             .intersect_range(origin, dir, t0, f32::INFINITY)
             .map(|raw| self.geometry.hit(origin, dir, raw))
@@ -130,7 +129,7 @@ impl Scene {
 
     /// The first hit of a final-gather ray: on a plain diffuse surface the light hit of
     /// [`Geometry::hit_flat`] (all a gather reads there), elsewhere the full one.
-    pub fn intersect_gather(&self, origin: Vec3, dir: Vec3) -> Option<Hit> {
+    pub(crate) fn intersect_gather(&self, origin: Vec3, dir: Vec3) -> Option<Hit> {
         let raw = self.bvh.intersect(origin, dir, f32::INFINITY)?;
         let tri = &self.geometry.triangles[raw.prim as usize];
         Some(match &self.materials[tri.material as usize].bsdf {
@@ -140,7 +139,7 @@ impl Scene {
     }
 
     /// Whether the segment from `hit` toward a light point is blocked.
-    pub fn occluded(&self, hit: &Hit, wi: Vec3, dist: f32) -> bool {
+    pub(crate) fn occluded(&self, hit: &Hit, wi: Vec3, dist: f32) -> bool {
         let o = spawn(hit, wi);
         let tmax = if dist.is_finite() {
             (dist - (o - hit.p).length()) * (1.0 - 1e-4)
@@ -152,13 +151,13 @@ impl Scene {
 
     /// The participating medium with id `id`, if the scene has media and it is not clear.
     #[inline]
-    pub fn medium(&self, id: MediumId) -> Option<&Medium> {
+    pub(crate) fn medium(&self, id: MediumId) -> Option<&Medium> {
         self.media.as_ref()?.get(id)
     }
 
     /// The medium a ray leaving `hit` toward `dir` travels in, given the one the arriving ray was in.
     #[inline]
-    pub fn medium_after(&self, hit: &Hit, dir: Vec3, current: MediumId) -> MediumId {
+    pub(crate) fn medium_after(&self, hit: &Hit, dir: Vec3, current: MediumId) -> MediumId {
         match &self.media {
             Some(m) => m.after(hit.tri, hit.ng, dir, current),
             None => current,
@@ -166,14 +165,14 @@ impl Scene {
     }
 
     /// The medium the camera sits in.
-    pub fn camera_medium(&self) -> MediumId {
+    pub(crate) fn camera_medium(&self) -> MediumId {
         self.media.as_ref().map_or(VACUUM, |m| m.camera)
     }
 
     /// What reaches `hit` from a light point in direction `wi` at distance `dist`, per channel: 0 or 1
     /// without media; with media, the transmittance through the media on the way (in `medium`, the
     /// medium of the ray that arrived at `hit`), crossing null boundaries. Counts its rays in `rays`.
-    pub fn visibility(
+    pub(crate) fn visibility(
         &self,
         hit: &Hit,
         wi: Vec3,
@@ -209,7 +208,7 @@ impl Scene {
     }
 
     /// [`visibility`](Self::visibility) from a point inside a medium (no surface to offset from).
-    pub fn visibility_from(
+    pub(crate) fn visibility_from(
         &self,
         p: Vec3,
         wi: Vec3,
@@ -252,7 +251,7 @@ impl Scene {
 
     /// Embree's closest hit in (0, tmax) that is not an invisible medium boundary (its `t` from
     /// `origin`): what probes of the geometry (photon-disc coverage) see.
-    pub fn intersect_solid(
+    pub(crate) fn intersect_solid(
         &self,
         origin: Vec3,
         dir: Vec3,
@@ -271,7 +270,7 @@ impl Scene {
     }
 
     /// The first hit that is not an invisible medium boundary (its `t` from `origin`).
-    pub fn intersect_visible(&self, origin: Vec3, dir: Vec3) -> Option<Hit> {
+    pub(crate) fn intersect_visible(&self, origin: Vec3, dir: Vec3) -> Option<Hit> {
         self.intersect_solid(origin, dir, f32::INFINITY)
             .map(|raw| self.geometry.hit(origin, dir, raw))
     }
@@ -281,7 +280,7 @@ impl Scene {
     /// reached in. Counts the rays after the first in `rays`. `segment(start, length, medium,
     /// transmittance before it)` is called for each stretch in a participating medium (a miss's last
     /// one is infinite).
-    pub fn intersect_through(
+    pub(crate) fn intersect_through(
         &self,
         origin: Vec3,
         dir: Vec3,
@@ -355,7 +354,7 @@ impl Scene {
     }
 
     /// Diffuse albedo at a hit (texture-resolved).
-    pub fn albedo(&self, hit: &Hit) -> Vec3 {
+    pub(crate) fn albedo(&self, hit: &Hit) -> Vec3 {
         match &self.materials[hit.material as usize].bsdf {
             crate::material::Bsdf::Diffuse { albedo, texture } => match texture {
                 Some(t) => self.textures[*t].lookup(hit.uv),
@@ -366,12 +365,12 @@ impl Scene {
         }
     }
 
-    pub fn material(&self, hit: &Hit) -> &Material {
+    pub(crate) fn material(&self, hit: &Hit) -> &Material {
         &self.materials[hit.material as usize]
     }
 
     /// Radiance emitted from `hit` toward `wo` (one-sided emitters).
-    pub fn emitted(&self, hit: &Hit, wo: Vec3) -> Vec3 {
+    pub(crate) fn emitted(&self, hit: &Hit, wo: Vec3) -> Vec3 {
         let m = self.material(hit);
         if m.emission == Vec3::ZERO || wo.dot(self.geometry.emit_normal(hit.tri)) <= 0.0 {
             Vec3::ZERO
@@ -380,16 +379,12 @@ impl Scene {
         }
     }
 
-    pub fn diagonal(&self) -> f32 {
+    pub(crate) fn diagonal(&self) -> f32 {
         (self.bounds.1 - self.bounds.0).length()
     }
 
     /// Whether any triangle is mirror or glass (unused MTL entries do not count).
-    pub fn has_specular(&self) -> bool {
+    pub(crate) fn has_specular(&self) -> bool {
         self.specular_bvh.is_some()
-    }
-
-    pub fn dir(&self) -> &Path {
-        self.path.parent().unwrap_or(Path::new("."))
     }
 }

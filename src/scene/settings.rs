@@ -15,10 +15,10 @@ use crate::camera::Camera;
 use crate::error::Result;
 
 /// Largest `spp` and `max_depth`.
-pub const MAX_SPP: i64 = 1 << 20;
-pub const MAX_DEPTH: i64 = 1024;
+pub(crate) const MAX_SPP: i64 = 1 << 20;
+pub(crate) const MAX_DEPTH: i64 = 1024;
 /// Largest image side.
-pub const MAX_SIDE: i64 = 65536;
+pub(crate) const MAX_SIDE: i64 = 65536;
 /// Largest photon count (and lookup k, and photons per atlas texel).
 pub const MAX_PHOTONS: i64 = 100_000_000;
 
@@ -78,7 +78,7 @@ pub struct IcacheSettings {
 }
 
 impl IcacheSettings {
-    pub fn media_gradients(&self) -> bool {
+    pub(crate) fn media_gradients(&self) -> bool {
         self.media_gradients
     }
 
@@ -87,14 +87,14 @@ impl IcacheSettings {
     /// default: over eight seeds at 64² it moved fog-cornell's image mean from −0.3 % to +0.2 % of
     /// Mitsuba's and fog-spot's from +0.2 % to +1.5 % (its walls darken the light near them, which a
     /// visible-share division does not know).
-    pub fn media_visibility(&self) -> bool {
+    pub(crate) fn media_visibility(&self) -> bool {
         self.media_visibility
     }
 
     /// Whether each pass-B lookup tests, with a shadow ray, that the records it would interpolate are
     /// in view of the point: records past a column or moulding no longer lend it their more open
     /// hemisphere (Sibenik 128²: block relMSE 0.000126 → 0.000070, +17 % time).
-    pub fn visibility(&self) -> bool {
+    pub(crate) fn visibility(&self) -> bool {
         self.visibility
     }
 
@@ -104,7 +104,7 @@ impl IcacheSettings {
     /// with pass B's, 8×-downsampled block relMSE against the reference 0.000029 → 0.000030, full-res
     /// relMSE between the two images 0.00007). TL fill at a lower resolution first; pass B covers the
     /// pixels between with records of their own.
-    pub fn pass_a_stride(&self, width: u32, height: u32) -> u32 {
+    pub(crate) fn pass_a_stride(&self, width: u32, height: u32) -> u32 {
         self.pass_a_stride.unwrap_or_else(|| {
             let spacing = self.for_image(width, height).min_spacing_px;
             ((spacing / CacheParams::default().min_spacing_px).round() as u32).max(1)
@@ -114,7 +114,7 @@ impl IcacheSettings {
     /// The cache parameters for a `width` × `height` image: default spacings grow with an image larger
     /// than [`SPACING_REFERENCE_SIDE`]; spacings the file gives stay. A given `max_spacing_px` below the
     /// grown default minimum lowers that minimum (checked at load against the ungrown one).
-    pub fn for_image(&self, width: u32, height: u32) -> CacheParams {
+    pub(crate) fn for_image(&self, width: u32, height: u32) -> CacheParams {
         let mut p = self.params;
         let scale = (width.max(height) as f32 / SPACING_REFERENCE_SIDE as f32).max(1.0);
         if !self.min_spacing_given {
