@@ -326,7 +326,10 @@ impl RenderStats {
         );
         if let Some((noise, rounds)) = self.fill.as_ref().and_then(|f| f.rays_choice) {
             let base = crate::integrator::gather_rays::BASE_RAYS;
-            let title = format!("Pixels' relative variance from gather noise, at {base} rays (predicted; target {:.0e})", crate::integrator::gather_rays::NOISE_TARGET);
+            let title = format!(
+                "Predicted gather-noise variance at {base} rays (target {:.0e})",
+                crate::integrator::gather_rays::NOISE_TARGET
+            );
             r.value(
                 "Final gather",
                 &title,
@@ -421,7 +424,7 @@ impl RenderStats {
             );
             r.count(
                 "Image",
-                "Pixels with Monte Carlo estimates (area lights, glass, glossy, media)",
+                "Monte Carlo pixels (area lights, glass, glossy, media)",
                 "image.pixels_monte_carlo",
                 n.monte_carlo_pixels,
             );
@@ -585,7 +588,7 @@ fn cache_rows(
     );
     r.count(
         "Irradiance cache",
-        "Records created in pass B (between rounds, for missed samples)",
+        "Records created in pass B (for missed samples)",
         "icache.records_pass_b",
         s.records_pass_b,
     );
