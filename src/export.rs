@@ -64,21 +64,53 @@ fn bsdf_xml(scene: &Scene, m: usize) -> String {
     }
 }
 
+/// A group of triangles written as one OBJ shape: material, kind ([`EMISSIVE`], [`SMOOTH`] or
+/// [`FLAT`]) and, for a medium's boundary, the media on the normal's side and behind it.
+type GroupKey = (usize, u8, Option<[MediumId; 2]>);
+/// Triangles of an emitting material, written flat.
+const EMISSIVE: u8 = 0;
+/// Triangles with vertex normals.
+const SMOOTH: u8 = 1;
+/// Other triangles, written flat.
+const FLAT: u8 = 2;
+
 /// Writes DIR/scene.xml and DIR/mesh_<material>_<kind>.obj.
 pub fn export_mitsuba(scene: &Scene, dir: &Path, spp: u32) -> Result<()> {
     std::fs::create_dir_all(dir)
         .map_err(|e| option("DIR", format!("cannot create '{}': {e}", dir.display())))?;
-    // Group triangles: (material, emissive-flat or smooth-with-normals or flat, the media on the
-    // normal's side and behind it for a medium's boundary).
-    let mut groups: BTreeMap<(usize, u8, Option<[MediumId; 2]>), Vec<u32>> = BTreeMap::new();
+    let mut xml = String::from("<scene version=\"3.0.0\">\n");
+    media_xml(&mut xml, scene);
+    integrator_and_sensor_xml(&mut xml, scene, spp);
+    for (g, (key, tris)) in triangle_groups(scene).iter().enumerate() {
+        let (m, kind, sides) = *key;
+        let name = if sides.is_some() {
+            format!("mesh_{m}_{kind}_b{g}.obj")
+        } else {
+            format!("mesh_{m}_{kind}.obj")
+        };
+        write_bytes(&dir.join(&name), group_obj(scene, kind, tris).as_bytes())?;
+        shape_xml(&mut xml, scene, key, &name);
+    }
+    for l in &scene.lights.lights {
+        if let Some(line) = light_xml(l) {
+            let _ = writeln!(xml, "  {line}");
+        }
+    }
+    xml.push_str("</scene>\n");
+    write_bytes(&dir.join("scene.xml"), xml.as_bytes())
+}
+
+/// The scene's triangles grouped by [`GroupKey`], in key order.
+fn triangle_groups(scene: &Scene) -> BTreeMap<GroupKey, Vec<u32>> {
+    let mut groups: BTreeMap<GroupKey, Vec<u32>> = BTreeMap::new();
     for (i, t) in scene.geometry.triangles.iter().enumerate() {
         let emissive = scene.materials[t.material as usize].emission.max_element() > 0.0;
         let kind = if emissive {
-            0
+            EMISSIVE
         } else if t.has_normals {
-            1
+            SMOOTH
         } else {
-            2
+            FLAT
         };
         let sides = scene.media.as_ref().and_then(|m| m.sides(i as u32));
         groups
@@ -86,22 +118,32 @@ pub fn export_mitsuba(scene: &Scene, dir: &Path, spp: u32) -> Result<()> {
             .or_default()
             .push(i as u32);
     }
-    let medium_id = |m: MediumId| format!("medium{m}");
+    groups
+}
+
+fn medium_id(m: MediumId) -> String {
+    format!("medium{m}")
+}
+
+/// One homogeneous medium element per medium of the scene.
+fn media_xml(xml: &mut String, scene: &Scene) {
+    let Some(media) = &scene.media else { return };
+    for (k, m) in media.list.iter().enumerate() {
+        let _ = writeln!(
+            xml,
+            r#"  <medium type="homogeneous" id="{}">{}{}<phase type="hg"><float name="g" value="{}"/></phase></medium>"#,
+            medium_id(k as MediumId),
+            rgb("albedo", m.albedo()),
+            rgb("sigma_t", m.sigma_t),
+            m.g
+        );
+    }
+}
+
+/// The integrator (`volpath` with media) and the camera as a perspective sensor with `spp` samples.
+fn integrator_and_sensor_xml(xml: &mut String, scene: &Scene, spp: u32) {
     let cam = &scene.camera;
     let (eye, target, up) = (cam.eye, cam.eye + cam.forward(), cam.up_vector());
-    let mut xml = String::from("<scene version=\"3.0.0\">\n");
-    if let Some(media) = &scene.media {
-        for (k, m) in media.list.iter().enumerate() {
-            let _ = writeln!(
-                xml,
-                r#"  <medium type="homogeneous" id="{}">{}{}<phase type="hg"><float name="g" value="{}"/></phase></medium>"#,
-                medium_id(k as MediumId),
-                rgb("albedo", m.albedo()),
-                rgb("sigma_t", m.sigma_t),
-                m.g
-            );
-        }
-    }
     let integrator = if scene.media.is_some() {
         "volpath"
     } else {
@@ -126,108 +168,113 @@ pub fn export_mitsuba(scene: &Scene, dir: &Path, spp: u32) -> Result<()> {
         cam.width,
         cam.height
     );
-    for (g, ((m, kind, sides), tris)) in groups.iter().enumerate() {
-        let name = if sides.is_some() {
-            format!("mesh_{m}_{kind}_b{g}.obj")
-        } else {
-            format!("mesh_{m}_{kind}.obj")
-        };
-        // Mitsuba's interior is behind the face normal, which is our winding normal here.
-        let interface: String = match sides {
-            Some([front, back]) => [("interior", *back), ("exterior", *front)]
-                .iter()
-                .filter(|(_, id)| *id != VACUUM)
-                .map(|(side, id)| format!(r#"<ref name="{side}" id="{}"/>"#, medium_id(*id)))
-                .collect(),
-            None => String::new(),
-        };
-        let mut obj = String::new();
-        for &ti in tris {
-            let t = &scene.geometry.triangles[ti as usize];
-            let mut vs = t.v;
-            if *kind == 0 && scene.geometry.emit_normal(ti).dot(t.ng) < 0.0 {
-                vs.swap(1, 2); // Mitsuba emits along the face normal: wind it toward our emitting side.
-            }
-            for k in vs {
-                let p = scene.geometry.positions[k as usize];
-                let uv = scene.geometry.uvs[k as usize];
-                let _ = writeln!(obj, "v {} {} {}\nvt {} {}", p.x, p.y, p.z, uv.x, uv.y);
-                if *kind == 1 {
-                    let n = scene.geometry.normals[k as usize];
-                    let _ = writeln!(obj, "vn {} {} {}", n.x, n.y, n.z);
-                }
+}
+
+/// The OBJ text of a group's triangles, each with its own three vertices (and normals for
+/// [`SMOOTH`] ones).
+fn group_obj(scene: &Scene, kind: u8, tris: &[u32]) -> String {
+    let mut obj = String::new();
+    for &ti in tris {
+        let t = &scene.geometry.triangles[ti as usize];
+        let mut vs = t.v;
+        if kind == EMISSIVE && scene.geometry.emit_normal(ti).dot(t.ng) < 0.0 {
+            vs.swap(1, 2); // Mitsuba emits along the face normal: wind it toward our emitting side.
+        }
+        for k in vs {
+            let p = scene.geometry.positions[k as usize];
+            let uv = scene.geometry.uvs[k as usize];
+            let _ = writeln!(obj, "v {} {} {}\nvt {} {}", p.x, p.y, p.z, uv.x, uv.y);
+            if kind == SMOOTH {
+                let n = scene.geometry.normals[k as usize];
+                let _ = writeln!(obj, "vn {} {} {}", n.x, n.y, n.z);
             }
         }
-        for i in 0..tris.len() {
-            let b = 3 * i + 1;
-            let _ = match kind {
-                1 => writeln!(
-                    obj,
-                    "f {b}/{b}/{b} {}/{}/{} {}/{}/{}",
-                    b + 1,
-                    b + 1,
-                    b + 1,
-                    b + 2,
-                    b + 2,
-                    b + 2
-                ),
-                _ => writeln!(obj, "f {b}/{b} {}/{} {}/{}", b + 1, b + 1, b + 2, b + 2),
-            };
-        }
-        write_bytes(&dir.join(&name), obj.as_bytes())?;
-        let mat = &scene.materials[*m];
-        let emitter = if *kind == 0 {
-            format!(
-                r#"<emitter type="area">{}</emitter>"#,
-                rgb("radiance", mat.emission)
-            )
-        } else {
-            String::new()
-        };
-        let flat = if *kind == 1 {
-            ""
-        } else {
-            r#"<boolean name="face_normals" value="true"/>"#
-        };
-        let _ = writeln!(
-            xml,
-            r#"  <shape type="obj"><string name="filename" value="{name}"/>{flat}{}{emitter}{interface}</shape>"#,
-            bsdf_xml(scene, *m)
-        );
     }
-    for l in &scene.lights.lights {
-        let line = match *l {
-            Light::Area { .. } => continue,
-            Light::Point { pos, intensity } => format!(
-                r#"<emitter type="point"><point name="position" value="{}"/>{}</emitter>"#,
-                v(pos),
-                rgb("intensity", intensity)
+    for i in 0..tris.len() {
+        let b = 3 * i + 1;
+        let _ = match kind {
+            SMOOTH => writeln!(
+                obj,
+                "f {b}/{b}/{b} {}/{}/{} {}/{}/{}",
+                b + 1,
+                b + 1,
+                b + 1,
+                b + 2,
+                b + 2,
+                b + 2
             ),
-            Light::Spot {
-                pos,
-                dir,
-                intensity,
-                cone,
-                falloff,
-            } => format!(
-                r#"<emitter type="spot"><transform name="to_world"><lookat origin="{}" target="{}" up="{}"/></transform>{}<float name="cutoff_angle" value="{}"/><float name="beam_width" value="{}"/></emitter>"#,
-                v(pos),
-                v(pos + dir),
-                v(if dir.y.abs() > 0.9 { Vec3::X } else { Vec3::Y }),
-                rgb("intensity", intensity),
-                cone.to_degrees(),
-                falloff.to_degrees()
-            ),
-            Light::Directional {
-                dir, irradiance, ..
-            } => format!(
-                r#"<emitter type="directional"><vector name="direction" value="{}"/>{}</emitter>"#,
-                v(dir),
-                rgb("irradiance", irradiance)
-            ),
+            _ => writeln!(obj, "f {b}/{b} {}/{} {}/{}", b + 1, b + 1, b + 2, b + 2),
         };
-        let _ = writeln!(xml, "  {line}");
     }
-    xml.push_str("</scene>\n");
-    write_bytes(&dir.join("scene.xml"), xml.as_bytes())
+    obj
+}
+
+/// The shape element of a group written to `file`: its BSDF, its emitter if it emits, and the media
+/// on its sides if it bounds a medium.
+fn shape_xml(xml: &mut String, scene: &Scene, key: &GroupKey, file: &str) {
+    let (m, kind, sides) = *key;
+    // Mitsuba's interior is behind the face normal, which is our winding normal here.
+    let interface: String = match sides {
+        Some([front, back]) => [("interior", back), ("exterior", front)]
+            .iter()
+            .filter(|(_, id)| *id != VACUUM)
+            .map(|(side, id)| format!(r#"<ref name="{side}" id="{}"/>"#, medium_id(*id)))
+            .collect(),
+        None => String::new(),
+    };
+    let mat = &scene.materials[m];
+    let emitter = if kind == EMISSIVE {
+        format!(
+            r#"<emitter type="area">{}</emitter>"#,
+            rgb("radiance", mat.emission)
+        )
+    } else {
+        String::new()
+    };
+    let flat = if kind == SMOOTH {
+        ""
+    } else {
+        r#"<boolean name="face_normals" value="true"/>"#
+    };
+    let _ = writeln!(
+        xml,
+        r#"  <shape type="obj"><string name="filename" value="{file}"/>{flat}{}{emitter}{interface}</shape>"#,
+        bsdf_xml(scene, m)
+    );
+}
+
+/// The emitter element of a point, spot or directional light; `None` for an area light, which is
+/// its shape's emitter.
+fn light_xml(l: &Light) -> Option<String> {
+    let line = match *l {
+        Light::Area { .. } => return None,
+        Light::Point { pos, intensity } => format!(
+            r#"<emitter type="point"><point name="position" value="{}"/>{}</emitter>"#,
+            v(pos),
+            rgb("intensity", intensity)
+        ),
+        Light::Spot {
+            pos,
+            dir,
+            intensity,
+            cone,
+            falloff,
+        } => format!(
+            r#"<emitter type="spot"><transform name="to_world"><lookat origin="{}" target="{}" up="{}"/></transform>{}<float name="cutoff_angle" value="{}"/><float name="beam_width" value="{}"/></emitter>"#,
+            v(pos),
+            v(pos + dir),
+            v(if dir.y.abs() > 0.9 { Vec3::X } else { Vec3::Y }),
+            rgb("intensity", intensity),
+            cone.to_degrees(),
+            falloff.to_degrees()
+        ),
+        Light::Directional {
+            dir, irradiance, ..
+        } => format!(
+            r#"<emitter type="directional"><vector name="direction" value="{}"/>{}</emitter>"#,
+            v(dir),
+            rgb("irradiance", irradiance)
+        ),
+    };
+    Some(line)
 }
