@@ -8,6 +8,7 @@ use std::sync::atomic::AtomicBool;
 use clap::{Args, Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
+use pmrender::converge::{converge, Study};
 use pmrender::error::{option, Error, Result};
 use pmrender::render::budget::{parse_size, MAX_SIDE, MAX_SPP};
 use pmrender::render::files::FileOptions;
@@ -31,7 +32,7 @@ struct Cli {
 #[derive(Subcommand)]
 enum Command {
     /// Render a scene to a layered EXR (and optionally a PNG and a statistics JSON).
-    Render(RenderArgs),
+    Render(Box<RenderArgs>),
     /// Photon-count convergence: error of the image and of its caustic and indirect terms against the
     /// photon count, as a table (converge.md, converge.json) and a chart (converge.png).
     Converge(ConvergeArgs),
@@ -401,16 +402,13 @@ fn converge_command(a: ConvergeArgs) -> Result<()> {
     };
     let bar = Bar::new(a.quiet);
     let rows = pool(a.threads)?.install(|| {
-        pmrender::converge::converge(
-            &mut scene,
-            &counts,
-            &a.reference,
+        let study = Study {
+            counts: &counts,
+            reference: &a.reference,
             method,
-            &opts,
-            &a.output,
-            &bar,
-            &signal::CANCEL,
-        )
+            out_dir: &a.output,
+        };
+        converge(&mut scene, &study, &opts, &bar, &signal::CANCEL)
     })?;
     println!(
         "{:>10} {:>9} {:>14} {:>14} {:>14}",
@@ -460,7 +458,7 @@ pub fn run() -> i32 {
         }
     };
     let result = match cli.command {
-        Command::Render(a) => render_command(a, &signal::CANCEL),
+        Command::Render(a) => render_command(*a, &signal::CANCEL),
         Command::Converge(a) => converge_command(a),
         Command::ExportMitsuba(a) => load_interruptible(&a.scene)
             .and_then(|s| pmrender::export::export_mitsuba(&s, &a.dir, a.spp.max(1))),

@@ -40,20 +40,33 @@ fn layer<'a>(layers: &'a [(&'static str, Image)], name: &str) -> Option<&'a Imag
     layers.iter().find(|(n, _)| *n == name).map(|(_, i)| i)
 }
 
-/// Renders at each count (global and caustic targets both set to it) and writes `converge.md`,
-/// `converge.json` and `converge.png` into `out_dir`.
-/// `cancel` interrupts the renders (`Interrupted`, nothing written).
-#[allow(clippy::too_many_arguments)]
+/// What a convergence run renders, against what, and where its outputs go.
+pub struct Study<'a> {
+    /// Photon counts, each the target of both the global and the caustic map.
+    pub counts: &'a [usize],
+    /// The reference image (an EXR; its `caustic` and `indirect` layers are used when present).
+    pub reference: &'a Path,
+    pub method: Method,
+    /// Where `converge.md`, `converge.json` and `converge.png` are written.
+    pub out_dir: &'a Path,
+}
+
+/// Renders at each of the study's counts and writes `converge.md`, `converge.json` and
+/// `converge.png` into its `out_dir`. `cancel` interrupts the renders (`Interrupted`, nothing
+/// written).
 pub fn converge(
     scene: &mut Scene,
-    counts: &[usize],
-    reference: &Path,
-    method: Method,
+    study: &Study,
     opts: &Options,
-    out_dir: &Path,
     progress: &dyn Progress,
     cancel: &AtomicBool,
 ) -> Result<Vec<ConvergeRow>> {
+    let Study {
+        counts,
+        reference,
+        method,
+        out_dir,
+    } = *study;
     let reference_img = read_layer(reference, None).map_err(|e| in_file(reference, e))?;
     let ref_terms = ["caustic", "indirect"].map(|n| read_layer(reference, Some(n)).ok());
     let mut opts = opts.clone();

@@ -12,6 +12,7 @@ mod obj;
 mod objcheck;
 mod settings;
 
+use std::cmp::Ordering;
 use std::path::PathBuf;
 
 use glam::Vec3;
@@ -77,6 +78,14 @@ pub(crate) const MAX_NULL_CROSSINGS: u32 = 256;
 #[inline]
 pub(crate) fn past(t: f32, origin: Vec3) -> f32 {
     t + (t + origin.abs().max_element()) * 4e-7
+}
+
+/// A stretch of ray: from `origin` along `dir` over (0, `tmax`).
+#[derive(Clone, Copy)]
+struct RaySpan {
+    origin: Vec3,
+    dir: Vec3,
+    tmax: f32,
 }
 
 /// `[render]` after validation; `None` means "derive from the scene/method".
@@ -194,7 +203,8 @@ impl Scene {
         } else {
             f32::INFINITY
         };
-        if !(tmax > 0.0) {
+        // The light is no farther than the offset origin (or the distance is NaN): nothing blocks it.
+        if tmax.partial_cmp(&0.0) != Some(Ordering::Greater) {
             return Vec3::ONE;
         }
         self.transmittance(
@@ -289,7 +299,12 @@ impl Scene {
         segment: impl FnMut(Vec3, f32, &Medium, Vec3),
     ) -> Option<(Hit, Vec3, MediumId)> {
         let media = self.media.as_ref()?;
-        let (raw, tr, medium) = self.walk(media, origin, dir, f32::INFINITY, medium, rays, segment);
+        let span = RaySpan {
+            origin,
+            dir,
+            tmax: f32::INFINITY,
+        };
+        let (raw, tr, medium) = self.walk(media, span, medium, rays, segment);
         raw.map(|raw| (self.geometry.hit(origin, dir, raw), tr, medium))
     }
 
@@ -304,27 +319,34 @@ impl Scene {
         medium: MediumId,
         rays: &mut u64,
     ) -> Vec3 {
-        match self.walk(media, o, dir, tmax, medium, rays, |_, _, _, _| {}) {
+        let span = RaySpan {
+            origin: o,
+            dir,
+            tmax,
+        };
+        match self.walk(media, span, medium, rays, |_, _, _, _| {}) {
             (None, tr, _) => tr,
             (Some(_), _, _) => Vec3::ZERO,
         }
     }
 
-    /// A ray from `o` along `dir` within (0, tmax) starting in `medium`, crossing null boundaries on its
-    /// own line: the first other surface it meets (`t` from `o`; `None` if it meets none), the
+    /// A ray along `span` starting in `medium`, crossing null boundaries on its own line: the first
+    /// other surface it meets (`t` from the span's origin; `None` if it meets none), the
     /// transmittance before it and the medium it is in there. `segment` sees each stretch in a
     /// participating medium (start, length, medium, transmittance before it).
-    #[allow(clippy::too_many_arguments)]
     fn walk(
         &self,
         media: &Media,
-        o: Vec3,
-        dir: Vec3,
-        tmax: f32,
+        span: RaySpan,
         mut medium: MediumId,
         rays: &mut u64,
         mut segment: impl FnMut(Vec3, f32, &Medium, Vec3),
     ) -> (Option<crate::accel::embree::RawHit>, Vec3, MediumId) {
+        let RaySpan {
+            origin: o,
+            dir,
+            tmax,
+        } = span;
         let (mut tr, mut t0) = (Vec3::ONE, 0.0f32);
         for crossing in 0..MAX_NULL_CROSSINGS {
             if crossing > 0 {
@@ -345,7 +367,7 @@ impl Scene {
             }
             medium = media.after(raw.prim, tri.ng, dir, medium);
             t0 = past(raw.t, o);
-            if !(t0 < tmax) {
+            if t0.partial_cmp(&tmax) != Some(Ordering::Less) {
                 return (None, tr, medium);
             }
         }

@@ -193,7 +193,7 @@ pub fn apply_override(
         }
         _ => {
             let exponent = d.exponent.unwrap_or(ns.max(1.0));
-            if !(exponent >= 0.0 && exponent <= MAX_EXPONENT) {
+            if !(0.0..=MAX_EXPONENT).contains(&exponent) {
                 return Err(key_err(
                     "exponent",
                     format!("{exponent} is outside [0, {MAX_EXPONENT:e}]"),

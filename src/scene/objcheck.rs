@@ -244,20 +244,17 @@ pub fn check_mtl(path: &Path, text: &str) -> Result<(String, KeAt)> {
                     return Err(err(format!("{x} is outside [0, {max}]")));
                 }
             }
-            "illum" => {
-                if !matches!(args, [n] if n.parse::<u8>().is_ok_and(|n| n <= 10)) {
-                    return Err(err("needs one illumination model number 0..=10".into()));
-                }
+            "illum" if !matches!(args, [n] if n.parse::<u8>().is_ok_and(|n| n <= 10)) => {
+                return Err(err("needs one illumination model number 0..=10".into()));
             }
-            t if t.starts_with("map_")
+            t if (t.starts_with("map_")
                 || t == "bump"
                 || t == "disp"
                 || t == "decal"
-                || t == "refl" =>
+                || t == "refl")
+                && args.is_empty() =>
             {
-                if args.is_empty() {
-                    return Err(err("needs a file name".into()));
-                }
+                return Err(err("needs a file name".into()));
             }
             _ => {}
         }
