@@ -1,7 +1,7 @@
 //! Turns a scene file into a [`Scene`]: validates every value, loads meshes and textures, creates lights.
 
 use std::collections::HashMap;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use glam::{Mat3, Mat4, Vec3};
 
@@ -107,7 +107,7 @@ fn transform(cx: &Ctx, index: usize, m: &file::MeshDesc) -> Result<Mat4> {
     Ok(Mat4::from_translation(Vec3::from(t)) * rot * Mat4::from_scale(s))
 }
 
-type TexPaths = Vec<Option<(std::path::PathBuf, String)>>;
+type TexPaths = Vec<Option<(PathBuf, String)>>;
 
 type Meshes = (
     Geometry,
@@ -121,68 +121,20 @@ type Meshes = (
 /// paths, where each material's emission was set, and each mesh's triangles.
 fn meshes(cx: &Ctx, desc: &SceneFile) -> Result<Meshes> {
     let mut geo = Geometry::default();
-    let mut materials: Vec<Material> = Vec::new();
-    let mut tex_paths: TexPaths = Vec::new();
-    let mut emission_at: Vec<Origin> = Vec::new();
-    let mut by_name: HashMap<String, Vec<usize>> = HashMap::new();
-    let mut default_material = None;
+    let mut loaded = LoadedMaterials::default();
     let mut mesh_tris = Vec::with_capacity(desc.mesh.len());
     for (mi, m) in desc.mesh.iter().enumerate() {
         let first_tri = geo.triangles.len();
         let xf = transform(cx, mi, m)?;
         let nxf = Mat3::from_mat4(xf).inverse().transpose();
-        let obj_path = relative_to(cx.path, &m.obj);
-        if !obj_path.exists() {
-            return Err(cx.err(
-                "mesh",
-                mi,
-                "obj",
-                format!("file '{}' not found", obj_path.display()),
-            ));
-        }
-        if !obj_path.is_file() {
-            return Err(cx.err(
-                "mesh",
-                mi,
-                "obj",
-                format!("'{}' is not a regular file", obj_path.display()),
-            ));
-        }
-        let data = obj::load(&obj_path)?;
-        let base = materials.len();
-        let mesh_line = line_of_key(cx.text, "mesh", mi, "obj");
-        for tm in &data.materials {
-            let (mat, tex) = mtl::from_mtl(tm);
-            by_name
-                .entry(mat.name.clone())
-                .or_default()
-                .push(materials.len());
-            tex_paths.push(tex.map(|t| (data.mtl_dir.clone(), t)));
-            emission_at.push(
-                data.ke_at
-                    .get(&mat.name)
-                    .cloned()
-                    .unwrap_or_else(|| (cx.path.to_path_buf(), mesh_line)),
-            );
-            materials.push(mat);
-        }
+        let data = obj::load(&obj_path(cx, mi, m)?)?;
+        let base = loaded.materials.len();
+        loaded.add_mtl(cx, &data, line_of_key(cx.text, "mesh", mi, "obj"));
         let first_vertex = geo.positions.len();
         for model in &data.models {
             let mat_index = match model.material {
                 Some(k) if k < data.materials.len() => (base + k) as u32,
-                _ => *default_material.get_or_insert_with(|| {
-                    materials.push(Material {
-                        name: "default".into(),
-                        bsdf: Bsdf::Diffuse {
-                            albedo: Vec3::splat(0.8),
-                            texture: None,
-                        },
-                        emission: Vec3::ZERO,
-                    });
-                    tex_paths.push(None);
-                    emission_at.push((cx.path.to_path_buf(), 1));
-                    (materials.len() - 1) as u32
-                }),
+                _ => loaded.default_material(cx),
             };
             append_model(&mut geo, model, &xf, &nxf, mat_index);
         }
@@ -209,9 +161,95 @@ fn meshes(cx: &Ctx, desc: &SceneFile) -> Result<Meshes> {
             "the scene has no triangles (add a [[mesh]] with faces)",
         ));
     }
+    apply_overrides(cx, desc, &mut loaded)?;
+    let LoadedMaterials {
+        materials,
+        tex_paths,
+        emission_at,
+        ..
+    } = loaded;
+    Ok((geo, materials, tex_paths, emission_at, mesh_tris))
+}
+
+/// A mesh's `obj` path (relative to the scene file), checked to name a regular file.
+fn obj_path(cx: &Ctx, index: usize, m: &file::MeshDesc) -> Result<PathBuf> {
+    let obj_path = relative_to(cx.path, &m.obj);
+    if !obj_path.exists() {
+        return Err(cx.err(
+            "mesh",
+            index,
+            "obj",
+            format!("file '{}' not found", obj_path.display()),
+        ));
+    }
+    if !obj_path.is_file() {
+        return Err(cx.err(
+            "mesh",
+            index,
+            "obj",
+            format!("'{}' is not a regular file", obj_path.display()),
+        ));
+    }
+    Ok(obj_path)
+}
+
+/// The meshes' materials with each one's texture path and where its emission was set.
+#[derive(Default)]
+struct LoadedMaterials {
+    materials: Vec<Material>,
+    tex_paths: TexPaths,
+    emission_at: Vec<Origin>,
+    /// The indices of the materials of each name (several OBJs may use one name).
+    by_name: HashMap<String, Vec<usize>>,
+    /// The material of models that name none, once one needs it.
+    default: Option<u32>,
+}
+
+impl LoadedMaterials {
+    /// Adds an OBJ's MTL materials; an emission the MTL does not place is placed at `mesh_line`.
+    fn add_mtl(&mut self, cx: &Ctx, data: &obj::ObjData, mesh_line: usize) {
+        for tm in &data.materials {
+            let (mat, tex) = mtl::from_mtl(tm);
+            self.by_name
+                .entry(mat.name.clone())
+                .or_default()
+                .push(self.materials.len());
+            self.tex_paths.push(tex.map(|t| (data.mtl_dir.clone(), t)));
+            self.emission_at.push(
+                data.ke_at
+                    .get(&mat.name)
+                    .cloned()
+                    .unwrap_or_else(|| (cx.path.to_path_buf(), mesh_line)),
+            );
+            self.materials.push(mat);
+        }
+    }
+
+    /// The index of the material for models that name none (or one their MTL lacks), added on
+    /// first use.
+    fn default_material(&mut self, cx: &Ctx) -> u32 {
+        *self.default.get_or_insert_with(|| {
+            self.materials.push(Material {
+                name: "default".into(),
+                bsdf: Bsdf::Diffuse {
+                    albedo: Vec3::splat(0.8),
+                    texture: None,
+                },
+                emission: Vec3::ZERO,
+            });
+            self.tex_paths.push(None);
+            self.emission_at.push((cx.path.to_path_buf(), 1));
+            (self.materials.len() - 1) as u32
+        })
+    }
+}
+
+/// Applies the scene file's `[materials.NAME]` tables to every material of that name; a table no
+/// mesh uses is an error.
+fn apply_overrides(cx: &Ctx, desc: &SceneFile, loaded: &mut LoadedMaterials) -> Result<()> {
     for (name, d) in &desc.materials {
         let line_of_mat = |key: &str| line_of(cx.text, &["materials", name, key], 0);
-        let Some(idx) = by_name.get(name) else {
+        let Some(idx) = loaded.by_name.get(name) else {
             return Err(at_line(
                 cx.path,
                 line_of_mat("type"),
@@ -219,20 +257,22 @@ fn meshes(cx: &Ctx, desc: &SceneFile) -> Result<Meshes> {
             ));
         };
         for &i in idx {
-            let was_diffuse = matches!(materials[i].bsdf, Bsdf::Diffuse { .. });
-            let tex = mtl::apply_override(cx.path, &line_of_mat, &mut materials[i], d)?;
+            let mat = &mut loaded.materials[i];
+            let was_diffuse = matches!(mat.bsdf, Bsdf::Diffuse { .. });
+            let tex = mtl::apply_override(cx.path, &line_of_mat, mat, d)?;
             if d.emission.is_some() {
-                emission_at[i] = (cx.path.to_path_buf(), line_of_mat("emission"));
+                loaded.emission_at[i] = (cx.path.to_path_buf(), line_of_mat("emission"));
             }
-            let is_diffuse = matches!(materials[i].bsdf, Bsdf::Diffuse { .. });
+            let is_diffuse = matches!(mat.bsdf, Bsdf::Diffuse { .. });
+            let tex_path = &mut loaded.tex_paths[i];
             if let Some(t) = tex {
-                tex_paths[i] = Some((cx.path.parent().unwrap_or(Path::new(".")).to_path_buf(), t));
+                *tex_path = Some((cx.path.parent().unwrap_or(Path::new(".")).to_path_buf(), t));
             } else if !is_diffuse || !was_diffuse {
-                tex_paths[i] = None;
+                *tex_path = None;
             }
         }
     }
-    Ok((geo, materials, tex_paths, emission_at, mesh_tris))
+    Ok(())
 }
 
 /// Appends one model's vertices and triangles, transformed. A mirroring transform (negative
@@ -296,7 +336,7 @@ fn normal_and_area(a: Vec3, b: Vec3, c: Vec3) -> Option<(Vec3, f32)> {
 
 fn textures(cx: &Ctx, materials: &mut [Material], tex_paths: TexPaths) -> Result<Vec<Texture>> {
     let mut textures = Vec::new();
-    let mut loaded: HashMap<std::path::PathBuf, usize> = HashMap::new();
+    let mut loaded: HashMap<PathBuf, usize> = HashMap::new();
     for (mat, tp) in materials.iter_mut().zip(tex_paths) {
         let Some((dir, name)) = tp else { continue };
         let resolved = texture::resolve(&dir, &name).map_err(|why| {

@@ -154,6 +154,73 @@ pub(super) fn media(
     mesh_tris: &[Range<usize>],
     lights: &[Light],
 ) -> Result<Option<Media>> {
+    let list = medium_list(cx, desc)?;
+    let boundaries = boundaries(cx, desc, geo, &list, mesh_tris)?;
+    if boundaries.is_empty() {
+        check_no_medium_used(cx, desc, geo, materials, &list)?;
+        return Ok(None);
+    }
+    let boundary_tris: Vec<[u32; 3]> = boundaries
+        .iter()
+        .flat_map(|b| geo.triangles[b.tris.clone()].iter().map(|t| t.v))
+        .collect();
+    let boundary_of: Vec<u32> = boundaries
+        .iter()
+        .enumerate()
+        .flat_map(|(i, b)| std::iter::repeat_n(i as u32, b.tris.len()))
+        .collect();
+    let boundary_bvh = Bvh::build(&geo.positions, &boundary_tris).map_err(runtime)?;
+    let innermost = |p: Vec3, skip: Option<usize>| {
+        innermost_by_bvh(&boundaries, &boundary_bvh, &boundary_of, p, skip)
+    };
+    // Each boundary mesh's outside: the innermost other boundary containing a point just inside it.
+    let mut sides = vec![None; geo.triangles.len()];
+    for (bi, b) in boundaries.iter().enumerate() {
+        let outside = innermost(point_inside(geo, b), Some(bi));
+        for t in b.tris.clone() {
+            sides[t] = Some(if b.outward {
+                [outside, b.medium]
+            } else {
+                [b.medium, outside]
+            });
+        }
+    }
+    for (t, tri) in geo.triangles.iter().enumerate() {
+        let m = &materials[tri.material as usize];
+        if m.bsdf.is_null() && sides[t].is_none() {
+            return Err(null_error(cx, m));
+        }
+    }
+    let camera = innermost(desc.camera.eye.into(), None);
+    check_camera_medium(cx, desc, &list, camera)?;
+    let lights = lights
+        .iter()
+        .map(|l| innermost(light_point(geo, l), None))
+        .collect();
+    let bounds = boundary_tris.iter().flatten().fold(
+        (Vec3::INFINITY, Vec3::NEG_INFINITY),
+        |(lo, hi), &k| {
+            (
+                lo.min(geo.positions[k as usize]),
+                hi.max(geo.positions[k as usize]),
+            )
+        },
+    );
+    Ok(Some(Media {
+        list,
+        sides,
+        camera,
+        lights,
+        boundaries,
+        boundary_bvh,
+        boundary_of,
+        bounds,
+    }))
+}
+
+/// The `[[medium]]` entries checked: unique names, coefficients within range, fewer than
+/// [`VACUUM`] of them.
+fn medium_list(cx: &Ctx, desc: &SceneFile) -> Result<Vec<Medium>> {
     let mut list: Vec<Medium> = Vec::new();
     for (i, m) in desc.medium.iter().enumerate() {
         if m.name.is_empty() || list.iter().any(|o| o.name == m.name) {
@@ -193,15 +260,27 @@ pub(super) fn media(
             format!("more than {} media", VACUUM - 1),
         ));
     }
-    let id_of = |name: &str| {
-        list.iter()
-            .position(|m| m.name == name)
-            .map(|i| i as MediumId)
-    };
+    Ok(list)
+}
+
+fn id_of(list: &[Medium], name: &str) -> Option<MediumId> {
+    list.iter()
+        .position(|m| m.name == name)
+        .map(|i| i as MediumId)
+}
+
+/// The meshes with an `interior`, each checked to name a medium and to be closed.
+fn boundaries(
+    cx: &Ctx,
+    desc: &SceneFile,
+    geo: &Geometry,
+    list: &[Medium],
+    mesh_tris: &[Range<usize>],
+) -> Result<Vec<Boundary>> {
     let mut boundaries = Vec::new();
     for (mi, m) in desc.mesh.iter().enumerate() {
         let Some(name) = &m.interior else { continue };
-        let Some(medium) = id_of(name) else {
+        let Some(medium) = id_of(list, name) else {
             return Err(cx.err(
                 "mesh",
                 mi,
@@ -226,101 +305,75 @@ pub(super) fn media(
             outward: volume > 0.0,
         });
     }
-    let camera_line = || super::file::line_of_key(cx.text, "camera", 0, "medium");
-    if boundaries.is_empty() {
-        if let Some(name) = &desc.camera.medium {
-            let why = if id_of(name).is_some() {
-                format!("no [[mesh]] has interior = '{name}'")
-            } else {
-                format!("no [[medium]] is named '{name}'")
-            };
-            return Err(at_line(
-                cx.path,
-                camera_line(),
-                format!("camera.medium: {why}"),
-            ));
-        }
-        if let Some(t) = geo
-            .triangles
-            .iter()
-            .find(|t| materials[t.material as usize].bsdf.is_null())
-        {
-            return Err(null_error(cx, &materials[t.material as usize]));
-        }
-        return Ok(None);
-    }
-    let boundary_tris: Vec<[u32; 3]> = boundaries
-        .iter()
-        .flat_map(|b| geo.triangles[b.tris.clone()].iter().map(|t| t.v))
-        .collect();
-    let boundary_of: Vec<u32> = boundaries
-        .iter()
-        .enumerate()
-        .flat_map(|(i, b)| std::iter::repeat_n(i as u32, b.tris.len()))
-        .collect();
-    let boundary_bvh = Bvh::build(&geo.positions, &boundary_tris).map_err(runtime)?;
-    let innermost = |p: Vec3, skip: Option<usize>| {
-        innermost_by_bvh(&boundaries, &boundary_bvh, &boundary_of, p, skip)
-    };
-    // Each boundary mesh's outside: the innermost other boundary containing a point just inside it.
-    let mut sides = vec![None; geo.triangles.len()];
-    for (bi, b) in boundaries.iter().enumerate() {
-        let outside = innermost(point_inside(geo, b), Some(bi));
-        for t in b.tris.clone() {
-            sides[t] = Some(if b.outward {
-                [outside, b.medium]
-            } else {
-                [b.medium, outside]
-            });
-        }
-    }
-    for (t, tri) in geo.triangles.iter().enumerate() {
-        let m = &materials[tri.material as usize];
-        if m.bsdf.is_null() && sides[t].is_none() {
-            return Err(null_error(cx, m));
-        }
-    }
-    let camera = innermost(desc.camera.eye.into(), None);
+    Ok(boundaries)
+}
+
+fn camera_line(cx: &Ctx) -> usize {
+    super::file::line_of_key(cx.text, "camera", 0, "medium")
+}
+
+/// Without boundary meshes, neither the camera nor a material may use a medium.
+fn check_no_medium_used(
+    cx: &Ctx,
+    desc: &SceneFile,
+    geo: &Geometry,
+    materials: &[Material],
+    list: &[Medium],
+) -> Result<()> {
     if let Some(name) = &desc.camera.medium {
-        let Some(given) = id_of(name) else {
-            return Err(at_line(
-                cx.path,
-                camera_line(),
-                format!("camera.medium: no [[medium]] is named '{name}'"),
-            ));
+        let why = if id_of(list, name).is_some() {
+            format!("no [[mesh]] has interior = '{name}'")
+        } else {
+            format!("no [[medium]] is named '{name}'")
         };
-        if given != camera {
-            let is_in = if camera == VACUUM {
-                "no medium".to_string()
-            } else {
-                format!("medium '{}'", list[camera as usize].name)
-            };
-            return Err(at_line(cx.path, camera_line(), format!("camera.medium: the eye is inside {is_in} (by the boundary meshes), not '{name}'")));
-        }
+        return Err(at_line(
+            cx.path,
+            camera_line(cx),
+            format!("camera.medium: {why}"),
+        ));
     }
-    let lights = lights
+    if let Some(t) = geo
+        .triangles
         .iter()
-        .map(|l| innermost(light_point(geo, l), None))
-        .collect();
-    let bounds = boundary_tris.iter().flatten().fold(
-        (Vec3::INFINITY, Vec3::NEG_INFINITY),
-        |(lo, hi), &k| {
-            (
-                lo.min(geo.positions[k as usize]),
-                hi.max(geo.positions[k as usize]),
-            )
-        },
-    );
-    Ok(Some(Media {
-        list,
-        sides,
-        camera,
-        lights,
-        boundaries,
-        boundary_bvh,
-        boundary_of,
-        bounds,
-    }))
+        .find(|t| materials[t.material as usize].bsdf.is_null())
+    {
+        return Err(null_error(cx, &materials[t.material as usize]));
+    }
+    Ok(())
+}
+
+/// The camera's `medium`, if given, must be the one the eye is in (`camera`, by the boundaries).
+fn check_camera_medium(
+    cx: &Ctx,
+    desc: &SceneFile,
+    list: &[Medium],
+    camera: MediumId,
+) -> Result<()> {
+    let Some(name) = &desc.camera.medium else {
+        return Ok(());
+    };
+    let Some(given) = id_of(list, name) else {
+        return Err(at_line(
+            cx.path,
+            camera_line(cx),
+            format!("camera.medium: no [[medium]] is named '{name}'"),
+        ));
+    };
+    if given != camera {
+        let is_in = if camera == VACUUM {
+            "no medium".to_string()
+        } else {
+            format!("medium '{}'", list[camera as usize].name)
+        };
+        return Err(at_line(
+            cx.path,
+            camera_line(cx),
+            format!(
+                "camera.medium: the eye is inside {is_in} (by the boundary meshes), not '{name}'"
+            ),
+        ));
+    }
+    Ok(())
 }
 
 fn null_error(cx: &Ctx, m: &Material) -> crate::error::Error {

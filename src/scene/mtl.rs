@@ -26,7 +26,7 @@ fn param3(m: &tobj::Material, key: &str) -> Option<Vec3> {
     }
 }
 
-/// The mapping: Ke > 0 → emission; illum 3/5 → mirror; 4/6/7 → glass; Ks > 0 with Ns > 1 →
+/// The MTL mapping: Ke > 0 → emission; illum 3/5 → mirror; 4/6/7 → glass; Ks > 0 with Ns > 1 →
 /// glossy; otherwise diffuse. Returns the material and the texture path (`map_Kd`), if any.
 pub fn from_mtl(m: &tobj::Material) -> (Material, Option<String>) {
     let kd = v3(m.diffuse).unwrap_or(Vec3::splat(0.8));
@@ -95,42 +95,14 @@ pub fn apply_override(
     let err = |msg: String| -> Error {
         at_line(scene, line_of("type"), format!("materials.{name}: {msg}"))
     };
-    let (kd, ks, ns) = match &mat.bsdf {
-        Bsdf::Diffuse { albedo, .. } => (*albedo, Vec3::ZERO, 1.0),
-        Bsdf::Glossy {
-            albedo,
-            specular,
-            exponent,
-        } => (*albedo, *specular, *exponent),
-        _ => (Vec3::splat(0.8), Vec3::ZERO, 1.0),
-    };
-    // Keys not given keep the material's own values when it already has that type.
-    let mirror_r = match mat.bsdf {
-        Bsdf::Mirror { reflectance } => Some(reflectance),
-        _ => None,
-    };
-    let (glass_ior, glass_t) = match mat.bsdf {
-        Bsdf::Glass { ior, transmittance } => (Some(ior), Some(transmittance)),
-        _ => (None, None),
-    };
-    let kind = d.kind.clone().unwrap_or_else(|| match mat.bsdf {
-        Bsdf::Diffuse { .. } => "diffuse".into(),
-        Bsdf::Mirror { .. } => "mirror".into(),
-        Bsdf::Glass { .. } => "glass".into(),
-        Bsdf::Glossy { .. } => "glossy".into(),
-        Bsdf::Null => "null".into(),
-    });
-    let allowed: &[&str] = match kind.as_str() {
-        "diffuse" => &["albedo", "texture"],
-        "mirror" => &["reflectance"],
-        "glass" => &["ior", "transmittance"],
-        "glossy" => &["albedo", "specular", "exponent"],
-        "null" => &[],
-        other => {
-            return Err(err(format!(
-                "unknown type '{other}' (diffuse | mirror | glass | glossy | null)"
-            )))
-        }
+    let kind = d
+        .kind
+        .clone()
+        .unwrap_or_else(|| type_name(&mat.bsdf).into());
+    let Some(allowed) = allowed_keys(&kind) else {
+        return Err(err(format!(
+            "unknown type '{kind}' (diffuse | mirror | glass | glossy | null)"
+        )));
     };
     let given = [
         ("albedo", d.albedo.is_some()),
@@ -162,8 +134,65 @@ pub fn apply_override(
             "a 'null' medium boundary cannot emit (set no emission, and no Ke in the MTL)".into(),
         ));
     }
+    let (bsdf, texture) = overridden_bsdf(&kind, d, &mat.bsdf, &key_err)?;
+    mat.bsdf = bsdf;
+    if let Some(e) = d.emission {
+        mat.emission = Vec3::from_array(e);
+    }
+    Ok(texture)
+}
+
+/// The scene file's name of a BSDF's type.
+fn type_name(bsdf: &Bsdf) -> &'static str {
+    match bsdf {
+        Bsdf::Diffuse { .. } => "diffuse",
+        Bsdf::Mirror { .. } => "mirror",
+        Bsdf::Glass { .. } => "glass",
+        Bsdf::Glossy { .. } => "glossy",
+        Bsdf::Null => "null",
+    }
+}
+
+/// The keys a material type takes besides `type` and `emission`; `None` for an unknown type.
+fn allowed_keys(kind: &str) -> Option<&'static [&'static str]> {
+    Some(match kind {
+        "diffuse" => &["albedo", "texture"],
+        "mirror" => &["reflectance"],
+        "glass" => &["ior", "transmittance"],
+        "glossy" => &["albedo", "specular", "exponent"],
+        "null" => &[],
+        _ => return None,
+    })
+}
+
+/// The BSDF of type `kind` (one [`allowed_keys`] knows) with the override's values, and its texture
+/// path. Keys not given keep the `old` BSDF's values when it has that type, else take its diffuse
+/// and specular colours or the defaults.
+fn overridden_bsdf(
+    kind: &str,
+    d: &MaterialDesc,
+    old: &Bsdf,
+    key_err: &dyn Fn(&str, String) -> Error,
+) -> Result<(Bsdf, Option<String>)> {
+    let (kd, ks, ns) = match old {
+        Bsdf::Diffuse { albedo, .. } => (*albedo, Vec3::ZERO, 1.0),
+        Bsdf::Glossy {
+            albedo,
+            specular,
+            exponent,
+        } => (*albedo, *specular, *exponent),
+        _ => (Vec3::splat(0.8), Vec3::ZERO, 1.0),
+    };
+    let mirror_r = match *old {
+        Bsdf::Mirror { reflectance } => Some(reflectance),
+        _ => None,
+    };
+    let (glass_ior, glass_t) = match *old {
+        Bsdf::Glass { ior, transmittance } => (Some(ior), Some(transmittance)),
+        _ => (None, None),
+    };
     let mut texture = None;
-    mat.bsdf = match kind.as_str() {
+    let bsdf = match kind {
         "null" => Bsdf::Null,
         "diffuse" => {
             texture = d.texture.clone();
@@ -206,10 +235,7 @@ pub fn apply_override(
             )
         }
     };
-    if let Some(e) = d.emission {
-        mat.emission = Vec3::from_array(e);
-    }
-    Ok(texture)
+    Ok((bsdf, texture))
 }
 
 #[cfg(test)]
