@@ -29,7 +29,7 @@ use crate::material::Material;
 use crate::medium::{Medium, MediumId, VACUUM};
 use crate::texture::Texture;
 
-/// The rendering method: the closed set.
+/// The rendering method (a closed set).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Method {
     Path,
@@ -73,8 +73,7 @@ pub(crate) const MAX_NULL_CROSSINGS: u32 = 256;
 /// Where a ray continues after crossing an invisible boundary at distance `t` from its origin: just
 /// past it on the same line. Moving the origin off the boundary instead (as after a bounce) shifts a
 /// grazing ray sideways, toward or away from what lies just beyond: a shadow ray from a wall to a
-/// light 1 cm above a fog boundary then hit the light's own triangle (the fogged Cornell box lost 17 %
-/// of the direct light near its ceiling).
+/// light just above a fog boundary would hit the light's own triangle and darken the wall.
 #[inline]
 pub(crate) fn past(t: f32, origin: Vec3) -> f32 {
     t + (t + origin.abs().max_element()) * 4e-7

@@ -45,9 +45,8 @@ pub enum FillMode {
 }
 
 /// Image side up to which the default record spacings are the pixel counts of `CacheParams`; above it
-/// they grow with the image, so that a 1000² render does not place records 3 px apart (Sibenik at 1024²:
-/// 55 k records at 3–20 px, 33 k at 6–40 px, image and region means within 0.5 %, 8×-downsampled block
-/// relMSE 0.00006 vs 0.00007).
+/// they grow with the image, so that a 1000² render does not place records 3 px apart: fewer records
+/// at the same accuracy, as the records' screen size matters less than their spacing in the scene.
 pub const SPACING_REFERENCE_SIDE: u32 = 512;
 
 /// `[render.icache]` checked: the cache parameters (defaults where the file gives none), the gather
@@ -84,26 +83,23 @@ impl IcacheSettings {
 
     /// Whether the media cache's records leave out photons behind occluders and divide by the
     /// kernel's visible share, with the gradient of that ratio (`volume_grid::estimate_within`). Off by
-    /// default: over eight seeds at 64² it moved fog-cornell's image mean from −0.3 % to +0.2 % of
-    /// Mitsuba's and fog-spot's from +0.2 % to +1.5 % (its walls darken the light near them, which a
-    /// visible-share division does not know).
+    /// default: walls darken the light near them, which a division by the visible share does not
+    /// know, so it moves images away from the reference as often as toward it.
     pub(crate) fn media_visibility(&self) -> bool {
         self.media_visibility
     }
 
     /// Whether each pass-B lookup tests, with a shadow ray, that the records it would interpolate are
-    /// in view of the point: records past a column or moulding no longer lend it their more open
-    /// hemisphere (Sibenik 128²: block relMSE 0.000126 → 0.000070, +17 % time).
+    /// in view of the point, so that records past a column or moulding do not lend it their more open
+    /// hemisphere, at the cost of a shadow ray per record.
     pub(crate) fn visibility(&self) -> bool {
         self.visibility
     }
 
     /// Pass A visits every n-th pixel in x and y: the file's `pass_a_stride`, else the least spacing of
     /// records (`min_spacing_px` for the image, see [`Self::for_image`]) in units of its 3 px default,
-    /// rounded — 1 up to 767², 2 from 768² (Sibenik at 1024²: fill 9.3 → 6.2 s, records 33.7 k → 27.3 k
-    /// with pass B's, 8×-downsampled block relMSE against the reference 0.000029 → 0.000030, full-res
-    /// relMSE between the two images 0.00007). TL fill at a lower resolution first; pass B covers the
-    /// pixels between with records of their own.
+    /// rounded — 1 up to 767², 2 from 768². Large images fill at a lower resolution first, which
+    /// saves time at the same accuracy; pass B covers the pixels between with records of their own.
     pub(crate) fn pass_a_stride(&self, width: u32, height: u32) -> u32 {
         self.pass_a_stride.unwrap_or_else(|| {
             let spacing = self.for_image(width, height).min_spacing_px;
