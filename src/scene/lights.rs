@@ -11,7 +11,7 @@ use glam::Vec3;
 use super::context::Ctx;
 use super::file::{LightDesc, SceneFile};
 use super::limits::{self, MAX_POWER};
-use crate::error::{at_line, Result};
+use crate::error::{at_line, Error, Result};
 use crate::geometry::Geometry;
 use crate::light::{Light, Lights};
 use crate::material::Material;
@@ -104,110 +104,118 @@ fn check_power(lights: &[Light], origins: &[Origin]) -> Result<()> {
     Err(at_line(&origin.0, origin.1, format!("emitted power {power:.3e} W (scene total {total:.3e} W) exceeds the limit of {MAX_POWER:e} W")))
 }
 
-fn light(cx: &Ctx, i: usize, l: &LightDesc, center: Vec3, radius: f32) -> Result<Light> {
-    let need = |k: &str, v: Option<[f32; 3]>| -> Result<Vec3> {
-        let v = v.ok_or_else(|| {
-            cx.err(
-                "light",
-                i,
-                "type",
-                format!("a {} light needs '{k}'", l.kind),
-            )
-        })?;
+/// One `[[light]]` entry with what its messages need to name its keys.
+struct Entry<'a> {
+    cx: &'a Ctx<'a>,
+    i: usize,
+    l: &'a LightDesc,
+}
+
+impl Entry<'_> {
+    fn err(&self, key: &str, msg: impl std::fmt::Display) -> Error {
+        self.cx.err("light", self.i, key, msg)
+    }
+
+    /// A vector key this light's type needs, finite.
+    fn need(&self, k: &str, v: Option<[f32; 3]>) -> Result<Vec3> {
+        let v =
+            v.ok_or_else(|| self.err("type", format!("a {} light needs '{k}'", self.l.kind)))?;
         if !v.iter().all(|x| x.is_finite()) {
-            return Err(cx.err("light", i, k, "must be finite"));
+            return Err(self.err(k, "must be finite"));
         }
         Ok(Vec3::from(v))
-    };
-    let position = |k: &str, v: Option<[f32; 3]>| -> Result<Vec3> {
-        let p = need(k, v)?;
-        limits::position(p).map_or(Ok(p), |msg| Err(cx.err("light", i, k, msg)))
-    };
-    let emission = |k: &str, v: Option<[f32; 3]>| -> Result<Vec3> {
-        let e = need(k, v)?;
-        limits::emission(e.to_array()).map_or(Ok(e), |msg| Err(cx.err("light", i, k, msg)))
-    };
-    let allowed: &[&str] = match l.kind.as_str() {
-        "point" => &["position", "intensity"],
-        "spot" => &[
-            "position",
-            "target",
-            "intensity",
-            "cone_angle",
-            "falloff_start",
-        ],
-        "directional" => &["direction", "irradiance"],
-        other => {
-            return Err(cx.err(
-                "light",
-                i,
-                "type",
-                format!("unknown light type '{other}' (point | spot | directional)"),
-            ))
-        }
-    };
-    let given = [
-        ("position", l.position.is_some()),
-        ("target", l.target.is_some()),
-        ("intensity", l.intensity.is_some()),
-        ("cone_angle", l.cone_angle.is_some()),
-        ("falloff_start", l.falloff_start.is_some()),
-        ("direction", l.direction.is_some()),
-        ("irradiance", l.irradiance.is_some()),
-    ];
-    if let Some((k, _)) = given.iter().find(|(k, g)| *g && !allowed.contains(k)) {
-        return Err(cx.err(
-            "light",
-            i,
-            k,
-            format!("does not apply to a {} light", l.kind),
-        ));
     }
+
+    fn position(&self, k: &str, v: Option<[f32; 3]>) -> Result<Vec3> {
+        let p = self.need(k, v)?;
+        limits::position(p).map_or(Ok(p), |msg| Err(self.err(k, msg)))
+    }
+
+    fn emission(&self, k: &str, v: Option<[f32; 3]>) -> Result<Vec3> {
+        let e = self.need(k, v)?;
+        limits::emission(e.to_array()).map_or(Ok(e), |msg| Err(self.err(k, msg)))
+    }
+
+    /// The entry's type is known and every key it gives applies to that type.
+    fn check_keys(&self) -> Result<()> {
+        let l = self.l;
+        let allowed: &[&str] = match l.kind.as_str() {
+            "point" => &["position", "intensity"],
+            "spot" => &[
+                "position",
+                "target",
+                "intensity",
+                "cone_angle",
+                "falloff_start",
+            ],
+            "directional" => &["direction", "irradiance"],
+            other => {
+                return Err(self.err(
+                    "type",
+                    format!("unknown light type '{other}' (point | spot | directional)"),
+                ))
+            }
+        };
+        let given = [
+            ("position", l.position.is_some()),
+            ("target", l.target.is_some()),
+            ("intensity", l.intensity.is_some()),
+            ("cone_angle", l.cone_angle.is_some()),
+            ("falloff_start", l.falloff_start.is_some()),
+            ("direction", l.direction.is_some()),
+            ("irradiance", l.irradiance.is_some()),
+        ];
+        if let Some((k, _)) = given.iter().find(|(k, g)| *g && !allowed.contains(k)) {
+            return Err(self.err(k, format!("does not apply to a {} light", l.kind)));
+        }
+        Ok(())
+    }
+
+    fn spot(&self) -> Result<Light> {
+        let l = self.l;
+        let pos = self.position("position", l.position)?;
+        // Only the direction toward the target matters: any finite point will do.
+        let Some(dir) = limits::direction_between(pos, self.need("target", l.target)?) else {
+            return Err(self.err("target", "equals position"));
+        };
+        let cone = l.cone_angle.unwrap_or(30.0);
+        if !(cone > 0.0 && cone <= 180.0) {
+            return Err(self.err("cone_angle", format!("{cone} must be in (0, 180]")));
+        }
+        let falloff = l.falloff_start.unwrap_or(cone * 0.75);
+        if !(falloff >= 0.0 && falloff <= cone) {
+            return Err(self.err(
+                "falloff_start",
+                format!("{falloff} must be in [0, cone_angle]"),
+            ));
+        }
+        let intensity = self.emission("intensity", l.intensity)?;
+        Ok(Light::Spot {
+            pos,
+            dir,
+            intensity,
+            cone: cone.to_radians().min(PI),
+            falloff: falloff.to_radians(),
+        })
+    }
+}
+
+fn light(cx: &Ctx, i: usize, l: &LightDesc, center: Vec3, radius: f32) -> Result<Light> {
+    let e = Entry { cx, i, l };
+    e.check_keys()?;
     Ok(match l.kind.as_str() {
         "point" => Light::Point {
-            pos: position("position", l.position)?,
-            intensity: emission("intensity", l.intensity)?,
+            pos: e.position("position", l.position)?,
+            intensity: e.emission("intensity", l.intensity)?,
         },
-        "spot" => {
-            let pos = position("position", l.position)?;
-            // Only the direction toward the target matters: any finite point will do.
-            let Some(dir) = limits::direction_between(pos, need("target", l.target)?) else {
-                return Err(cx.err("light", i, "target", "equals position"));
-            };
-            let cone = l.cone_angle.unwrap_or(30.0);
-            if !(cone > 0.0 && cone <= 180.0) {
-                return Err(cx.err(
-                    "light",
-                    i,
-                    "cone_angle",
-                    format!("{cone} must be in (0, 180]"),
-                ));
-            }
-            let falloff = l.falloff_start.unwrap_or(cone * 0.75);
-            if !(falloff >= 0.0 && falloff <= cone) {
-                return Err(cx.err(
-                    "light",
-                    i,
-                    "falloff_start",
-                    format!("{falloff} must be in [0, cone_angle]"),
-                ));
-            }
-            let intensity = emission("intensity", l.intensity)?;
-            Light::Spot {
-                pos,
-                dir,
-                intensity,
-                cone: cone.to_radians().min(PI),
-                falloff: falloff.to_radians(),
-            }
-        }
+        "spot" => e.spot()?,
         _ => {
-            let Some(dir) = limits::direction(need("direction", l.direction)?) else {
-                return Err(cx.err("light", i, "direction", "must be non-zero"));
+            let Some(dir) = limits::direction(e.need("direction", l.direction)?) else {
+                return Err(e.err("direction", "must be non-zero"));
             };
             Light::Directional {
                 dir,
-                irradiance: emission("irradiance", l.irradiance)?,
+                irradiance: e.emission("irradiance", l.irradiance)?,
                 center,
                 radius,
             }
