@@ -7,23 +7,13 @@ use glam::Vec3;
 use crate::error::{Error, Result};
 use crate::index::Octree;
 use crate::params::{CacheParams, Pass};
-use crate::record::{NewRecord, Record};
+use crate::record::{finite_rel_err, Lookup, NewRecord, Record};
 use crate::stats::InsertStats;
 use crate::weight::usable_weight;
 
 /// Rec. 709 luminance.
 fn luminance(c: Vec3) -> f32 {
     c.dot(Vec3::new(0.2126, 0.7152, 0.0722))
-}
-
-/// An interpolated irradiance and what it was made of.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Lookup {
-    /// RGB irradiance, every channel ≥ 0.
-    pub e: Vec3,
-    /// Number of usable records.
-    pub n_used: u32,
-    pub weight_sum: f32,
 }
 
 /// Weighted sum over usable records.
@@ -388,7 +378,7 @@ impl IrradianceCache {
             1.0
         };
         let old_sd = rec.rel_err * luminance(rec.e);
-        let new_sd = crate::insert::finite_rel_err(more.rel_err) * luminance(more.e);
+        let new_sd = finite_rel_err(more.rel_err) * luminance(more.e);
         rec.e = (keep * rec.e + share * more.e.max(Vec3::ZERO)).max(Vec3::ZERO);
         for c in 0..3 {
             if more.grad_r[c].is_finite() && more.grad_t[c].is_finite() {

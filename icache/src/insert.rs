@@ -14,7 +14,7 @@ use glam::Vec3;
 
 use crate::cache::{IrradianceCache, Shrink};
 use crate::params::CacheParams;
-use crate::record::{NewRecord, Record};
+use crate::record::{finite_rel_err, NewRecord, Record};
 use crate::stats::InsertStats;
 
 /// [R_min, R_max] in world units at a record with the given pixel footprint.
@@ -55,15 +55,6 @@ fn set_radius(params: &CacheParams, rec: &mut Record, r: f32) {
     if old_scale > 0.0 && new_scale != old_scale {
         let f = new_scale / old_scale;
         rec.grad_t.iter_mut().for_each(|g| *g *= f);
-    }
-}
-
-/// A gather's noise estimate as a record keeps it: 0 (unknown) unless finite and non-negative.
-pub(crate) fn finite_rel_err(x: f32) -> f32 {
-    if x.is_finite() && x >= 0.0 {
-        x
-    } else {
-        0.0
     }
 }
 

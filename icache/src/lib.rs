@@ -16,6 +16,7 @@ pub mod order;
 pub mod params;
 mod point_grid;
 pub mod record;
+mod report;
 pub mod stats;
 pub mod twopass;
 pub mod weight;
@@ -27,10 +28,11 @@ mod file_tests;
 #[cfg(test)]
 mod twopass_tests;
 
-pub use cache::{IrradianceCache, Lookup};
+pub use cache::IrradianceCache;
 pub use error::{Error, Result};
 pub use onepass::{fill_one_pass, fill_one_pass_cancellable, OnePassFill};
 pub use params::{CacheParams, Pass, Weighting};
-pub use record::{NewRecord, Record};
-pub use stats::{CacheStats, FillStats, InsertStats, LookupStats, RadiusHistogram};
+pub use record::{Lookup, NewRecord, Record};
+pub use report::CacheStats;
+pub use stats::{FillStats, InsertStats, LookupStats, RadiusHistogram};
 pub use twopass::{fill_pass_a, fill_pass_a_cancellable, fill_pixels_cancellable, ShadingPoint};

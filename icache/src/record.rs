@@ -1,4 +1,5 @@
-//! Irradiance records: what a final gather returns ([`NewRecord`]) and what the cache stores ([`Record`]).
+//! Irradiance records: what a final gather returns ([`NewRecord`]), what the cache stores ([`Record`])
+//! and what a lookup interpolates from them ([`Lookup`]).
 #![forbid(unsafe_code)]
 
 use glam::Vec3;
@@ -110,6 +111,25 @@ impl Record {
 
 /// Number of f32 values in a serialised record.
 pub const RECORD_FLOATS: usize = 33;
+
+/// An interpolated irradiance and what it was made of.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Lookup {
+    /// RGB irradiance, every channel ≥ 0.
+    pub e: Vec3,
+    /// Number of usable records.
+    pub n_used: u32,
+    pub weight_sum: f32,
+}
+
+/// A gather's noise estimate as a record keeps it: 0 (unknown) unless finite and non-negative.
+pub(crate) fn finite_rel_err(x: f32) -> f32 {
+    if x.is_finite() && x >= 0.0 {
+        x
+    } else {
+        0.0
+    }
+}
 
 #[cfg(test)]
 mod tests {
