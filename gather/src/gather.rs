@@ -14,7 +14,7 @@ use photon::sampling::Rng;
 /// How to gather.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct GatherParams {
-    /// Requested number of rays; the strata grid ([`crate::strata_for_rays`]) traces about this many.
+    /// Requested number of rays; the strata grid (`strata_for_rays`) traces about this many.
     pub rays: usize,
 }
 
@@ -48,10 +48,10 @@ impl GatherRay {
 pub struct GatherResult {
     /// Irradiance, E = (π / MN) Σ L_jk.
     pub e: Vec3,
-    /// Rotational gradient, one world vector per colour channel: E(n') ≈ E + (n × n') · grad_r[c].
+    /// Rotational gradient, one world vector per colour channel: E(n') ≈ E + (n × n') · `grad_r[c]`.
     pub grad_r: [Vec3; 3],
     /// Translational gradient, one world vector (in the tangent plane) per colour channel:
-    /// E(p') ≈ E + (p' − p) · grad_t[c].
+    /// E(p') ≈ E + (p' − p) · `grad_t[c]`.
     pub grad_t: [Vec3; 3],
     /// Harmonic mean of the hit distances, misses counting as infinity; `INFINITY` if all missed.
     pub r_harmonic: f32,
@@ -111,7 +111,7 @@ pub fn gather(
 /// order, to the (empty) vector it is given. A caller that reads memory at the end of each ray can then
 /// trace all rays first and make the reads together, their cache misses overlapping (on Sibenik the
 /// atlas read after each ray was a tenth of the cache fill, most of it waiting for memory).
-pub fn gather_batch(
+pub(crate) fn gather_batch(
     p: Vec3,
     n: Vec3,
     params: &GatherParams,
@@ -152,8 +152,8 @@ fn round_jitter(xi: [f32; 2], round: u32) -> [f32; 2] {
     })
 }
 
-/// [`gather_batch`] as round `round` of gathers from the same `seed`: see [`round_jitter`]. Round 0 is
-/// [`gather_batch`]'s gather.
+/// `gather_batch` as round `round` of gathers from the same `seed`: see `round_jitter`. Round 0 is
+/// `gather_batch`'s gather.
 pub fn gather_batch_round(
     p: Vec3,
     n: Vec3,

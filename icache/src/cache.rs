@@ -68,7 +68,7 @@ pub(crate) struct Shrink {
 }
 
 impl Shrink {
-    pub fn of(id: u32, rec: &Record) -> Shrink {
+    pub(crate) fn of(id: u32, rec: &Record) -> Shrink {
         Shrink {
             id,
             r_harmonic: rec.r_harmonic,
@@ -109,7 +109,7 @@ impl IrradianceCache {
     /// From now on the records there are keep their radii: later insertions clamp themselves against
     /// them but shrink none of them (neighbor clamping and adaptive caching act on the later records
     /// only), so a lookup over the first [`len`](Self::len) records gives what it gives now.
-    pub fn freeze(&mut self) {
+    pub(crate) fn freeze(&mut self) {
         self.frozen = self.records.len();
     }
 
@@ -147,7 +147,7 @@ impl IrradianceCache {
     }
 
     /// Sum of the statistics of every insertion so far.
-    pub fn insert_totals(&self) -> &InsertStats {
+    pub(crate) fn insert_totals(&self) -> &InsertStats {
         &self.totals
     }
 
@@ -223,7 +223,7 @@ impl IrradianceCache {
     /// by more than the Weber fraction τ — and the most deviant of them can still shrink. Then no
     /// interpolation (the point is uncovered) and that record's id, to be shrunk by the caller.
     /// Without adaptive caching, [`lookup`](Self::lookup) with `Pass::A`.
-    pub fn lookup_adaptive(&self, p: Vec3, n: Vec3) -> (Option<Lookup>, Option<u32>) {
+    pub(crate) fn lookup_adaptive(&self, p: Vec3, n: Vec3) -> (Option<Lookup>, Option<u32>) {
         let Some(tau) = self.params.adaptive else {
             return (self.lookup(p, n, Pass::A), None);
         };
@@ -288,12 +288,14 @@ impl IrradianceCache {
     }
 
     /// The same as [`lookup`](Self::lookup) by scanning every record: the oracle for the index.
-    pub fn lookup_brute(&self, p: Vec3, n: Vec3, pass: Pass) -> Option<Lookup> {
+    #[cfg(test)]
+    pub(crate) fn lookup_brute(&self, p: Vec3, n: Vec3, pass: Pass) -> Option<Lookup> {
         self.lookup_since(p, n, pass, 0)
     }
 
-    /// Indices of the records usable at (p, n), by brute force, sorted (for tests and debugging views).
-    pub fn usable_records_brute(&self, p: Vec3, n: Vec3, pass: Pass) -> Vec<usize> {
+    /// Indices of the records usable at (p, n), by brute force, sorted.
+    #[cfg(test)]
+    pub(crate) fn usable_records_brute(&self, p: Vec3, n: Vec3, pass: Pass) -> Vec<usize> {
         (0..self.records.len())
             .filter(|&i| usable_weight(&self.params, pass, &self.records[i], p, n).is_some())
             .collect()

@@ -17,15 +17,15 @@ use crate::params::{CacheParams, Weighting};
 use crate::record::{Record, RECORD_FLOATS};
 
 const MAGIC: &[u8; 8] = b"PMICACHE";
-pub const FILE_VERSION: u32 = 3;
+pub(crate) const FILE_VERSION: u32 = 3;
 /// magic 8 + version 4 + fingerprint 8 + params 24 + bounds 24 + stage count 4 + record count 8.
 pub const HEADER_BYTES: usize = 80;
 /// Most stages a file holds (pass A and the rounds of pass B: 4, 8, 16, … samples up to 100 000).
-pub const MAX_STAGES: usize = 64;
+pub(crate) const MAX_STAGES: usize = 64;
 const RECORD_BYTES: usize = RECORD_FLOATS * 4;
 const CHECKSUM_BYTES: usize = 8;
 /// Largest cache file read: 32 million records (a cache holds thousands to a few million).
-pub const MAX_FILE_BYTES: u64 = HEADER_BYTES as u64
+pub(crate) const MAX_FILE_BYTES: u64 = HEADER_BYTES as u64
     + 4 * MAX_STAGES as u64
     + (32 << 20) * RECORD_BYTES as u64
     + CHECKSUM_BYTES as u64;
@@ -269,14 +269,8 @@ impl IrradianceCache {
         Ok(cache)
     }
 
-    /// Write the cache to a file.
-    pub fn save(&self, path: &Path, fingerprint: u64) -> Result<()> {
-        std::fs::write(path, self.to_bytes(fingerprint))?;
-        Ok(())
-    }
-
     /// Read a cache file for the scene with `fingerprint`: only a regular file (a FIFO would block, a
-    /// device never end) of at most [`MAX_FILE_BYTES`].
+    /// device never end) of at most `MAX_FILE_BYTES`.
     pub fn load(path: &Path, fingerprint: u64) -> Result<Self> {
         use std::io::Read;
         let meta = std::fs::metadata(path)?;

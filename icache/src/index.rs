@@ -41,7 +41,7 @@ impl Sphere {
 
 /// Octree of record spheres over a root cube.
 #[derive(Clone, Debug)]
-pub struct Octree {
+pub(crate) struct Octree {
     origin: Vec3,
     size: f32,
     nodes: Vec<Node>,
@@ -62,7 +62,7 @@ fn child_offset(i: usize) -> Vec3 {
 impl Octree {
     /// An empty octree whose root cube encloses [min, max] with a small margin. Non-finite or inverted
     /// bounds, or an extent that overflows, give a unit cube at the origin: records outside the cube still work, via the outside list.
-    pub fn new(min: Vec3, max: Vec3) -> Self {
+    pub(crate) fn new(min: Vec3, max: Vec3) -> Self {
         let ok = min.is_finite()
             && max.is_finite()
             && min.cmple(max).all()
@@ -101,7 +101,7 @@ impl Octree {
     }
 
     /// Reference record `id` with sphere (`center`, `radius`) from every overlapping cell at its level.
-    pub fn insert(&mut self, id: u32, center: Vec3, radius: f32) {
+    pub(crate) fn insert(&mut self, id: u32, center: Vec3, radius: f32) {
         let r = if radius.is_nan() {
             f32::INFINITY
         } else {
@@ -171,7 +171,13 @@ impl Octree {
     /// Returns the radius the record is now indexed with (the `old_radius` of its next shrink). On
     /// Sibenik neighbor clamping shrinks most records after insertion: with the entries left in their
     /// first cells a pass-A lookup scanned 111 spheres to find 11 containing the point.
-    pub fn shrink(&mut self, id: u32, center: Vec3, old_radius: f32, new_radius: f32) -> f32 {
+    pub(crate) fn shrink(
+        &mut self,
+        id: u32,
+        center: Vec3,
+        old_radius: f32,
+        new_radius: f32,
+    ) -> f32 {
         let r = if old_radius.is_nan() {
             f32::INFINITY
         } else {
@@ -252,14 +258,14 @@ impl Octree {
 
     /// Call `f` with every record whose sphere contains `p` (with its radius as last shrunk: a superset
     /// of the records usable there; each id at most once).
-    pub fn for_each_candidate(&self, p: Vec3, f: impl FnMut(u32)) {
+    pub(crate) fn for_each_candidate(&self, p: Vec3, f: impl FnMut(u32)) {
         self.for_each_candidate_within(p, 1.0, f)
     }
 
     /// [`for_each_candidate`](Self::for_each_candidate) with every sphere's radius scaled by `scale` ≤ 1:
     /// a lookup whose records reach less far than the index holds them (pass A: a·R' where the index
     /// holds pass B's reach) rejects the others here, without reading their records.
-    pub fn for_each_candidate_within(&self, p: Vec3, scale: f32, mut f: impl FnMut(u32)) {
+    pub(crate) fn for_each_candidate_within(&self, p: Vec3, scale: f32, mut f: impl FnMut(u32)) {
         if !self.in_root(p) {
             self.outside.iter().for_each(|&id| f(id));
             return;
@@ -289,7 +295,7 @@ impl Octree {
     /// Ids of every record whose sphere may overlap the sphere (`c`, `r`), in the index's order, an id
     /// once per cell that holds it (neighbor clamping takes minima, which repeats do not change; sorting
     /// them away was a fifth of the serial insertion).
-    pub fn query_sphere(&self, c: Vec3, r: f32, out: &mut Vec<u32>) {
+    pub(crate) fn query_sphere(&self, c: Vec3, r: f32, out: &mut Vec<u32>) {
         out.clear();
         out.extend_from_slice(&self.outside);
         if c.is_finite() && !r.is_nan() {
@@ -318,15 +324,11 @@ impl Octree {
     }
 
     /// Heap bytes held by the index.
-    pub fn memory_bytes(&self) -> usize {
+    pub(crate) fn memory_bytes(&self) -> usize {
         let spheres: usize = self.nodes.iter().map(|n| n.spheres.capacity()).sum();
         self.nodes.capacity() * std::mem::size_of::<Node>()
             + spheres * std::mem::size_of::<Sphere>()
             + self.outside.capacity() * 4
-    }
-
-    pub fn n_nodes(&self) -> usize {
-        self.nodes.len()
     }
 }
 

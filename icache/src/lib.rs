@@ -4,22 +4,23 @@
 //! The cache knows positions, normals, irradiance and gradients only; the caller supplies shading points
 //! and final gathers as closures.
 #![forbid(unsafe_code)]
+#![warn(unreachable_pub)]
 
-pub mod cache;
-pub mod error;
+mod cache;
+mod error;
 pub mod file;
-pub mod index;
+mod index;
 mod insert;
 pub mod media;
-pub mod onepass;
+mod onepass;
 pub mod order;
 pub mod params;
 mod point_grid;
 pub mod record;
 mod report;
 pub mod stats;
-pub mod twopass;
-pub mod weight;
+mod twopass;
+mod weight;
 
 #[cfg(test)]
 mod cache_tests;

@@ -29,14 +29,14 @@ pub enum Pass {
     A,
     B,
     /// Pass B's fallback where no record interpolates: the same reach, but the normal term waived down to
-    /// [`EXTRAPOLATE_MIN_COS`]. At the silhouette of a curved surface the normal turns by tens of degrees
+    /// `EXTRAPOLATE_MIN_COS`. At the silhouette of a curved surface the normal turns by tens of degrees
     /// within a pixel, past what any record of the pixel lattice allows; such samples were most of the
     /// pass-B misses, each a full gather.
     Extrapolate,
 }
 
 /// The least cosine between a record's normal and the query's that [`Pass::Extrapolate`] accepts (60°).
-pub const EXTRAPOLATE_MIN_COS: f32 = 0.5;
+pub(crate) const EXTRAPOLATE_MIN_COS: f32 = 0.5;
 
 /// Irradiance cache settings.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -54,7 +54,7 @@ pub struct CacheParams {
     pub max_spacing_px: f32,
     /// Ward's `a` for pass B; `None` means the pass-A value. Default `Some(0.75)` (κ = 2/3).
     pub pass_b_accuracy: Option<f32>,
-    /// Adaptive caching (Křivánek et al. 2006): `Some(τ)` starts every record with [`ADAPTIVE_START`]
+    /// Adaptive caching (Křivánek et al. 2006): `Some(τ)` starts every record with `ADAPTIVE_START`
     /// times its reach and halves a record's reach (down to the plain one) where the records usable at a
     /// pass-A point disagree by more than the Weber fraction τ of their mean luminance; `None` is off.
     pub adaptive: Option<f32>,
@@ -62,12 +62,12 @@ pub struct CacheParams {
 
 /// Reach of a new record under adaptive caching, as a multiple of its plain reach (R' and both pixel
 /// spacing bounds).
-pub const ADAPTIVE_START: f32 = 2.0;
+pub(crate) const ADAPTIVE_START: f32 = 2.0;
 /// Pass B's default `a` as a multiple of pass A's: records reach 1.5 times as far when shading as when
 /// filling.
 pub const PASS_B_REACH: f32 = 1.5;
 /// Default `accuracy` (pass A's `a`).
-pub const DEFAULT_ACCURACY: f32 = 0.5;
+pub(crate) const DEFAULT_ACCURACY: f32 = 0.5;
 /// Default Weber threshold of adaptive caching (`[render.icache] adaptive_threshold`).
 pub const DEFAULT_WEBER: f32 = 0.1;
 
@@ -128,7 +128,7 @@ impl CacheParams {
     }
 
     /// Ward's `a` for a pass.
-    pub fn a(&self, pass: Pass) -> f32 {
+    pub(crate) fn a(&self, pass: Pass) -> f32 {
         match pass {
             Pass::A => self.accuracy,
             Pass::B | Pass::Extrapolate => self.pass_b_accuracy.unwrap_or(self.accuracy),
@@ -136,12 +136,12 @@ impl CacheParams {
     }
 
     /// Tabellion–Lamorlette κ for a pass: κ = 1/(2a).
-    pub fn kappa(&self, pass: Pass) -> f32 {
+    pub(crate) fn kappa(&self, pass: Pass) -> f32 {
         0.5 / self.a(pass)
     }
 
     /// How far a record reaches on its tangent plane, as a multiple of R'ᵢ, in the loosest pass.
-    pub fn support_factor(&self) -> f32 {
+    pub(crate) fn support_factor(&self) -> f32 {
         // Ward: d < a R'; TL: d < R'/(2κ) = a R'. The same by construction of κ.
         self.a(Pass::A).max(self.a(Pass::B))
     }
@@ -149,7 +149,7 @@ impl CacheParams {
     /// Radius factor the spatial index uses: the support, and at least R' itself because neighbor
     /// clamping looks for records whose R' spheres overlap.
     /// Reach multiple of a new record: [`ADAPTIVE_START`] under adaptive caching, else 1.
-    pub fn start_scale(&self) -> f32 {
+    pub(crate) fn start_scale(&self) -> f32 {
         if self.adaptive.is_some() {
             ADAPTIVE_START
         } else {
@@ -157,7 +157,7 @@ impl CacheParams {
         }
     }
 
-    pub fn index_factor(&self) -> f32 {
+    pub(crate) fn index_factor(&self) -> f32 {
         self.support_factor().max(1.0)
     }
 }

@@ -25,7 +25,7 @@ pub(crate) struct PointGrid {
 
 impl PointGrid {
     /// A grid of cells of side `cell` over `positions` (non-finite positions are never found).
-    pub fn new(positions: Vec<Vec3>, cell: f32) -> PointGrid {
+    pub(crate) fn new(positions: Vec<Vec3>, cell: f32) -> PointGrid {
         let finite = positions.iter().filter(|p| p.is_finite());
         let origin = finite
             .clone()
@@ -74,7 +74,7 @@ impl PointGrid {
 
     /// Call `f` with the index of every point within `r` of `c` (with a relative slack of 1e-5, so that
     /// rounding never drops a point at the border: the caller's exact test decides), each once.
-    pub fn for_each_within(&self, c: Vec3, r: f32, mut f: impl FnMut(u32)) {
+    pub(crate) fn for_each_within(&self, c: Vec3, r: f32, mut f: impl FnMut(u32)) {
         if !(c.is_finite() && r >= 0.0) {
             return;
         }

@@ -110,7 +110,7 @@ impl Record {
 }
 
 /// Number of f32 values in a serialised record.
-pub const RECORD_FLOATS: usize = 33;
+pub(crate) const RECORD_FLOATS: usize = 33;
 
 /// An interpolated irradiance and what it was made of.
 #[derive(Clone, Copy, Debug, PartialEq)]

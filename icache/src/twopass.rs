@@ -48,13 +48,13 @@ const WAVE_GATHERS: usize = 64;
 /// Repair sweeps after the hierarchical pass; each one typically inserts a handful of records.
 const MAX_REPAIR_SWEEPS: u64 = 8;
 
-pub type ShadingPointsFn<'a> = dyn Fn(u32, u32) -> Vec<ShadingPoint> + Sync + 'a;
-pub type GatherFn<'a> = dyn Fn(u32, u32, usize, &ShadingPoint) -> NewRecord + Sync + 'a;
-pub type ProgressFn<'a> = dyn Fn(u64, u64) + Sync + 'a;
+pub(crate) type ShadingPointsFn<'a> = dyn Fn(u32, u32) -> Vec<ShadingPoint> + Sync + 'a;
+pub(crate) type GatherFn<'a> = dyn Fn(u32, u32, usize, &ShadingPoint) -> NewRecord + Sync + 'a;
+pub(crate) type ProgressFn<'a> = dyn Fn(u64, u64) + Sync + 'a;
 /// The shading points of pixel (x, y), each with the caller's payload for its gather.
-pub type PointsWithFn<'a, P> = dyn Fn(u32, u32) -> Vec<(ShadingPoint, P)> + Sync + 'a;
+pub(crate) type PointsWithFn<'a, P> = dyn Fn(u32, u32) -> Vec<(ShadingPoint, P)> + Sync + 'a;
 /// The gather at point `i` of pixel (x, y), given its payload: the record and the caller's statistics.
-pub type GatherWithFn<'a, P, S> =
+pub(crate) type GatherWithFn<'a, P, S> =
     dyn Fn(u32, u32, usize, &ShadingPoint, &P) -> (NewRecord, S) + Sync + 'a;
 
 /// Caller statistics for the closures without any ([`fill_pass_a`], [`crate::fill_one_pass`]).
@@ -163,7 +163,7 @@ pub fn fill_pass_a_cancellable<P: Clone + Send + Sync, S: Default + AddAssign + 
 /// More records where shading found none: the shading points of `pixels` (in any order; visited in the
 /// hierarchical order, so their gathers spread over the image) filled as pass A fills the image's —
 /// looked up, gathered where uncovered, in waves, then repaired — against the cache as it is, whose
-/// records are [frozen](IrradianceCache::freeze) first (the new ones shrink none of them, so no point
+/// records are frozen first (the new ones shrink none of them, so no point
 /// they covered loses its cover). Between rounds of shading (`pm`'s pass B), with the points its samples
 /// missed; deterministic as pass A is.
 pub fn fill_pixels_cancellable<P: Clone + Send + Sync, S: Default + AddAssign + Send>(

@@ -30,7 +30,7 @@ use crate::precomputed::{IrradiancePoint, PrecomputedIrradiance};
 use crate::trace::{PhotonMaps, PhotonTargets, TraceStats};
 
 pub const MAGIC: [u8; 8] = *b"PMPHOTON";
-pub const VERSION: u32 = 5;
+pub(crate) const VERSION: u32 = 5;
 /// The header of a version-5 file; a version-4 one is [`HEADER_BYTES_V4`].
 const HEADER_BYTES: usize = 160;
 const HEADER_BYTES_V4: usize = 112;

@@ -2,13 +2,14 @@
 //! density estimates and precomputed irradiance.
 //!
 //! `flann` is the only module with `unsafe` (FFI); every other module forbids it.
+#![warn(unreachable_pub)]
 pub mod defaults;
-pub mod error;
+mod error;
 pub mod file;
-pub mod flann;
+mod flann;
 pub mod map;
-pub mod pointtree;
-pub mod precomputed;
+mod pointtree;
+mod precomputed;
 pub mod reach;
 pub mod sampling;
 pub mod trace;

@@ -22,7 +22,7 @@ use crate::error::Result;
 use crate::flann::{KdTree, Neighbor};
 
 /// Photons farther than this fraction of the search radius from the tangent plane are not counted.
-pub const DISC_HALF_THICKNESS: f32 = 0.2;
+pub(crate) const DISC_HALF_THICKNESS: f32 = 0.2;
 /// A photon counts only where its surface normal is within ~60° of the query's (cos > 0.5).
 pub const MIN_NORMAL_COS: f32 = 0.5;
 
@@ -168,7 +168,7 @@ impl PhotonMap {
 
     /// [`irradiance`](Self::irradiance) and [`irradiance_indirect`](Self::irradiance_indirect) from one
     /// search: `(full, indirect only)`.
-    pub fn irradiance_and_indirect(
+    pub(crate) fn irradiance_and_indirect(
         &self,
         p: Vec3,
         n: Vec3,

@@ -23,7 +23,7 @@ enum Node {
 
 /// An exact kd-tree over a fixed point set; point ids are their indices in the slice given to `build`.
 #[derive(Clone, Debug, Default)]
-pub struct PointTree {
+pub(crate) struct PointTree {
     nodes: Vec<Node>,
     /// Points in tree order.
     points: Vec<Vec3>,
@@ -33,7 +33,7 @@ pub struct PointTree {
 
 impl PointTree {
     /// Builds the tree (median splits on the widest axis). Non-finite points are left out.
-    pub fn build(points: &[Vec3]) -> PointTree {
+    pub(crate) fn build(points: &[Vec3]) -> PointTree {
         let mut order: Vec<u32> = (0..points.len() as u32)
             .filter(|&i| points[i as usize].is_finite())
             .collect();
@@ -93,15 +93,12 @@ impl PointTree {
         };
     }
 
-    pub fn len(&self) -> usize {
+    #[cfg(test)]
+    fn len(&self) -> usize {
         self.points.len()
     }
 
-    pub fn is_empty(&self) -> bool {
-        self.points.is_empty()
-    }
-
-    pub fn memory_bytes(&self) -> usize {
+    pub(crate) fn memory_bytes(&self) -> usize {
         self.nodes.capacity() * std::mem::size_of::<Node>()
             + self.points.capacity() * 12
             + self.ids.capacity() * 4
@@ -110,7 +107,7 @@ impl PointTree {
     /// The id and squared distance of the nearest point strictly closer than `max_radius` to `q` for which
     /// `accept(id)` holds; among equally distant points the smallest id. `accept` is called only for points
     /// closer than the best accepted so far.
-    pub fn nearest_where(
+    pub(crate) fn nearest_where(
         &self,
         q: Vec3,
         max_radius: f32,
@@ -132,7 +129,7 @@ impl PointTree {
 
     /// The `k` nearest points strictly closer than `max_radius`, as (id, squared distance) sorted by
     /// distance then id, into `out` (cleared first).
-    pub fn knn(&self, q: Vec3, k: usize, max_radius: f32, out: &mut Vec<(u32, f32)>) {
+    pub(crate) fn knn(&self, q: Vec3, k: usize, max_radius: f32, out: &mut Vec<(u32, f32)>) {
         out.clear();
         if k == 0 {
             return;

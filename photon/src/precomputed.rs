@@ -17,12 +17,10 @@ use crate::map::{Coverage, PhotonMap};
 use crate::pointtree::PointTree;
 use crate::sampling::mix64;
 
-/// Default spacing: one irradiance point per this many global photons.
-pub const DEFAULT_EVERY: usize = 4;
 /// Candidates examined per lookup for a compatible point.
-pub const LOOKUP_CANDIDATES: usize = 8;
+pub(crate) const LOOKUP_CANDIDATES: usize = 8;
 /// A point is usable where its normal is within ~45° of the query's.
-pub const MIN_NORMAL_COS: f32 = 0.7;
+pub(crate) const MIN_NORMAL_COS: f32 = 0.7;
 
 /// One irradiance sample.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -150,7 +148,7 @@ impl PrecomputedIrradiance {
     }
 
     /// Wraps already computed points (e.g. read from a file).
-    pub fn from_points(points: Vec<IrradiancePoint>, max_radius: f32) -> Result<Self> {
+    pub(crate) fn from_points(points: Vec<IrradiancePoint>, max_radius: f32) -> Result<Self> {
         let positions: Vec<Vec3> = points.iter().map(|p| p.pos).collect();
         let tree = PointTree::build(&positions);
         Ok(PrecomputedIrradiance {
@@ -168,8 +166,8 @@ impl PrecomputedIrradiance {
         self.max_radius
     }
 
-    /// The nearest point that is [compatible](Self::compatible) with the query among the
-    /// [`LOOKUP_CANDIDATES`] nearest within the max radius; `None` if there is none. (Searching the whole
+    /// The nearest point that is compatible with the query among the
+    /// `LOOKUP_CANDIDATES` nearest within the max radius; `None` if there is none. (Searching the whole
     /// radius for a compatible point reaches through thin closed objects: the stability suite's sealed box
     /// leaked more light that way.)
     pub fn lookup(&self, p: Vec3, n: Vec3) -> Option<&IrradiancePoint> {

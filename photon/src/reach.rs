@@ -17,7 +17,7 @@ pub struct ReachGrid {
 /// A multiplicative hash of the three cell coordinates: the default SipHash cost 3 % of a Sibenik
 /// render in the 27 probes of every shading sample.
 #[derive(Default)]
-pub struct CellHasher(u64);
+pub(crate) struct CellHasher(u64);
 
 impl Hasher for CellHasher {
     fn write(&mut self, bytes: &[u8]) {

@@ -2,7 +2,7 @@
 //! in the global map (every non-specular hit) and the caustic map (first non-specular hit of an
 //! L S+ D path).
 //!
-//! Determinism: path `i` draws its numbers from `halton(i, dim, seed)` for the first [`HALTON_DIMS`]
+//! Determinism: path `i` draws its numbers from `halton(i, dim, seed)` for the first `HALTON_DIMS`
 //! dimensions (emission 0..5, then 4 per bounce: 3 for `scatter`, 1 for roulette) and from
 //! `Rng::new(hash_keys(&[seed, i]))` beyond. Paths run in parallel in fixed-size batches and are merged
 //! in path order; each map takes whole paths until it holds its target, so the maps are a function of
@@ -23,7 +23,7 @@ use crate::sampling::{halton, hash_keys, Rng};
 /// Bounces after which a path is cut (its remaining power is lost; counted in the stats).
 pub const MAX_DEPTH: u32 = 64;
 /// Dimensions taken from the Halton sequence: emission (5) and the first two bounces (4 each).
-pub const HALTON_DIMS: usize = 13;
+pub(crate) const HALTON_DIMS: usize = 13;
 /// Paths per batch: the granularity at which the driver checks the targets and reports progress.
 const BATCH_PATHS: u64 = 16_384;
 /// Paths per parallel work item.
@@ -185,9 +185,9 @@ pub struct TraceStats {
     pub n_paths_dropped: u64,
     /// Paths cut at [`MAX_DEPTH`].
     pub n_paths_depth_capped: u64,
-    /// 1 when the caustic map stopped short of its target at [`CAUSTIC_PATH_BUDGET`].
+    /// 1 when the caustic map stopped short of its target at `CAUSTIC_PATH_BUDGET`.
     pub n_caustic_cut: u64,
-    /// 1 when the global or the volume map stopped short of its target at [`MEDIA_PATH_BUDGET`].
+    /// 1 when the global or the volume map stopped short of its target at `MEDIA_PATH_BUDGET`.
     pub n_media_cut: u64,
     pub trace_s: f64,
     pub global_build_s: f64,
@@ -237,7 +237,7 @@ pub fn trace_photons<S: PhotonScene + ?Sized>(
 }
 
 /// [`trace_photons`] that stops with [`Error::Cancelled`] soon after `cancel` is set: it is read before
-/// every chunk of [`CHUNK_PATHS`] paths and before each kd-tree build.
+/// every chunk of `CHUNK_PATHS` paths and before each kd-tree build.
 pub fn trace_photons_cancellable<S: PhotonScene + ?Sized>(
     scene: &S,
     targets: &PhotonTargets,
@@ -407,7 +407,7 @@ fn build_map(photons: Option<Vec<Photon>>) -> Result<(Option<PhotonMap>, f64)> {
 
 /// A map while it fills: it takes whole paths until it holds `target` photons.
 /// Paths after which a pass that has stored nothing at all stops (`NothingStored`).
-pub const GIVE_UP_EMPTY_PATHS: u64 = 200_000;
+pub(crate) const GIVE_UP_EMPTY_PATHS: u64 = 200_000;
 
 /// Stops `b` (returns 1) when `a` is full and `b` has had its media path budget by `path`.
 fn media_cut(a: &Filling, b: &mut Filling, path: u64) -> u64 {
@@ -425,14 +425,14 @@ fn media_cut(a: &Filling, b: &mut Filling, path: u64) -> u64 {
 
 /// In scenes with media: paths the global or the volume map may take once the other is full, as a
 /// multiple of the paths that filled it …
-pub const MEDIA_PATH_BUDGET: u64 = 10;
+pub(crate) const MEDIA_PATH_BUDGET: u64 = 10;
 /// … but never fewer than this many.
-pub const MEDIA_MIN_PATHS: u64 = 200_000;
+pub(crate) const MEDIA_MIN_PATHS: u64 = 200_000;
 
 /// Paths the caustic map may take, as a multiple of the paths that filled the global map …
-pub const CAUSTIC_PATH_BUDGET: u64 = 10;
+pub(crate) const CAUSTIC_PATH_BUDGET: u64 = 10;
 /// … but never fewer than this many.
-pub const CAUSTIC_MIN_PATHS: u64 = 2_000_000;
+pub(crate) const CAUSTIC_MIN_PATHS: u64 = 2_000_000;
 
 struct Filling {
     photons: Vec<Photon>,
