@@ -10,6 +10,7 @@ use crate::gradient::{self, Grid};
 use crate::strata::{Frame, Strata, DEFAULT_RAYS};
 use glam::{DVec3, Vec3};
 use photon::sampling::Rng;
+use pmbase::luminance;
 
 /// How to gather.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -84,12 +85,6 @@ fn paired_rel_err(lum: &[f64], n: usize) -> f32 {
     // An odd row's last stratum is unpaired: scale the pairs' variance up to all strata.
     let var = var * lum.len() as f64 / paired.max(1) as f64;
     (var.sqrt() / total) as f32
-}
-
-/// Rec. 709 luminance.
-#[inline]
-fn luminance(c: Vec3) -> f32 {
-    c.dot(Vec3::new(0.2126, 0.7152, 0.0722))
 }
 
 /// Gathers at `p` with unit normal `n`. One jitter pair per stratum is drawn, row by row, from

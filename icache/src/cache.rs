@@ -3,6 +3,7 @@
 #![forbid(unsafe_code)]
 
 use glam::Vec3;
+use pmbase::luminance;
 
 use crate::error::{Error, Result};
 use crate::index::Octree;
@@ -10,11 +11,6 @@ use crate::params::{CacheParams, Pass};
 use crate::record::{finite_rel_err, Lookup, NewRecord, Record};
 use crate::stats::InsertStats;
 use crate::weight::usable_weight;
-
-/// Rec. 709 luminance.
-fn luminance(c: Vec3) -> f32 {
-    c.dot(Vec3::new(0.2126, 0.7152, 0.0722))
-}
 
 /// Weighted sum over usable records.
 #[derive(Default)]
