@@ -1,7 +1,9 @@
 //! Photon pass: emission and tracing of photons, global and caustic photon maps over FLANN kd-trees,
 //! density estimates and precomputed irradiance.
 //!
-//! `flann` is the only module with `unsafe` (FFI); every other module forbids it.
+//! `flann` is the only module with `unsafe` (FFI): the crate denies it, `flann` alone allows it, and
+//! every other module forbids it.
+#![deny(unsafe_code)]
 #![warn(unreachable_pub)]
 pub mod defaults;
 mod error;

@@ -2,6 +2,7 @@
 //!
 //! Every sample stream in the renderer is derived from `(seed, index, dimension)` so that results do not
 //! depend on how work is split between threads.
+#![forbid(unsafe_code)]
 
 /// A 64-bit mix (SplitMix64 finaliser): decorrelates structured keys such as `(seed, pixel, sample)`.
 #[inline]

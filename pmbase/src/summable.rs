@@ -1,4 +1,5 @@
 //! [`summable!`](crate::summable): statistics structs whose `AddAssign` adds each field to itself.
+#![forbid(unsafe_code)]
 
 /// Defines a statistics struct together with an `AddAssign` that adds every field of the other value to
 /// the same field (`self.f += other.f` for each field, in declaration order), so that per-thread
