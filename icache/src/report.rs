@@ -1,40 +1,40 @@
-//! The cache's part of the render report: a summary of the cache and of the fill and shading that used it.
+//! The cache's part of the render report: the cache and the fill and shading that used it.
 #![forbid(unsafe_code)]
-
-use std::ops::AddAssign;
 
 use crate::cache::IrradianceCache;
 use crate::stats::{FillStats, LookupStats, RadiusHistogram};
 
-/// The cache's part of the render report.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct CacheStats {
-    pub n_records: u64,
-    pub records_pass_a: u64,
-    /// Records created after the fill (lazily, by `get_or_insert_with`); 0 in a proper two-pass render.
-    pub records_pass_b: u64,
-    pub lookups: u64,
-    /// Pass-B lookups (one per shading sample on a surface with a diffuse part).
-    pub lookups_pass_b: u64,
-    pub misses_pass_b: u64,
-    /// Pass-B lookups answered by a single record.
-    pub single_record_pass_b: u64,
-    /// Pass-B misses answered by extrapolation across normals, and those that needed a full gather.
-    pub extrapolated_pass_b: u64,
-    pub gathered_pass_b: u64,
-    /// Pass-B lookups answered by an earlier sample of the pixel on the same surface.
-    pub reused_pass_b: u64,
-    /// Lookups that found a usable record, and the sum of usable records over them.
-    pub n_hits: u64,
-    pub n_records_used: u64,
-    pub radius_px: RadiusHistogram,
-    pub shrunk_by_clamping: u64,
-    pub shrunk_by_gradient: u64,
-    /// Halvings of R' by adaptive caching.
-    pub shrunk_adaptive: u64,
-    pub clamped_min: u64,
-    pub clamped_max: u64,
-    pub memory_bytes: u64,
+pmbase::summable! {
+    /// The cache's part of the render report.
+    #[derive(Clone, Copy, Debug, PartialEq)]
+    pub struct CacheStats {
+        pub n_records: u64,
+        pub records_pass_a: u64,
+        /// Records created after the fill (lazily, by `get_or_insert_with`); 0 in a proper two-pass render.
+        pub records_pass_b: u64,
+        pub lookups: u64,
+        /// Pass-B lookups (one per shading sample on a surface with a diffuse part).
+        pub lookups_pass_b: u64,
+        pub misses_pass_b: u64,
+        /// Pass-B lookups answered by a single record.
+        pub single_record_pass_b: u64,
+        /// Pass-B misses answered by extrapolation across normals, and those that needed a full gather.
+        pub extrapolated_pass_b: u64,
+        pub gathered_pass_b: u64,
+        /// Pass-B lookups answered by an earlier sample of the pixel on the same surface.
+        pub reused_pass_b: u64,
+        /// Lookups that found a usable record, and the sum of usable records over them.
+        pub n_hits: u64,
+        pub n_records_used: u64,
+        pub radius_px: RadiusHistogram,
+        pub shrunk_by_clamping: u64,
+        pub shrunk_by_gradient: u64,
+        /// Halvings of R' by adaptive caching.
+        pub shrunk_adaptive: u64,
+        pub clamped_min: u64,
+        pub clamped_max: u64,
+        pub memory_bytes: u64,
+    }
 }
 
 impl CacheStats {
@@ -80,29 +80,5 @@ impl CacheStats {
         } else {
             self.n_records_used as f64 / self.n_hits as f64
         }
-    }
-}
-
-impl AddAssign for CacheStats {
-    fn add_assign(&mut self, o: Self) {
-        self.n_records += o.n_records;
-        self.records_pass_a += o.records_pass_a;
-        self.records_pass_b += o.records_pass_b;
-        self.lookups += o.lookups;
-        self.lookups_pass_b += o.lookups_pass_b;
-        self.misses_pass_b += o.misses_pass_b;
-        self.reused_pass_b += o.reused_pass_b;
-        self.single_record_pass_b += o.single_record_pass_b;
-        self.extrapolated_pass_b += o.extrapolated_pass_b;
-        self.gathered_pass_b += o.gathered_pass_b;
-        self.n_hits += o.n_hits;
-        self.n_records_used += o.n_records_used;
-        self.radius_px += o.radius_px;
-        self.shrunk_by_clamping += o.shrunk_by_clamping;
-        self.shrunk_by_gradient += o.shrunk_by_gradient;
-        self.shrunk_adaptive += o.shrunk_adaptive;
-        self.clamped_min += o.clamped_min;
-        self.clamped_max += o.clamped_max;
-        self.memory_bytes += o.memory_bytes;
     }
 }

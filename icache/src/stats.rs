@@ -5,54 +5,45 @@ use std::ops::AddAssign;
 
 use crate::record::Lookup;
 
-/// What happened to records on insertion (summed over insertions).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct InsertStats {
-    pub n_inserted: u64,
-    /// Rejected: non-finite position or normal, zero normal, or a non-positive pixel footprint.
-    pub n_rejected: u64,
-    /// Inputs with NaN/Inf/negative irradiance, gradients or distance that were repaired.
-    pub n_sanitized: u64,
-    /// New records whose R the gradient limit R ≤ E/|∇t E| lowered.
-    pub n_shrunk_by_gradient: u64,
-    /// Records (new or existing) whose R neighbor clamping lowered, counted once per insertion.
-    pub n_shrunk_by_neighbors: u64,
-    /// New records whose R was below R_min (R' = R_min) or above R_max (R' = R_max).
-    pub n_clamped_min: u64,
-    pub n_clamped_max: u64,
-    /// Halvings of a record's R' by adaptive caching (records disagreeing at a pass-A point).
-    pub n_shrunk_adaptive: u64,
-}
-
-impl AddAssign for InsertStats {
-    fn add_assign(&mut self, o: Self) {
-        self.n_inserted += o.n_inserted;
-        self.n_rejected += o.n_rejected;
-        self.n_sanitized += o.n_sanitized;
-        self.n_shrunk_by_gradient += o.n_shrunk_by_gradient;
-        self.n_shrunk_by_neighbors += o.n_shrunk_by_neighbors;
-        self.n_clamped_min += o.n_clamped_min;
-        self.n_clamped_max += o.n_clamped_max;
-        self.n_shrunk_adaptive += o.n_shrunk_adaptive;
+pmbase::summable! {
+    /// What happened to records on insertion (summed over insertions).
+    #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+    pub struct InsertStats {
+        pub n_inserted: u64,
+        /// Rejected: non-finite position or normal, zero normal, or a non-positive pixel footprint.
+        pub n_rejected: u64,
+        /// Inputs with NaN/Inf/negative irradiance, gradients or distance that were repaired.
+        pub n_sanitized: u64,
+        /// New records whose R the gradient limit R ≤ E/|∇t E| lowered.
+        pub n_shrunk_by_gradient: u64,
+        /// Records (new or existing) whose R neighbor clamping lowered, counted once per insertion.
+        pub n_shrunk_by_neighbors: u64,
+        /// New records whose R was below R_min (R' = R_min) or above R_max (R' = R_max).
+        pub n_clamped_min: u64,
+        pub n_clamped_max: u64,
+        /// Halvings of a record's R' by adaptive caching (records disagreeing at a pass-A point).
+        pub n_shrunk_adaptive: u64,
     }
 }
 
-/// Lookups made by a caller (pass B): fold per thread and merge.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct LookupStats {
-    pub n_lookups: u64,
-    pub n_misses: u64,
-    /// Lookups answered by a single record: extrapolated, not interpolated (the blotches of a sparse cache).
-    pub n_single_record: u64,
-    /// Misses answered by records whose normal differs more than interpolation allows (`Pass::Extrapolate`).
-    pub n_extrapolated: u64,
-    /// Misses that no record could answer: the caller gathered for the sample alone.
-    pub n_gathered: u64,
-    /// Sum over lookups of the usable records used.
-    pub n_records_used: u64,
-    /// Of the lookups, those the caller answered from an earlier sample of the same pixel on the same
-    /// surface (counted as that sample's lookup was: hit, miss, extrapolated, …).
-    pub n_reused: u64,
+pmbase::summable! {
+    /// Lookups made by a caller (pass B): fold per thread and merge.
+    #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+    pub struct LookupStats {
+        pub n_lookups: u64,
+        pub n_misses: u64,
+        /// Lookups answered by a single record: extrapolated, not interpolated (the blotches of a sparse cache).
+        pub n_single_record: u64,
+        /// Misses answered by records whose normal differs more than interpolation allows (`Pass::Extrapolate`).
+        pub n_extrapolated: u64,
+        /// Misses that no record could answer: the caller gathered for the sample alone.
+        pub n_gathered: u64,
+        /// Sum over lookups of the usable records used.
+        pub n_records_used: u64,
+        /// Of the lookups, those the caller answered from an earlier sample of the same pixel on the same
+        /// surface (counted as that sample's lookup was: hit, miss, extrapolated, …).
+        pub n_reused: u64,
+    }
 }
 
 impl LookupStats {
@@ -84,18 +75,6 @@ impl LookupStats {
             }
             None => self.n_misses += 1,
         }
-    }
-}
-
-impl AddAssign for LookupStats {
-    fn add_assign(&mut self, o: Self) {
-        self.n_lookups += o.n_lookups;
-        self.n_reused += o.n_reused;
-        self.n_misses += o.n_misses;
-        self.n_single_record += o.n_single_record;
-        self.n_extrapolated += o.n_extrapolated;
-        self.n_gathered += o.n_gathered;
-        self.n_records_used += o.n_records_used;
     }
 }
 

@@ -5,7 +5,6 @@
 #![forbid(unsafe_code)]
 
 use std::cell::RefCell;
-use std::ops::AddAssign;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
@@ -37,21 +36,14 @@ pub struct IrradiancePoint {
     pub half_thickness: f32,
 }
 
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct PrecomputeStats {
-    pub n_points: u64,
-    /// Points whose estimate hit the maximum radius (sparse regions).
-    pub n_hit_max_radius: u64,
-    pub build_s: f64,
-    pub memory_bytes: u64,
-}
-
-impl AddAssign for PrecomputeStats {
-    fn add_assign(&mut self, o: PrecomputeStats) {
-        self.n_points += o.n_points;
-        self.n_hit_max_radius += o.n_hit_max_radius;
-        self.build_s += o.build_s;
-        self.memory_bytes += o.memory_bytes;
+pmbase::summable! {
+    #[derive(Clone, Debug, Default, PartialEq)]
+    pub struct PrecomputeStats {
+        pub n_points: u64,
+        /// Points whose estimate hit the maximum radius (sparse regions).
+        pub n_hit_max_radius: u64,
+        pub build_s: f64,
+        pub memory_bytes: u64,
     }
 }
 

@@ -9,7 +9,6 @@
 //! `(scene, targets, seed)` only, whatever the thread count.
 #![forbid(unsafe_code)]
 
-use std::ops::AddAssign;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
@@ -169,59 +168,35 @@ pub struct PhotonMaps {
     pub volume_caustic: Option<PhotonMap>,
 }
 
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct TraceStats {
-    pub n_paths_emitted: u64,
-    /// Paths over which each map's power is normalised (emitted while the map was filling).
-    pub n_global_paths: u64,
-    pub n_caustic_paths: u64,
-    pub n_global_stored: u64,
-    pub n_caustic_stored: u64,
-    pub n_volume_paths: u64,
-    pub n_volume_stored: u64,
-    pub n_volume_caustic_paths: u64,
-    pub n_volume_caustic_stored: u64,
-    /// Paths abandoned on a non-finite or negative power, direction or hit (should stay ~0).
-    pub n_paths_dropped: u64,
-    /// Paths cut at [`MAX_DEPTH`].
-    pub n_paths_depth_capped: u64,
-    /// 1 when the caustic map stopped short of its target at `CAUSTIC_PATH_BUDGET`.
-    pub n_caustic_cut: u64,
-    /// 1 when the global or the volume map stopped short of its target at `MEDIA_PATH_BUDGET`.
-    pub n_media_cut: u64,
-    pub trace_s: f64,
-    pub global_build_s: f64,
-    pub caustic_build_s: f64,
-    pub volume_build_s: f64,
-    pub global_memory_bytes: u64,
-    pub caustic_memory_bytes: u64,
-    pub volume_memory_bytes: u64,
-    pub volume_caustic_memory_bytes: u64,
-}
-
-impl AddAssign for TraceStats {
-    fn add_assign(&mut self, o: TraceStats) {
-        self.n_paths_emitted += o.n_paths_emitted;
-        self.n_global_paths += o.n_global_paths;
-        self.n_caustic_paths += o.n_caustic_paths;
-        self.n_global_stored += o.n_global_stored;
-        self.n_caustic_stored += o.n_caustic_stored;
-        self.n_volume_paths += o.n_volume_paths;
-        self.n_volume_stored += o.n_volume_stored;
-        self.n_volume_caustic_paths += o.n_volume_caustic_paths;
-        self.n_volume_caustic_stored += o.n_volume_caustic_stored;
-        self.n_paths_dropped += o.n_paths_dropped;
-        self.n_paths_depth_capped += o.n_paths_depth_capped;
-        self.n_caustic_cut += o.n_caustic_cut;
-        self.n_media_cut += o.n_media_cut;
-        self.trace_s += o.trace_s;
-        self.global_build_s += o.global_build_s;
-        self.caustic_build_s += o.caustic_build_s;
-        self.volume_build_s += o.volume_build_s;
-        self.global_memory_bytes += o.global_memory_bytes;
-        self.caustic_memory_bytes += o.caustic_memory_bytes;
-        self.volume_memory_bytes += o.volume_memory_bytes;
-        self.volume_caustic_memory_bytes += o.volume_caustic_memory_bytes;
+pmbase::summable! {
+    #[derive(Clone, Debug, Default, PartialEq)]
+    pub struct TraceStats {
+        pub n_paths_emitted: u64,
+        /// Paths over which each map's power is normalised (emitted while the map was filling).
+        pub n_global_paths: u64,
+        pub n_caustic_paths: u64,
+        pub n_global_stored: u64,
+        pub n_caustic_stored: u64,
+        pub n_volume_paths: u64,
+        pub n_volume_stored: u64,
+        pub n_volume_caustic_paths: u64,
+        pub n_volume_caustic_stored: u64,
+        /// Paths abandoned on a non-finite or negative power, direction or hit (should stay ~0).
+        pub n_paths_dropped: u64,
+        /// Paths cut at [`MAX_DEPTH`].
+        pub n_paths_depth_capped: u64,
+        /// 1 when the caustic map stopped short of its target at `CAUSTIC_PATH_BUDGET`.
+        pub n_caustic_cut: u64,
+        /// 1 when the global or the volume map stopped short of its target at `MEDIA_PATH_BUDGET`.
+        pub n_media_cut: u64,
+        pub trace_s: f64,
+        pub global_build_s: f64,
+        pub caustic_build_s: f64,
+        pub volume_build_s: f64,
+        pub global_memory_bytes: u64,
+        pub caustic_memory_bytes: u64,
+        pub volume_memory_bytes: u64,
+        pub volume_caustic_memory_bytes: u64,
     }
 }
 
