@@ -227,7 +227,7 @@ impl IrradianceCache {
     }
 
     /// Read a cache file for the scene with `fingerprint`: only a regular file (a FIFO would block, a
-    /// device never end) of at most [`MAX_FILE_BYTES`].
+    /// device never end) of at most `MAX_FILE_BYTES`.
     pub fn load(path: &Path, fingerprint: u64) -> Result<Self> {
         let bytes = FORMAT.read(path).map_err(|e| match e {
             OpenError::Io(e) => Error::Io(e),

@@ -31,9 +31,9 @@ mod twopass_tests;
 
 pub use cache::IrradianceCache;
 pub use error::{Error, Result};
-pub use onepass::{fill_one_pass, fill_one_pass_cancellable, OnePassFill};
+pub use onepass::{fill_one_pass_cancellable, OnePassFill};
 pub use params::{CacheParams, Pass, Weighting};
 pub use record::{Lookup, NewRecord, Record};
 pub use report::CacheStats;
 pub use stats::{FillStats, InsertStats, LookupStats, RadiusHistogram};
-pub use twopass::{fill_pass_a, fill_pass_a_cancellable, fill_pixels_cancellable, ShadingPoint};
+pub use twopass::{fill_pass_a_cancellable, fill_pixels_cancellable, ShadingPoint};

@@ -48,22 +48,12 @@ const WAVE_GATHERS: usize = 64;
 /// Repair sweeps after the hierarchical pass; each one typically inserts a handful of records.
 const MAX_REPAIR_SWEEPS: u64 = 8;
 
-pub(crate) type ShadingPointsFn<'a> = dyn Fn(u32, u32) -> Vec<ShadingPoint> + Sync + 'a;
-pub(crate) type GatherFn<'a> = dyn Fn(u32, u32, usize, &ShadingPoint) -> NewRecord + Sync + 'a;
 pub(crate) type ProgressFn<'a> = dyn Fn(u64, u64) + Sync + 'a;
 /// The shading points of pixel (x, y), each with the caller's payload for its gather.
 pub(crate) type PointsWithFn<'a, P> = dyn Fn(u32, u32) -> Vec<(ShadingPoint, P)> + Sync + 'a;
 /// The gather at point `i` of pixel (x, y), given its payload: the record and the caller's statistics.
 pub(crate) type GatherWithFn<'a, P, S> =
     dyn Fn(u32, u32, usize, &ShadingPoint, &P) -> (NewRecord, S) + Sync + 'a;
-
-/// Caller statistics for the closures without any ([`fill_pass_a`], [`crate::fill_one_pass`]).
-#[derive(Default)]
-pub(crate) struct NoStats;
-
-impl AddAssign for NoStats {
-    fn add_assign(&mut self, _: NoStats) {}
-}
 
 /// An uncovered shading point waiting for its gather.
 struct Candidate<P> {
@@ -92,38 +82,9 @@ struct Tally<S> {
     gathers: S,
 }
 
-/// Fill the cache for a `width` × `height` image. `progress(done_pixels, total_pixels)` is called from
-/// the calling thread after each chunk of the hierarchical pass.
-pub fn fill_pass_a(
-    cache: &mut IrradianceCache,
-    width: u32,
-    height: u32,
-    shading_points: &ShadingPointsFn,
-    gather: &GatherFn,
-    progress: &ProgressFn,
-) -> FillStats {
-    let points = |x, y| {
-        shading_points(x, y)
-            .into_iter()
-            .map(|sp| (sp, ()))
-            .collect()
-    };
-    let gather = |x, y, i, sp: &ShadingPoint, _: &()| (gather(x, y, i, sp), NoStats);
-    fill_pass_a_cancellable(
-        cache,
-        width,
-        height,
-        1,
-        &points,
-        &gather,
-        progress,
-        &AtomicBool::new(false),
-    )
-    .0
-}
-
-/// [`fill_pass_a`] with a payload per shading point and statistics per gather (see the module header),
-/// returning early, with the cache partly filled, soon after `cancel` is set: it is read before every
+/// Fill the cache for a `width` × `height` image, with a payload per shading point and statistics per
+/// gather (see the module header). `progress(done_pixels, total_pixels)` is called from the calling
+/// thread after each chunk of the hierarchical pass. Returns early, with the cache partly filled, soon after `cancel` is set: it is read before every
 /// chunk of pixels. (The caller makes its long gathers return early too.) Returns the fill's statistics
 /// and the sum of the gathers'.
 ///

@@ -5,7 +5,6 @@
 #![forbid(unsafe_code)]
 
 use std::cell::RefCell;
-use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
 use glam::Vec3;
@@ -69,19 +68,6 @@ impl PrecomputedIrradiance {
         max_radius: f32,
         cov: &dyn Coverage,
     ) -> Result<(Self, PrecomputeStats)> {
-        Self::build_cancellable(global, every, k, max_radius, cov, &AtomicBool::new(false))
-    }
-
-    /// [`build`](Self::build) that stops with [`Error::Cancelled`] soon after `cancel` is set (read
-    /// before every estimate).
-    pub fn build_cancellable(
-        global: &PhotonMap,
-        every: usize,
-        k: usize,
-        max_radius: f32,
-        cov: &dyn Coverage,
-        cancel: &AtomicBool,
-    ) -> Result<(Self, PrecomputeStats)> {
         if every == 0 || k == 0 || max_radius.is_nan() || max_radius <= 0.0 {
             return Err(Error::InvalidParameter(format!(
                 "precomputed irradiance needs every ≥ 1, k ≥ 1, max_radius > 0 (got {every}, {k}, {max_radius})"
@@ -93,18 +79,6 @@ impl PrecomputedIrradiance {
             .into_par_iter()
             .map(|block| {
                 let ph = &photons[pick_in_block(block, every, photons.len())];
-                if cancel.load(Ordering::Relaxed) {
-                    return (
-                        IrradiancePoint {
-                            pos: ph.pos,
-                            normal: ph.normal,
-                            e: Vec3::ZERO,
-                            e_indirect: Vec3::ZERO,
-                            half_thickness: 0.0,
-                        },
-                        false,
-                    );
-                }
                 let (est, e_indirect) =
                     global.irradiance_and_indirect(ph.pos, ph.normal, k, max_radius, cov);
                 let half_thickness = if est.half_thickness > 0.0 {
@@ -124,9 +98,6 @@ impl PrecomputedIrradiance {
                 )
             })
             .collect();
-        if cancel.load(Ordering::Relaxed) {
-            return Err(Error::Cancelled);
-        }
         let n_hit_max_radius = estimates.iter().filter(|(_, hit)| *hit).count() as u64;
         let points: Vec<IrradiancePoint> = estimates.into_iter().map(|(p, _)| p).collect();
         let this = Self::from_points(points, max_radius)?;

@@ -201,18 +201,9 @@ pmbase::summable! {
 }
 
 /// Traces photon paths until each wanted map holds its target (or `max_paths` is reached), then builds
-/// the kd-trees. `progress(stored, target)` is called after every batch, summed over both maps.
-pub fn trace_photons<S: PhotonScene + ?Sized>(
-    scene: &S,
-    targets: &PhotonTargets,
-    seed: u64,
-    progress: &(dyn Fn(u64, u64) + Sync),
-) -> Result<(PhotonMaps, TraceStats)> {
-    trace_photons_cancellable(scene, targets, seed, progress, &AtomicBool::new(false))
-}
-
-/// [`trace_photons`] that stops with [`Error::Cancelled`] soon after `cancel` is set: it is read before
-/// every chunk of `CHUNK_PATHS` paths and before each kd-tree build.
+/// the kd-trees. `progress(stored, target)` is called after every batch, summed over both maps. Stops
+/// with [`Error::Cancelled`] soon after `cancel` is set: it is read before every chunk of `CHUNK_PATHS`
+/// paths and before each kd-tree build.
 pub fn trace_photons_cancellable<S: PhotonScene + ?Sized>(
     scene: &S,
     targets: &PhotonTargets,
