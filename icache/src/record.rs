@@ -1,5 +1,13 @@
 //! Irradiance records: what a final gather returns ([`NewRecord`]), what the cache stores ([`Record`])
 //! and what a lookup interpolates from them ([`Lookup`]).
+//!
+//! Three shapes of nearly the same fields, each for a reason. The gather crate's `GatherResult` is what
+//! the hemisphere says (irradiance, gradients, distances, noise) and knows no pixel; a [`NewRecord`] is
+//! that result placed: position, normal, pixel footprint and where to gather again. The cache is a
+//! leaf that cannot see the gather crate, so the root crate makes that one conversion, in the one
+//! function that gathers for a record. A [`Record`] is a `NewRecord` after insertion: repaired, its R
+//! limited by the gradient and neighbor clamping, R' clamped to the pixel spacing, ∇t scaled to R', and
+//! `r_min` (informational) dropped; its 33 floats are what cache files hold.
 #![forbid(unsafe_code)]
 
 use glam::Vec3;
