@@ -9,6 +9,7 @@
 //! `(scene, targets, seed)` only, whatever the thread count.
 #![forbid(unsafe_code)]
 
+use std::ops::Range;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
@@ -212,157 +213,230 @@ pub fn trace_photons_cancellable<S: PhotonScene + ?Sized>(
     cancel: &AtomicBool,
 ) -> Result<(PhotonMaps, TraceStats)> {
     let start = Instant::now();
-    let caustic_target = if scene.has_specular() {
-        targets.caustic
-    } else {
-        0
-    };
-    let mut global = Filling::new(targets.global);
-    let mut caustic = Filling::new(caustic_target);
-    let mut volume = Filling::new(if scene.has_media() { targets.volume } else { 0 });
-    let mut volume_caustic = Filling::new(if scene.has_media() && scene.has_specular() {
-        targets.volume_caustic
-    } else {
-        0
-    });
+    let mut maps = Fillings::new(scene, targets);
     let mut stats = TraceStats::default();
     let mut next_path = 0u64;
-    while (global.active || caustic.active || volume.active || volume_caustic.active)
-        && next_path < targets.max_paths
-    {
+    while maps.any_active() && next_path < targets.max_paths {
         if cancel.load(Ordering::Relaxed) {
             return Err(Error::Cancelled);
         }
         let n_batch = BATCH_PATHS.min(targets.max_paths - next_path);
-        let want = Want {
-            global: global.active,
-            caustic: caustic.active,
-            volume: volume.active,
-            volume_caustic: volume_caustic.active,
-        };
-        let chunks: Vec<ChunkOut> = (0..n_batch.div_ceil(CHUNK_PATHS) as usize)
-            .into_par_iter()
-            .with_max_len(1)
-            .map(|c| {
-                if cancel.load(Ordering::Relaxed) {
-                    return ChunkOut::default();
-                }
-                let first = next_path + c as u64 * CHUNK_PATHS;
-                let end = (first + CHUNK_PATHS).min(next_path + n_batch);
-                trace_chunk(scene, first..end, seed, want)
-            })
-            .collect();
+        let batch = next_path..next_path + n_batch;
+        let chunks = trace_batch(scene, batch, seed, maps.want(), cancel);
         if cancel.load(Ordering::Relaxed) {
             return Err(Error::Cancelled);
         }
         for chunk in &chunks {
-            for j in 0..chunk.ends.len() {
-                let path = next_path;
-                next_path += 1;
-                let (g0, c0, v0, w0) = if j == 0 {
-                    (0, 0, 0, 0)
-                } else {
-                    chunk.ends[j - 1]
-                };
-                let (g1, c1, v1, w1) = chunk.ends[j];
-                global.take(&chunk.global[g0..g1], path);
-                caustic.take(&chunk.caustic[c0..c1], path);
-                volume.take(&chunk.volume[v0..v1], path);
-                volume_caustic.take(&chunk.volume_caustic[w0..w1], path);
-                // Where little light reaches specular surfaces, the caustic map would keep emission going
-                // for a long time for a dim effect: it gets CAUSTIC_PATH_BUDGET × the paths the global
-                // map needed (at least CAUSTIC_MIN_PATHS), normalised by the paths emitted while it filled.
-                if let (false, true, Some(g)) = (global.active, caustic.active, global.n_paths) {
-                    if path + 1 >= g.saturating_mul(CAUSTIC_PATH_BUDGET).max(CAUSTIC_MIN_PATHS) {
-                        caustic.active = false;
-                        caustic.n_paths = Some(path + 1);
-                        stats.n_caustic_cut = 1;
-                    }
-                }
-                // The volume caustic map likewise, against the volume map.
-                if let (false, true, Some(v)) =
-                    (volume.active, volume_caustic.active, volume.n_paths)
-                {
-                    if path + 1 >= v.saturating_mul(CAUSTIC_PATH_BUDGET).max(CAUSTIC_MIN_PATHS) {
-                        volume_caustic.active = false;
-                        volume_caustic.n_paths = Some(path + 1);
-                    }
-                }
-                // With media, a map that fills slowly next to the other (a dense fog that photons seldom
-                // cross to a surface, or a thin one they seldom scatter in) gets MEDIA_PATH_BUDGET × the
-                // paths the other needed, at least MEDIA_MIN_PATHS.
-                stats.n_media_cut +=
-                    media_cut(&global, &mut volume, path) + media_cut(&volume, &mut global, path);
-                match chunk.end_kinds[j] {
-                    PathEnd::Dropped => stats.n_paths_dropped += 1,
-                    PathEnd::DepthCapped => stats.n_paths_depth_capped += 1,
-                    PathEnd::Done => {}
-                }
-                if !global.active && !caustic.active && !volume.active && !volume_caustic.active {
-                    break;
-                }
-            }
-            if !global.active && !caustic.active && !volume.active && !volume_caustic.active {
+            maps.take_chunk(chunk, &mut next_path, &mut stats);
+            if !maps.any_active() {
                 break;
             }
         }
-        let stored = (global.photons.len()
-            + caustic.photons.len()
-            + volume.photons.len()
-            + volume_caustic.photons.len()) as u64;
-        progress(
-            stored,
-            (global.target + caustic.target + volume.target + volume_caustic.target) as u64,
-        );
+        let stored = maps.n_stored();
+        progress(stored, maps.n_target());
         if stored == 0 && next_path >= GIVE_UP_EMPTY_PATHS {
             break; // nothing reaches a non-specular surface: more paths will not change that
         }
     }
     stats.n_paths_emitted = next_path;
     stats.trace_s = start.elapsed().as_secs_f64();
-    if global.target > 0 && global.photons.is_empty() {
+    if maps.global.target > 0 && maps.global.photons.is_empty() {
         return Err(Error::NothingStored {
             n_paths_emitted: next_path,
         });
     }
-    let (global, n_global_paths) = global.finish(next_path);
-    let (caustic, n_caustic_paths) = caustic.finish(next_path);
-    let (volume, n_volume_paths) = volume.finish(next_path);
-    let (volume_caustic, n_volume_caustic_paths) = volume_caustic.finish(next_path);
-    stats.n_volume_caustic_paths = n_volume_caustic_paths;
-    stats.n_volume_caustic_stored = volume_caustic.as_ref().map_or(0, |p| p.len() as u64);
-    stats.n_volume_paths = n_volume_paths;
-    stats.n_volume_stored = volume.as_ref().map_or(0, |p| p.len() as u64);
-    stats.n_global_paths = n_global_paths;
-    stats.n_caustic_paths = n_caustic_paths;
-    stats.n_global_stored = global.as_ref().map_or(0, |p| p.len() as u64);
-    stats.n_caustic_stored = caustic.as_ref().map_or(0, |p| p.len() as u64);
-    if cancel.load(Ordering::Relaxed) {
-        return Err(Error::Cancelled);
+    maps.build(next_path, stats, cancel)
+}
+
+/// The paths `batch` traced in parallel chunks of `CHUNK_PATHS`, in path order; empty chunks once
+/// `cancel` is set.
+fn trace_batch<S: PhotonScene + ?Sized>(
+    scene: &S,
+    batch: Range<u64>,
+    seed: u64,
+    want: Want,
+    cancel: &AtomicBool,
+) -> Vec<ChunkOut> {
+    let n_batch = batch.end - batch.start;
+    (0..n_batch.div_ceil(CHUNK_PATHS) as usize)
+        .into_par_iter()
+        .with_max_len(1)
+        .map(|c| {
+            if cancel.load(Ordering::Relaxed) {
+                return ChunkOut::default();
+            }
+            let first = batch.start + c as u64 * CHUNK_PATHS;
+            let end = (first + CHUNK_PATHS).min(batch.end);
+            trace_chunk(scene, first..end, seed, want)
+        })
+        .collect()
+}
+
+/// The four maps while they fill.
+struct Fillings {
+    global: Filling,
+    caustic: Filling,
+    volume: Filling,
+    volume_caustic: Filling,
+}
+
+impl Fillings {
+    /// Maps for `targets`, those the scene cannot make (caustics without specular surfaces, volume
+    /// maps without media) with a target of 0.
+    fn new<S: PhotonScene + ?Sized>(scene: &S, targets: &PhotonTargets) -> Fillings {
+        let caustic_target = if scene.has_specular() {
+            targets.caustic
+        } else {
+            0
+        };
+        Fillings {
+            global: Filling::new(targets.global),
+            caustic: Filling::new(caustic_target),
+            volume: Filling::new(if scene.has_media() { targets.volume } else { 0 }),
+            volume_caustic: Filling::new(if scene.has_media() && scene.has_specular() {
+                targets.volume_caustic
+            } else {
+                0
+            }),
+        }
     }
-    let (global, caustic) = rayon::join(|| build_map(global), || build_map(caustic));
-    let (global, global_build_s) = global?;
-    let (caustic, caustic_build_s) = caustic?;
-    stats.global_build_s = global_build_s;
-    stats.caustic_build_s = caustic_build_s;
-    stats.global_memory_bytes = global.as_ref().map_or(0, |m| m.memory_bytes() as u64);
-    stats.caustic_memory_bytes = caustic.as_ref().map_or(0, |m| m.memory_bytes() as u64);
-    let (volume, volume_build_s) = build_map(volume)?;
-    let (volume_caustic, volume_caustic_build_s) = build_map(volume_caustic)?;
-    stats.volume_build_s = volume_build_s + volume_caustic_build_s;
-    stats.volume_memory_bytes = volume.as_ref().map_or(0, |m| m.memory_bytes() as u64);
-    stats.volume_caustic_memory_bytes = volume_caustic
-        .as_ref()
-        .map_or(0, |m| m.memory_bytes() as u64);
-    Ok((
-        PhotonMaps {
-            global,
-            caustic,
-            volume,
-            volume_caustic,
-        },
-        stats,
-    ))
+
+    fn any_active(&self) -> bool {
+        self.global.active
+            || self.caustic.active
+            || self.volume.active
+            || self.volume_caustic.active
+    }
+
+    fn want(&self) -> Want {
+        Want {
+            global: self.global.active,
+            caustic: self.caustic.active,
+            volume: self.volume.active,
+            volume_caustic: self.volume_caustic.active,
+        }
+    }
+
+    fn n_stored(&self) -> u64 {
+        (self.global.photons.len()
+            + self.caustic.photons.len()
+            + self.volume.photons.len()
+            + self.volume_caustic.photons.len()) as u64
+    }
+
+    fn n_target(&self) -> u64 {
+        (self.global.target + self.caustic.target + self.volume.target + self.volume_caustic.target)
+            as u64
+    }
+
+    /// Takes the chunk's paths, numbered from `next_path` on, one by one until every map is full,
+    /// stopping the maps whose path budget runs out.
+    fn take_chunk(&mut self, chunk: &ChunkOut, next_path: &mut u64, stats: &mut TraceStats) {
+        for j in 0..chunk.ends.len() {
+            let path = *next_path;
+            *next_path += 1;
+            let (g0, c0, v0, w0) = if j == 0 {
+                (0, 0, 0, 0)
+            } else {
+                chunk.ends[j - 1]
+            };
+            let (g1, c1, v1, w1) = chunk.ends[j];
+            self.global.take(&chunk.global[g0..g1], path);
+            self.caustic.take(&chunk.caustic[c0..c1], path);
+            self.volume.take(&chunk.volume[v0..v1], path);
+            self.volume_caustic
+                .take(&chunk.volume_caustic[w0..w1], path);
+            self.apply_budgets(path, stats);
+            match chunk.end_kinds[j] {
+                PathEnd::Dropped => stats.n_paths_dropped += 1,
+                PathEnd::DepthCapped => stats.n_paths_depth_capped += 1,
+                PathEnd::Done => {}
+            }
+            if !self.any_active() {
+                break;
+            }
+        }
+    }
+
+    /// Stops the maps that have had their path budget by `path`.
+    fn apply_budgets(&mut self, path: u64, stats: &mut TraceStats) {
+        // Where little light reaches specular surfaces, the caustic map would keep emission going
+        // for a long time for a dim effect: it gets CAUSTIC_PATH_BUDGET × the paths the global
+        // map needed (at least CAUSTIC_MIN_PATHS), normalised by the paths emitted while it filled.
+        if let (false, true, Some(g)) =
+            (self.global.active, self.caustic.active, self.global.n_paths)
+        {
+            if path + 1 >= g.saturating_mul(CAUSTIC_PATH_BUDGET).max(CAUSTIC_MIN_PATHS) {
+                self.caustic.active = false;
+                self.caustic.n_paths = Some(path + 1);
+                stats.n_caustic_cut = 1;
+            }
+        }
+        // The volume caustic map likewise, against the volume map.
+        if let (false, true, Some(v)) = (
+            self.volume.active,
+            self.volume_caustic.active,
+            self.volume.n_paths,
+        ) {
+            if path + 1 >= v.saturating_mul(CAUSTIC_PATH_BUDGET).max(CAUSTIC_MIN_PATHS) {
+                self.volume_caustic.active = false;
+                self.volume_caustic.n_paths = Some(path + 1);
+            }
+        }
+        // With media, a map that fills slowly next to the other (a dense fog that photons seldom
+        // cross to a surface, or a thin one they seldom scatter in) gets MEDIA_PATH_BUDGET × the
+        // paths the other needed, at least MEDIA_MIN_PATHS.
+        stats.n_media_cut += media_cut(&self.global, &mut self.volume, path)
+            + media_cut(&self.volume, &mut self.global, path);
+    }
+
+    /// The maps, their powers normalised over the `n_paths_emitted` paths and their kd-trees built
+    /// (unless `cancel` is set), with `stats` completed.
+    fn build(
+        self,
+        n_paths_emitted: u64,
+        mut stats: TraceStats,
+        cancel: &AtomicBool,
+    ) -> Result<(PhotonMaps, TraceStats)> {
+        let (global, n_global_paths) = self.global.finish(n_paths_emitted);
+        let (caustic, n_caustic_paths) = self.caustic.finish(n_paths_emitted);
+        let (volume, n_volume_paths) = self.volume.finish(n_paths_emitted);
+        let (volume_caustic, n_volume_caustic_paths) = self.volume_caustic.finish(n_paths_emitted);
+        stats.n_volume_caustic_paths = n_volume_caustic_paths;
+        stats.n_volume_caustic_stored = volume_caustic.as_ref().map_or(0, |p| p.len() as u64);
+        stats.n_volume_paths = n_volume_paths;
+        stats.n_volume_stored = volume.as_ref().map_or(0, |p| p.len() as u64);
+        stats.n_global_paths = n_global_paths;
+        stats.n_caustic_paths = n_caustic_paths;
+        stats.n_global_stored = global.as_ref().map_or(0, |p| p.len() as u64);
+        stats.n_caustic_stored = caustic.as_ref().map_or(0, |p| p.len() as u64);
+        if cancel.load(Ordering::Relaxed) {
+            return Err(Error::Cancelled);
+        }
+        let (global, caustic) = rayon::join(|| build_map(global), || build_map(caustic));
+        let (global, global_build_s) = global?;
+        let (caustic, caustic_build_s) = caustic?;
+        stats.global_build_s = global_build_s;
+        stats.caustic_build_s = caustic_build_s;
+        stats.global_memory_bytes = global.as_ref().map_or(0, |m| m.memory_bytes() as u64);
+        stats.caustic_memory_bytes = caustic.as_ref().map_or(0, |m| m.memory_bytes() as u64);
+        let (volume, volume_build_s) = build_map(volume)?;
+        let (volume_caustic, volume_caustic_build_s) = build_map(volume_caustic)?;
+        stats.volume_build_s = volume_build_s + volume_caustic_build_s;
+        stats.volume_memory_bytes = volume.as_ref().map_or(0, |m| m.memory_bytes() as u64);
+        stats.volume_caustic_memory_bytes = volume_caustic
+            .as_ref()
+            .map_or(0, |m| m.memory_bytes() as u64);
+        Ok((
+            PhotonMaps {
+                global,
+                caustic,
+                volume,
+                volume_caustic,
+            },
+            stats,
+        ))
+    }
 }
 
 fn build_map(photons: Option<Vec<Photon>>) -> Result<(Option<PhotonMap>, f64)> {
@@ -371,7 +445,6 @@ fn build_map(photons: Option<Vec<Photon>>) -> Result<(Option<PhotonMap>, f64)> {
     Ok((map, start.elapsed().as_secs_f64()))
 }
 
-/// A map while it fills: it takes whole paths until it holds `target` photons.
 /// Paths after which a pass that has stored nothing at all stops (`NothingStored`).
 pub(crate) const GIVE_UP_EMPTY_PATHS: u64 = 200_000;
 
@@ -400,6 +473,7 @@ pub(crate) const CAUSTIC_PATH_BUDGET: u64 = 10;
 /// … but never fewer than this many.
 pub(crate) const CAUSTIC_MIN_PATHS: u64 = 2_000_000;
 
+/// A map while it fills: it takes whole paths until it holds `target` photons.
 struct Filling {
     photons: Vec<Photon>,
     target: usize,
