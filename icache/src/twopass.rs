@@ -270,99 +270,144 @@ fn repair<P: Clone + Send + Sync, S: Default + AddAssign + Send>(
             return;
         }
         tally.fill.n_repair_sweeps += 1;
-        let cache_ref: &IrradianceCache = cache;
-        // Cells about as large as the typical old sphere of the first sweep's shrinks (the most).
-        let grid = grid.get_or_insert_with(|| {
-            let mut reach: Vec<f32> = log
-                .iter()
-                .map(|s| cache_ref.reach_before(s).1)
-                .filter(|r| r.is_finite() && *r > 0.0)
-                .collect();
-            let middle = reach.len() / 2;
-            let cell = if reach.is_empty() {
-                1.0
-            } else {
-                *reach.select_nth_unstable_by(middle, f32::total_cmp).1
-            };
-            PointGrid::new(store.points.iter().map(|(sp, _)| sp.pos).collect(), cell)
-        });
-        // (point, record) for every point a logged shrink took a record from.
-        let mut lost: Vec<(u32, u32)> = log
-            .par_iter()
-            .with_max_len(64)
-            .flat_map_iter(|shrink| {
-                let (pos, reach) = cache_ref.reach_before(shrink);
-                let mut found = Vec::new();
-                grid.for_each_within(pos, reach, |k| {
-                    let sp = &store.points[k as usize].0;
-                    if cache_ref.lost_cover(shrink, sp.pos, sp.normal) {
-                        found.push((k, shrink.id));
-                    }
-                });
-                found
-            })
-            .collect();
-        // Each record has one shrink in the log and each point is found once per sphere: the pairs are
-        // distinct. Sorted, a point's pairs are together, in visiting order (the store's).
-        lost.sort_unstable();
-        // A point still has a record if it lost fewer than it could interpolate at its last lookup, less
-        // those lost in earlier sweeps: records only narrow, and each that stopped reaching it is in one
-        // log (once it stops it never reaches again). On Sibenik's first sweep 459 k points lost a
-        // record and 1.6 k their cover. The rest are looked up.
-        let mut check = Vec::new();
-        for ids in lost.chunk_by(|a, b| a.0 == b.0) {
-            let (k, n) = (ids[0].0 as usize, ids.len() as u32);
-            if n < store.used[k] {
-                store.used[k] -= n;
-            } else {
-                check.push(k as u32);
-            }
-        }
-        let found: Vec<(LookupStats, u32, Option<Candidate<P>>)> = check
-            .par_iter()
-            .with_max_len(256)
-            .map(|&k| {
-                let mut lookups = LookupStats::default();
-                let (sp, payload) = &store.points[k as usize];
-                let hit = cache_ref.lookup(sp.pos, sp.normal, Pass::A);
-                lookups.record(hit.as_ref());
-                (
-                    lookups,
-                    hit.map_or(0, |h| h.n_used),
-                    hit.is_none().then(|| store.candidate(k, payload.clone())),
-                )
-            })
-            .collect();
-        for (&k, (_, used, _)) in check.iter().zip(&found) {
-            store.used[k as usize] = *used;
-        }
-        let mut waiting = Vec::new();
-        for (lookups, _, uncovered) in found {
-            tally.fill.lookups += lookups;
-            waiting.extend(uncovered);
-        }
-        let mut waiting = waiting.into_iter().peekable();
-        while waiting.peek().is_some() {
-            if cancel.load(Ordering::Relaxed) {
-                return;
-            }
-            let cache_ref: &IrradianceCache = cache;
-            let mut wave: Vec<Candidate<P>> = Vec::with_capacity(WAVE_GATHERS);
-            for c in waiting.by_ref() {
-                let hit = cache_ref.lookup(c.sp.pos, c.sp.normal, Pass::A);
-                tally.fill.lookups.record(hit.as_ref());
-                if hit.is_none() {
-                    wave.push(c);
-                    if wave.len() == WAVE_GATHERS {
-                        break;
-                    }
-                }
-            }
-            if !wave.is_empty() {
-                run_wave(cache, &mut wave, gather, tally);
-            }
+        let grid = grid.get_or_insert_with(|| point_grid(cache, store, &log));
+        let lost = lost_records(cache, store, grid, &log);
+        let check = points_to_check(store, &lost);
+        let waiting = look_up_again(cache, store, &check, tally);
+        if !gather_in_waves(cache, waiting, gather, tally, cancel) {
+            return;
         }
     }
+}
+
+/// A grid of the store's points with cells about as large as the typical old sphere of `log`'s shrinks
+/// (the first sweep's: the most).
+fn point_grid<P>(cache: &IrradianceCache, store: &PointStore<P>, log: &[Shrink]) -> PointGrid {
+    let mut reach: Vec<f32> = log
+        .iter()
+        .map(|s| cache.reach_before(s).1)
+        .filter(|r| r.is_finite() && *r > 0.0)
+        .collect();
+    let middle = reach.len() / 2;
+    let cell = if reach.is_empty() {
+        1.0
+    } else {
+        *reach.select_nth_unstable_by(middle, f32::total_cmp).1
+    };
+    PointGrid::new(store.points.iter().map(|(sp, _)| sp.pos).collect(), cell)
+}
+
+/// (point, record) for every point a shrink of `log` took a record from, sorted. Each record has one
+/// shrink in the log and each point is found once per sphere: the pairs are distinct, and a point's
+/// pairs are together, in visiting order (the store's).
+fn lost_records<P: Sync>(
+    cache: &IrradianceCache,
+    store: &PointStore<P>,
+    grid: &PointGrid,
+    log: &[Shrink],
+) -> Vec<(u32, u32)> {
+    let mut lost: Vec<(u32, u32)> = log
+        .par_iter()
+        .with_max_len(64)
+        .flat_map_iter(|shrink| {
+            let (pos, reach) = cache.reach_before(shrink);
+            let mut found = Vec::new();
+            grid.for_each_within(pos, reach, |k| {
+                let sp = &store.points[k as usize].0;
+                if cache.lost_cover(shrink, sp.pos, sp.normal) {
+                    found.push((k, shrink.id));
+                }
+            });
+            found
+        })
+        .collect();
+    lost.sort_unstable();
+    lost
+}
+
+/// The points of `lost` that may have lost their cover, each point's count of records it can still
+/// interpolate lowered. A point still has a record if it lost fewer than it could interpolate at its
+/// last lookup, less those lost in earlier sweeps: records only narrow, and each that stopped reaching
+/// it is in one log (once it stops it never reaches again). Most points that lose a record keep their
+/// cover; only the rest are looked up again.
+fn points_to_check<P>(store: &mut PointStore<P>, lost: &[(u32, u32)]) -> Vec<u32> {
+    let mut check = Vec::new();
+    for ids in lost.chunk_by(|a, b| a.0 == b.0) {
+        let (k, n) = (ids[0].0 as usize, ids.len() as u32);
+        if n < store.used[k] {
+            store.used[k] -= n;
+        } else {
+            check.push(k as u32);
+        }
+    }
+    check
+}
+
+/// Looks up the points `check` (in parallel), noting how many records each can interpolate; the
+/// uncovered ones, in order.
+fn look_up_again<P: Clone + Send + Sync, S>(
+    cache: &IrradianceCache,
+    store: &mut PointStore<P>,
+    check: &[u32],
+    tally: &mut Tally<S>,
+) -> Vec<Candidate<P>> {
+    let found: Vec<(LookupStats, u32, Option<Candidate<P>>)> = check
+        .par_iter()
+        .with_max_len(256)
+        .map(|&k| {
+            let mut lookups = LookupStats::default();
+            let (sp, payload) = &store.points[k as usize];
+            let hit = cache.lookup(sp.pos, sp.normal, Pass::A);
+            lookups.record(hit.as_ref());
+            (
+                lookups,
+                hit.map_or(0, |h| h.n_used),
+                hit.is_none().then(|| store.candidate(k, payload.clone())),
+            )
+        })
+        .collect();
+    for (&k, (_, used, _)) in check.iter().zip(&found) {
+        store.used[k as usize] = *used;
+    }
+    let mut waiting = Vec::new();
+    for (lookups, _, uncovered) in found {
+        tally.fill.lookups += lookups;
+        waiting.extend(uncovered);
+    }
+    waiting
+}
+
+/// Gathers for the `waiting` points in waves of up to `WAVE_GATHERS`, each point looked up again just
+/// before (an earlier wave may have covered it). False when `cancel` stopped it.
+fn gather_in_waves<P: Send + Sync, S: AddAssign + Send>(
+    cache: &mut IrradianceCache,
+    waiting: Vec<Candidate<P>>,
+    gather: &GatherWithFn<P, S>,
+    tally: &mut Tally<S>,
+    cancel: &AtomicBool,
+) -> bool {
+    let mut waiting = waiting.into_iter().peekable();
+    while waiting.peek().is_some() {
+        if cancel.load(Ordering::Relaxed) {
+            return false;
+        }
+        let cache_ref: &IrradianceCache = cache;
+        let mut wave: Vec<Candidate<P>> = Vec::with_capacity(WAVE_GATHERS);
+        for c in waiting.by_ref() {
+            let hit = cache_ref.lookup(c.sp.pos, c.sp.normal, Pass::A);
+            tally.fill.lookups.record(hit.as_ref());
+            if hit.is_none() {
+                wave.push(c);
+                if wave.len() == WAVE_GATHERS {
+                    break;
+                }
+            }
+        }
+        if !wave.is_empty() {
+            run_wave(cache, &mut wave, gather, tally);
+        }
+    }
+    true
 }
 
 /// The first logged shrink of each record, by id: radii only decrease, so a point its first shrink took
