@@ -49,7 +49,8 @@ impl GatherRay {
 pub struct GatherResult {
     /// Irradiance, E = (π / MN) Σ L_jk.
     pub e: Vec3,
-    /// Rotational gradient, one world vector per colour channel: E(n') ≈ E + (n × n') · `grad_r[c]`.
+    /// Rotational gradient, one world vector per colour channel: E(n') ≈ E + (n × n') ·
+    /// `grad_r[c]`.
     pub grad_r: [Vec3; 3],
     /// Translational gradient, one world vector (in the tangent plane) per colour channel:
     /// E(p') ≈ E + (p' − p) · `grad_t[c]`.
@@ -63,9 +64,9 @@ pub struct GatherResult {
     pub dir: Vec3,
     /// Rays traced (M · N).
     pub n_rays: u32,
-    /// Estimated relative standard error of E's luminance, from the gather's own rays: strata paired
-    /// side by side in azimuth, Var(Σ L) ≈ Σ over pairs of (L_a − L_b)² (one sample per stratum;
-    /// conservative where the radiance varies smoothly across a pair). 0 when E is 0.
+    /// Estimated relative standard error of E's luminance, from the gather's own rays: strata
+    /// paired side by side in azimuth, Var(Σ L) ≈ Σ over pairs of (L_a − L_b)² (one sample per
+    /// stratum; conservative where the radiance varies smoothly across a pair). 0 when E is 0.
     pub rel_err: f32,
 }
 
@@ -102,10 +103,10 @@ pub fn gather(
     })
 }
 
-/// [`gather`] with every direction handed to `trace` at once: it appends one answer per direction, in
-/// order, to the (empty) vector it is given. A caller that reads memory at the end of each ray can then
-/// trace all rays first and make the reads together, their cache misses overlapping (on Sibenik the
-/// atlas read after each ray was a tenth of the cache fill, most of it waiting for memory).
+/// [`gather`] with every direction handed to `trace` at once: it appends one answer per direction,
+/// in order, to the (empty) vector it is given. A caller that reads memory at the end of each ray
+/// can then trace all rays first and make the reads together, their cache misses overlapping (a
+/// read after each ray waits for memory each time).
 pub(crate) fn gather_batch(
     p: Vec3,
     n: Vec3,
@@ -116,8 +117,8 @@ pub(crate) fn gather_batch(
     gather_batch_round(p, n, params, seed, 0, trace)
 }
 
-/// Point `k` of the two-dimensional Sobol sequence, as 32-bit fractions: its first 2^m points put one
-/// point in each of the 2^m elementary intervals of every shape (a (0, 2)-sequence in base 2).
+/// Point `k` of the two-dimensional Sobol sequence, as 32-bit fractions: its first 2^m points put
+/// one point in each of the 2^m elementary intervals of every shape (a (0, 2)-sequence in base 2).
 fn sobol2(k: u32) -> [u32; 2] {
     let (mut y, mut v, mut i) = (0u32, 1u32 << 31, k);
     while i != 0 {

@@ -1,10 +1,11 @@
-//! Spatial index over record spheres: an octree that references each record from every node (at one depth
-//! matched to the sphere's size) the sphere overlaps, so a point lookup walks a single root-to-leaf path.
+//! Spatial index over record spheres: an octree that references each record from every node (at one
+//! depth matched to the sphere's size) the sphere overlaps, so a point lookup walks a single
+//! root-to-leaf path.
 //!
-//! A sphere is stored at the deepest level whose cells are at least its diameter, so it touches at most
-//! 8 cells there. Radii may later shrink (neighbor clamping, adaptive caching); the old cells still cover
-//! the smaller sphere, so nothing moves, but the entries take the smaller radius ([`Octree::shrink`]).
-//! The caller's exact weight test decides usability. Spheres reaching outside
+//! A sphere is stored at the deepest level whose cells are at least its diameter, so it touches at
+//! most 8 cells there. Radii may later shrink (neighbor clamping, adaptive caching); the old cells
+//! still cover the smaller sphere, so nothing moves, but the entries take the smaller radius
+//! ([`Octree::shrink`]). The caller's exact weight test decides usability. Spheres reaching outside
 //! the root cube are also kept in an `outside` list, which is all a lookup outside the cube checks.
 #![forbid(unsafe_code)]
 
@@ -20,9 +21,9 @@ struct Node {
     spheres: Vec<Sphere>,
 }
 
-/// A record's sphere as the node holds it: a lookup rejects most candidates here, reading 20 bytes kept
-/// together in the node instead of the 132-byte record (a Sibenik profile spent 12 % of the render in
-/// the weight test of records whose sphere did not contain the point).
+/// A record's sphere as the node holds it: a lookup rejects most candidates here, reading 20 bytes
+/// kept together in the node instead of the 132-byte record (the weight test of records whose
+/// sphere does not contain the point was a visible part of a render's profile).
 #[derive(Clone, Copy, Debug)]
 struct Sphere {
     center: Vec3,
@@ -60,8 +61,9 @@ fn child_offset(i: usize) -> Vec3 {
 }
 
 impl Octree {
-    /// An empty octree whose root cube encloses [min, max] with a small margin. Non-finite or inverted
-    /// bounds, or an extent that overflows, give a unit cube at the origin: records outside the cube still work, via the outside list.
+    /// An empty octree whose root cube encloses [min, max] with a small margin. Non-finite or
+    /// inverted bounds, or an extent that overflows, give a unit cube at the origin: records
+    /// outside the cube still work, via the outside list.
     pub(crate) fn new(min: Vec3, max: Vec3) -> Self {
         let ok = min.is_finite()
             && max.is_finite()
@@ -100,7 +102,8 @@ impl Octree {
         level
     }
 
-    /// Reference record `id` with sphere (`center`, `radius`) from every overlapping cell at its level.
+    /// Reference record `id` with sphere (`center`, `radius`) from every overlapping cell at its
+    /// level.
     pub(crate) fn insert(&mut self, id: u32, center: Vec3, radius: f32) {
         let r = if radius.is_nan() {
             f32::INFINITY
@@ -165,12 +168,13 @@ impl Octree {
         }
     }
 
-    /// Record `id`, indexed with sphere (`center`, `old_radius`), now reaches `new_radius` ≤ `old_radius`.
-    /// Where the smaller sphere belongs to the same level, its entries stay in their cells (which still
-    /// cover it) and test the smaller radius; where it belongs deeper, they move to that level's cells.
-    /// Returns the radius the record is now indexed with (the `old_radius` of its next shrink). On
-    /// Sibenik neighbor clamping shrinks most records after insertion: with the entries left in their
-    /// first cells a pass-A lookup scanned 111 spheres to find 11 containing the point.
+    /// Record `id`, indexed with sphere (`center`, `old_radius`), now reaches `new_radius` ≤
+    /// `old_radius`. Where the smaller sphere belongs to the same level, its entries stay in their
+    /// cells (which still cover it) and test the smaller radius; where it belongs deeper, they move
+    /// to that level's cells. Returns the radius the record is now indexed with (the `old_radius`
+    /// of its next shrink). In a detailed scene neighbor clamping shrinks most records after
+    /// insertion: with the entries left in their first cells a lookup would scan about ten spheres
+    /// for each one containing the point.
     pub(crate) fn shrink(
         &mut self,
         id: u32,
@@ -206,8 +210,8 @@ impl Octree {
         new_radius
     }
 
-    /// At level `target`, in every cell the sphere (`c`, `r`) overlaps: record `id`'s entry takes radius
-    /// `new_radius`, or leaves the cell when that is `None`.
+    /// At level `target`, in every cell the sphere (`c`, `r`) overlaps: record `id`'s entry takes
+    /// radius `new_radius`, or leaves the cell when that is `None`.
     #[allow(clippy::too_many_arguments)]
     fn shrink_rec(
         &mut self,
@@ -256,15 +260,16 @@ impl Octree {
         }
     }
 
-    /// Call `f` with every record whose sphere contains `p` (with its radius as last shrunk: a superset
-    /// of the records usable there; each id at most once).
+    /// Call `f` with every record whose sphere contains `p` (with its radius as last shrunk: a
+    /// superset of the records usable there; each id at most once).
     pub(crate) fn for_each_candidate(&self, p: Vec3, f: impl FnMut(u32)) {
         self.for_each_candidate_within(p, 1.0, f)
     }
 
-    /// [`for_each_candidate`](Self::for_each_candidate) with every sphere's radius scaled by `scale` ≤ 1:
-    /// a lookup whose records reach less far than the index holds them (pass A: a·R' where the index
-    /// holds pass B's reach) rejects the others here, without reading their records.
+    /// [`for_each_candidate`](Self::for_each_candidate) with every sphere's radius scaled by
+    /// `scale` ≤ 1: a lookup whose records reach less far than the index holds them (pass A: a·R'
+    /// where the index holds pass B's reach) rejects the others here, without reading their
+    /// records.
     pub(crate) fn for_each_candidate_within(&self, p: Vec3, scale: f32, mut f: impl FnMut(u32)) {
         if !self.in_root(p) {
             self.outside.iter().for_each(|&id| f(id));
@@ -292,9 +297,9 @@ impl Octree {
         }
     }
 
-    /// Ids of every record whose sphere may overlap the sphere (`c`, `r`), in the index's order, an id
-    /// once per cell that holds it (neighbor clamping takes minima, which repeats do not change; sorting
-    /// them away was a fifth of the serial insertion).
+    /// Ids of every record whose sphere may overlap the sphere (`c`, `r`), in the index's order, an
+    /// id once per cell that holds it (neighbor clamping takes minima, which repeats do not change;
+    /// sorting them away was a fifth of the serial insertion).
     pub(crate) fn query_sphere(&self, c: Vec3, r: f32, out: &mut Vec<u32>) {
         out.clear();
         out.extend_from_slice(&self.outside);

@@ -1,15 +1,15 @@
-//! Cache parameters, and how the one `accuracy` knob maps onto Ward's `a` and Tabellion–Lamorlette's κ.
+//! Cache parameters, and how the one `accuracy` knob maps onto Ward's `a` and
+//! Tabellion–Lamorlette's κ.
 //!
-//! `accuracy` *is* Ward's `a`: with Ward's weight a record is usable where |p − pᵢ|/R'ᵢ + √(1 − n·nᵢ) < a,
-//! so on a flat surface it reaches a·R'ᵢ. With the TL weight a record reaches R'ᵢ/(2κ) (ε_p = d/(R'/2)).
-//! We set κ = 1/(2a) so both weightings reach the same distance for the same `accuracy`.
-//! Defaults: a = 0.5 in pass A (κ = 1, the TL fill value) and [`PASS_B_REACH`] = 1.5 times that in pass
-//! B (a = 0.75, κ = 2/3: some smoothing). DESIGN §2 gives κ = 0.5 for pass B; measured against the
-//! Mitsuba references, records reaching twice their pass-A distance, extrapolated by their gradients, left Sibenik's walls 0.5–1 %
-//! bright at 128² (8×8-block relMSE 0.000176, 2.2× what path reaches in the same time) and every box
-//! scene 0.1–0.3 % bright; at κ = 2/3: 0.000117, and the boxes' relMSE 2–15 % lower (the blinds room's,
-//! whose sub-pixel slats miss records in pass B, 10 % higher). With Ward's weight those `a` are loose in
-//! the normal term (√(1 − n·nᵢ) < 0.5 accepts 41°); Ward users should lower `accuracy` (e.g. 0.2–0.3).
+//! `accuracy` *is* Ward's `a`: with Ward's weight a record is usable where
+//! |p − pᵢ|/R'ᵢ + √(1 − n·nᵢ) < a, so on a flat surface it reaches a·R'ᵢ. With the TL weight a record
+//! reaches R'ᵢ/(2κ) (ε_p = d/(R'/2)). We set κ = 1/(2a) so both weightings reach the same distance
+//! for the same `accuracy`. Defaults: a = 0.5 in pass A (κ = 1, the TL fill value) and [`PASS_B_REACH`] = 1.5
+//! times that in pass B (a = 0.75, κ = 2/3: some smoothing). Records reaching twice their pass-A
+//! distance (κ = 0.5) are extrapolated by their gradients too far: against reference renders they
+//! left walls visibly bright; 1.5 times keeps the smoothing without that bias. With Ward's weight
+//! those `a` are loose in the normal term (√(1 − n·nᵢ) < 0.5 accepts 41°); Ward users should lower
+//! `accuracy` (e.g. 0.2–0.3).
 #![forbid(unsafe_code)]
 
 use crate::error::{Error, Result};
@@ -28,14 +28,15 @@ pub enum Weighting {
 pub enum Pass {
     A,
     B,
-    /// Pass B's fallback where no record interpolates: the same reach, but the normal term waived down to
-    /// `EXTRAPOLATE_MIN_COS`. At the silhouette of a curved surface the normal turns by tens of degrees
-    /// within a pixel, past what any record of the pixel lattice allows; such samples were most of the
-    /// pass-B misses, each a full gather.
+    /// Pass B's fallback where no record interpolates: the same reach, but the normal term waived
+    /// down to `EXTRAPOLATE_MIN_COS`. At the silhouette of a curved surface the normal turns by
+    /// tens of degrees within a pixel, past what any record of the pixel lattice allows; such
+    /// samples were most of the pass-B misses, each a full gather.
     Extrapolate,
 }
 
-/// The least cosine between a record's normal and the query's that [`Pass::Extrapolate`] accepts (60°).
+/// The least cosine between a record's normal and the query's that [`Pass::Extrapolate`] accepts
+/// (60°).
 pub(crate) const EXTRAPOLATE_MIN_COS: f32 = 0.5;
 
 /// Irradiance cache settings.
@@ -50,21 +51,22 @@ pub struct CacheParams {
     pub gradients: bool,
     /// R'ᵢ ≥ this many pixels (projected at the record). Default 3 (TL's production value).
     pub min_spacing_px: f32,
-    /// R'ᵢ ≤ this many pixels. Default 20 (TL's production form in DESIGN §2).
+    /// R'ᵢ ≤ this many pixels. Default 20 (TL's production value).
     pub max_spacing_px: f32,
     /// Ward's `a` for pass B; `None` means the pass-A value. Default `Some(0.75)` (κ = 2/3).
     pub pass_b_accuracy: Option<f32>,
     /// Adaptive caching (Křivánek et al. 2006): `Some(τ)` starts every record with `ADAPTIVE_START`
-    /// times its reach and halves a record's reach (down to the plain one) where the records usable at a
-    /// pass-A point disagree by more than the Weber fraction τ of their mean luminance; `None` is off.
+    /// times its reach and halves a record's reach (down to the plain one) where the records usable
+    /// at a pass-A point disagree by more than the Weber fraction τ of their mean luminance; `None`
+    /// is off.
     pub adaptive: Option<f32>,
 }
 
-/// Reach of a new record under adaptive caching, as a multiple of its plain reach (R' and both pixel
-/// spacing bounds).
+/// Reach of a new record under adaptive caching, as a multiple of its plain reach (R' and both
+/// pixel spacing bounds).
 pub(crate) const ADAPTIVE_START: f32 = 2.0;
-/// Pass B's default `a` as a multiple of pass A's: records reach 1.5 times as far when shading as when
-/// filling.
+/// Pass B's default `a` as a multiple of pass A's: records reach 1.5 times as far when shading as
+/// when filling.
 pub const PASS_B_REACH: f32 = 1.5;
 /// Default `accuracy` (pass A's `a`).
 pub(crate) const DEFAULT_ACCURACY: f32 = 0.5;

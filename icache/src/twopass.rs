@@ -412,7 +412,7 @@ fn gather_in_waves<P: Send + Sync, S: AddAssign + Send>(
 
 /// The first logged shrink of each record, by id: radii only decrease, so a point its first shrink took
 /// from the record (usable with the radii before it, not with today's) is every point any of its later
-/// shrinks took. On Sibenik's first sweep at 1000²: 31.6 k shrinks of 12.6 k records.
+/// shrinks took (a record is often shrunk several times in a sweep).
 fn first_shrinks(mut log: Vec<Shrink>) -> Vec<Shrink> {
     // A stable sort keeps each record's shrinks in the order they happened.
     log.sort_by_key(|s| s.id);
@@ -523,8 +523,8 @@ fn run_wave<P: Send + Sync, S: AddAssign + Send>(
     // Every pending point was uncovered when the wave began (looked up since the last wave, or just
     // before this one in the repair), and records only narrow: only this wave's records can cover it,
     // and those are all a re-check reads. Each new record's neighbours in the index are searched in
-    // parallel with the gathers; the serial insertion adds the wave's own. On Sibenik at 1000² these
-    // searches and re-checks were most of the 0.9 s of serial insertion, the other core idle. Under
+    // parallel with the gathers; the serial insertion adds the wave's own: made serially,
+    // these searches and re-checks were most of the insertion's time, the other cores idle. Under
     // adaptive caching a pending point may have been uncovered only by a deviant record, so the
     // re-check and the search are the full ones there.
     let since = cache.len();

@@ -1,10 +1,10 @@
-//! A small exact 3-d kd-tree for the precomputed irradiance points: the nearest point (optionally the
-//! nearest passing a test) and the k nearest, within a radius.
+//! A small exact 3-d kd-tree for the precomputed irradiance points: the nearest point (optionally
+//! the nearest passing a test) and the k nearest, within a radius.
 //!
-//! The precomputed irradiance is read once per final-gather ray — tens of millions of reads per image.
-//! Through FLANN's C API a batched exact 1-NN query cost ≈ 1 µs, and the ~18 % of queries whose nearest
-//! point faced another way paid two more k-NN calls (measured on Sibenik: 40 % of the cache fill's time in
-//! FLANN). This tree answers in a fraction of that. The photon maps themselves (k = 100 density estimates
+//! The precomputed irradiance is read once per final-gather ray — tens of millions of reads per
+//! image. Through FLANN's C API a batched exact 1-NN query cost ≈ 1 µs, and the ~18 % of queries
+//! whose nearest point faced another way paid two more k-NN calls, a large part of the cache fill.
+//! This tree answers in a fraction of that. The photon maps themselves (k = 100 density estimates
 //! with FLANN's radius search) stay in FLANN.
 #![forbid(unsafe_code)]
 
@@ -17,11 +17,13 @@ const LEAF: usize = 8;
 enum Node {
     /// Points `lo..hi` of the permuted arrays.
     Leaf { lo: u32, hi: u32 },
-    /// Points with coordinate `axis` below `split` are under `left` (the next node), the rest under `right`.
+    /// Points with coordinate `axis` below `split` are under `left` (the next node), the rest under
+    /// `right`.
     Split { axis: u8, split: f32, right: u32 },
 }
 
-/// An exact kd-tree over a fixed point set; point ids are their indices in the slice given to `build`.
+/// An exact kd-tree over a fixed point set; point ids are their indices in the slice given to
+/// `build`.
 #[derive(Clone, Debug, Default)]
 pub(crate) struct PointTree {
     nodes: Vec<Node>,
@@ -104,9 +106,9 @@ impl PointTree {
             + self.ids.capacity() * 4
     }
 
-    /// The id and squared distance of the nearest point strictly closer than `max_radius` to `q` for which
-    /// `accept(id)` holds; among equally distant points the smallest id. `accept` is called only for points
-    /// closer than the best accepted so far.
+    /// The id and squared distance of the nearest point strictly closer than `max_radius` to `q`
+    /// for which `accept(id)` holds; among equally distant points the smallest id. `accept` is
+    /// called only for points closer than the best accepted so far.
     pub(crate) fn nearest_where(
         &self,
         q: Vec3,
@@ -127,8 +129,8 @@ impl PointTree {
         best
     }
 
-    /// The `k` nearest points strictly closer than `max_radius`, as (id, squared distance) sorted by
-    /// distance then id, into `out` (cleared first).
+    /// The `k` nearest points strictly closer than `max_radius`, as (id, squared distance) sorted
+    /// by distance then id, into `out` (cleared first).
     pub(crate) fn knn(&self, q: Vec3, k: usize, max_radius: f32, out: &mut Vec<(u32, f32)>) {
         out.clear();
         if k == 0 {
@@ -146,8 +148,8 @@ impl PointTree {
     }
 
     /// Depth-first traversal nearest side first: `visit(id, d2)` sees every point strictly inside
-    /// `max_radius` and not farther than the bound it last returned (`None`: still the radius); subtrees
-    /// farther than the bound are skipped.
+    /// `max_radius` and not farther than the bound it last returned (`None`: still the radius);
+    /// subtrees farther than the bound are skipped.
     fn search(&self, q: Vec3, max_radius: f32, mut visit: impl FnMut(u32, f32) -> Option<f32>) {
         if self.nodes.is_empty() || !q.is_finite() || max_radius.is_nan() || max_radius <= 0.0 {
             return;

@@ -649,7 +649,7 @@ fn trace_path<S: PhotonScene + ?Sized>(
     let media = scene.has_media();
     // Only the caustic maps still filling (surface and volume): a path whose first event is not a
     // specular hit stores nothing (one that scatters in a medium before its first surface is no L S+
-    // path either). On Sibenik (one glass pane) 2.8 M of 3.2 M paths were such, 0.8 s of the 1.45 s pass.
+    // path either). In a scene whose light reaches little glass, most paths are such.
     let caustic_only = !want.global && !want.volume && (want.caustic || want.volume_caustic);
     if caustic_only && !scene.may_reach_specular(ray.origin, ray.dir) {
         return PathEnd::Done;
