@@ -21,6 +21,37 @@ struct Node {
     spheres: Vec<Sphere>,
 }
 
+/// A cell of the octree: its node, lower corner, edge length and depth.
+#[derive(Clone, Copy, Debug)]
+struct Cell {
+    node: usize,
+    lo: Vec3,
+    size: f32,
+    depth: u32,
+}
+
+impl Cell {
+    /// Child `i` of the cell, whose node's children start at node `first`.
+    fn child(self, first: usize, i: usize) -> Cell {
+        let half = 0.5 * self.size;
+        Cell {
+            node: first + i,
+            lo: self.lo + child_offset(i) * half,
+            size: half,
+            depth: self.depth + 1,
+        }
+    }
+}
+
+/// A record's sphere (`center`, `radius`) as placed in the cells of depth `level`.
+#[derive(Clone, Copy, Debug)]
+struct Placed {
+    level: u32,
+    center: Vec3,
+    radius: f32,
+    id: u32,
+}
+
 /// A record's sphere as the node holds it: a lookup rejects most candidates here, reading 20 bytes
 /// kept together in the node instead of the 132-byte record (the weight test of records whose
 /// sphere does not contain the point was a visible part of a render's profile).
@@ -120,51 +151,45 @@ impl Octree {
         if !center.is_finite() {
             return;
         }
-        let target = self.level_for(r);
-        self.insert_rec(0, self.origin, self.size, 0, target, center, r, id);
+        let sphere = Placed {
+            level: self.level_for(r),
+            center,
+            radius: r,
+            id,
+        };
+        self.insert_rec(self.root(), sphere);
     }
 
-    #[allow(clippy::too_many_arguments)]
-    fn insert_rec(
-        &mut self,
-        node: usize,
-        lo: Vec3,
-        size: f32,
-        depth: u32,
-        target: u32,
-        c: Vec3,
-        r: f32,
-        id: u32,
-    ) {
-        if dist2_to_box(c, lo, size) > r * r {
+    /// The root cell.
+    fn root(&self) -> Cell {
+        Cell {
+            node: 0,
+            lo: self.origin,
+            size: self.size,
+            depth: 0,
+        }
+    }
+
+    fn insert_rec(&mut self, cell: Cell, s: Placed) {
+        if dist2_to_box(s.center, cell.lo, cell.size) > s.radius * s.radius {
             return;
         }
-        if depth == target {
-            self.nodes[node].spheres.push(Sphere {
-                center: c,
-                radius: r,
-                id,
+        if cell.depth == s.level {
+            self.nodes[cell.node].spheres.push(Sphere {
+                center: s.center,
+                radius: s.radius,
+                id: s.id,
             });
             return;
         }
-        if self.nodes[node].first_child == 0 {
+        if self.nodes[cell.node].first_child == 0 {
             let first = self.nodes.len();
             self.nodes.resize(first + 8, Node::default());
-            self.nodes[node].first_child = first as u32;
+            self.nodes[cell.node].first_child = first as u32;
         }
-        let first = self.nodes[node].first_child as usize;
-        let half = 0.5 * size;
+        let first = self.nodes[cell.node].first_child as usize;
         for i in 0..8 {
-            self.insert_rec(
-                first + i,
-                lo + child_offset(i) * half,
-                half,
-                depth + 1,
-                target,
-                c,
-                r,
-                id,
-            );
+            self.insert_rec(cell.child(first, i), s);
         }
     }
 
@@ -190,46 +215,36 @@ impl Octree {
         if !(center.is_finite() && new_radius >= 0.0 && new_radius < r) {
             return old_radius;
         }
-        let (from, to) = (self.level_for(r), self.level_for(new_radius));
-        if to == from || !r.is_finite() {
-            self.shrink_rec(
-                0,
-                self.origin,
-                self.size,
-                0,
-                from,
-                center,
-                r,
-                id,
-                Some(new_radius),
-            );
+        let old = Placed {
+            level: self.level_for(r),
+            center,
+            radius: r,
+            id,
+        };
+        let to = self.level_for(new_radius);
+        if to == old.level || !r.is_finite() {
+            self.shrink_rec(self.root(), old, Some(new_radius));
             return old_radius;
         }
-        self.shrink_rec(0, self.origin, self.size, 0, from, center, r, id, None);
-        self.insert_rec(0, self.origin, self.size, 0, to, center, new_radius, id);
+        self.shrink_rec(self.root(), old, None);
+        let new = Placed {
+            level: to,
+            radius: new_radius,
+            ..old
+        };
+        self.insert_rec(self.root(), new);
         new_radius
     }
 
-    /// At level `target`, in every cell the sphere (`c`, `r`) overlaps: record `id`'s entry takes
-    /// radius `new_radius`, or leaves the cell when that is `None`.
-    #[allow(clippy::too_many_arguments)]
-    fn shrink_rec(
-        &mut self,
-        node: usize,
-        lo: Vec3,
-        size: f32,
-        depth: u32,
-        target: u32,
-        c: Vec3,
-        r: f32,
-        id: u32,
-        new_radius: Option<f32>,
-    ) {
-        if dist2_to_box(c, lo, size) > r * r {
+    /// In every cell of `s`'s level that its sphere overlaps: its record's entry takes radius
+    /// `new_radius`, or leaves the cell when that is `None`.
+    fn shrink_rec(&mut self, cell: Cell, s: Placed, new_radius: Option<f32>) {
+        if dist2_to_box(s.center, cell.lo, cell.size) > s.radius * s.radius {
             return;
         }
-        if depth == target {
-            let spheres = &mut self.nodes[node].spheres;
+        if cell.depth == s.level {
+            let id = s.id;
+            let spheres = &mut self.nodes[cell.node].spheres;
             match new_radius {
                 Some(nr) => {
                     if let Some(s) = spheres.iter_mut().find(|s| s.id == id) {
@@ -240,23 +255,12 @@ impl Octree {
             }
             return;
         }
-        let first = self.nodes[node].first_child as usize;
+        let first = self.nodes[cell.node].first_child as usize;
         if first == 0 {
             return;
         }
-        let half = 0.5 * size;
         for i in 0..8 {
-            self.shrink_rec(
-                first + i,
-                lo + child_offset(i) * half,
-                half,
-                depth + 1,
-                target,
-                c,
-                r,
-                id,
-                new_radius,
-            );
+            self.shrink_rec(cell.child(first, i), s, new_radius);
         }
     }
 
