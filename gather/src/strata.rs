@@ -48,13 +48,13 @@ impl Frame {
 
     /// Local (x, y, z = normal) to world.
     #[inline]
-    pub(crate) fn to_world(&self, v: Vec3) -> Vec3 {
+    pub(crate) fn to_world(self, v: Vec3) -> Vec3 {
         self.t * v.x + self.b * v.y + self.n * v.z
     }
 
     /// World to local (x, y, z = normal).
     #[cfg(test)]
-    pub(crate) fn to_local(&self, v: Vec3) -> Vec3 {
+    pub(crate) fn to_local(self, v: Vec3) -> Vec3 {
         Vec3::new(v.dot(self.t), v.dot(self.b), v.dot(self.n))
     }
 
