@@ -75,7 +75,5 @@ pub fn reflect(wo: Vec3, n: Vec3) -> Vec3 {
     2.0 * wo.dot(n) * n - wo
 }
 
-/// Rec. 709 luminance of a linear RGB value.
-pub fn luminance(c: Vec3) -> f32 {
-    0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
-}
+/// Rec. 709 luminance of a linear RGB value (one definition for the whole workspace).
+pub use pmbase::luminance;

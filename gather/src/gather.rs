@@ -10,11 +10,12 @@ use crate::gradient::{self, Grid};
 use crate::strata::{Frame, Strata, DEFAULT_RAYS};
 use glam::{DVec3, Vec3};
 use photon::sampling::Rng;
+use pmbase::luminance;
 
 /// How to gather.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct GatherParams {
-    /// Requested number of rays; the strata grid ([`crate::strata_for_rays`]) traces about this many.
+    /// Requested number of rays; the strata grid (`strata_for_rays`) traces about this many.
     pub rays: usize,
 }
 
@@ -48,10 +49,11 @@ impl GatherRay {
 pub struct GatherResult {
     /// Irradiance, E = (π / MN) Σ L_jk.
     pub e: Vec3,
-    /// Rotational gradient, one world vector per colour channel: E(n') ≈ E + (n × n') · grad_r[c].
+    /// Rotational gradient, one world vector per colour channel: E(n') ≈ E + (n × n') ·
+    /// `grad_r[c]`.
     pub grad_r: [Vec3; 3],
     /// Translational gradient, one world vector (in the tangent plane) per colour channel:
-    /// E(p') ≈ E + (p' − p) · grad_t[c].
+    /// E(p') ≈ E + (p' − p) · `grad_t[c]`.
     pub grad_t: [Vec3; 3],
     /// Harmonic mean of the hit distances, misses counting as infinity; `INFINITY` if all missed.
     pub r_harmonic: f32,
@@ -62,9 +64,9 @@ pub struct GatherResult {
     pub dir: Vec3,
     /// Rays traced (M · N).
     pub n_rays: u32,
-    /// Estimated relative standard error of E's luminance, from the gather's own rays: strata paired
-    /// side by side in azimuth, Var(Σ L) ≈ Σ over pairs of (L_a − L_b)² (one sample per stratum;
-    /// conservative where the radiance varies smoothly across a pair). 0 when E is 0.
+    /// Estimated relative standard error of E's luminance, from the gather's own rays: strata
+    /// paired side by side in azimuth, Var(Σ L) ≈ Σ over pairs of (L_a − L_b)² (one sample per
+    /// stratum; conservative where the radiance varies smoothly across a pair). 0 when E is 0.
     pub rel_err: f32,
 }
 
@@ -86,12 +88,6 @@ fn paired_rel_err(lum: &[f64], n: usize) -> f32 {
     (var.sqrt() / total) as f32
 }
 
-/// Rec. 709 luminance.
-#[inline]
-fn luminance(c: Vec3) -> f32 {
-    c.dot(Vec3::new(0.2126, 0.7152, 0.0722))
-}
-
 /// Gathers at `p` with unit normal `n`. One jitter pair per stratum is drawn, row by row, from
 /// `Rng::new(seed)`, so the same seed gives bitwise the same result. `trace` receives unit world
 /// directions in the hemisphere around `n`, one at a time.
@@ -107,11 +103,11 @@ pub fn gather(
     })
 }
 
-/// [`gather`] with every direction handed to `trace` at once: it appends one answer per direction, in
-/// order, to the (empty) vector it is given. A caller that reads memory at the end of each ray can then
-/// trace all rays first and make the reads together, their cache misses overlapping (on Sibenik the
-/// atlas read after each ray was a tenth of the cache fill, most of it waiting for memory).
-pub fn gather_batch(
+/// [`gather`] with every direction handed to `trace` at once: it appends one answer per direction,
+/// in order, to the (empty) vector it is given. A caller that reads memory at the end of each ray
+/// can then trace all rays first and make the reads together, their cache misses overlapping (a
+/// read after each ray waits for memory each time).
+pub(crate) fn gather_batch(
     p: Vec3,
     n: Vec3,
     params: &GatherParams,
@@ -121,8 +117,8 @@ pub fn gather_batch(
     gather_batch_round(p, n, params, seed, 0, trace)
 }
 
-/// Point `k` of the two-dimensional Sobol sequence, as 32-bit fractions: its first 2^m points put one
-/// point in each of the 2^m elementary intervals of every shape (a (0, 2)-sequence in base 2).
+/// Point `k` of the two-dimensional Sobol sequence, as 32-bit fractions: its first 2^m points put
+/// one point in each of the 2^m elementary intervals of every shape (a (0, 2)-sequence in base 2).
 fn sobol2(k: u32) -> [u32; 2] {
     let (mut y, mut v, mut i) = (0u32, 1u32 << 31, k);
     while i != 0 {
@@ -152,8 +148,8 @@ fn round_jitter(xi: [f32; 2], round: u32) -> [f32; 2] {
     })
 }
 
-/// [`gather_batch`] as round `round` of gathers from the same `seed`: see [`round_jitter`]. Round 0 is
-/// [`gather_batch`]'s gather.
+/// `gather_batch` as round `round` of gathers from the same `seed`: see `round_jitter`. Round 0 is
+/// `gather_batch`'s gather.
 pub fn gather_batch_round(
     p: Vec3,
     n: Vec3,

@@ -5,10 +5,11 @@
 //! The crate knows neither Embree nor materials: the root crate passes a closure that traces one
 //! gather ray and reports its radiance and hit distance.
 #![forbid(unsafe_code)]
+#![warn(unreachable_pub)]
 
 mod gather;
 mod gradient;
-pub mod strata;
+mod strata;
 
-pub use gather::{gather, gather_batch, gather_batch_round, GatherParams, GatherRay, GatherResult};
-pub use strata::{strata_for_rays, Frame, Strata, DEFAULT_RAYS};
+pub use gather::{gather, gather_batch_round, GatherParams, GatherRay, GatherResult};
+pub use strata::DEFAULT_RAYS;

@@ -19,7 +19,7 @@ pub const DEFAULT_RAYS: usize = 500;
 /// projected solid angle is (Ward & Heckbert). M = round(sqrt(rays / π)); N = round(rays / M), so
 /// M·N is the grid closest to the request for that M (it is within M/2 of `rays`) and N/M ≈ π.
 /// The default 500 rays gives M = 13, N = 38 (494 rays). At least one stratum is always returned.
-pub fn strata_for_rays(rays: usize) -> (usize, usize) {
+pub(crate) fn strata_for_rays(rays: usize) -> (usize, usize) {
     let rays = rays.max(1) as f64;
     let m = (rays / std::f64::consts::PI).sqrt().round().max(1.0);
     let n = (rays / m).round().max(1.0);
@@ -28,7 +28,7 @@ pub fn strata_for_rays(rays: usize) -> (usize, usize) {
 
 /// An orthonormal frame around a unit normal: `t`, `b`, `n` are right-handed (t × b = n).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Frame {
+pub(crate) struct Frame {
     pub t: Vec3,
     pub b: Vec3,
     pub n: Vec3,
@@ -37,7 +37,7 @@ pub struct Frame {
 impl Frame {
     /// Builds the frame without branches on the normal's direction (Duff et al. 2017,
     /// "Building an Orthonormal Basis, Revisited"). `n` must be unit length.
-    pub fn from_normal(n: Vec3) -> Self {
+    pub(crate) fn from_normal(n: Vec3) -> Self {
         let sign = 1.0f32.copysign(n.z);
         let a = -1.0 / (sign + n.z);
         let b = n.x * n.y * a;
@@ -48,32 +48,32 @@ impl Frame {
 
     /// Local (x, y, z = normal) to world.
     #[inline]
-    pub fn to_world(&self, v: Vec3) -> Vec3 {
+    pub(crate) fn to_world(self, v: Vec3) -> Vec3 {
         self.t * v.x + self.b * v.y + self.n * v.z
     }
 
     /// World to local (x, y, z = normal).
-    #[inline]
-    pub fn to_local(&self, v: Vec3) -> Vec3 {
+    #[cfg(test)]
+    pub(crate) fn to_local(self, v: Vec3) -> Vec3 {
         Vec3::new(v.dot(self.t), v.dot(self.b), v.dot(self.n))
     }
 
     /// Unit tangent vector in the azimuth `phi` direction: u(φ) = cos φ t + sin φ b.
     #[inline]
-    pub fn azimuth(&self, phi: f32) -> Vec3 {
+    pub(crate) fn azimuth(&self, phi: f32) -> Vec3 {
         self.t * phi.cos() + self.b * phi.sin()
     }
 
     /// Unit tangent vector perpendicular to azimuth `phi`: v(φ) = u(φ + π/2) = n × u(φ).
     #[inline]
-    pub fn azimuth_perp(&self, phi: f32) -> Vec3 {
+    pub(crate) fn azimuth_perp(&self, phi: f32) -> Vec3 {
         self.b * phi.cos() - self.t * phi.sin()
     }
 }
 
 /// The strata grid and its cell boundaries.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Strata {
+pub(crate) struct Strata {
     /// Number of polar strata.
     pub m: usize,
     /// Number of azimuthal strata.
@@ -81,48 +81,44 @@ pub struct Strata {
 }
 
 impl Strata {
-    pub fn for_rays(rays: usize) -> Self {
+    pub(crate) fn for_rays(rays: usize) -> Self {
         let (m, n) = strata_for_rays(rays);
         Strata { m, n }
     }
 
-    pub fn len(&self) -> usize {
+    pub(crate) fn len(&self) -> usize {
         self.m * self.n
-    }
-
-    pub fn is_empty(&self) -> bool {
-        self.len() == 0
     }
 
     /// Row-major index of stratum (j, k): polar row j, azimuthal column k.
     #[inline]
-    pub fn index(&self, j: usize, k: usize) -> usize {
+    pub(crate) fn index(&self, j: usize, k: usize) -> usize {
         j * self.n + k
     }
 
     /// sin θ and cos θ of the polar boundary between rows j − 1 and j (j = 0 is the zenith,
     /// j = M the horizon).
     #[inline]
-    pub fn theta_boundary(&self, j: usize) -> (f32, f32) {
+    pub(crate) fn theta_boundary(&self, j: usize) -> (f32, f32) {
         let s2 = (j as f32 / self.m as f32).min(1.0);
         (s2.sqrt(), (1.0 - s2).max(0.0).sqrt())
     }
 
     /// Azimuth of the boundary between columns k − 1 and k.
     #[inline]
-    pub fn phi_boundary(&self, k: usize) -> f32 {
+    pub(crate) fn phi_boundary(&self, k: usize) -> f32 {
         2.0 * PI * k as f32 / self.n as f32
     }
 
     /// Azimuth of the centre of column k.
     #[inline]
-    pub fn phi_centre(&self, k: usize) -> f32 {
+    pub(crate) fn phi_centre(&self, k: usize) -> f32 {
         2.0 * PI * (k as f32 + 0.5) / self.n as f32
     }
 
     /// Jittered local direction (z = normal) in stratum (j, k) for `xi` ∈ [0, 1)².
     #[inline]
-    pub fn direction(&self, j: usize, k: usize, xi: [f32; 2]) -> Vec3 {
+    pub(crate) fn direction(&self, j: usize, k: usize, xi: [f32; 2]) -> Vec3 {
         let s2 = ((j as f32 + xi[0]) / self.m as f32).min(1.0);
         let sin_theta = s2.sqrt();
         let cos_theta = (1.0 - s2).max(0.0).sqrt();

@@ -3,28 +3,14 @@
 #![forbid(unsafe_code)]
 
 use glam::Vec3;
+use pmbase::luminance;
 
 use crate::error::{Error, Result};
 use crate::index::Octree;
 use crate::params::{CacheParams, Pass};
-use crate::record::{NewRecord, Record};
+use crate::record::{finite_rel_err, Lookup, NewRecord, Record};
 use crate::stats::InsertStats;
 use crate::weight::usable_weight;
-
-/// Rec. 709 luminance.
-fn luminance(c: Vec3) -> f32 {
-    c.dot(Vec3::new(0.2126, 0.7152, 0.0722))
-}
-
-/// An interpolated irradiance and what it was made of.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Lookup {
-    /// RGB irradiance, every channel ≥ 0.
-    pub e: Vec3,
-    /// Number of usable records.
-    pub n_used: u32,
-    pub weight_sum: f32,
-}
 
 /// Weighted sum over usable records.
 #[derive(Default)]
@@ -78,7 +64,7 @@ pub(crate) struct Shrink {
 }
 
 impl Shrink {
-    pub fn of(id: u32, rec: &Record) -> Shrink {
+    pub(crate) fn of(id: u32, rec: &Record) -> Shrink {
         Shrink {
             id,
             r_harmonic: rec.r_harmonic,
@@ -119,7 +105,7 @@ impl IrradianceCache {
     /// From now on the records there are keep their radii: later insertions clamp themselves against
     /// them but shrink none of them (neighbor clamping and adaptive caching act on the later records
     /// only), so a lookup over the first [`len`](Self::len) records gives what it gives now.
-    pub fn freeze(&mut self) {
+    pub(crate) fn freeze(&mut self) {
         self.frozen = self.records.len();
     }
 
@@ -157,7 +143,7 @@ impl IrradianceCache {
     }
 
     /// Sum of the statistics of every insertion so far.
-    pub fn insert_totals(&self) -> &InsertStats {
+    pub(crate) fn insert_totals(&self) -> &InsertStats {
         &self.totals
     }
 
@@ -233,7 +219,7 @@ impl IrradianceCache {
     /// by more than the Weber fraction τ — and the most deviant of them can still shrink. Then no
     /// interpolation (the point is uncovered) and that record's id, to be shrunk by the caller.
     /// Without adaptive caching, [`lookup`](Self::lookup) with `Pass::A`.
-    pub fn lookup_adaptive(&self, p: Vec3, n: Vec3) -> (Option<Lookup>, Option<u32>) {
+    pub(crate) fn lookup_adaptive(&self, p: Vec3, n: Vec3) -> (Option<Lookup>, Option<u32>) {
         let Some(tau) = self.params.adaptive else {
             return (self.lookup(p, n, Pass::A), None);
         };
@@ -298,12 +284,14 @@ impl IrradianceCache {
     }
 
     /// The same as [`lookup`](Self::lookup) by scanning every record: the oracle for the index.
-    pub fn lookup_brute(&self, p: Vec3, n: Vec3, pass: Pass) -> Option<Lookup> {
+    #[cfg(test)]
+    pub(crate) fn lookup_brute(&self, p: Vec3, n: Vec3, pass: Pass) -> Option<Lookup> {
         self.lookup_since(p, n, pass, 0)
     }
 
-    /// Indices of the records usable at (p, n), by brute force, sorted (for tests and debugging views).
-    pub fn usable_records_brute(&self, p: Vec3, n: Vec3, pass: Pass) -> Vec<usize> {
+    /// Indices of the records usable at (p, n), by brute force, sorted.
+    #[cfg(test)]
+    pub(crate) fn usable_records_brute(&self, p: Vec3, n: Vec3, pass: Pass) -> Vec<usize> {
         (0..self.records.len())
             .filter(|&i| usable_weight(&self.params, pass, &self.records[i], p, n).is_some())
             .collect()
@@ -388,7 +376,7 @@ impl IrradianceCache {
             1.0
         };
         let old_sd = rec.rel_err * luminance(rec.e);
-        let new_sd = crate::insert::finite_rel_err(more.rel_err) * luminance(more.e);
+        let new_sd = finite_rel_err(more.rel_err) * luminance(more.e);
         rec.e = (keep * rec.e + share * more.e.max(Vec3::ZERO)).max(Vec3::ZERO);
         for c in 0..3 {
             if more.grad_r[c].is_finite() && more.grad_t[c].is_finite() {

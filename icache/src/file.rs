@@ -3,69 +3,42 @@
 //! Layout, little-endian: magic `PMICACHE`, version u32, scene fingerprint u64 (the caller's hash of
 //! whatever makes records valid), parameters, index bounds, stage count u32, record count u64, the stages
 //! (u32 each: the record count after pass A and after each round of pass B; see
-//! [`IrradianceCache::stages`]), records (33 × f32 each), then FNV-1a 64 of every preceding byte. Lengths are checked against the count before anything is
-//! allocated, and every field is validated, so a bad file is an error, never a panic.
+//! [`IrradianceCache::stages`]), records (33 × f32 each), then FNV-1a 64 of every preceding byte.
+//! Lengths are checked against the count before anything is allocated, and every field is validated, so
+//! a bad file is an error, never a panic. Magic, version, checksum and the bounded read are
+//! [`pmbase::container`]'s, shared with photon-map files.
 #![forbid(unsafe_code)]
 
 use std::path::Path;
 
-use glam::Vec3;
+use pmbase::container::{Format, OpenError, PrefixError, Reader, CHECKSUM_BYTES, PREFIX_BYTES};
 
 use crate::cache::IrradianceCache;
 use crate::error::{Error, Result};
 use crate::params::{CacheParams, Weighting};
 use crate::record::{Record, RECORD_FLOATS};
 
-const MAGIC: &[u8; 8] = b"PMICACHE";
-pub const FILE_VERSION: u32 = 3;
+pub(crate) const FILE_VERSION: u32 = 3;
 /// magic 8 + version 4 + fingerprint 8 + params 24 + bounds 24 + stage count 4 + record count 8.
 pub const HEADER_BYTES: usize = 80;
 /// Most stages a file holds (pass A and the rounds of pass B: 4, 8, 16, … samples up to 100 000).
-pub const MAX_STAGES: usize = 64;
+pub(crate) const MAX_STAGES: usize = 64;
 const RECORD_BYTES: usize = RECORD_FLOATS * 4;
-const CHECKSUM_BYTES: usize = 8;
 /// Largest cache file read: 32 million records (a cache holds thousands to a few million).
-pub const MAX_FILE_BYTES: u64 = HEADER_BYTES as u64
+pub(crate) const MAX_FILE_BYTES: u64 = HEADER_BYTES as u64
     + 4 * MAX_STAGES as u64
     + (32 << 20) * RECORD_BYTES as u64
     + CHECKSUM_BYTES as u64;
 
-/// FNV-1a, 64 bit.
-pub fn fnv1a64(bytes: &[u8]) -> u64 {
-    bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, &b| {
-        (h ^ b as u64).wrapping_mul(0x0000_0100_0000_01b3)
-    })
-}
+/// The container: the checksum covers every byte before it.
+const FORMAT: Format = Format {
+    magic: *b"PMICACHE",
+    checksum_from: 0,
+    max_file_bytes: MAX_FILE_BYTES,
+};
 
-/// Little-endian reader over a slice whose total length was checked beforehand.
-struct Cursor<'a> {
-    bytes: &'a [u8],
-    at: usize,
-}
-
-impl Cursor<'_> {
-    fn take<const N: usize>(&mut self) -> [u8; N] {
-        let mut out = [0u8; N];
-        out.copy_from_slice(&self.bytes[self.at..self.at + N]);
-        self.at += N;
-        out
-    }
-    fn u8(&mut self) -> u8 {
-        self.take::<1>()[0]
-    }
-    fn u32(&mut self) -> u32 {
-        u32::from_le_bytes(self.take())
-    }
-    fn u64(&mut self) -> u64 {
-        u64::from_le_bytes(self.take())
-    }
-    fn f32(&mut self) -> f32 {
-        f32::from_le_bytes(self.take())
-    }
-    fn vec3(&mut self) -> Vec3 {
-        Vec3::new(self.f32(), self.f32(), self.f32())
-    }
-}
+/// FNV-1a 64, the files' checksum (the root crate fingerprints scenes with it too).
+pub use pmbase::container::fnv1a64;
 
 fn write_params(out: &mut Vec<u8>, p: &CacheParams) {
     out.extend_from_slice(&p.accuracy.to_le_bytes());
@@ -83,7 +56,7 @@ fn write_params(out: &mut Vec<u8>, p: &CacheParams) {
     out.extend_from_slice(&p.adaptive.unwrap_or(0.0).to_le_bytes());
 }
 
-fn read_params(c: &mut Cursor) -> Result<CacheParams> {
+fn read_params(c: &mut Reader) -> Result<CacheParams> {
     let accuracy = c.f32();
     let weight = match c.u8() {
         0 => Weighting::TabellionLamorlette,
@@ -154,8 +127,7 @@ impl IrradianceCache {
         let mut out = Vec::with_capacity(
             HEADER_BYTES + 4 * MAX_STAGES + self.records.len() * RECORD_BYTES + CHECKSUM_BYTES,
         );
-        out.extend_from_slice(MAGIC);
-        out.extend_from_slice(&FILE_VERSION.to_le_bytes());
+        out.extend_from_slice(&FORMAT.prefix(FILE_VERSION));
         out.extend_from_slice(&fingerprint.to_le_bytes());
         write_params(&mut out, &self.params);
         for v in [self.bounds.0, self.bounds.1] {
@@ -174,7 +146,7 @@ impl IrradianceCache {
                 .iter()
                 .for_each(|f| out.extend_from_slice(&f.to_le_bytes()));
         }
-        let sum = fnv1a64(&out);
+        let sum = FORMAT.checksum(&out);
         out.extend_from_slice(&sum.to_le_bytes());
         out
     }
@@ -187,18 +159,10 @@ impl IrradianceCache {
             needed,
             available,
         };
-        if bytes.len() < MAGIC.len() + 4 {
-            return Err(if bytes.len() >= MAGIC.len() && &bytes[..8] != MAGIC {
-                Error::BadMagic
-            } else {
-                truncated("magic and version", (MAGIC.len() + 4) as u64)
-            });
-        }
-        let mut c = Cursor { bytes, at: 0 };
-        if &c.take::<8>() != MAGIC {
-            return Err(Error::BadMagic);
-        }
-        let version = c.u32();
+        let version = FORMAT.version(bytes).map_err(|e| match e {
+            PrefixError::BadMagic => Error::BadMagic,
+            PrefixError::Truncated => truncated("magic and version", PREFIX_BYTES as u64),
+        })?;
         if version != FILE_VERSION {
             return Err(Error::UnsupportedVersion {
                 found: version,
@@ -208,32 +172,25 @@ impl IrradianceCache {
         if bytes.len() < HEADER_BYTES + CHECKSUM_BYTES {
             return Err(truncated("header", (HEADER_BYTES + CHECKSUM_BYTES) as u64));
         }
-        let n_stages = u32::from_le_bytes(
-            bytes[HEADER_BYTES - 12..HEADER_BYTES - 8]
-                .try_into()
-                .expect("4 bytes"),
-        ) as usize;
+        let n_stages = Reader::new(bytes, HEADER_BYTES - 12).u32() as usize;
         if n_stages > MAX_STAGES {
             return Err(Error::InvalidParams(format!(
                 "{n_stages} stages in cache file (at most {MAX_STAGES})"
             )));
         }
-        let count = u64::from_le_bytes(
-            bytes[HEADER_BYTES - 8..HEADER_BYTES]
-                .try_into()
-                .expect("8 bytes"),
-        );
+        let count = Reader::new(bytes, HEADER_BYTES - 8).u64();
         let needed = (count as u128) * RECORD_BYTES as u128
             + (HEADER_BYTES + 4 * n_stages + CHECKSUM_BYTES) as u128;
         if needed != available as u128 {
             return Err(truncated("records", needed.min(u64::MAX as u128) as u64));
         }
-        let body = bytes.len() - CHECKSUM_BYTES;
-        let stored = u64::from_le_bytes(bytes[body..].try_into().expect("8 bytes"));
-        let computed = fnv1a64(&bytes[..body]);
-        if stored != computed {
-            return Err(Error::ChecksumMismatch { stored, computed });
-        }
+        FORMAT
+            .verify_checksum(bytes)
+            .map_err(|m| Error::ChecksumMismatch {
+                stored: m.stored,
+                computed: m.computed,
+            })?;
+        let mut c = Reader::new(bytes, PREFIX_BYTES);
         let found = c.u64();
         if found != fingerprint {
             return Err(Error::FingerprintMismatch {
@@ -269,36 +226,14 @@ impl IrradianceCache {
         Ok(cache)
     }
 
-    /// Write the cache to a file.
-    pub fn save(&self, path: &Path, fingerprint: u64) -> Result<()> {
-        std::fs::write(path, self.to_bytes(fingerprint))?;
-        Ok(())
-    }
-
     /// Read a cache file for the scene with `fingerprint`: only a regular file (a FIFO would block, a
-    /// device never end) of at most [`MAX_FILE_BYTES`].
+    /// device never end) of at most `MAX_FILE_BYTES`.
     pub fn load(path: &Path, fingerprint: u64) -> Result<Self> {
-        use std::io::Read;
-        let meta = std::fs::metadata(path)?;
-        if !meta.is_file() {
-            return Err(Error::NotRegularFile);
-        }
-        if meta.len() > MAX_FILE_BYTES {
-            return Err(Error::TooLarge {
-                bytes: meta.len(),
-                limit: MAX_FILE_BYTES,
-            });
-        }
-        let mut bytes = Vec::with_capacity(meta.len() as usize);
-        std::fs::File::open(path)?
-            .take(MAX_FILE_BYTES + 1)
-            .read_to_end(&mut bytes)?;
-        if bytes.len() as u64 > MAX_FILE_BYTES {
-            return Err(Error::TooLarge {
-                bytes: bytes.len() as u64,
-                limit: MAX_FILE_BYTES,
-            });
-        }
+        let bytes = FORMAT.read(path).map_err(|e| match e {
+            OpenError::Io(e) => Error::Io(e),
+            OpenError::NotRegularFile => Error::NotRegularFile,
+            OpenError::TooLarge { bytes, limit } => Error::TooLarge { bytes, limit },
+        })?;
         Self::from_bytes(&bytes, fingerprint)
     }
 }

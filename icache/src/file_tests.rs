@@ -55,7 +55,7 @@ fn round_trip_is_exact() {
     let dir = std::env::temp_dir().join(format!("icache_test_{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let path = dir.join("cache.bin");
-    c.save(&path, FP).unwrap();
+    std::fs::write(&path, c.to_bytes(FP)).unwrap();
     let d = IrradianceCache::load(&path, FP).unwrap();
     std::fs::remove_dir_all(&dir).ok();
     assert_eq!(c.params(), d.params());

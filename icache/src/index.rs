@@ -1,10 +1,11 @@
-//! Spatial index over record spheres: an octree that references each record from every node (at one depth
-//! matched to the sphere's size) the sphere overlaps, so a point lookup walks a single root-to-leaf path.
+//! Spatial index over record spheres: an octree that references each record from every node (at one
+//! depth matched to the sphere's size) the sphere overlaps, so a point lookup walks a single
+//! root-to-leaf path.
 //!
-//! A sphere is stored at the deepest level whose cells are at least its diameter, so it touches at most
-//! 8 cells there. Radii may later shrink (neighbor clamping, adaptive caching); the old cells still cover
-//! the smaller sphere, so nothing moves, but the entries take the smaller radius ([`Octree::shrink`]).
-//! The caller's exact weight test decides usability. Spheres reaching outside
+//! A sphere is stored at the deepest level whose cells are at least its diameter, so it touches at
+//! most 8 cells there. Radii may later shrink (neighbor clamping, adaptive caching); the old cells
+//! still cover the smaller sphere, so nothing moves, but the entries take the smaller radius
+//! ([`Octree::shrink`]). The caller's exact weight test decides usability. Spheres reaching outside
 //! the root cube are also kept in an `outside` list, which is all a lookup outside the cube checks.
 #![forbid(unsafe_code)]
 
@@ -20,9 +21,40 @@ struct Node {
     spheres: Vec<Sphere>,
 }
 
-/// A record's sphere as the node holds it: a lookup rejects most candidates here, reading 20 bytes kept
-/// together in the node instead of the 132-byte record (a Sibenik profile spent 12 % of the render in
-/// the weight test of records whose sphere did not contain the point).
+/// A cell of the octree: its node, lower corner, edge length and depth.
+#[derive(Clone, Copy, Debug)]
+struct Cell {
+    node: usize,
+    lo: Vec3,
+    size: f32,
+    depth: u32,
+}
+
+impl Cell {
+    /// Child `i` of the cell, whose node's children start at node `first`.
+    fn child(self, first: usize, i: usize) -> Cell {
+        let half = 0.5 * self.size;
+        Cell {
+            node: first + i,
+            lo: self.lo + child_offset(i) * half,
+            size: half,
+            depth: self.depth + 1,
+        }
+    }
+}
+
+/// A record's sphere (`center`, `radius`) as placed in the cells of depth `level`.
+#[derive(Clone, Copy, Debug)]
+struct Placed {
+    level: u32,
+    center: Vec3,
+    radius: f32,
+    id: u32,
+}
+
+/// A record's sphere as the node holds it: a lookup rejects most candidates here, reading 20 bytes
+/// kept together in the node instead of the 132-byte record (the weight test of records whose
+/// sphere does not contain the point was a visible part of a render's profile).
 #[derive(Clone, Copy, Debug)]
 struct Sphere {
     center: Vec3,
@@ -41,7 +73,7 @@ impl Sphere {
 
 /// Octree of record spheres over a root cube.
 #[derive(Clone, Debug)]
-pub struct Octree {
+pub(crate) struct Octree {
     origin: Vec3,
     size: f32,
     nodes: Vec<Node>,
@@ -60,9 +92,10 @@ fn child_offset(i: usize) -> Vec3 {
 }
 
 impl Octree {
-    /// An empty octree whose root cube encloses [min, max] with a small margin. Non-finite or inverted
-    /// bounds, or an extent that overflows, give a unit cube at the origin: records outside the cube still work, via the outside list.
-    pub fn new(min: Vec3, max: Vec3) -> Self {
+    /// An empty octree whose root cube encloses [min, max] with a small margin. Non-finite or
+    /// inverted bounds, or an extent that overflows, give a unit cube at the origin: records
+    /// outside the cube still work, via the outside list.
+    pub(crate) fn new(min: Vec3, max: Vec3) -> Self {
         let ok = min.is_finite()
             && max.is_finite()
             && min.cmple(max).all()
@@ -100,8 +133,9 @@ impl Octree {
         level
     }
 
-    /// Reference record `id` with sphere (`center`, `radius`) from every overlapping cell at its level.
-    pub fn insert(&mut self, id: u32, center: Vec3, radius: f32) {
+    /// Reference record `id` with sphere (`center`, `radius`) from every overlapping cell at its
+    /// level.
+    pub(crate) fn insert(&mut self, id: u32, center: Vec3, radius: f32) {
         let r = if radius.is_nan() {
             f32::INFINITY
         } else {
@@ -117,61 +151,62 @@ impl Octree {
         if !center.is_finite() {
             return;
         }
-        let target = self.level_for(r);
-        self.insert_rec(0, self.origin, self.size, 0, target, center, r, id);
+        let sphere = Placed {
+            level: self.level_for(r),
+            center,
+            radius: r,
+            id,
+        };
+        self.insert_rec(self.root(), sphere);
     }
 
-    #[allow(clippy::too_many_arguments)]
-    fn insert_rec(
-        &mut self,
-        node: usize,
-        lo: Vec3,
-        size: f32,
-        depth: u32,
-        target: u32,
-        c: Vec3,
-        r: f32,
-        id: u32,
-    ) {
-        if dist2_to_box(c, lo, size) > r * r {
+    /// The root cell.
+    fn root(&self) -> Cell {
+        Cell {
+            node: 0,
+            lo: self.origin,
+            size: self.size,
+            depth: 0,
+        }
+    }
+
+    fn insert_rec(&mut self, cell: Cell, s: Placed) {
+        if dist2_to_box(s.center, cell.lo, cell.size) > s.radius * s.radius {
             return;
         }
-        if depth == target {
-            self.nodes[node].spheres.push(Sphere {
-                center: c,
-                radius: r,
-                id,
+        if cell.depth == s.level {
+            self.nodes[cell.node].spheres.push(Sphere {
+                center: s.center,
+                radius: s.radius,
+                id: s.id,
             });
             return;
         }
-        if self.nodes[node].first_child == 0 {
+        if self.nodes[cell.node].first_child == 0 {
             let first = self.nodes.len();
             self.nodes.resize(first + 8, Node::default());
-            self.nodes[node].first_child = first as u32;
+            self.nodes[cell.node].first_child = first as u32;
         }
-        let first = self.nodes[node].first_child as usize;
-        let half = 0.5 * size;
+        let first = self.nodes[cell.node].first_child as usize;
         for i in 0..8 {
-            self.insert_rec(
-                first + i,
-                lo + child_offset(i) * half,
-                half,
-                depth + 1,
-                target,
-                c,
-                r,
-                id,
-            );
+            self.insert_rec(cell.child(first, i), s);
         }
     }
 
-    /// Record `id`, indexed with sphere (`center`, `old_radius`), now reaches `new_radius` ≤ `old_radius`.
-    /// Where the smaller sphere belongs to the same level, its entries stay in their cells (which still
-    /// cover it) and test the smaller radius; where it belongs deeper, they move to that level's cells.
-    /// Returns the radius the record is now indexed with (the `old_radius` of its next shrink). On
-    /// Sibenik neighbor clamping shrinks most records after insertion: with the entries left in their
-    /// first cells a pass-A lookup scanned 111 spheres to find 11 containing the point.
-    pub fn shrink(&mut self, id: u32, center: Vec3, old_radius: f32, new_radius: f32) -> f32 {
+    /// Record `id`, indexed with sphere (`center`, `old_radius`), now reaches `new_radius` ≤
+    /// `old_radius`. Where the smaller sphere belongs to the same level, its entries stay in their
+    /// cells (which still cover it) and test the smaller radius; where it belongs deeper, they move
+    /// to that level's cells. Returns the radius the record is now indexed with (the `old_radius`
+    /// of its next shrink). In a detailed scene neighbor clamping shrinks most records after
+    /// insertion: with the entries left in their first cells a lookup would scan about ten spheres
+    /// for each one containing the point.
+    pub(crate) fn shrink(
+        &mut self,
+        id: u32,
+        center: Vec3,
+        old_radius: f32,
+        new_radius: f32,
+    ) -> f32 {
         let r = if old_radius.is_nan() {
             f32::INFINITY
         } else {
@@ -180,46 +215,36 @@ impl Octree {
         if !(center.is_finite() && new_radius >= 0.0 && new_radius < r) {
             return old_radius;
         }
-        let (from, to) = (self.level_for(r), self.level_for(new_radius));
-        if to == from || !r.is_finite() {
-            self.shrink_rec(
-                0,
-                self.origin,
-                self.size,
-                0,
-                from,
-                center,
-                r,
-                id,
-                Some(new_radius),
-            );
+        let old = Placed {
+            level: self.level_for(r),
+            center,
+            radius: r,
+            id,
+        };
+        let to = self.level_for(new_radius);
+        if to == old.level || !r.is_finite() {
+            self.shrink_rec(self.root(), old, Some(new_radius));
             return old_radius;
         }
-        self.shrink_rec(0, self.origin, self.size, 0, from, center, r, id, None);
-        self.insert_rec(0, self.origin, self.size, 0, to, center, new_radius, id);
+        self.shrink_rec(self.root(), old, None);
+        let new = Placed {
+            level: to,
+            radius: new_radius,
+            ..old
+        };
+        self.insert_rec(self.root(), new);
         new_radius
     }
 
-    /// At level `target`, in every cell the sphere (`c`, `r`) overlaps: record `id`'s entry takes radius
+    /// In every cell of `s`'s level that its sphere overlaps: its record's entry takes radius
     /// `new_radius`, or leaves the cell when that is `None`.
-    #[allow(clippy::too_many_arguments)]
-    fn shrink_rec(
-        &mut self,
-        node: usize,
-        lo: Vec3,
-        size: f32,
-        depth: u32,
-        target: u32,
-        c: Vec3,
-        r: f32,
-        id: u32,
-        new_radius: Option<f32>,
-    ) {
-        if dist2_to_box(c, lo, size) > r * r {
+    fn shrink_rec(&mut self, cell: Cell, s: Placed, new_radius: Option<f32>) {
+        if dist2_to_box(s.center, cell.lo, cell.size) > s.radius * s.radius {
             return;
         }
-        if depth == target {
-            let spheres = &mut self.nodes[node].spheres;
+        if cell.depth == s.level {
+            let id = s.id;
+            let spheres = &mut self.nodes[cell.node].spheres;
             match new_radius {
                 Some(nr) => {
                     if let Some(s) = spheres.iter_mut().find(|s| s.id == id) {
@@ -230,36 +255,26 @@ impl Octree {
             }
             return;
         }
-        let first = self.nodes[node].first_child as usize;
+        let first = self.nodes[cell.node].first_child as usize;
         if first == 0 {
             return;
         }
-        let half = 0.5 * size;
         for i in 0..8 {
-            self.shrink_rec(
-                first + i,
-                lo + child_offset(i) * half,
-                half,
-                depth + 1,
-                target,
-                c,
-                r,
-                id,
-                new_radius,
-            );
+            self.shrink_rec(cell.child(first, i), s, new_radius);
         }
     }
 
-    /// Call `f` with every record whose sphere contains `p` (with its radius as last shrunk: a superset
-    /// of the records usable there; each id at most once).
-    pub fn for_each_candidate(&self, p: Vec3, f: impl FnMut(u32)) {
+    /// Call `f` with every record whose sphere contains `p` (with its radius as last shrunk: a
+    /// superset of the records usable there; each id at most once).
+    pub(crate) fn for_each_candidate(&self, p: Vec3, f: impl FnMut(u32)) {
         self.for_each_candidate_within(p, 1.0, f)
     }
 
-    /// [`for_each_candidate`](Self::for_each_candidate) with every sphere's radius scaled by `scale` ≤ 1:
-    /// a lookup whose records reach less far than the index holds them (pass A: a·R' where the index
-    /// holds pass B's reach) rejects the others here, without reading their records.
-    pub fn for_each_candidate_within(&self, p: Vec3, scale: f32, mut f: impl FnMut(u32)) {
+    /// [`for_each_candidate`](Self::for_each_candidate) with every sphere's radius scaled by
+    /// `scale` ≤ 1: a lookup whose records reach less far than the index holds them (pass A: a·R'
+    /// where the index holds pass B's reach) rejects the others here, without reading their
+    /// records.
+    pub(crate) fn for_each_candidate_within(&self, p: Vec3, scale: f32, mut f: impl FnMut(u32)) {
         if !self.in_root(p) {
             self.outside.iter().for_each(|&id| f(id));
             return;
@@ -286,10 +301,10 @@ impl Octree {
         }
     }
 
-    /// Ids of every record whose sphere may overlap the sphere (`c`, `r`), in the index's order, an id
-    /// once per cell that holds it (neighbor clamping takes minima, which repeats do not change; sorting
-    /// them away was a fifth of the serial insertion).
-    pub fn query_sphere(&self, c: Vec3, r: f32, out: &mut Vec<u32>) {
+    /// Ids of every record whose sphere may overlap the sphere (`c`, `r`), in the index's order, an
+    /// id once per cell that holds it (neighbor clamping takes minima, which repeats do not change;
+    /// sorting them away was a fifth of the serial insertion).
+    pub(crate) fn query_sphere(&self, c: Vec3, r: f32, out: &mut Vec<u32>) {
         out.clear();
         out.extend_from_slice(&self.outside);
         if c.is_finite() && !r.is_nan() {
@@ -318,15 +333,11 @@ impl Octree {
     }
 
     /// Heap bytes held by the index.
-    pub fn memory_bytes(&self) -> usize {
+    pub(crate) fn memory_bytes(&self) -> usize {
         let spheres: usize = self.nodes.iter().map(|n| n.spheres.capacity()).sum();
         self.nodes.capacity() * std::mem::size_of::<Node>()
             + spheres * std::mem::size_of::<Sphere>()
             + self.outside.capacity() * 4
-    }
-
-    pub fn n_nodes(&self) -> usize {
-        self.nodes.len()
     }
 }
 

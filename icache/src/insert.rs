@@ -1,10 +1,12 @@
-//! Adding a record, in the order that matters (DESIGN §2): gradient limit on R, clamp R' to the pixel-based
-//! spacing bounds, scale ∇t by R/R' where R < R', Křivánek's neighbor clamping on the unclamped R (with R'
-//! recomputed), then insertion into the index.
+//! Adding a record, in an order that matters (each step works on the radius the one before left):
+//! gradient limit on R, clamp R' to the pixel-based spacing bounds, scale ∇t by R/R' where R < R',
+//! Křivánek's neighbor clamping on the unclamped R (with R' recomputed), then insertion into the
+//! index.
 //!
-//! Neighbor clamping is propagated (Dijkstra order over overlapping records) rather than applied one level
-//! deep: after every insertion R_j ≤ R_k + |p_j − p_k| holds both ways for every pair whose R' spheres
-//! overlap. Radii only decrease and edge weights are positive, so the propagation terminates.
+//! Neighbor clamping is propagated (Dijkstra order over overlapping records) rather than applied
+//! one level deep: after every insertion R_j ≤ R_k + |p_j − p_k| holds both ways for every pair
+//! whose R' spheres overlap. Radii only decrease and edge weights are positive, so the propagation
+//! terminates.
 #![forbid(unsafe_code)]
 
 use std::cmp::Reverse;
@@ -14,7 +16,7 @@ use glam::Vec3;
 
 use crate::cache::{IrradianceCache, Shrink};
 use crate::params::CacheParams;
-use crate::record::{NewRecord, Record};
+use crate::record::{finite_rel_err, NewRecord, Record};
 use crate::stats::InsertStats;
 
 /// [R_min, R_max] in world units at a record with the given pixel footprint.
@@ -34,8 +36,8 @@ fn grad_scale(r: f32, r_clamped: f32) -> f32 {
     }
 }
 
-/// A record's R' for its unclamped R: s·R clamped to s times the pixel spacing bounds, where s is the
-/// reach multiple of a new record (2 under adaptive caching, else 1).
+/// A record's R' for its unclamped R: s·R clamped to s times the pixel spacing bounds, where s is
+/// the reach multiple of a new record (2 under adaptive caching, else 1).
 fn clamped_reach(params: &CacheParams, r: f32, pixel_world: f32) -> (f32, f32) {
     let s = params.start_scale();
     let (lo, hi) = spacing_bounds(params, pixel_world);
@@ -55,15 +57,6 @@ fn set_radius(params: &CacheParams, rec: &mut Record, r: f32) {
     if old_scale > 0.0 && new_scale != old_scale {
         let f = new_scale / old_scale;
         rec.grad_t.iter_mut().for_each(|g| *g *= f);
-    }
-}
-
-/// A gather's noise estimate as a record keeps it: 0 (unknown) unless finite and non-negative.
-pub(crate) fn finite_rel_err(x: f32) -> f32 {
-    if x.is_finite() && x >= 0.0 {
-        x
-    } else {
-        0.0
     }
 }
 
@@ -138,8 +131,8 @@ fn prepare(params: &CacheParams, new: &NewRecord, stats: &mut InsertStats) -> Op
 }
 
 impl IrradianceCache {
-    /// Adaptive caching: halve record `id`'s R' (never below its plain pixel spacing bound), logging
-    /// its old reach for the repair sweeps. False when it is already there.
+    /// Adaptive caching: halve record `id`'s R' (never below its plain pixel spacing bound),
+    /// logging its old reach for the repair sweeps. False when it is already there.
     pub(crate) fn shrink_adaptive(&mut self, id: u32) -> bool {
         if (id as usize) < self.frozen {
             return false;
@@ -172,9 +165,10 @@ impl IrradianceCache {
         self.insert_near(new, None)
     }
 
-    /// The records whose spheres may overlap the sphere `new` will get (a superset: radii only shrink),
-    /// from the index as it stands; `None` when `new` cannot be placed. Read-only, so a wave's gathers
-    /// can make these queries in parallel and its serial insertions skip them ([`Self::insert_near`]).
+    /// The records whose spheres may overlap the sphere `new` will get (a superset: radii only
+    /// shrink), from the index as it stands; `None` when `new` cannot be placed. Read-only, so a
+    /// wave's gathers can make these queries in parallel and its serial insertions skip them
+    /// ([`Self::insert_near`]).
     pub(crate) fn neighbor_candidates(&self, new: &NewRecord) -> Option<Vec<u32>> {
         let rec = prepare(&self.params, new, &mut InsertStats::default())?;
         let mut ids = Vec::new();
@@ -182,9 +176,10 @@ impl IrradianceCache {
         Some(ids)
     }
 
-    /// [`insert`](Self::insert), given `near = (ids, since)`: the [`neighbor_candidates`] of `new` when
-    /// the cache held `since` records (those inserted after are checked too). The same record and the
-    /// same clampings as `insert`, without searching the index for the new record's neighbours.
+    /// [`insert`](Self::insert), given `near = (ids, since)`: the [`neighbor_candidates`] of `new`
+    /// when the cache held `since` records (those inserted after are checked too). The same record
+    /// and the same clampings as `insert`, without searching the index for the new record's
+    /// neighbours.
     pub(crate) fn insert_near(
         &mut self,
         new: NewRecord,
@@ -216,8 +211,8 @@ impl IrradianceCache {
         stats
     }
 
-    /// 4a. R_j ← min(R_j, R_k + |p_j − p_k|) over existing records k overlapping j (from the index, or
-    /// `near`'s candidates and the records after them). True if R_j shrank.
+    /// 4a. R_j ← min(R_j, R_k + |p_j − p_k|) over existing records k overlapping j (from the index,
+    /// or `near`'s candidates and the records after them). True if R_j shrank.
     fn clamp_new_record(&mut self, j: usize, near: Option<(&[u32], usize)>) -> bool {
         let rec_j = self.records[j];
         let mut ids = std::mem::take(&mut self.scratch);
@@ -250,7 +245,8 @@ impl IrradianceCache {
     /// 4b. R_k ← min(R_k, R_j + |p_j − p_k|) for overlapping k, propagated to their neighbours in
     /// increasing order of R. Ids whose R shrank are appended to `shrunk`.
     fn propagate_clamping(&mut self, j: usize, shrunk: &mut Vec<u32>) {
-        // Key: R's bits (order-preserving for R ≥ 0, including +∞), then id for a deterministic order.
+        // Key: R's bits (order-preserving for R ≥ 0, including +∞), then id for a deterministic
+        // order.
         let mut heap = BinaryHeap::new();
         heap.push(Reverse((self.records[j].r_harmonic.to_bits(), j as u32)));
         let mut ids = std::mem::take(&mut self.scratch);

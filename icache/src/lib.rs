@@ -4,21 +4,23 @@
 //! The cache knows positions, normals, irradiance and gradients only; the caller supplies shading points
 //! and final gathers as closures.
 #![forbid(unsafe_code)]
+#![warn(unreachable_pub)]
 
-pub mod cache;
-pub mod error;
+mod cache;
+mod error;
 pub mod file;
-pub mod index;
+mod index;
 mod insert;
 pub mod media;
-pub mod onepass;
+mod onepass;
 pub mod order;
 pub mod params;
 mod point_grid;
 pub mod record;
+mod report;
 pub mod stats;
-pub mod twopass;
-pub mod weight;
+mod twopass;
+mod weight;
 
 #[cfg(test)]
 mod cache_tests;
@@ -27,10 +29,11 @@ mod file_tests;
 #[cfg(test)]
 mod twopass_tests;
 
-pub use cache::{IrradianceCache, Lookup};
+pub use cache::IrradianceCache;
 pub use error::{Error, Result};
-pub use onepass::{fill_one_pass, fill_one_pass_cancellable, OnePassFill};
+pub use onepass::{fill_one_pass_cancellable, OnePassFill};
 pub use params::{CacheParams, Pass, Weighting};
-pub use record::{NewRecord, Record};
-pub use stats::{CacheStats, FillStats, InsertStats, LookupStats, RadiusHistogram};
-pub use twopass::{fill_pass_a, fill_pass_a_cancellable, fill_pixels_cancellable, ShadingPoint};
+pub use record::{Lookup, NewRecord, Record};
+pub use report::CacheStats;
+pub use stats::{FillStats, InsertStats, LookupStats, RadiusHistogram};
+pub use twopass::{fill_pass_a_cancellable, fill_pixels_cancellable, ShadingPoint};

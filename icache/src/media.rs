@@ -12,7 +12,7 @@
 //!
 //! A lookup at x blends the records whose sphere holds x with the smooth weight w = (1 − d²/R²)², which
 //! vanishes at a sphere's border: the result is continuous wherever records overlap. Pass A covers a
-//! point only with records reaching it within [`PASS_A_REACH`]·R, so that pass B's samples between the
+//! point only with records reaching it within `PASS_A_REACH`·R, so that pass B's samples between the
 //! pass-A points (jittered steps, pixels between the lattice) still find records.
 #![forbid(unsafe_code)]
 
@@ -25,7 +25,7 @@ use crate::index::Octree;
 use crate::stats::RadiusHistogram;
 
 /// Pass A calls a point covered when a record reaches it within this fraction of its radius.
-pub const PASS_A_REACH: f32 = 0.7;
+pub(crate) const PASS_A_REACH: f32 = 0.7;
 /// Points whose coverage is looked up together, then gathered as waves.
 const CHUNK_POINTS: usize = 64;
 /// Uncovered points estimated together (in parallel), then inserted in order.
@@ -131,7 +131,7 @@ impl MediaCache {
     }
 
     /// Whether a record reaches `p` within `reach`·R.
-    pub fn covers(&self, p: Vec3, reach: f32) -> bool {
+    pub(crate) fn covers(&self, p: Vec3, reach: f32) -> bool {
         let mut found = false;
         self.index.for_each_candidate_within(p, reach, |id| {
             let r = &self.records[id as usize];
@@ -205,7 +205,7 @@ impl MediaCache {
     }
 }
 
-/// Pass A: makes records until every point is covered (within [`PASS_A_REACH`]·R), deterministically
+/// Pass A: makes records until every point is covered (within `PASS_A_REACH`·R), deterministically
 /// whatever the thread count. Points are taken in the given order, in chunks whose coverage is looked
 /// up in parallel; uncovered points are estimated in parallel waves and inserted in order, each
 /// re-checked against the records inserted before it. Repair sweeps then re-cover what neighbour

@@ -16,9 +16,7 @@ use crate::cache::IrradianceCache;
 use crate::params::Pass;
 use crate::record::NewRecord;
 use crate::stats::FillStats;
-use crate::twopass::{
-    GatherFn, GatherWithFn, NoStats, PointsWithFn, ProgressFn, ShadingPoint, ShadingPointsFn,
-};
+use crate::twopass::{GatherWithFn, PointsWithFn, ProgressFn};
 
 /// The outcome of a one-pass fill: for each pixel, the record count after it was visited.
 pub struct OnePassFill {
@@ -36,36 +34,8 @@ impl OnePassFill {
     }
 }
 
-/// Fill the cache in scanline order, sequentially (so it does not depend on the thread count).
-/// `progress(done_pixels, total_pixels)` is called after each row.
-pub fn fill_one_pass(
-    cache: &mut IrradianceCache,
-    width: u32,
-    height: u32,
-    shading_points: &ShadingPointsFn,
-    gather: &GatherFn,
-    progress: &ProgressFn,
-) -> (FillStats, OnePassFill) {
-    let points = |x, y| {
-        shading_points(x, y)
-            .into_iter()
-            .map(|sp| (sp, ()))
-            .collect()
-    };
-    let gather = |x, y, i, sp: &ShadingPoint, _: &()| (gather(x, y, i, sp), NoStats);
-    let (stats, _, order) = fill_one_pass_cancellable(
-        cache,
-        width,
-        height,
-        &points,
-        &gather,
-        progress,
-        &AtomicBool::new(false),
-    );
-    (stats, order)
-}
-
-/// [`fill_one_pass`] with a payload per shading point and statistics per gather (as
+/// Fill the cache in scanline order, sequentially (so it does not depend on the thread count), with a
+/// payload per shading point and statistics per gather (as
 /// [`crate::fill_pass_a_cancellable`]), returning early soon after `cancel` is set (read before every
 /// row). Returns the fill's statistics, the sum of the gathers' and the pixels' record counts.
 pub fn fill_one_pass_cancellable<P, S: Default + AddAssign>(

@@ -1,15 +1,15 @@
-//! Cache parameters, and how the one `accuracy` knob maps onto Ward's `a` and Tabellion–Lamorlette's κ.
+//! Cache parameters, and how the one `accuracy` knob maps onto Ward's `a` and
+//! Tabellion–Lamorlette's κ.
 //!
-//! `accuracy` *is* Ward's `a`: with Ward's weight a record is usable where |p − pᵢ|/R'ᵢ + √(1 − n·nᵢ) < a,
-//! so on a flat surface it reaches a·R'ᵢ. With the TL weight a record reaches R'ᵢ/(2κ) (ε_p = d/(R'/2)).
-//! We set κ = 1/(2a) so both weightings reach the same distance for the same `accuracy`.
-//! Defaults: a = 0.5 in pass A (κ = 1, the TL fill value) and [`PASS_B_REACH`] = 1.5 times that in pass
-//! B (a = 0.75, κ = 2/3: some smoothing). DESIGN §2 gives κ = 0.5 for pass B; measured against the
-//! Mitsuba references, records reaching twice their pass-A distance, extrapolated by their gradients, left Sibenik's walls 0.5–1 %
-//! bright at 128² (8×8-block relMSE 0.000176, 2.2× what path reaches in the same time) and every box
-//! scene 0.1–0.3 % bright; at κ = 2/3: 0.000117, and the boxes' relMSE 2–15 % lower (the blinds room's,
-//! whose sub-pixel slats miss records in pass B, 10 % higher). With Ward's weight those `a` are loose in
-//! the normal term (√(1 − n·nᵢ) < 0.5 accepts 41°); Ward users should lower `accuracy` (e.g. 0.2–0.3).
+//! `accuracy` *is* Ward's `a`: with Ward's weight a record is usable where
+//! |p − pᵢ|/R'ᵢ + √(1 − n·nᵢ) < a, so on a flat surface it reaches a·R'ᵢ. With the TL weight a record
+//! reaches R'ᵢ/(2κ) (ε_p = d/(R'/2)). We set κ = 1/(2a) so both weightings reach the same distance
+//! for the same `accuracy`. Defaults: a = 0.5 in pass A (κ = 1, the TL fill value) and [`PASS_B_REACH`] = 1.5
+//! times that in pass B (a = 0.75, κ = 2/3: some smoothing). Records reaching twice their pass-A
+//! distance (κ = 0.5) are extrapolated by their gradients too far: against reference renders they
+//! left walls visibly bright; 1.5 times keeps the smoothing without that bias. With Ward's weight
+//! those `a` are loose in the normal term (√(1 − n·nᵢ) < 0.5 accepts 41°); Ward users should lower
+//! `accuracy` (e.g. 0.2–0.3).
 #![forbid(unsafe_code)]
 
 use crate::error::{Error, Result};
@@ -28,15 +28,16 @@ pub enum Weighting {
 pub enum Pass {
     A,
     B,
-    /// Pass B's fallback where no record interpolates: the same reach, but the normal term waived down to
-    /// [`EXTRAPOLATE_MIN_COS`]. At the silhouette of a curved surface the normal turns by tens of degrees
-    /// within a pixel, past what any record of the pixel lattice allows; such samples were most of the
-    /// pass-B misses, each a full gather.
+    /// Pass B's fallback where no record interpolates: the same reach, but the normal term waived
+    /// down to `EXTRAPOLATE_MIN_COS`. At the silhouette of a curved surface the normal turns by
+    /// tens of degrees within a pixel, past what any record of the pixel lattice allows; such
+    /// samples were most of the pass-B misses, each a full gather.
     Extrapolate,
 }
 
-/// The least cosine between a record's normal and the query's that [`Pass::Extrapolate`] accepts (60°).
-pub const EXTRAPOLATE_MIN_COS: f32 = 0.5;
+/// The least cosine between a record's normal and the query's that [`Pass::Extrapolate`] accepts
+/// (60°).
+pub(crate) const EXTRAPOLATE_MIN_COS: f32 = 0.5;
 
 /// Irradiance cache settings.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -50,24 +51,25 @@ pub struct CacheParams {
     pub gradients: bool,
     /// R'ᵢ ≥ this many pixels (projected at the record). Default 3 (TL's production value).
     pub min_spacing_px: f32,
-    /// R'ᵢ ≤ this many pixels. Default 20 (TL's production form in DESIGN §2).
+    /// R'ᵢ ≤ this many pixels. Default 20 (TL's production value).
     pub max_spacing_px: f32,
     /// Ward's `a` for pass B; `None` means the pass-A value. Default `Some(0.75)` (κ = 2/3).
     pub pass_b_accuracy: Option<f32>,
-    /// Adaptive caching (Křivánek et al. 2006): `Some(τ)` starts every record with [`ADAPTIVE_START`]
-    /// times its reach and halves a record's reach (down to the plain one) where the records usable at a
-    /// pass-A point disagree by more than the Weber fraction τ of their mean luminance; `None` is off.
+    /// Adaptive caching (Křivánek et al. 2006): `Some(τ)` starts every record with `ADAPTIVE_START`
+    /// times its reach and halves a record's reach (down to the plain one) where the records usable
+    /// at a pass-A point disagree by more than the Weber fraction τ of their mean luminance; `None`
+    /// is off.
     pub adaptive: Option<f32>,
 }
 
-/// Reach of a new record under adaptive caching, as a multiple of its plain reach (R' and both pixel
-/// spacing bounds).
-pub const ADAPTIVE_START: f32 = 2.0;
-/// Pass B's default `a` as a multiple of pass A's: records reach 1.5 times as far when shading as when
-/// filling.
+/// Reach of a new record under adaptive caching, as a multiple of its plain reach (R' and both
+/// pixel spacing bounds).
+pub(crate) const ADAPTIVE_START: f32 = 2.0;
+/// Pass B's default `a` as a multiple of pass A's: records reach 1.5 times as far when shading as
+/// when filling.
 pub const PASS_B_REACH: f32 = 1.5;
 /// Default `accuracy` (pass A's `a`).
-pub const DEFAULT_ACCURACY: f32 = 0.5;
+pub(crate) const DEFAULT_ACCURACY: f32 = 0.5;
 /// Default Weber threshold of adaptive caching (`[render.icache] adaptive_threshold`).
 pub const DEFAULT_WEBER: f32 = 0.1;
 
@@ -128,7 +130,7 @@ impl CacheParams {
     }
 
     /// Ward's `a` for a pass.
-    pub fn a(&self, pass: Pass) -> f32 {
+    pub(crate) fn a(&self, pass: Pass) -> f32 {
         match pass {
             Pass::A => self.accuracy,
             Pass::B | Pass::Extrapolate => self.pass_b_accuracy.unwrap_or(self.accuracy),
@@ -136,12 +138,12 @@ impl CacheParams {
     }
 
     /// Tabellion–Lamorlette κ for a pass: κ = 1/(2a).
-    pub fn kappa(&self, pass: Pass) -> f32 {
+    pub(crate) fn kappa(&self, pass: Pass) -> f32 {
         0.5 / self.a(pass)
     }
 
     /// How far a record reaches on its tangent plane, as a multiple of R'ᵢ, in the loosest pass.
-    pub fn support_factor(&self) -> f32 {
+    pub(crate) fn support_factor(&self) -> f32 {
         // Ward: d < a R'; TL: d < R'/(2κ) = a R'. The same by construction of κ.
         self.a(Pass::A).max(self.a(Pass::B))
     }
@@ -149,7 +151,7 @@ impl CacheParams {
     /// Radius factor the spatial index uses: the support, and at least R' itself because neighbor
     /// clamping looks for records whose R' spheres overlap.
     /// Reach multiple of a new record: [`ADAPTIVE_START`] under adaptive caching, else 1.
-    pub fn start_scale(&self) -> f32 {
+    pub(crate) fn start_scale(&self) -> f32 {
         if self.adaptive.is_some() {
             ADAPTIVE_START
         } else {
@@ -157,7 +159,7 @@ impl CacheParams {
         }
     }
 
-    pub fn index_factor(&self) -> f32 {
+    pub(crate) fn index_factor(&self) -> f32 {
         self.support_factor().max(1.0)
     }
 }

@@ -2,9 +2,9 @@
 //! without visiting the others.
 //!
 //! A uniform grid of cubic cells; each point's index is kept sorted by its cell's key, so a cell's
-//! points are one binary search away. On Sibenik at 1000² the repair sweeps used to test every one of
-//! the 1.1 M points against the spheres of the records shrunk since the last sweep (an octree walk
-//! each): 1.3–1.8 s of an 11 s fill, when a sweep after the first logs a few hundred shrinks at most.
+//! points are one binary search away. A sweep after the first logs a few hundred shrinks at most,
+//! so visiting the points near their spheres is cheap, where testing every point of a million-pixel
+//! image against them (an octree walk each) took a large part of the fill.
 #![forbid(unsafe_code)]
 
 use glam::{IVec3, Vec3};
@@ -25,7 +25,7 @@ pub(crate) struct PointGrid {
 
 impl PointGrid {
     /// A grid of cells of side `cell` over `positions` (non-finite positions are never found).
-    pub fn new(positions: Vec<Vec3>, cell: f32) -> PointGrid {
+    pub(crate) fn new(positions: Vec<Vec3>, cell: f32) -> PointGrid {
         let finite = positions.iter().filter(|p| p.is_finite());
         let origin = finite
             .clone()
@@ -72,9 +72,10 @@ impl PointGrid {
             .as_ivec3()
     }
 
-    /// Call `f` with the index of every point within `r` of `c` (with a relative slack of 1e-5, so that
-    /// rounding never drops a point at the border: the caller's exact test decides), each once.
-    pub fn for_each_within(&self, c: Vec3, r: f32, mut f: impl FnMut(u32)) {
+    /// Call `f` with the index of every point within `r` of `c` (with a relative slack of 1e-5, so
+    /// that rounding never drops a point at the border: the caller's exact test decides), each
+    /// once.
+    pub(crate) fn for_each_within(&self, c: Vec3, r: f32, mut f: impl FnMut(u32)) {
         if !(c.is_finite() && r >= 0.0) {
             return;
         }

@@ -1,4 +1,13 @@
-//! Irradiance records: what a final gather returns ([`NewRecord`]) and what the cache stores ([`Record`]).
+//! Irradiance records: what a final gather returns ([`NewRecord`]), what the cache stores ([`Record`])
+//! and what a lookup interpolates from them ([`Lookup`]).
+//!
+//! Three shapes of nearly the same fields, each for a reason. The gather crate's `GatherResult` is what
+//! the hemisphere says (irradiance, gradients, distances, noise) and knows no pixel; a [`NewRecord`] is
+//! that result placed: position, normal, pixel footprint and where to gather again. The cache is a
+//! leaf that cannot see the gather crate, so the root crate makes that one conversion, in the one
+//! function that gathers for a record. A [`Record`] is a `NewRecord` after insertion: repaired, its R
+//! limited by the gradient and neighbor clamping, R' clamped to the pixel spacing, ∇t scaled to R', and
+//! `r_min` (informational) dropped; its 33 floats are what cache files hold.
 #![forbid(unsafe_code)]
 
 use glam::Vec3;
@@ -109,7 +118,26 @@ impl Record {
 }
 
 /// Number of f32 values in a serialised record.
-pub const RECORD_FLOATS: usize = 33;
+pub(crate) const RECORD_FLOATS: usize = 33;
+
+/// An interpolated irradiance and what it was made of.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Lookup {
+    /// RGB irradiance, every channel ≥ 0.
+    pub e: Vec3,
+    /// Number of usable records.
+    pub n_used: u32,
+    pub weight_sum: f32,
+}
+
+/// A gather's noise estimate as a record keeps it: 0 (unknown) unless finite and non-negative.
+pub(crate) fn finite_rel_err(x: f32) -> f32 {
+    if x.is_finite() && x >= 0.0 {
+        x
+    } else {
+        0.0
+    }
+}
 
 #[cfg(test)]
 mod tests {

@@ -48,22 +48,12 @@ const WAVE_GATHERS: usize = 64;
 /// Repair sweeps after the hierarchical pass; each one typically inserts a handful of records.
 const MAX_REPAIR_SWEEPS: u64 = 8;
 
-pub type ShadingPointsFn<'a> = dyn Fn(u32, u32) -> Vec<ShadingPoint> + Sync + 'a;
-pub type GatherFn<'a> = dyn Fn(u32, u32, usize, &ShadingPoint) -> NewRecord + Sync + 'a;
-pub type ProgressFn<'a> = dyn Fn(u64, u64) + Sync + 'a;
+pub(crate) type ProgressFn<'a> = dyn Fn(u64, u64) + Sync + 'a;
 /// The shading points of pixel (x, y), each with the caller's payload for its gather.
-pub type PointsWithFn<'a, P> = dyn Fn(u32, u32) -> Vec<(ShadingPoint, P)> + Sync + 'a;
+pub(crate) type PointsWithFn<'a, P> = dyn Fn(u32, u32) -> Vec<(ShadingPoint, P)> + Sync + 'a;
 /// The gather at point `i` of pixel (x, y), given its payload: the record and the caller's statistics.
-pub type GatherWithFn<'a, P, S> =
+pub(crate) type GatherWithFn<'a, P, S> =
     dyn Fn(u32, u32, usize, &ShadingPoint, &P) -> (NewRecord, S) + Sync + 'a;
-
-/// Caller statistics for the closures without any ([`fill_pass_a`], [`crate::fill_one_pass`]).
-#[derive(Default)]
-pub(crate) struct NoStats;
-
-impl AddAssign for NoStats {
-    fn add_assign(&mut self, _: NoStats) {}
-}
 
 /// An uncovered shading point waiting for its gather.
 struct Candidate<P> {
@@ -92,38 +82,9 @@ struct Tally<S> {
     gathers: S,
 }
 
-/// Fill the cache for a `width` × `height` image. `progress(done_pixels, total_pixels)` is called from
-/// the calling thread after each chunk of the hierarchical pass.
-pub fn fill_pass_a(
-    cache: &mut IrradianceCache,
-    width: u32,
-    height: u32,
-    shading_points: &ShadingPointsFn,
-    gather: &GatherFn,
-    progress: &ProgressFn,
-) -> FillStats {
-    let points = |x, y| {
-        shading_points(x, y)
-            .into_iter()
-            .map(|sp| (sp, ()))
-            .collect()
-    };
-    let gather = |x, y, i, sp: &ShadingPoint, _: &()| (gather(x, y, i, sp), NoStats);
-    fill_pass_a_cancellable(
-        cache,
-        width,
-        height,
-        1,
-        &points,
-        &gather,
-        progress,
-        &AtomicBool::new(false),
-    )
-    .0
-}
-
-/// [`fill_pass_a`] with a payload per shading point and statistics per gather (see the module header),
-/// returning early, with the cache partly filled, soon after `cancel` is set: it is read before every
+/// Fill the cache for a `width` × `height` image, with a payload per shading point and statistics per
+/// gather (see the module header). `progress(done_pixels, total_pixels)` is called from the calling
+/// thread after each chunk of the hierarchical pass. Returns early, with the cache partly filled, soon after `cancel` is set: it is read before every
 /// chunk of pixels. (The caller makes its long gathers return early too.) Returns the fill's statistics
 /// and the sum of the gathers'.
 ///
@@ -163,7 +124,7 @@ pub fn fill_pass_a_cancellable<P: Clone + Send + Sync, S: Default + AddAssign + 
 /// More records where shading found none: the shading points of `pixels` (in any order; visited in the
 /// hierarchical order, so their gathers spread over the image) filled as pass A fills the image's —
 /// looked up, gathered where uncovered, in waves, then repaired — against the cache as it is, whose
-/// records are [frozen](IrradianceCache::freeze) first (the new ones shrink none of them, so no point
+/// records are frozen first (the new ones shrink none of them, so no point
 /// they covered loses its cover). Between rounds of shading (`pm`'s pass B), with the points its samples
 /// missed; deterministic as pass A is.
 pub fn fill_pixels_cancellable<P: Clone + Send + Sync, S: Default + AddAssign + Send>(
@@ -309,104 +270,149 @@ fn repair<P: Clone + Send + Sync, S: Default + AddAssign + Send>(
             return;
         }
         tally.fill.n_repair_sweeps += 1;
-        let cache_ref: &IrradianceCache = cache;
-        // Cells about as large as the typical old sphere of the first sweep's shrinks (the most).
-        let grid = grid.get_or_insert_with(|| {
-            let mut reach: Vec<f32> = log
-                .iter()
-                .map(|s| cache_ref.reach_before(s).1)
-                .filter(|r| r.is_finite() && *r > 0.0)
-                .collect();
-            let middle = reach.len() / 2;
-            let cell = if reach.is_empty() {
-                1.0
-            } else {
-                *reach.select_nth_unstable_by(middle, f32::total_cmp).1
-            };
-            PointGrid::new(store.points.iter().map(|(sp, _)| sp.pos).collect(), cell)
-        });
-        // (point, record) for every point a logged shrink took a record from.
-        let mut lost: Vec<(u32, u32)> = log
-            .par_iter()
-            .with_max_len(64)
-            .flat_map_iter(|shrink| {
-                let (pos, reach) = cache_ref.reach_before(shrink);
-                let mut found = Vec::new();
-                grid.for_each_within(pos, reach, |k| {
-                    let sp = &store.points[k as usize].0;
-                    if cache_ref.lost_cover(shrink, sp.pos, sp.normal) {
-                        found.push((k, shrink.id));
-                    }
-                });
-                found
-            })
-            .collect();
-        // Each record has one shrink in the log and each point is found once per sphere: the pairs are
-        // distinct. Sorted, a point's pairs are together, in visiting order (the store's).
-        lost.sort_unstable();
-        // A point still has a record if it lost fewer than it could interpolate at its last lookup, less
-        // those lost in earlier sweeps: records only narrow, and each that stopped reaching it is in one
-        // log (once it stops it never reaches again). On Sibenik's first sweep 459 k points lost a
-        // record and 1.6 k their cover. The rest are looked up.
-        let mut check = Vec::new();
-        for ids in lost.chunk_by(|a, b| a.0 == b.0) {
-            let (k, n) = (ids[0].0 as usize, ids.len() as u32);
-            if n < store.used[k] {
-                store.used[k] -= n;
-            } else {
-                check.push(k as u32);
-            }
-        }
-        let found: Vec<(LookupStats, u32, Option<Candidate<P>>)> = check
-            .par_iter()
-            .with_max_len(256)
-            .map(|&k| {
-                let mut lookups = LookupStats::default();
-                let (sp, payload) = &store.points[k as usize];
-                let hit = cache_ref.lookup(sp.pos, sp.normal, Pass::A);
-                lookups.record(hit.as_ref());
-                (
-                    lookups,
-                    hit.map_or(0, |h| h.n_used),
-                    hit.is_none().then(|| store.candidate(k, payload.clone())),
-                )
-            })
-            .collect();
-        for (&k, (_, used, _)) in check.iter().zip(&found) {
-            store.used[k as usize] = *used;
-        }
-        let mut waiting = Vec::new();
-        for (lookups, _, uncovered) in found {
-            tally.fill.lookups += lookups;
-            waiting.extend(uncovered);
-        }
-        let mut waiting = waiting.into_iter().peekable();
-        while waiting.peek().is_some() {
-            if cancel.load(Ordering::Relaxed) {
-                return;
-            }
-            let cache_ref: &IrradianceCache = cache;
-            let mut wave: Vec<Candidate<P>> = Vec::with_capacity(WAVE_GATHERS);
-            for c in waiting.by_ref() {
-                let hit = cache_ref.lookup(c.sp.pos, c.sp.normal, Pass::A);
-                tally.fill.lookups.record(hit.as_ref());
-                if hit.is_none() {
-                    wave.push(c);
-                    if wave.len() == WAVE_GATHERS {
-                        break;
-                    }
-                }
-            }
-            if !wave.is_empty() {
-                run_wave(cache, &mut wave, gather, tally);
-            }
+        let grid = grid.get_or_insert_with(|| point_grid(cache, store, &log));
+        let lost = lost_records(cache, store, grid, &log);
+        let check = points_to_check(store, &lost);
+        let waiting = look_up_again(cache, store, &check, tally);
+        if !gather_in_waves(cache, waiting, gather, tally, cancel) {
+            return;
         }
     }
 }
 
+/// A grid of the store's points with cells about as large as the typical old sphere of `log`'s shrinks
+/// (the first sweep's: the most).
+fn point_grid<P>(cache: &IrradianceCache, store: &PointStore<P>, log: &[Shrink]) -> PointGrid {
+    let mut reach: Vec<f32> = log
+        .iter()
+        .map(|s| cache.reach_before(s).1)
+        .filter(|r| r.is_finite() && *r > 0.0)
+        .collect();
+    let middle = reach.len() / 2;
+    let cell = if reach.is_empty() {
+        1.0
+    } else {
+        *reach.select_nth_unstable_by(middle, f32::total_cmp).1
+    };
+    PointGrid::new(store.points.iter().map(|(sp, _)| sp.pos).collect(), cell)
+}
+
+/// (point, record) for every point a shrink of `log` took a record from, sorted. Each record has one
+/// shrink in the log and each point is found once per sphere: the pairs are distinct, and a point's
+/// pairs are together, in visiting order (the store's).
+fn lost_records<P: Sync>(
+    cache: &IrradianceCache,
+    store: &PointStore<P>,
+    grid: &PointGrid,
+    log: &[Shrink],
+) -> Vec<(u32, u32)> {
+    let mut lost: Vec<(u32, u32)> = log
+        .par_iter()
+        .with_max_len(64)
+        .flat_map_iter(|shrink| {
+            let (pos, reach) = cache.reach_before(shrink);
+            let mut found = Vec::new();
+            grid.for_each_within(pos, reach, |k| {
+                let sp = &store.points[k as usize].0;
+                if cache.lost_cover(shrink, sp.pos, sp.normal) {
+                    found.push((k, shrink.id));
+                }
+            });
+            found
+        })
+        .collect();
+    lost.sort_unstable();
+    lost
+}
+
+/// The points of `lost` that may have lost their cover, each point's count of records it can still
+/// interpolate lowered. A point still has a record if it lost fewer than it could interpolate at its
+/// last lookup, less those lost in earlier sweeps: records only narrow, and each that stopped reaching
+/// it is in one log (once it stops it never reaches again). Most points that lose a record keep their
+/// cover; only the rest are looked up again.
+fn points_to_check<P>(store: &mut PointStore<P>, lost: &[(u32, u32)]) -> Vec<u32> {
+    let mut check = Vec::new();
+    for ids in lost.chunk_by(|a, b| a.0 == b.0) {
+        let (k, n) = (ids[0].0 as usize, ids.len() as u32);
+        if n < store.used[k] {
+            store.used[k] -= n;
+        } else {
+            check.push(k as u32);
+        }
+    }
+    check
+}
+
+/// Looks up the points `check` (in parallel), noting how many records each can interpolate; the
+/// uncovered ones, in order.
+fn look_up_again<P: Clone + Send + Sync, S>(
+    cache: &IrradianceCache,
+    store: &mut PointStore<P>,
+    check: &[u32],
+    tally: &mut Tally<S>,
+) -> Vec<Candidate<P>> {
+    let found: Vec<(LookupStats, u32, Option<Candidate<P>>)> = check
+        .par_iter()
+        .with_max_len(256)
+        .map(|&k| {
+            let mut lookups = LookupStats::default();
+            let (sp, payload) = &store.points[k as usize];
+            let hit = cache.lookup(sp.pos, sp.normal, Pass::A);
+            lookups.record(hit.as_ref());
+            (
+                lookups,
+                hit.map_or(0, |h| h.n_used),
+                hit.is_none().then(|| store.candidate(k, payload.clone())),
+            )
+        })
+        .collect();
+    for (&k, (_, used, _)) in check.iter().zip(&found) {
+        store.used[k as usize] = *used;
+    }
+    let mut waiting = Vec::new();
+    for (lookups, _, uncovered) in found {
+        tally.fill.lookups += lookups;
+        waiting.extend(uncovered);
+    }
+    waiting
+}
+
+/// Gathers for the `waiting` points in waves of up to `WAVE_GATHERS`, each point looked up again just
+/// before (an earlier wave may have covered it). False when `cancel` stopped it.
+fn gather_in_waves<P: Send + Sync, S: AddAssign + Send>(
+    cache: &mut IrradianceCache,
+    waiting: Vec<Candidate<P>>,
+    gather: &GatherWithFn<P, S>,
+    tally: &mut Tally<S>,
+    cancel: &AtomicBool,
+) -> bool {
+    let mut waiting = waiting.into_iter().peekable();
+    while waiting.peek().is_some() {
+        if cancel.load(Ordering::Relaxed) {
+            return false;
+        }
+        let cache_ref: &IrradianceCache = cache;
+        let mut wave: Vec<Candidate<P>> = Vec::with_capacity(WAVE_GATHERS);
+        for c in waiting.by_ref() {
+            let hit = cache_ref.lookup(c.sp.pos, c.sp.normal, Pass::A);
+            tally.fill.lookups.record(hit.as_ref());
+            if hit.is_none() {
+                wave.push(c);
+                if wave.len() == WAVE_GATHERS {
+                    break;
+                }
+            }
+        }
+        if !wave.is_empty() {
+            run_wave(cache, &mut wave, gather, tally);
+        }
+    }
+    true
+}
+
 /// The first logged shrink of each record, by id: radii only decrease, so a point its first shrink took
 /// from the record (usable with the radii before it, not with today's) is every point any of its later
-/// shrinks took. On Sibenik's first sweep at 1000²: 31.6 k shrinks of 12.6 k records.
+/// shrinks took (a record is often shrunk several times in a sweep).
 fn first_shrinks(mut log: Vec<Shrink>) -> Vec<Shrink> {
     // A stable sort keeps each record's shrinks in the order they happened.
     log.sort_by_key(|s| s.id);
@@ -517,8 +523,8 @@ fn run_wave<P: Send + Sync, S: AddAssign + Send>(
     // Every pending point was uncovered when the wave began (looked up since the last wave, or just
     // before this one in the repair), and records only narrow: only this wave's records can cover it,
     // and those are all a re-check reads. Each new record's neighbours in the index are searched in
-    // parallel with the gathers; the serial insertion adds the wave's own. On Sibenik at 1000² these
-    // searches and re-checks were most of the 0.9 s of serial insertion, the other core idle. Under
+    // parallel with the gathers; the serial insertion adds the wave's own: made serially,
+    // these searches and re-checks were most of the insertion's time, the other cores idle. Under
     // adaptive caching a pending point may have been uncovered only by a deviant record, so the
     // re-check and the search are the full ones there.
     let since = cache.len();

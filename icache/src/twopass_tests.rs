@@ -5,10 +5,82 @@
 use glam::Vec3;
 use photon::sampling::hash_keys;
 
+use std::ops::AddAssign;
 use std::sync::atomic::AtomicBool;
 
-use crate::twopass::{fill_pass_a, fill_pixels_cancellable, NoStats, ShadingPoint};
-use crate::{CacheParams, FillStats, IrradianceCache, LookupStats, NewRecord, Pass};
+use crate::twopass::{fill_pixels_cancellable, ProgressFn, ShadingPoint};
+use crate::{
+    fill_one_pass_cancellable, fill_pass_a_cancellable, CacheParams, FillStats, IrradianceCache,
+    LookupStats, NewRecord, OnePassFill, Pass,
+};
+
+type ShadingPointsFn<'a> = dyn Fn(u32, u32) -> Vec<ShadingPoint> + Sync + 'a;
+type GatherFn<'a> = dyn Fn(u32, u32, usize, &ShadingPoint) -> NewRecord + Sync + 'a;
+
+/// Caller statistics of the gathers here: none.
+#[derive(Default)]
+struct NoStats;
+
+impl AddAssign for NoStats {
+    fn add_assign(&mut self, _: NoStats) {}
+}
+
+/// Pass A over every pixel without payloads, gather statistics or cancellation.
+fn fill_pass_a(
+    cache: &mut IrradianceCache,
+    width: u32,
+    height: u32,
+    shading_points: &ShadingPointsFn,
+    gather: &GatherFn,
+    progress: &ProgressFn,
+) -> FillStats {
+    let points = |x, y| {
+        shading_points(x, y)
+            .into_iter()
+            .map(|sp| (sp, ()))
+            .collect()
+    };
+    let gather = |x, y, i, sp: &ShadingPoint, _: &()| (gather(x, y, i, sp), NoStats);
+    fill_pass_a_cancellable(
+        cache,
+        width,
+        height,
+        1,
+        &points,
+        &gather,
+        progress,
+        &AtomicBool::new(false),
+    )
+    .0
+}
+
+/// A one-pass fill without payloads, gather statistics or cancellation.
+fn fill_one_pass(
+    cache: &mut IrradianceCache,
+    width: u32,
+    height: u32,
+    shading_points: &ShadingPointsFn,
+    gather: &GatherFn,
+    progress: &ProgressFn,
+) -> (FillStats, OnePassFill) {
+    let points = |x, y| {
+        shading_points(x, y)
+            .into_iter()
+            .map(|sp| (sp, ()))
+            .collect()
+    };
+    let gather = |x, y, i, sp: &ShadingPoint, _: &()| (gather(x, y, i, sp), NoStats);
+    let (stats, _, order) = fill_one_pass_cancellable(
+        cache,
+        width,
+        height,
+        &points,
+        &gather,
+        progress,
+        &AtomicBool::new(false),
+    );
+    (stats, order)
+}
 
 const W: u32 = 96;
 const H: u32 = 64;
@@ -364,8 +436,7 @@ fn one_pass_fill_covers_each_pixel_with_the_records_that_existed_then() {
         plain(),
     )
     .unwrap();
-    let (stats, order) =
-        crate::fill_one_pass(&mut cache, W, H, &shading_points, &gather, &|_, _| {});
+    let (stats, order) = fill_one_pass(&mut cache, W, H, &shading_points, &gather, &|_, _| {});
     assert!(cache.len() > 50, "{}", cache.len());
     assert_eq!(
         stats.n_gathers,

@@ -9,10 +9,10 @@ use crate::record::Record;
 
 /// Behind-test tolerance as a fraction of R'ᵢ: small enough to reject a record clearly in front of p,
 /// large enough that records on a gently curved surface (where p sits slightly off the tangent plane) pass.
-pub const BEHIND_EPS_FRACTION: f32 = 0.05;
+pub(crate) const BEHIND_EPS_FRACTION: f32 = 0.05;
 
 /// √(1 − cos 10°): TL's normalisation of the normal-deviation term (10° of deviation gives ε_n = 1).
-pub fn tl_normal_scale() -> f32 {
+pub(crate) fn tl_normal_scale() -> f32 {
     (1.0 - 10f32.to_radians().cos()).sqrt()
 }
 
@@ -20,14 +20,14 @@ pub fn tl_normal_scale() -> f32 {
 const WARD_MIN_DENOM: f32 = 1e-6;
 
 /// Ward 1988: w = 1 / (d/R' + √(1 − n·nᵢ)); unbounded, floored at 1/`WARD_MIN_DENOM`.
-pub fn ward_weight(dist: f32, r_clamped: f32, n_dot: f32) -> f32 {
+pub(crate) fn ward_weight(dist: f32, r_clamped: f32, n_dot: f32) -> f32 {
     let denom = dist / r_clamped + (1.0 - n_dot).max(0.0).sqrt();
     1.0 / denom.max(WARD_MIN_DENOM)
 }
 
 /// Tabellion–Lamorlette 2004: w = 1 − κ max(ε_p, ε_n), ε_p = d/(R'/2), ε_n = √(1 − n·nᵢ)/√(1 − cos 10°).
 /// Bounded by 1 and reaching 0 at the border of the record's area of influence.
-pub fn tl_weight(dist: f32, r_clamped: f32, n_dot: f32, kappa: f32) -> f32 {
+pub(crate) fn tl_weight(dist: f32, r_clamped: f32, n_dot: f32, kappa: f32) -> f32 {
     let eps_p = dist / (0.5 * r_clamped);
     let eps_n = (1.0 - n_dot).max(0.0).sqrt() / tl_normal_scale();
     1.0 - kappa * eps_p.max(eps_n)
@@ -35,7 +35,7 @@ pub fn tl_weight(dist: f32, r_clamped: f32, n_dot: f32, kappa: f32) -> f32 {
 
 /// Ward's behind test: true when record `rec` lies in front of p, i.e. p is below the mean tangent plane
 /// of the record by more than `BEHIND_EPS_FRACTION` R'ᵢ — the record's hemisphere saw another environment.
-pub fn is_in_front(rec: &Record, p: Vec3, n: Vec3) -> bool {
+pub(crate) fn is_in_front(rec: &Record, p: Vec3, n: Vec3) -> bool {
     let d = (p - rec.pos).dot(0.5 * (n + rec.normal));
     d < -BEHIND_EPS_FRACTION * rec.r_clamped
 }
@@ -46,15 +46,15 @@ pub fn is_in_front(rec: &Record, p: Vec3, n: Vec3) -> bool {
 /// records reach across several slats; without this test the slats came out 4 % too bright. Pass B's
 /// last resort (`Pass::Extrapolate`) waives it: a sample on a sub-pixel slat with no record of its own
 /// takes its neighbours' rather than a gather of its own.
-pub const ABOVE_FRACTION: f32 = 0.5;
+pub(crate) const ABOVE_FRACTION: f32 = 0.5;
 
 /// True when p lies above the record's tangent plane by more than [`ABOVE_FRACTION`] of its R.
-pub fn is_above(rec: &Record, p: Vec3) -> bool {
+pub(crate) fn is_above(rec: &Record, p: Vec3) -> bool {
     (p - rec.pos).dot(rec.normal) > ABOVE_FRACTION * rec.r_harmonic
 }
 
 /// The record's weight at (p, n) if it is usable there for `pass`, else `None`.
-pub fn usable_weight(
+pub(crate) fn usable_weight(
     params: &CacheParams,
     pass: Pass,
     rec: &Record,

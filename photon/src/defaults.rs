@@ -1,61 +1,31 @@
 //! Default photon counts, lookup sizes and radii, scaled with the scene so that a scene file needs no
 //! tuning.
 //!
-//! The global count grows with the scene's geometric detail: [`DEFAULT_GLOBAL_PHOTONS`] up to
-//! [`DETAIL_TRIANGLES`] triangles, then as the square root of the triangle count, at most
-//! [`MAX_DEFAULT_GLOBAL_PHOTONS`]. A density estimate blurs light over its disc; what the blur costs is
+//! The global count grows with the scene's geometric detail: `DEFAULT_GLOBAL_PHOTONS` up to
+//! `DETAIL_TRIANGLES` triangles, then as the square root of the triangle count, at most
+//! `MAX_DEFAULT_GLOBAL_PHOTONS`. A density estimate blurs light over its disc; what the blur costs is
 //! set by how much surface detail (edges, mouldings, columns) lies within it, and the triangle count is
-//! the scene's own measure of that. Measured on Sibenik (75 k triangles) at 128² against Mitsuba: image
-//! mean −1.4 % with 200 k photons, −0.6 % with 600 k, −0.3 % with 1.5 M; the box scenes (≤ 18 k
-//! triangles) are within 0.8 % at 200 k.
+//! the scene's own measure of that: a detailed scene needs more photons for the same error against a
+//! reference, a box scene does not.
 //!
-//! The radius rule: photons spread over the scene's surfaces, whose area is taken as `2 d²` for a
-//! scene of bounding-box diagonal `d` (the surface of a cube of diagonal `d` is `6 (d/√3)² = 2 d²`).
-//! With `n` photons the density is `n / (2 d²)`, so `k` photons are found within
-//! `r_k = sqrt(k · 2 d² / (π n))`. The maximum radius is [`MAX_RADIUS_FACTOR`] times that, so that it
-//! only limits the search where photons are sparser than average, and never more than
-//! [`MAX_RADIUS_FRACTION`] of the diagonal.
+//! The radius rule: with `n` photons spread over surfaces of area `A`, `k` photons are found within
+//! `r_k = sqrt(k · A / (π n))` at the mean density. The maximum radius is `MAX_RADIUS_FACTOR` times
+//! that, so that it only limits the search where photons are sparser than average, and never more than
+//! `MAX_RADIUS_FRACTION` of the diagonal.
 #![forbid(unsafe_code)]
 
 use crate::trace::PhotonTargets;
 
-pub const DEFAULT_GLOBAL_PHOTONS: usize = 200_000;
+pub(crate) const DEFAULT_GLOBAL_PHOTONS: usize = 200_000;
 /// Scenes up to this many triangles get [`DEFAULT_GLOBAL_PHOTONS`].
-pub const DETAIL_TRIANGLES: usize = 5_000;
-pub const MAX_DEFAULT_GLOBAL_PHOTONS: usize = 2_000_000;
-pub const DEFAULT_CAUSTIC_PHOTONS: usize = 100_000;
-/// Photons per global-map estimate (the precomputed irradiance uses it).
-pub const DEFAULT_K_GLOBAL: usize = 64;
-/// Photons per caustic estimate (sharper: fewer photons, cone filter).
-pub const DEFAULT_K_CAUSTIC: usize = 64;
-/// Cone filter constant for caustics (Jensen uses k ≈ 1.1).
-pub const DEFAULT_CONE_K: f32 = 1.1;
-pub const MAX_RADIUS_FACTOR: f32 = 2.0;
-pub const MAX_RADIUS_FRACTION: f32 = 0.1;
+pub(crate) const DETAIL_TRIANGLES: usize = 5_000;
+pub(crate) const MAX_DEFAULT_GLOBAL_PHOTONS: usize = 2_000_000;
+pub(crate) const DEFAULT_CAUSTIC_PHOTONS: usize = 100_000;
+pub(crate) const MAX_RADIUS_FACTOR: f32 = 2.0;
+pub(crate) const MAX_RADIUS_FRACTION: f32 = 0.1;
 /// Paths allowed per photon wanted before the pass gives up, and a floor for tiny targets.
-pub const PATHS_PER_TARGET_PHOTON: u64 = 100;
-pub const MIN_MAX_PATHS: u64 = 1_000_000;
-
-/// Maximum lookup radius for a map of `n_photons` in a scene of diagonal `scene_diagonal`, for
-/// estimates of [`DEFAULT_K_GLOBAL`] photons (see the module header for the rule).
-pub fn default_max_radius(scene_diagonal: f32, n_photons: usize) -> f32 {
-    max_radius_for_k(scene_diagonal, n_photons, DEFAULT_K_GLOBAL)
-}
-
-/// As [`default_max_radius`] for estimates of `k` photons.
-pub fn max_radius_for_k(scene_diagonal: f32, n_photons: usize, k: usize) -> f32 {
-    let d = if scene_diagonal.is_finite() && scene_diagonal > 0.0 {
-        scene_diagonal
-    } else {
-        1.0
-    };
-    let cap = MAX_RADIUS_FRACTION * d;
-    if n_photons == 0 {
-        return cap;
-    }
-    let r_k = (k as f32 * 2.0 * d * d / (std::f32::consts::PI * n_photons as f32)).sqrt();
-    (MAX_RADIUS_FACTOR * r_k).min(cap)
-}
+pub(crate) const PATHS_PER_TARGET_PHOTON: u64 = 100;
+pub(crate) const MIN_MAX_PATHS: u64 = 1_000_000;
 
 /// Default global photon count for a scene of `n_triangles` (see the module header), in steps of 10 k.
 pub fn default_global_photons(n_triangles: usize) -> usize {
@@ -67,8 +37,8 @@ pub fn default_global_photons(n_triangles: usize) -> usize {
 }
 
 /// Maximum lookup radius for estimates of `k` photons out of `n_photons` spread over `area` (the scene's
-/// real surface area), [`MAX_RADIUS_FACTOR`] times the radius holding `k` at that mean density, at most
-/// [`MAX_RADIUS_FRACTION`] of the diagonal.
+/// real surface area), `MAX_RADIUS_FACTOR` times the radius holding `k` at that mean density, at most
+/// `MAX_RADIUS_FRACTION` of the diagonal.
 pub fn max_radius_for_area(area: f32, scene_diagonal: f32, n_photons: usize, k: usize) -> f32 {
     let d = if scene_diagonal.is_finite() && scene_diagonal > 0.0 {
         scene_diagonal
@@ -83,7 +53,7 @@ pub fn max_radius_for_area(area: f32, scene_diagonal: f32, n_photons: usize, k: 
     (MAX_RADIUS_FACTOR * r_k).min(cap)
 }
 
-/// Default targets: the default counts, and a path budget of [`PATHS_PER_TARGET_PHOTON`] per photon.
+/// Default targets: the default counts, and a path budget of `PATHS_PER_TARGET_PHOTON` per photon.
 pub fn default_targets(global: usize, caustic: usize) -> PhotonTargets {
     let wanted = (global as u64).saturating_add(caustic as u64);
     PhotonTargets {
@@ -106,6 +76,25 @@ impl Default for PhotonTargets {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Estimates of this many photons in the 2 d² oracle below.
+    const K: usize = 64;
+
+    /// The radius rule with the surface area taken as `2 d²` for a scene of bounding-box diagonal `d`
+    /// (the surface of a cube of diagonal `d` is `6 (d/√3)² = 2 d²`), written out on its own.
+    fn default_max_radius(scene_diagonal: f32, n_photons: usize) -> f32 {
+        let d = if scene_diagonal.is_finite() && scene_diagonal > 0.0 {
+            scene_diagonal
+        } else {
+            1.0
+        };
+        let cap = MAX_RADIUS_FRACTION * d;
+        if n_photons == 0 {
+            return cap;
+        }
+        let r_k = (K as f32 * 2.0 * d * d / (std::f32::consts::PI * n_photons as f32)).sqrt();
+        (MAX_RADIUS_FACTOR * r_k).min(cap)
+    }
 
     #[test]
     fn radius_scales_with_scene_and_count() {

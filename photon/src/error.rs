@@ -1,4 +1,5 @@
 //! Errors of the photon pass: FLANN failures, a photon pass that stores nothing, and photon-map files.
+#![forbid(unsafe_code)]
 
 use std::path::PathBuf;
 

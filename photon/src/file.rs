@@ -15,7 +15,8 @@
 //! checksum, then the scene fingerprint, then every value: positions finite, directions and normals unit
 //! length, power and irradiance finite and non-negative, the max radius positive (a file edited with its
 //! checksum recomputed is still refused). Only regular files up to [`MAX_FILE_BYTES`] are opened.
-//! Kd-trees are rebuilt on load.
+//! Kd-trees are rebuilt on load. Magic, version, checksum and the bounded read are
+//! [`pmbase::container`]'s, shared with cache files.
 #![forbid(unsafe_code)]
 
 use std::fs::File;
@@ -23,6 +24,9 @@ use std::io::{BufWriter, Read, Write};
 use std::path::Path;
 
 use glam::Vec3;
+use pmbase::container::{
+    self, Format, OpenError, PrefixError, Reader, CHECKSUM_BYTES, MAGIC_BYTES,
+};
 
 use crate::error::{Error, Result};
 use crate::map::{Photon, PhotonMap};
@@ -30,13 +34,12 @@ use crate::precomputed::{IrradiancePoint, PrecomputedIrradiance};
 use crate::trace::{PhotonMaps, PhotonTargets, TraceStats};
 
 pub const MAGIC: [u8; 8] = *b"PMPHOTON";
-pub const VERSION: u32 = 5;
+pub(crate) const VERSION: u32 = 5;
 /// The header of a version-5 file; a version-4 one is [`HEADER_BYTES_V4`].
 const HEADER_BYTES: usize = 160;
 const HEADER_BYTES_V4: usize = 112;
 const PHOTON_BYTES: u64 = 52;
 const POINT_BYTES: u64 = 52;
-const CHECKSUM_BYTES: u64 = 8;
 const HAS_GLOBAL: u32 = 1;
 const HAS_CAUSTIC: u32 = 2;
 const HAS_PRECOMPUTED: u32 = 4;
@@ -44,7 +47,14 @@ const HAS_VOLUME: u32 = 8;
 const HAS_VOLUME_CAUSTIC: u32 = 16;
 /// Largest photon-map file read: 100 million photons in each map and as many irradiance points.
 pub const MAX_FILE_BYTES: u64 =
-    HEADER_BYTES as u64 + 100_000_000 * (4 * PHOTON_BYTES + POINT_BYTES) + CHECKSUM_BYTES;
+    HEADER_BYTES as u64 + 100_000_000 * (4 * PHOTON_BYTES + POINT_BYTES) + CHECKSUM_BYTES as u64;
+
+/// The container: the checksum covers everything after the magic.
+const FORMAT: Format = Format {
+    magic: MAGIC,
+    checksum_from: MAGIC_BYTES,
+    max_file_bytes: MAX_FILE_BYTES,
+};
 
 /// What produced the maps: the caller's scene fingerprint and the trace parameters.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -86,31 +96,6 @@ pub struct LoadedMaps {
     pub precomputed: Option<PrecomputedIrradiance>,
 }
 
-/// FNV-1a 64 over every byte written.
-struct Fnv<W> {
-    inner: W,
-    hash: u64,
-}
-
-fn fnv1a(mut hash: u64, bytes: &[u8]) -> u64 {
-    for &b in bytes {
-        hash = (hash ^ b as u64).wrapping_mul(0x0100_0000_01b3);
-    }
-    hash
-}
-const FNV_OFFSET: u64 = 0xcbf2_9ce4_8422_2325;
-
-impl<W: Write> Write for Fnv<W> {
-    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
-        let n = self.inner.write(buf)?;
-        self.hash = fnv1a(self.hash, &buf[..n]);
-        Ok(n)
-    }
-    fn flush(&mut self) -> std::io::Result<()> {
-        self.inner.flush()
-    }
-}
-
 /// Writes the file format to `w`.
 pub fn write_maps<W: Write>(
     w: W,
@@ -118,12 +103,7 @@ pub fn write_maps<W: Write>(
     maps: &PhotonMaps,
     precomputed: Option<&PrecomputedIrradiance>,
 ) -> std::io::Result<()> {
-    let mut w = w;
-    w.write_all(&MAGIC)?;
-    let mut h = Fnv {
-        inner: w,
-        hash: FNV_OFFSET,
-    };
+    let mut h = FORMAT.writer(w, VERSION)?;
     let global = maps.global.as_ref().map_or(&[][..], |m| m.photons());
     let caustic = maps.caustic.as_ref().map_or(&[][..], |m| m.photons());
     let volume = maps.volume.as_ref().map_or(&[][..], |m| m.photons());
@@ -140,7 +120,6 @@ pub fn write_maps<W: Write>(
             .volume_caustic
             .as_ref()
             .map_or(0, |_| HAS_VOLUME_CAUSTIC);
-    h.write_all(&VERSION.to_le_bytes())?;
     h.write_all(&flags.to_le_bytes())?;
     let t = &info.targets;
     for v in [
@@ -190,10 +169,7 @@ pub fn write_maps<W: Write>(
         write_vecs(&mut h, &[pt.pos, pt.normal, pt.e, pt.e_indirect])?;
         h.write_all(&pt.half_thickness.to_le_bytes())?;
     }
-    let hash = h.hash;
-    let mut w = h.inner;
-    w.write_all(&hash.to_le_bytes())?;
-    w.flush()
+    h.finish()?.flush()
 }
 
 fn write_vecs<W: Write>(w: &mut W, vs: &[Vec3]) -> std::io::Result<()> {
@@ -228,22 +204,17 @@ pub fn load(path: &Path, expected_fingerprint: u64) -> Result<LoadedMaps> {
         path: path.to_path_buf(),
         source,
     };
-    // Only a regular file: opening a FIFO blocks, a device may never end.
-    let meta = std::fs::metadata(path).map_err(io)?;
-    if !meta.is_file() {
-        return Err(Error::NotRegularFile {
+    let (mut file, actual) = FORMAT.open(path).map_err(|e| match e {
+        OpenError::Io(source) => io(source),
+        OpenError::NotRegularFile => Error::NotRegularFile {
             path: path.to_path_buf(),
-        });
-    }
-    if meta.len() > MAX_FILE_BYTES {
-        return Err(Error::TooLarge {
+        },
+        OpenError::TooLarge { bytes, limit } => Error::TooLarge {
             path: path.to_path_buf(),
-            bytes: meta.len(),
-            limit: MAX_FILE_BYTES,
-        });
-    }
-    let mut file = File::open(path).map_err(io)?;
-    let actual = file.metadata().map_err(io)?.len();
+            bytes,
+            limit,
+        },
+    })?;
     let mut header = vec![0u8; HEADER_BYTES.min(actual as usize)];
     file.read_exact(&mut header).map_err(io)?;
     let expected = Header::parse(&header)?.file_len()?;
@@ -267,17 +238,13 @@ struct Header {
 
 impl Header {
     fn parse(bytes: &[u8]) -> Result<Header> {
-        if bytes.len() < 8 || bytes[..8] != MAGIC {
-            return Err(Error::BadMagic);
-        }
-        if bytes.len() < 12 {
-            return Err(Error::BadLength {
-                expected: HEADER_BYTES as u64 + CHECKSUM_BYTES,
+        let version = FORMAT.version(bytes).map_err(|e| match e {
+            PrefixError::BadMagic => Error::BadMagic,
+            PrefixError::Truncated => Error::BadLength {
+                expected: (HEADER_BYTES + CHECKSUM_BYTES) as u64,
                 actual: bytes.len() as u64,
-            });
-        }
-        let u32_at = |i: usize| u32::from_le_bytes(bytes[i..i + 4].try_into().unwrap_or_default());
-        let version = u32_at(8);
+            },
+        })?;
         let len = match version {
             VERSION => HEADER_BYTES,
             4 => HEADER_BYTES_V4,
@@ -290,25 +257,23 @@ impl Header {
         };
         if bytes.len() < len {
             return Err(Error::BadLength {
-                expected: len as u64 + CHECKSUM_BYTES,
+                expected: (len + CHECKSUM_BYTES) as u64,
                 actual: bytes.len() as u64,
             });
         }
+        let mut r = Reader::new(bytes, container::PREFIX_BYTES);
+        let flags = r.u32();
         let mut words = [0u64; 17];
-        for k in 0..11 {
-            let i = 16 + 8 * k;
-            words[k] = u64::from_le_bytes(bytes[i..i + 8].try_into().unwrap_or_default());
-        }
+        words[..11].iter_mut().for_each(|w| *w = r.u64());
+        let max_radius = r.f32();
+        r.skip(4); // zero
         if len == HEADER_BYTES {
-            for k in 11..17 {
-                let i = HEADER_BYTES_V4 + 8 * (k - 11);
-                words[k] = u64::from_le_bytes(bytes[i..i + 8].try_into().unwrap_or_default());
-            }
+            words[11..].iter_mut().for_each(|w| *w = r.u64());
         }
         Ok(Header {
-            flags: u32_at(12),
+            flags,
             words,
-            max_radius: f32::from_bits(u32_at(104)),
+            max_radius,
             len,
         })
     }
@@ -336,7 +301,7 @@ impl Header {
         photons
             .zip(points)
             .and_then(|(a, b)| a.checked_add(b))
-            .and_then(|n| n.checked_add(self.len as u64 + CHECKSUM_BYTES))
+            .and_then(|n| n.checked_add((self.len + CHECKSUM_BYTES) as u64))
             .ok_or_else(|| Error::Corrupt("photon counts overflow".into()))
     }
 }
@@ -399,11 +364,7 @@ pub fn read_maps(bytes: &[u8], expected_fingerprint: u64) -> Result<LoadedMaps> 
             actual: bytes.len() as u64,
         });
     }
-    let body_end = bytes.len() - CHECKSUM_BYTES as usize;
-    let stored = u64::from_le_bytes(bytes[body_end..].try_into().unwrap_or_default());
-    if fnv1a(FNV_OFFSET, &bytes[8..body_end]) != stored {
-        return Err(Error::Checksum);
-    }
+    FORMAT.verify_checksum(bytes).map_err(|_| Error::Checksum)?;
     let w = header.words;
     if w[0] != expected_fingerprint {
         return Err(Error::SceneMismatch {
@@ -439,10 +400,8 @@ pub fn read_maps(bytes: &[u8], expected_fingerprint: u64) -> Result<LoadedMaps> 
         n_volume_paths: w[13],
         n_volume_caustic_paths: w[14],
     };
-    let mut floats = bytes[header.len..body_end]
-        .chunks_exact(4)
-        .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]));
-    let mut next = || floats.next().unwrap_or(f32::NAN);
+    let mut floats = Reader::new(bytes, header.len);
+    let mut next = || floats.f32();
     let mut read_photons = |map: &str, n: u64, in_medium: bool| -> Result<Vec<Photon>> {
         (0..n)
             .map(|index| {

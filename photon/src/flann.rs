@@ -10,6 +10,7 @@
 //! Queries use `flann_radius_search_float` with `max_neighbors = k`: FLANN's `KNNRadiusResultSet` then
 //! returns the k nearest strictly inside the radius, sorted, in one call (`flann_find_nearest_neighbors_index_float`
 //! has no radius and pads missing neighbours).
+#![allow(unsafe_code)]
 
 use std::cell::RefCell;
 use std::ffi::{c_int, c_long, c_uint, c_void};

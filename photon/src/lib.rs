@@ -1,14 +1,17 @@
 //! Photon pass: emission and tracing of photons, global and caustic photon maps over FLANN kd-trees,
 //! density estimates and precomputed irradiance.
 //!
-//! `flann` is the only module with `unsafe` (FFI); every other module forbids it.
+//! `flann` is the only module with `unsafe` (FFI): the crate denies it, `flann` alone allows it, and
+//! every other module forbids it.
+#![deny(unsafe_code)]
+#![warn(unreachable_pub)]
 pub mod defaults;
-pub mod error;
+mod error;
 pub mod file;
-pub mod flann;
+mod flann;
 pub mod map;
-pub mod pointtree;
-pub mod precomputed;
+mod pointtree;
+mod precomputed;
 pub mod reach;
 pub mod sampling;
 pub mod trace;
@@ -19,6 +22,6 @@ pub use flann::{KdTree, Neighbor};
 pub use map::{Coverage, Estimate, Filter, FullDisc, Photon, PhotonMap};
 pub use precomputed::{IrradiancePoint, PrecomputeStats, PrecomputedIrradiance};
 pub use trace::{
-    trace_photons, trace_photons_cancellable, EmittedRay, PhotonMaps, PhotonScene, PhotonTargets,
-    Propagation, Scatter, SurfaceHit, TraceStats,
+    trace_photons_cancellable, EmittedRay, PhotonMaps, PhotonScene, PhotonTargets, Propagation,
+    Scatter, SurfaceHit, TraceStats,
 };

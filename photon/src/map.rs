@@ -9,8 +9,8 @@
 //! The area divided by is the part of the disc that holds surface the estimate would count photons on,
 //! as the caller's [`Coverage`] measures it from the geometry — not the whole disc `π r²`. Where the
 //! surface ends inside the disc (an edge, a moulding, a column, a slat) the disc's area made every
-//! estimate too dark by the missing fraction; on interiors full of such geometry this was the whole of
-//! `pm`'s dark bias (Sibenik: −12 % with 200 k photons, −6 % with 2 M). The photons themselves cannot
+//! estimate too dark by the missing fraction; on interiors full of such geometry that is most of a
+//! photon map's dark bias. The photons themselves cannot
 //! tell that fraction: their extent also ends at shadow and caustic edges, where the surface goes on.
 #![forbid(unsafe_code)]
 
@@ -22,7 +22,7 @@ use crate::error::Result;
 use crate::flann::{KdTree, Neighbor};
 
 /// Photons farther than this fraction of the search radius from the tangent plane are not counted.
-pub const DISC_HALF_THICKNESS: f32 = 0.2;
+pub(crate) const DISC_HALF_THICKNESS: f32 = 0.2;
 /// A photon counts only where its surface normal is within ~60° of the query's (cos > 0.5).
 pub const MIN_NORMAL_COS: f32 = 0.5;
 
@@ -168,7 +168,7 @@ impl PhotonMap {
 
     /// [`irradiance`](Self::irradiance) and [`irradiance_indirect`](Self::irradiance_indirect) from one
     /// search: `(full, indirect only)`.
-    pub fn irradiance_and_indirect(
+    pub(crate) fn irradiance_and_indirect(
         &self,
         p: Vec3,
         n: Vec3,

@@ -1,10 +1,10 @@
-//! A small exact 3-d kd-tree for the precomputed irradiance points: the nearest point (optionally the
-//! nearest passing a test) and the k nearest, within a radius.
+//! A small exact 3-d kd-tree for the precomputed irradiance points: the nearest point (optionally
+//! the nearest passing a test) and the k nearest, within a radius.
 //!
-//! The precomputed irradiance is read once per final-gather ray — tens of millions of reads per image.
-//! Through FLANN's C API a batched exact 1-NN query cost ≈ 1 µs, and the ~18 % of queries whose nearest
-//! point faced another way paid two more k-NN calls (measured on Sibenik: 40 % of the cache fill's time in
-//! FLANN). This tree answers in a fraction of that. The photon maps themselves (k = 100 density estimates
+//! The precomputed irradiance is read once per final-gather ray — tens of millions of reads per
+//! image. Through FLANN's C API a batched exact 1-NN query cost ≈ 1 µs, and the ~18 % of queries
+//! whose nearest point faced another way paid two more k-NN calls, a large part of the cache fill.
+//! This tree answers in a fraction of that. The photon maps themselves (k = 100 density estimates
 //! with FLANN's radius search) stay in FLANN.
 #![forbid(unsafe_code)]
 
@@ -17,13 +17,15 @@ const LEAF: usize = 8;
 enum Node {
     /// Points `lo..hi` of the permuted arrays.
     Leaf { lo: u32, hi: u32 },
-    /// Points with coordinate `axis` below `split` are under `left` (the next node), the rest under `right`.
+    /// Points with coordinate `axis` below `split` are under `left` (the next node), the rest under
+    /// `right`.
     Split { axis: u8, split: f32, right: u32 },
 }
 
-/// An exact kd-tree over a fixed point set; point ids are their indices in the slice given to `build`.
+/// An exact kd-tree over a fixed point set; point ids are their indices in the slice given to
+/// `build`.
 #[derive(Clone, Debug, Default)]
-pub struct PointTree {
+pub(crate) struct PointTree {
     nodes: Vec<Node>,
     /// Points in tree order.
     points: Vec<Vec3>,
@@ -33,7 +35,7 @@ pub struct PointTree {
 
 impl PointTree {
     /// Builds the tree (median splits on the widest axis). Non-finite points are left out.
-    pub fn build(points: &[Vec3]) -> PointTree {
+    pub(crate) fn build(points: &[Vec3]) -> PointTree {
         let mut order: Vec<u32> = (0..points.len() as u32)
             .filter(|&i| points[i as usize].is_finite())
             .collect();
@@ -93,24 +95,21 @@ impl PointTree {
         };
     }
 
-    pub fn len(&self) -> usize {
+    #[cfg(test)]
+    fn len(&self) -> usize {
         self.points.len()
     }
 
-    pub fn is_empty(&self) -> bool {
-        self.points.is_empty()
-    }
-
-    pub fn memory_bytes(&self) -> usize {
+    pub(crate) fn memory_bytes(&self) -> usize {
         self.nodes.capacity() * std::mem::size_of::<Node>()
             + self.points.capacity() * 12
             + self.ids.capacity() * 4
     }
 
-    /// The id and squared distance of the nearest point strictly closer than `max_radius` to `q` for which
-    /// `accept(id)` holds; among equally distant points the smallest id. `accept` is called only for points
-    /// closer than the best accepted so far.
-    pub fn nearest_where(
+    /// The id and squared distance of the nearest point strictly closer than `max_radius` to `q`
+    /// for which `accept(id)` holds; among equally distant points the smallest id. `accept` is
+    /// called only for points closer than the best accepted so far.
+    pub(crate) fn nearest_where(
         &self,
         q: Vec3,
         max_radius: f32,
@@ -130,9 +129,9 @@ impl PointTree {
         best
     }
 
-    /// The `k` nearest points strictly closer than `max_radius`, as (id, squared distance) sorted by
-    /// distance then id, into `out` (cleared first).
-    pub fn knn(&self, q: Vec3, k: usize, max_radius: f32, out: &mut Vec<(u32, f32)>) {
+    /// The `k` nearest points strictly closer than `max_radius`, as (id, squared distance) sorted
+    /// by distance then id, into `out` (cleared first).
+    pub(crate) fn knn(&self, q: Vec3, k: usize, max_radius: f32, out: &mut Vec<(u32, f32)>) {
         out.clear();
         if k == 0 {
             return;
@@ -149,8 +148,8 @@ impl PointTree {
     }
 
     /// Depth-first traversal nearest side first: `visit(id, d2)` sees every point strictly inside
-    /// `max_radius` and not farther than the bound it last returned (`None`: still the radius); subtrees
-    /// farther than the bound are skipped.
+    /// `max_radius` and not farther than the bound it last returned (`None`: still the radius);
+    /// subtrees farther than the bound are skipped.
     fn search(&self, q: Vec3, max_radius: f32, mut visit: impl FnMut(u32, f32) -> Option<f32>) {
         if self.nodes.is_empty() || !q.is_finite() || max_radius.is_nan() || max_radius <= 0.0 {
             return;

@@ -5,8 +5,6 @@
 #![forbid(unsafe_code)]
 
 use std::cell::RefCell;
-use std::ops::AddAssign;
-use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
 use glam::Vec3;
@@ -17,12 +15,10 @@ use crate::map::{Coverage, PhotonMap};
 use crate::pointtree::PointTree;
 use crate::sampling::mix64;
 
-/// Default spacing: one irradiance point per this many global photons.
-pub const DEFAULT_EVERY: usize = 4;
 /// Candidates examined per lookup for a compatible point.
-pub const LOOKUP_CANDIDATES: usize = 8;
+pub(crate) const LOOKUP_CANDIDATES: usize = 8;
 /// A point is usable where its normal is within ~45° of the query's.
-pub const MIN_NORMAL_COS: f32 = 0.7;
+pub(crate) const MIN_NORMAL_COS: f32 = 0.7;
 
 /// One irradiance sample.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -39,21 +35,14 @@ pub struct IrradiancePoint {
     pub half_thickness: f32,
 }
 
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct PrecomputeStats {
-    pub n_points: u64,
-    /// Points whose estimate hit the maximum radius (sparse regions).
-    pub n_hit_max_radius: u64,
-    pub build_s: f64,
-    pub memory_bytes: u64,
-}
-
-impl AddAssign for PrecomputeStats {
-    fn add_assign(&mut self, o: PrecomputeStats) {
-        self.n_points += o.n_points;
-        self.n_hit_max_radius += o.n_hit_max_radius;
-        self.build_s += o.build_s;
-        self.memory_bytes += o.memory_bytes;
+pmbase::summable! {
+    #[derive(Clone, Debug, Default, PartialEq)]
+    pub struct PrecomputeStats {
+        pub n_points: u64,
+        /// Points whose estimate hit the maximum radius (sparse regions).
+        pub n_hit_max_radius: u64,
+        pub build_s: f64,
+        pub memory_bytes: u64,
     }
 }
 
@@ -79,19 +68,6 @@ impl PrecomputedIrradiance {
         max_radius: f32,
         cov: &dyn Coverage,
     ) -> Result<(Self, PrecomputeStats)> {
-        Self::build_cancellable(global, every, k, max_radius, cov, &AtomicBool::new(false))
-    }
-
-    /// [`build`](Self::build) that stops with [`Error::Cancelled`] soon after `cancel` is set (read
-    /// before every estimate).
-    pub fn build_cancellable(
-        global: &PhotonMap,
-        every: usize,
-        k: usize,
-        max_radius: f32,
-        cov: &dyn Coverage,
-        cancel: &AtomicBool,
-    ) -> Result<(Self, PrecomputeStats)> {
         if every == 0 || k == 0 || max_radius.is_nan() || max_radius <= 0.0 {
             return Err(Error::InvalidParameter(format!(
                 "precomputed irradiance needs every ≥ 1, k ≥ 1, max_radius > 0 (got {every}, {k}, {max_radius})"
@@ -103,18 +79,6 @@ impl PrecomputedIrradiance {
             .into_par_iter()
             .map(|block| {
                 let ph = &photons[pick_in_block(block, every, photons.len())];
-                if cancel.load(Ordering::Relaxed) {
-                    return (
-                        IrradiancePoint {
-                            pos: ph.pos,
-                            normal: ph.normal,
-                            e: Vec3::ZERO,
-                            e_indirect: Vec3::ZERO,
-                            half_thickness: 0.0,
-                        },
-                        false,
-                    );
-                }
                 let (est, e_indirect) =
                     global.irradiance_and_indirect(ph.pos, ph.normal, k, max_radius, cov);
                 let half_thickness = if est.half_thickness > 0.0 {
@@ -134,9 +98,6 @@ impl PrecomputedIrradiance {
                 )
             })
             .collect();
-        if cancel.load(Ordering::Relaxed) {
-            return Err(Error::Cancelled);
-        }
         let n_hit_max_radius = estimates.iter().filter(|(_, hit)| *hit).count() as u64;
         let points: Vec<IrradiancePoint> = estimates.into_iter().map(|(p, _)| p).collect();
         let this = Self::from_points(points, max_radius)?;
@@ -150,7 +111,7 @@ impl PrecomputedIrradiance {
     }
 
     /// Wraps already computed points (e.g. read from a file).
-    pub fn from_points(points: Vec<IrradiancePoint>, max_radius: f32) -> Result<Self> {
+    pub(crate) fn from_points(points: Vec<IrradiancePoint>, max_radius: f32) -> Result<Self> {
         let positions: Vec<Vec3> = points.iter().map(|p| p.pos).collect();
         let tree = PointTree::build(&positions);
         Ok(PrecomputedIrradiance {
@@ -168,8 +129,8 @@ impl PrecomputedIrradiance {
         self.max_radius
     }
 
-    /// The nearest point that is [compatible](Self::compatible) with the query among the
-    /// [`LOOKUP_CANDIDATES`] nearest within the max radius; `None` if there is none. (Searching the whole
+    /// The nearest point that is compatible with the query among the
+    /// `LOOKUP_CANDIDATES` nearest within the max radius; `None` if there is none. (Searching the whole
     /// radius for a compatible point reaches through thin closed objects: the stability suite's sealed box
     /// leaked more light that way.)
     pub fn lookup(&self, p: Vec3, n: Vec3) -> Option<&IrradiancePoint> {

@@ -1,7 +1,7 @@
-//! Which parts of space hold a photon within a lookup radius: a hash set of grid cells the size of the
-//! radius, so that a query with no photon in reach skips the kd-tree search (its estimate is zero).
-//! Caustic maps are small and concentrated (Sibenik: 10 k photons under one window), while every shading
-//! sample asks for a caustic estimate: most of those searches found nothing.
+//! Which parts of space hold a photon within a lookup radius: a hash set of grid cells the size of
+//! the radius, so that a query with no photon in reach skips the kd-tree search (its estimate is
+//! zero). Caustic maps are small and concentrated (thousands of photons under one window), while
+//! every shading sample asks for a caustic estimate: most of those searches found nothing.
 #![forbid(unsafe_code)]
 
 use std::collections::HashSet;
@@ -14,10 +14,10 @@ pub struct ReachGrid {
     occupied: HashSet<[i64; 3], BuildHasherDefault<CellHasher>>,
 }
 
-/// A multiplicative hash of the three cell coordinates: the default SipHash cost 3 % of a Sibenik
-/// render in the 27 probes of every shading sample.
+/// A multiplicative hash of the three cell coordinates: cheaper than the default SipHash, which
+/// showed in renders' profiles.
 #[derive(Default)]
-pub struct CellHasher(u64);
+pub(crate) struct CellHasher(u64);
 
 impl Hasher for CellHasher {
     fn write(&mut self, bytes: &[u8]) {
@@ -50,8 +50,8 @@ impl ReachGrid {
         };
         let mut occupied = HashSet::default();
         if cell > 0.0 {
-            // Each point's cell and its 26 neighbours, so that a query probes one cell (27 probes per
-            // shading sample were 10 % of Sibenik's shading).
+            // Each point's cell and its 26 neighbours, so that a query probes one cell (27 probes
+            // per shading sample were a tenth of the shading).
             let own: HashSet<[i64; 3], BuildHasherDefault<CellHasher>> = points
                 .filter(|p| p.is_finite())
                 .map(|p| Self::key(p, cell))
@@ -73,7 +73,8 @@ impl ReachGrid {
         (p / cell).floor().to_array().map(|x| x as i64)
     }
 
-    /// False only when no point lies within the radius of `p` (no point in the 27 cells around `p`'s).
+    /// False only when no point lies within the radius of `p` (no point in the 27 cells around
+    /// `p`'s).
     pub fn may_reach(&self, p: Vec3) -> bool {
         if self.cell == 0.0 || !p.is_finite() {
             return true;

@@ -2,10 +2,11 @@
 //!
 //! Every sample stream in the renderer is derived from `(seed, index, dimension)` so that results do not
 //! depend on how work is split between threads.
+#![forbid(unsafe_code)]
 
 /// A 64-bit mix (SplitMix64 finaliser): decorrelates structured keys such as `(seed, pixel, sample)`.
 #[inline]
-pub fn mix64(mut z: u64) -> u64 {
+pub(crate) fn mix64(mut z: u64) -> u64 {
     z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
     z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
     z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);

@@ -3,9 +3,11 @@
 
 mod common;
 
+use std::sync::atomic::AtomicBool;
+
 use common::*;
 use glam::Vec3;
-use photon::{trace_photons, Filter, FullDisc, PhotonTargets, PrecomputedIrradiance};
+use photon::{trace_photons_cancellable, Filter, FullDisc, PhotonTargets, PrecomputedIrradiance};
 
 fn no_progress(_: u64, _: u64) {}
 
@@ -19,7 +21,9 @@ fn global_map_matches_point_light_on_a_floor() {
         volume_caustic: 0,
         max_paths: 10_000_000,
     };
-    let (maps, stats) = trace_photons(&scene, &targets, 7, &no_progress).unwrap();
+    let (maps, stats) =
+        trace_photons_cancellable(&scene, &targets, 7, &no_progress, &AtomicBool::new(false))
+            .unwrap();
     assert!(
         maps.caustic.is_none(),
         "no specular surface, no caustic map"
@@ -69,7 +73,9 @@ fn caustic_rms_error(n_caustic: usize, k: usize) -> f64 {
         volume_caustic: 0,
         max_paths: 50_000_000,
     };
-    let (maps, stats) = trace_photons(&scene, &targets, 3, &no_progress).unwrap();
+    let (maps, stats) =
+        trace_photons_cancellable(&scene, &targets, 3, &no_progress, &AtomicBool::new(false))
+            .unwrap();
     assert!(stats.n_caustic_stored as usize >= n_caustic);
     let caustic = maps.caustic.unwrap();
     let mut sum = 0.0f64;
@@ -116,7 +122,9 @@ fn caustic_map_holds_only_light_specular_diffuse_paths() {
         volume_caustic: 0,
         max_paths: 10_000_000,
     };
-    let (maps, stats) = trace_photons(&scene, &targets, 1, &no_progress).unwrap();
+    let (maps, stats) =
+        trace_photons_cancellable(&scene, &targets, 1, &no_progress, &AtomicBool::new(false))
+            .unwrap();
     let caustic = maps.caustic.unwrap();
     let on_floor = caustic
         .photons()

@@ -2,9 +2,11 @@
 
 mod common;
 
+use std::sync::atomic::AtomicBool;
+
 use common::*;
 use photon::file::{load, read_maps, save, write_maps};
-use photon::{trace_photons, Error, MapsInfo, PhotonTargets, PrecomputedIrradiance};
+use photon::{trace_photons_cancellable, Error, MapsInfo, PhotonTargets, PrecomputedIrradiance};
 
 const FINGERPRINT: u64 = 0xFEED_F00D_1234_5678;
 
@@ -17,7 +19,9 @@ fn encoded() -> (Vec<u8>, MapsInfo) {
         volume_caustic: 0,
         max_paths: 1_000_000,
     };
-    let (maps, stats) = trace_photons(&scene, &targets, 5, &|_, _| {}).unwrap();
+    let (maps, stats) =
+        trace_photons_cancellable(&scene, &targets, 5, &|_, _| {}, &AtomicBool::new(false))
+            .unwrap();
     let (pre, _) =
         PrecomputedIrradiance::build(maps.global.as_ref().unwrap(), 4, 50, 0.5, &photon::FullDisc)
             .unwrap();
@@ -125,7 +129,9 @@ fn with_volume_maps() -> (Vec<u8>, MapsInfo, photon::PhotonMaps) {
         volume_caustic: 0,
         max_paths: 1_000_000,
     };
-    let (mut maps, stats) = trace_photons(&scene, &targets, 7, &|_, _| {}).unwrap();
+    let (mut maps, stats) =
+        trace_photons_cancellable(&scene, &targets, 7, &|_, _| {}, &AtomicBool::new(false))
+            .unwrap();
     // Volume photons made from the surface ones: positions off the surfaces, no normal.
     let to_volume = |m: &photon::PhotonMap, lift: f32| -> Vec<photon::Photon> {
         m.photons()

@@ -6,15 +6,17 @@ mod common;
 use common::*;
 use glam::Vec3;
 use photon::trace::MAX_DEPTH;
-use photon::{trace_photons, Error, PhotonMaps, PhotonTargets, TraceStats};
-use std::sync::atomic::{AtomicU64, Ordering};
+use photon::{trace_photons_cancellable, Error, PhotonMaps, PhotonTargets, TraceStats};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
 fn run(scene: &PlaneScene, targets: PhotonTargets, threads: usize) -> (PhotonMaps, TraceStats) {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
         .unwrap();
-    pool.install(|| trace_photons(scene, &targets, 11, &|_, _| {}).unwrap())
+    pool.install(|| {
+        trace_photons_cancellable(scene, &targets, 11, &|_, _| {}, &AtomicBool::new(false)).unwrap()
+    })
 }
 
 #[test]
@@ -96,10 +98,16 @@ fn no_diffuse_surface_is_an_error_not_a_hang() {
         max_paths: 50_000,
     };
     let calls = AtomicU64::new(0);
-    let result = trace_photons(&scene, &targets, 0, &|stored, target| {
-        assert_eq!((stored, target), (0, 2_000));
-        calls.fetch_add(1, Ordering::Relaxed);
-    });
+    let result = trace_photons_cancellable(
+        &scene,
+        &targets,
+        0,
+        &|stored, target| {
+            assert_eq!((stored, target), (0, 2_000));
+            calls.fetch_add(1, Ordering::Relaxed);
+        },
+        &AtomicBool::new(false),
+    );
     assert!(
         matches!(
             result,
@@ -133,7 +141,9 @@ fn a_mirror_the_light_cannot_reach_gives_no_caustic_map() {
         volume_caustic: 0,
         max_paths: 100_000,
     };
-    let (maps, stats) = trace_photons(&scene, &targets, 0, &|_, _| {}).unwrap();
+    let (maps, stats) =
+        trace_photons_cancellable(&scene, &targets, 0, &|_, _| {}, &AtomicBool::new(false))
+            .unwrap();
     assert!(maps.global.is_some());
     assert!(maps.caustic.is_none());
     assert_eq!(stats.n_caustic_stored, 0);
@@ -180,12 +190,16 @@ fn caustic_only_paths_that_miss_every_mirror_are_not_traced_and_change_nothing()
         volume_caustic: 0,
         max_paths: 10_000_000,
     };
-    let (all, sa) = trace_photons(&scene, &targets, 5, &|_, _| {}).unwrap();
+    let (all, sa) =
+        trace_photons_cancellable(&scene, &targets, 5, &|_, _| {}, &AtomicBool::new(false))
+            .unwrap();
     let culled = Culled {
         scene: &scene,
         rays: AtomicU64::new(0),
     };
-    let (some, sb) = trace_photons(&culled, &targets, 5, &|_, _| {}).unwrap();
+    let (some, sb) =
+        trace_photons_cancellable(&culled, &targets, 5, &|_, _| {}, &AtomicBool::new(false))
+            .unwrap();
     assert_eq!(
         all.caustic.as_ref().unwrap().photons(),
         some.caustic.as_ref().unwrap().photons()
