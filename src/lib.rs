@@ -17,6 +17,7 @@ pub mod io;
 pub mod light;
 pub mod material;
 pub mod medium;
+pub mod progress;
 pub mod render;
 pub mod scene;
 pub mod signal;

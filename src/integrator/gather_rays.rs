@@ -26,7 +26,7 @@ use super::pm::PmContext;
 use super::SampleCounters;
 use crate::camera::Camera;
 use crate::geometry::Hit;
-use crate::render::Progress;
+use crate::progress::Progress;
 use crate::warp::luminance;
 
 /// Rays of a pass-A gather, and of each further round of [`refine_records`].

@@ -11,7 +11,7 @@ use icache::{IrradianceCache, OnePassFill, ShadingPoint};
 
 use super::files;
 use super::stats::CacheFillStats;
-use super::{Plan, Progress};
+use super::Plan;
 use crate::error::{runtime, Result};
 use crate::geometry::Hit;
 use crate::integrator::cache_fill::{gather_record, shading_hits};
@@ -19,6 +19,7 @@ use crate::integrator::gather_rays;
 use crate::integrator::media_cache;
 use crate::integrator::photons::PhotonData;
 use crate::integrator::pm::IndirectSource;
+use crate::progress::Progress;
 use crate::scene::{FillMode, Scene};
 
 /// A filled (or loaded) cache.

@@ -19,6 +19,7 @@ use std::time::Instant;
 
 use crate::error::{Error, Result};
 use crate::io::output::Image;
+pub use crate::progress::{NoProgress, Progress};
 use crate::scene::{Method, Scene};
 use fill::{fill_cache, load_cache};
 use photons::{build_maps, load_photons, trace_photons};
@@ -26,21 +27,6 @@ pub use plan::{plan, Plan, DEFAULT_NOISE};
 use shade::{beauty, sampler, shade};
 pub use stats::RenderStats;
 use tiles::Window;
-
-/// Progress of long phases; the binary draws a bar, tests pass [`NoProgress`].
-pub trait Progress: Sync {
-    fn start(&self, phase: &str, total: u64);
-    fn set(&self, done: u64);
-    fn finish(&self);
-}
-
-pub struct NoProgress;
-
-impl Progress for NoProgress {
-    fn start(&self, _: &str, _: u64) {}
-    fn set(&self, _: u64) {}
-    fn finish(&self) {}
-}
 
 /// Command-line overrides of the scene's `[render]` and `[camera]` values.
 #[derive(Clone, Debug, Default)]

@@ -10,9 +10,10 @@ use photon::{MapsInfo, PhotonMaps, PrecomputedIrradiance};
 
 use super::files::{self, FileOptions};
 use super::stats::PhotonStats;
-use super::{Plan, Progress};
+use super::Plan;
 use crate::error::Result;
 use crate::integrator::photons::PhotonData;
+use crate::progress::Progress;
 use crate::scene::Scene;
 
 /// Photon maps traced or loaded.

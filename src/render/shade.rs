@@ -10,7 +10,7 @@ use photon::sampling::Rng;
 use super::fill::CacheFill;
 use super::stats::ShadeStats;
 use super::tiles::{render_tiles, GrowStats, MissedSample, Sampler};
-use super::{Plan, Progress};
+use super::Plan;
 use crate::camera::Camera;
 use crate::error::Result;
 use crate::geometry::Hit;
@@ -20,6 +20,7 @@ use crate::integrator::pm::{IndirectSource, PmContext};
 use crate::integrator::terms::{term_names, LayerValues};
 use crate::integrator::{path, PixelMemo, SampleCounters};
 use crate::io::output::Image;
+use crate::progress::Progress;
 use crate::scene::{Method, Scene};
 use icache::{IrradianceCache, ShadingPoint};
 
