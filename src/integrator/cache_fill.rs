@@ -6,8 +6,9 @@ use glam::Vec3;
 use icache::{NewRecord, ShadingPoint};
 
 use super::pm::PmContext;
-use super::{Frame, SampleCounters};
 use crate::camera::Camera;
+use crate::counters::SampleCounters;
+use crate::geometry::Frame;
 use crate::geometry::{spawn, Hit};
 use crate::material::Bsdf;
 

@@ -20,12 +20,12 @@ use icache::{IrradianceCache, NewRecord, Pass, Record, ShadingPoint};
 use photon::sampling::hash_keys;
 use rayon::prelude::*;
 
-use super::atlas::direct_irradiance;
 use super::cache_fill::{gather_record_round, shading_hits};
 use super::pm::PmContext;
-use super::SampleCounters;
 use crate::camera::Camera;
+use crate::counters::SampleCounters;
 use crate::geometry::Hit;
+use crate::photons::atlas::direct_irradiance;
 use crate::progress::Progress;
 use crate::warp::luminance;
 

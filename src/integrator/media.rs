@@ -7,7 +7,7 @@ use glam::Vec3;
 use photon::sampling::Rng;
 
 use super::pm::PmContext;
-use super::SampleCounters;
+use crate::counters::SampleCounters;
 use crate::light::{Light, LightSample};
 use crate::medium::{phase, Medium, MediumId};
 

@@ -4,8 +4,9 @@
 use glam::Vec3;
 use photon::sampling::Rng;
 
-use super::{Frame, SampleCounters};
+use crate::counters::SampleCounters;
 use crate::geometry::spawn;
+use crate::geometry::Frame;
 use crate::material::Transport;
 use crate::medium::{phase, sample_phase, Flight, MediumId};
 use crate::scene::{past, Scene, MAX_NULL_CROSSINGS};

@@ -12,12 +12,13 @@ use icache::{IrradianceCache, Pass};
 use photon::sampling::{hash_keys, Rng};
 
 use super::media;
-use super::photons::PhotonData;
 use super::terms::Terms;
-use super::{Frame, SampleCounters};
+use crate::counters::SampleCounters;
+use crate::geometry::Frame;
 use crate::geometry::{spawn, Hit};
 use crate::material::{glass_lobes, Bsdf, Transport};
 use crate::medium::MediumId;
+use crate::photons::PhotonData;
 use crate::scene::{past, Scene};
 use crate::warp::{power_heuristic, reflect, to_world};
 

@@ -16,9 +16,9 @@ use crate::error::{runtime, Result};
 use crate::geometry::Hit;
 use crate::integrator::cache_fill::{gather_record, shading_hits};
 use crate::integrator::gather_rays;
-use crate::integrator::media_cache;
-use crate::integrator::photons::PhotonData;
 use crate::integrator::pm::IndirectSource;
+use crate::photons::media_cache;
+use crate::photons::PhotonData;
 use crate::progress::Progress;
 use crate::scene::{FillMode, Scene};
 

@@ -12,7 +12,7 @@ use super::files::{self, FileOptions};
 use super::stats::PhotonStats;
 use super::Plan;
 use crate::error::Result;
-use crate::integrator::photons::PhotonData;
+use crate::photons::PhotonData;
 use crate::progress::Progress;
 use crate::scene::Scene;
 

@@ -11,8 +11,8 @@ use super::tiles::{Sampling, Window};
 use super::Options;
 use crate::camera::Camera;
 use crate::error::{option, Result};
-use crate::integrator::photons::{PhotonData, PhotonSettings};
 use crate::integrator::pm::{IndirectSource, PmContext};
+use crate::photons::{PhotonData, PhotonSettings};
 use crate::scene::{Method, Scene};
 
 /// Resolved settings of one render.

@@ -8,9 +8,9 @@ use icache::{CacheStats, IrradianceCache};
 
 use super::tiles::{GrowStats, SampleCount};
 use super::Plan;
-use crate::integrator::atlas::AtlasStats;
-use crate::integrator::photons::PhotonData;
-use crate::integrator::SampleCounters;
+use crate::counters::SampleCounters;
+use crate::photons::atlas::AtlasStats;
+use crate::photons::PhotonData;
 use crate::scene::{Method, Scene};
 use crate::stats::{peak_rss_bytes, Report};
 

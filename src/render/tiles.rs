@@ -32,9 +32,10 @@ use glam::Vec3;
 use photon::sampling::{hash_keys, Rng};
 use rayon::prelude::*;
 
+use crate::counters::SampleCounters;
 use crate::error::{Error, Result};
 use crate::integrator::terms::LayerValues;
-use crate::integrator::{sanitize, PixelMemo, SampleCounters};
+use crate::integrator::{sanitize, PixelMemo};
 use crate::io::output::Image;
 
 const TILE: u32 = 16;

@@ -210,7 +210,7 @@ impl<'a> PhotonData<'a> {
         x: Vec3,
         d: Vec3,
         g: f32,
-        c: &mut super::SampleCounters,
+        c: &mut crate::counters::SampleCounters,
     ) -> Vec3 {
         let Some(map) = &self.maps.volume_caustic else {
             return Vec3::ZERO;
@@ -250,7 +250,13 @@ impl<'a> PhotonData<'a> {
 
     /// Multiply scattered radiance σs·Li at `x` toward a camera ray travelling along `d` (asymmetry
     /// `g`): the media radiance cache's where it has records there, else the volume map's estimate.
-    pub fn cached_multiple(&self, x: Vec3, d: Vec3, g: f32, c: &mut super::SampleCounters) -> Vec3 {
+    pub fn cached_multiple(
+        &self,
+        x: Vec3,
+        d: Vec3,
+        g: f32,
+        c: &mut crate::counters::SampleCounters,
+    ) -> Vec3 {
         let Some(map) = &self.maps.volume else {
             return Vec3::ZERO;
         };
@@ -336,7 +342,7 @@ impl<'a> PhotonData<'a> {
         hit: &Hit,
         front: bool,
         n: Vec3,
-        c: &mut super::SampleCounters,
+        c: &mut crate::counters::SampleCounters,
     ) -> Vec3 {
         let p = hit.p;
         if self.caustic_reach.as_ref().is_some_and(|g| !g.may_reach(p)) {
@@ -419,7 +425,7 @@ impl<'a> PhotonData<'a> {
         &self,
         bsdf: &crate::material::Bsdf,
         hit: &crate::geometry::Hit,
-        frame: &super::Frame,
+        frame: &crate::geometry::Frame,
         wo: Vec3,
     ) -> Vec3 {
         let crate::material::Bsdf::Glossy {

@@ -20,8 +20,8 @@
 use glam::Vec3;
 use icache::media::{MediaPoint, VolumeRecord};
 
-use super::photons::PhotonData;
 use super::volume_grid::{estimate_within, Surroundings};
+use super::PhotonData;
 use crate::camera::Camera;
 use crate::geometry::spawn;
 use crate::material::{glass_lobes, Bsdf};
@@ -140,7 +140,7 @@ fn follow(
     if depth >= MAX_SPECULAR_DEPTH {
         return;
     }
-    let frame = super::Frame::new(&hit, -d);
+    let frame = crate::geometry::Frame::new(&hit, -d);
     let dist = dist + hit.t;
     match scene.material(&hit).bsdf {
         Bsdf::Glass { ior, transmittance } => {
