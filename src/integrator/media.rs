@@ -77,7 +77,7 @@ pub fn in_scattered(
     // Multiple scattering from the media radiance cache, at the same steps (it is smooth and cheap), and
     // the volume caustic from its own map at full resolution.
     let mut multiple = Vec3::ZERO;
-    if ctx.photons.maps.volume.is_some() {
+    if ctx.photons.maps().volume.is_some() {
         for i in 0..n {
             let t = (i as f32 + rng.uniform()) * dt;
             let x = o + d * t;
@@ -86,7 +86,7 @@ pub fn in_scattered(
         // Without a media cache (`pm-fg`, `photons`) each step is a k-NN estimate of the volume map:
         // at every UNCACHED_STRIDE-th step only (jittered over the ray), four times fewer for little
         // more noise — the multiple scattering is smooth.
-        let (m_steps, m_dt) = if ctx.photons.media_cache.is_some() {
+        let (m_steps, m_dt) = if ctx.media_cache.is_some() {
             (n, dt)
         } else {
             let k = n.div_ceil(UNCACHED_STRIDE);
@@ -95,7 +95,9 @@ pub fn in_scattered(
         for i in 0..m_steps {
             let t = (i as f32 + rng.uniform()) * m_dt;
             multiple += m.transmittance(t)
-                * ctx.photons.cached_multiple(o + d * t, d, m.g, c)
+                * ctx
+                    .photons
+                    .cached_multiple(ctx.media_cache, o + d * t, d, m.g, c)
                 * (m_dt / dt);
         }
         multiple *= dt;

@@ -8,6 +8,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use gather::{GatherParams, GatherRay, GatherResult};
 use glam::Vec3;
+use icache::media::MediaCache;
 use icache::{IrradianceCache, Pass};
 use photon::sampling::{hash_keys, Rng};
 
@@ -40,6 +41,9 @@ pub enum IndirectSource<'a> {
 pub struct PmContext<'a> {
     pub scene: &'a Scene,
     pub photons: &'a PhotonData<'a>,
+    /// The media radiance cache camera rays read (`pm`, filled by its own phase before pass A; the
+    /// other methods estimate at every step).
+    pub media_cache: Option<&'a MediaCache>,
     pub source: IndirectSource<'a>,
     pub gather: GatherParams,
     pub max_depth: u32,

@@ -4,13 +4,15 @@
 use std::sync::atomic::AtomicBool;
 
 use glam::Vec3;
+use icache::media::MediaCache;
 use photon::reach::ReachGrid;
-use photon::{Filter, PhotonMap, PhotonMaps, PhotonTargets, PrecomputedIrradiance, TraceStats};
+use photon::{Filter, PhotonMap, PhotonMaps, PhotonTargets, TraceStats};
 
 use super::atlas::IrradianceAtlas;
 use super::coverage::SceneCoverage;
 use super::photon_scene::PhotonView;
-use super::volume_grid::Photons;
+use super::volume_grid::{Photons, VolumeGrid};
+use crate::counters::SampleCounters;
 use crate::error::Result;
 use crate::geometry::Hit;
 use crate::scene::Scene;
@@ -124,26 +126,35 @@ thread_local! {
     static NEIGHBORS: std::cell::RefCell<Vec<photon::Neighbor>> = const { std::cell::RefCell::new(Vec::new()) };
 }
 
+/// The photon maps with what the render reads them through: the maps and their settings, the scene's
+/// coverage of estimate discs, and lookup accelerators for the surfaces and for the media. Built once
+/// by the `build_maps` phase; the atlas and the volume grid fill lazily as shading reads them.
 pub struct PhotonData<'a> {
-    pub maps: PhotonMaps,
-    pub precomputed: Option<PrecomputedIrradiance>,
-    pub settings: PhotonSettings,
+    maps: PhotonMaps,
+    settings: PhotonSettings,
     /// What part of each estimate's disc is surface (the scene's geometry answers).
-    pub coverage: SceneCoverage<'a>,
+    coverage: SceneCoverage<'a>,
+    surfaces: SurfaceLookups,
+    media: MediaLookups,
+}
+
+/// Accelerators of the surface maps' lookups.
+struct SurfaceLookups {
     /// Where the caustic map has a photon within its lookup radius (most shading samples have none).
-    pub caustic_reach: Option<ReachGrid>,
+    caustic_reach: Option<ReachGrid>,
     /// The global map's irradiance baked lazily onto the triangles, for final-gather rays.
-    pub atlas: Option<IrradianceAtlas>,
+    atlas: Option<IrradianceAtlas>,
+}
+
+/// What the media's estimates read besides the volume maps.
+struct MediaLookups {
     /// The volume map's in-scattered radiance baked lazily over the media, for final-gather rays.
-    pub volume_grid: Option<super::volume_grid::VolumeGrid>,
-    /// The media radiance cache camera rays read (`pm`: filled by its pass A before shading; the other
-    /// methods estimate at every step).
-    pub media_cache: Option<icache::media::MediaCache>,
+    volume_grid: Option<VolumeGrid>,
     /// The photons camera rays' multiple scattering sums: without the L S+ V ones when the volume
     /// caustic map has them (denser).
-    pub camera_photons: super::volume_grid::Photons,
+    camera_photons: Photons,
     /// Where the volume caustic map has a photon within its lookup radius.
-    pub volume_caustic_reach: Option<ReachGrid>,
+    volume_caustic_reach: Option<ReachGrid>,
 }
 
 impl<'a> PhotonData<'a> {
@@ -196,7 +207,7 @@ impl<'a> PhotonData<'a> {
     /// In-scattered radiance σs·Li at `x` toward a final-gather ray travelling along `d` (medium asymmetry
     /// `g`), all volume photons counted (single scattering included): the volume grid's.
     pub fn gather_volume_radiance(&self, x: Vec3, d: Vec3, g: f32) -> Vec3 {
-        match (&self.volume_grid, &self.maps.volume) {
+        match (&self.media.volume_grid, &self.maps.volume) {
             (Some(grid), Some(map)) => grid.radiance(map, x, d, g),
             _ => Vec3::ZERO,
         }
@@ -210,12 +221,13 @@ impl<'a> PhotonData<'a> {
         x: Vec3,
         d: Vec3,
         g: f32,
-        c: &mut crate::counters::SampleCounters,
+        c: &mut SampleCounters,
     ) -> Vec3 {
         let Some(map) = &self.maps.volume_caustic else {
             return Vec3::ZERO;
         };
         if self
+            .media
             .volume_caustic_reach
             .as_ref()
             .is_some_and(|r| !r.may_reach(x))
@@ -249,18 +261,19 @@ impl<'a> PhotonData<'a> {
     }
 
     /// Multiply scattered radiance σs·Li at `x` toward a camera ray travelling along `d` (asymmetry
-    /// `g`): the media radiance cache's where it has records there, else the volume map's estimate.
+    /// `g`): the media radiance cache's where `cache` has records there, else the volume map's estimate.
     pub fn cached_multiple(
         &self,
+        cache: Option<&MediaCache>,
         x: Vec3,
         d: Vec3,
         g: f32,
-        c: &mut crate::counters::SampleCounters,
+        c: &mut SampleCounters,
     ) -> Vec3 {
         let Some(map) = &self.maps.volume else {
             return Vec3::ZERO;
         };
-        let cached = self.media_cache.as_ref().and_then(|cache| {
+        let cached = cache.and_then(|cache| {
             c.media_lookups += 1;
             let found = cache.lookup(x);
             c.media_misses += found.is_none() as u64;
@@ -269,7 +282,7 @@ impl<'a> PhotonData<'a> {
         let s = cached.unwrap_or_else(|| {
             c.photon_estimates += 1;
             let (k, cap) = (self.settings.lookup, self.settings.max_radius_volume);
-            super::volume_grid::estimate(map, x, k, cap, self.camera_photons, false)
+            super::volume_grid::estimate(map, x, k, cap, self.media.camera_photons, false)
                 .0
                 .s
         });
@@ -277,12 +290,7 @@ impl<'a> PhotonData<'a> {
     }
 
     /// Wraps the maps for the render: the caustic map's reach grid is built here.
-    pub fn new(
-        maps: PhotonMaps,
-        precomputed: Option<PrecomputedIrradiance>,
-        settings: PhotonSettings,
-        scene: &'a Scene,
-    ) -> Self {
+    pub fn new(maps: PhotonMaps, settings: PhotonSettings, scene: &'a Scene) -> Self {
         let caustic_reach = maps.caustic.as_ref().map(|m| {
             ReachGrid::build(
                 m.photons().iter().map(|ph| ph.pos),
@@ -304,7 +312,7 @@ impl<'a> PhotonData<'a> {
             atlas
         };
         let volume_grid = match (&maps.volume, &scene.media) {
-            (Some(_), Some(m)) => Some(super::volume_grid::VolumeGrid::new(
+            (Some(_), Some(m)) => Some(VolumeGrid::new(
                 m.bounds(),
                 settings.lookup,
                 settings.max_radius_volume,
@@ -325,16 +333,46 @@ impl<'a> PhotonData<'a> {
         };
         PhotonData {
             maps,
-            precomputed,
             settings,
             coverage: SceneCoverage(scene),
-            caustic_reach,
-            atlas,
-            volume_grid,
-            media_cache: None,
-            camera_photons,
-            volume_caustic_reach,
+            surfaces: SurfaceLookups {
+                caustic_reach,
+                atlas,
+            },
+            media: MediaLookups {
+                volume_grid,
+                camera_photons,
+                volume_caustic_reach,
+            },
         }
+    }
+
+    pub fn maps(&self) -> &PhotonMaps {
+        &self.maps
+    }
+
+    /// The maps, for saving once the render is done.
+    pub fn into_maps(self) -> PhotonMaps {
+        self.maps
+    }
+
+    pub fn settings(&self) -> &PhotonSettings {
+        &self.settings
+    }
+
+    /// The irradiance atlas (there with a global map).
+    pub fn atlas(&self) -> Option<&IrradianceAtlas> {
+        self.surfaces.atlas.as_ref()
+    }
+
+    /// The volume grid (there with a volume map in a scene with media).
+    pub fn volume_grid(&self) -> Option<&VolumeGrid> {
+        self.media.volume_grid.as_ref()
+    }
+
+    /// The photons camera rays' multiple-scattering estimates sum.
+    pub fn camera_photons(&self) -> Photons {
+        self.media.camera_photons
     }
 
     pub fn caustic_irradiance(
@@ -342,10 +380,15 @@ impl<'a> PhotonData<'a> {
         hit: &Hit,
         front: bool,
         n: Vec3,
-        c: &mut crate::counters::SampleCounters,
+        c: &mut SampleCounters,
     ) -> Vec3 {
         let p = hit.p;
-        if self.caustic_reach.as_ref().is_some_and(|g| !g.may_reach(p)) {
+        if self
+            .surfaces
+            .caustic_reach
+            .as_ref()
+            .is_some_and(|g| !g.may_reach(p))
+        {
             return Vec3::ZERO;
         }
         let Some(m) = &self.maps.caustic else {
@@ -357,7 +400,7 @@ impl<'a> PhotonData<'a> {
             self.settings.caustic_filter,
         );
         // A faint caustic's sparse photons make wide discs: one estimate per atlas texel serves it.
-        let smooth = self.atlas.as_ref().and_then(|a| {
+        let smooth = self.surfaces.atlas.as_ref().and_then(|a| {
             let ng = self.coverage.0.geometry.triangles[hit.tri as usize].ng;
             a.caustic(hit.tri, ng, front, p, |middle, n| {
                 m.irradiance(middle, n, k, r, filter, &self.coverage)
@@ -394,7 +437,8 @@ impl<'a> PhotonData<'a> {
     /// [`gather_radiance`](Self::gather_radiance) at many ends at once, appended to `out` in order: the
     /// texels are found first, then read, so that the memory reads of neighbouring ends overlap.
     pub fn gather_radiance_batch(&self, ends: &[(u32, bool, Vec3)], out: &mut Vec<Vec3>) {
-        let (Some(atlas), Some(global)) = (self.atlas.as_ref(), self.maps.global.as_ref()) else {
+        let (Some(atlas), Some(global)) = (self.surfaces.atlas.as_ref(), self.maps.global.as_ref())
+        else {
             out.extend(ends.iter().map(|_| Vec3::ZERO));
             return;
         };
@@ -415,7 +459,7 @@ impl<'a> PhotonData<'a> {
     }
 
     fn texel(&self, tri: u32, front: bool, p: Vec3) -> Option<super::atlas::TexelIrradiance> {
-        let (atlas, global) = (self.atlas.as_ref()?, self.maps.global.as_ref()?);
+        let (atlas, global) = (self.surfaces.atlas.as_ref()?, self.maps.global.as_ref()?);
         Some(atlas.lookup(&self.coverage, global, tri, front, p))
     }
 

@@ -186,20 +186,23 @@ pub fn media_record(
     p: &MediaPoint,
     stride: u32,
 ) -> VolumeRecord {
-    let Some(map) = &photons.maps.volume else {
+    let Some(map) = &photons.maps().volume else {
         return VolumeRecord::default();
     };
     let around = Surroundings::measure(|dir| match scene.intersect_after(p.pos, dir, 0.0) {
         Some(h) => (h.t, !scene.material(&h).bsdf.is_null(), h.ng),
         None => (f32::INFINITY, false, Vec3::ZERO),
     });
-    let (k, cap) = (photons.settings.lookup, photons.settings.max_radius_volume);
+    let (k, cap) = (
+        photons.settings().lookup,
+        photons.settings().max_radius_volume,
+    );
     let (rec, r_kernel) = estimate_within(
         map,
         p.pos,
         k,
         cap,
-        photons.camera_photons,
+        photons.camera_photons(),
         true,
         scene.settings.icache.media_visibility().then_some(&around),
     );

@@ -134,11 +134,6 @@ fn photon_stats(
 }
 
 /// The maps wrapped for the render (see [`PhotonData::new`]); nothing here is counted.
-pub fn build_maps<'a>(
-    scene: &'a Scene,
-    plan: &Plan,
-    maps: PhotonMaps,
-    precomputed: Option<PrecomputedIrradiance>,
-) -> PhotonData<'a> {
-    PhotonData::new(maps, precomputed, plan.photons.clone(), scene)
+pub fn build_maps<'a>(scene: &'a Scene, plan: &Plan, maps: PhotonMaps) -> PhotonData<'a> {
+    PhotonData::new(maps, plan.photons.clone(), scene)
 }

@@ -5,6 +5,7 @@
 use std::sync::atomic::AtomicBool;
 
 use gather::GatherParams;
+use icache::media::MediaCache;
 use icache::CacheParams;
 
 use super::tiles::{Sampling, Window};
@@ -59,17 +60,20 @@ impl Plan {
         }
     }
 
-    /// The photon-map methods' integrator, reading soft indirect light from `source`.
+    /// The photon-map methods' integrator, reading soft indirect light from `source` (its gathers take
+    /// the plan's rays: pass B's may differ, chosen by pass A).
     pub fn pm_context<'a>(
         &self,
         scene: &'a Scene,
         photons: &'a PhotonData<'a>,
+        media_cache: Option<&'a MediaCache>,
         source: IndirectSource<'a>,
         cancel: &'a AtomicBool,
     ) -> PmContext<'a> {
         PmContext {
             scene,
             photons,
+            media_cache,
             source,
             gather: self.gather,
             max_depth: scene.settings.max_depth,

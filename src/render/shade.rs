@@ -23,6 +23,8 @@ use crate::io::output::Image;
 use crate::photons::PhotonData;
 use crate::progress::Progress;
 use crate::scene::{Method, Scene};
+use gather::GatherParams;
+use icache::media::MediaCache;
 use icache::{IrradianceCache, ShadingPoint};
 
 /// `n_layers` images of the plan's window, by `sampler`. `cancel` is read before every sample.
@@ -61,22 +63,42 @@ pub fn shade(
     ))
 }
 
+/// What shading reads from the phases before it.
+pub struct Lighting<'a> {
+    /// The photon maps (none for `path`).
+    pub photons: Option<&'a PhotonData<'a>>,
+    /// `pm`'s media radiance cache.
+    pub media_cache: Option<&'a MediaCache>,
+    /// `pm`'s irradiance cache.
+    pub cache: Option<&'a mut CacheFill>,
+    /// Rays per final gather: pass A's choice when it made one, else the plan's.
+    pub gather: GatherParams,
+}
+
 /// The method's sampler and its number of layers: `path`'s radiance without photon maps; with them,
-/// the terms of the split, soft indirect light read from `cache` when there is one (which grows
-/// between rounds where samples find no record, except a one-pass cache).
+/// the terms of the split, soft indirect light read from the irradiance cache when there is one (which
+/// grows between rounds where samples find no record, except a one-pass cache).
 pub fn sampler<'a>(
     scene: &'a Scene,
     plan: &'a Plan,
-    photons: Option<&'a PhotonData<'a>>,
-    cache: Option<&'a mut CacheFill>,
+    lighting: Lighting<'a>,
     cancel: &'a AtomicBool,
 ) -> (Box<dyn Sampler + 'a>, usize) {
-    let Some(photons) = photons else {
+    let Some(photons) = lighting.photons else {
         return (path_sample(scene, &plan.camera), 1);
     };
     let n_layers = term_names(scene.media.is_some()).len();
-    let ctx = plan.pm_context(scene, photons, IndirectSource::PhotonMap, cancel);
-    match cache {
+    let ctx = PmContext {
+        gather: lighting.gather,
+        ..plan.pm_context(
+            scene,
+            photons,
+            lighting.media_cache,
+            IndirectSource::PhotonMap,
+            cancel,
+        )
+    };
+    match lighting.cache {
         Some(fill) if fill.one_pass.is_none() => {
             (Box::new(GrowingCache::new(ctx, plan, fill)), n_layers)
         }

@@ -4,6 +4,7 @@
 
 use std::time::Instant;
 
+use icache::media::MediaCache;
 use icache::{CacheStats, IrradianceCache};
 
 use super::tiles::{GrowStats, SampleCount};
@@ -127,15 +128,12 @@ impl RenderStats {
         &mut self,
         start: Instant,
         photons: Option<&PhotonData>,
+        media_cache: Option<&MediaCache>,
         cache: Option<&IrradianceCache>,
     ) {
-        self.atlas = photons.and_then(|p| p.atlas.as_ref()).map(|a| a.stats());
-        self.volume_grid = photons
-            .and_then(|p| p.volume_grid.as_ref())
-            .map(|g| g.filled());
-        self.media_cache = photons
-            .and_then(|p| p.media_cache.as_ref())
-            .map(|c| (c.len() as u64, c.memory_bytes() as u64));
+        self.atlas = photons.and_then(|p| p.atlas()).map(|a| a.stats());
+        self.volume_grid = photons.and_then(|p| p.volume_grid()).map(|g| g.filled());
+        self.media_cache = media_cache.map(|c| (c.len() as u64, c.memory_bytes() as u64));
         let fill = self.fill.as_ref();
         self.cache = cache.map(|c| {
             let mut s = CacheStats::collect(
