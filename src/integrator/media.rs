@@ -6,10 +6,22 @@
 use glam::Vec3;
 use photon::sampling::Rng;
 
-use super::pm::PmContext;
+use icache::media::MediaCache;
+
 use crate::counters::SampleCounters;
 use crate::light::{Light, LightSample};
 use crate::medium::{phase, Medium, MediumId};
+use crate::photons::PhotonData;
+use crate::scene::Scene;
+
+/// What the light scattered toward a ray is estimated from: the scene's lights, the photon maps and,
+/// for `pm`, the media radiance cache.
+#[derive(Clone, Copy)]
+pub struct Sources<'a> {
+    pub scene: &'a Scene,
+    pub photons: &'a PhotonData<'a>,
+    pub media_cache: Option<&'a MediaCache>,
+}
 
 /// Steps per march: one per 1/32 of the scene's diagonal on the way (at least 2) …
 const MIN_STEPS: u32 = 2;
@@ -22,7 +34,7 @@ const UNCACHED_STRIDE: u32 = 4;
 /// medium `m` (id `medium`) over `[0, t_end)`, attenuated on the way back to `o`.
 #[allow(clippy::too_many_arguments)]
 pub fn in_scattered(
-    ctx: &PmContext,
+    ctx: &Sources,
     o: Vec3,
     d: Vec3,
     t_end: f32,
@@ -110,7 +122,7 @@ pub fn in_scattered(
 /// toward a ray from `o` travelling along `d` for `t_end`.
 #[allow(clippy::too_many_arguments)]
 fn light_at(
-    ctx: &PmContext,
+    ctx: &Sources,
     x: Vec3,
     d: Vec3,
     g: f32,
@@ -147,7 +159,7 @@ fn light_at(
 
 /// One light sample's radiance at `x` (transmittance to the light included) times the phase function.
 fn arriving(
-    ctx: &PmContext,
+    ctx: &Sources,
     x: Vec3,
     d: Vec3,
     g: f32,

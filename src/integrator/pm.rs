@@ -124,7 +124,12 @@ impl PmContext<'_> {
         };
         let t_end = hit.map_or(f32::INFINITY, |h| h.t - t0);
         let (single, multiple) = if t_end.is_finite() {
-            media::in_scattered(self, o + d * t0, d, t_end, medium, m, rng, c)
+            let sources = media::Sources {
+                scene: self.scene,
+                photons: self.photons,
+                media_cache: self.media_cache,
+            };
+            media::in_scattered(&sources, o + d * t0, d, t_end, medium, m, rng, c)
         } else {
             (Vec3::ZERO, Vec3::ZERO)
         };
