@@ -1,6 +1,5 @@
 //! Integrators: the path-tracing reference and the photon-map methods built on Jensen's split.
 pub mod cache_fill;
-pub mod gather_rays;
 pub mod media;
 pub mod path;
 pub mod pm;

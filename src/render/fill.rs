@@ -9,13 +9,12 @@ use std::time::Instant;
 use icache::media::{MediaCache, MediaFillStats, MediaPoint};
 use icache::{IrradianceCache, OnePassFill, ShadingPoint};
 
-use super::files;
 use super::stats::CacheFillStats;
 use super::Plan;
+use super::{files, gather_rays};
 use crate::error::{runtime, Result};
 use crate::geometry::Hit;
 use crate::integrator::cache_fill::{gather_record, shading_hits};
-use crate::integrator::gather_rays;
 use crate::integrator::pm::IndirectSource;
 use crate::photons::media_cache;
 use crate::photons::PhotonData;

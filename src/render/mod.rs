@@ -6,6 +6,7 @@
 pub mod budget;
 pub mod files;
 pub mod fill;
+pub mod gather_rays;
 pub mod outputs;
 pub mod photons;
 pub mod plan;

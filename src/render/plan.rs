@@ -39,7 +39,7 @@ pub struct Plan {
     /// Rays per final gather (`pm`'s records and `pm-fg`'s samples).
     pub gather: GatherParams,
     /// `pm` chooses its gathers' rays after pass A (the file gives no `rays`; a two-pass fill, not a
-    /// loaded cache): pass A gathers with `gather`'s [`crate::integrator::gather_rays::BASE_RAYS`].
+    /// loaded cache): pass A gathers with `gather`'s [`crate::render::gather_rays::BASE_RAYS`].
     pub choose_rays: bool,
 }
 
@@ -143,7 +143,7 @@ pub fn plan(scene: &Scene, opts: &Options) -> Result<Plan> {
         pass_a_stride: icache.pass_a_stride(width, height),
         gather: GatherParams {
             rays: if choose_rays {
-                crate::integrator::gather_rays::BASE_RAYS
+                crate::render::gather_rays::BASE_RAYS
             } else {
                 icache.rays
             },

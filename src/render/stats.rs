@@ -78,7 +78,7 @@ pub struct CacheFillStats {
     /// The fill's final gathers (their rays).
     pub counters: SampleCounters,
     pub n_loaded: u64,
-    /// With rays chosen by `pm` (`integrator::gather_rays`): the predicted relative variance the pass-A
+    /// With rays chosen by `pm` (`render::gather_rays`): the predicted relative variance the pass-A
     /// gathers' noise gives the pixels (at one round), and the rounds chosen.
     pub rays_choice: Option<(f64, u32)>,
 }
@@ -323,8 +323,8 @@ impl RenderStats {
             fill.gather_rays,
         );
         if let Some((noise, rounds)) = self.fill.as_ref().and_then(|f| f.rays_choice) {
-            let base = crate::integrator::gather_rays::BASE_RAYS;
-            let title = format!("Pixels' relative variance from gather noise, at {base} rays (predicted; target {:.0e})", crate::integrator::gather_rays::NOISE_TARGET);
+            let base = crate::render::gather_rays::BASE_RAYS;
+            let title = format!("Pixels' relative variance from gather noise, at {base} rays (predicted; target {:.0e})", crate::render::gather_rays::NOISE_TARGET);
             r.value(
                 "Final gather",
                 &title,
@@ -336,7 +336,7 @@ impl RenderStats {
                 "Final gather",
                 "Rays per gather (chosen from that prediction)",
                 "gather.rays_chosen",
-                crate::integrator::gather_rays::rays_for_rounds(rounds) as u64,
+                crate::render::gather_rays::rays_for_rounds(rounds) as u64,
             );
         }
         let mut noise = fill.gather_noise;

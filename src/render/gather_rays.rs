@@ -20,11 +20,11 @@ use icache::{IrradianceCache, NewRecord, Pass, Record, ShadingPoint};
 use photon::sampling::hash_keys;
 use rayon::prelude::*;
 
-use super::cache_fill::{gather_record_round, shading_hits};
-use super::pm::PmContext;
 use crate::camera::Camera;
 use crate::counters::SampleCounters;
 use crate::geometry::Hit;
+use crate::integrator::cache_fill::{gather_record_round, shading_hits};
+use crate::integrator::pm::PmContext;
 use crate::photons::atlas::direct_irradiance;
 use crate::progress::Progress;
 use crate::warp::luminance;
