@@ -9,7 +9,7 @@ use photon::sampling::Rng;
 
 use super::fill::CacheFill;
 use super::stats::ShadeStats;
-use super::tiles::{render_tiles, GrowStats, MissedSample, Sampler};
+use super::tiles::{render_tiles, Canvas, GrowStats, MissedSample, Sampler};
 use super::Plan;
 use crate::camera::Camera;
 use crate::counters::SampleCounters;
@@ -37,17 +37,16 @@ pub fn shade(
 ) -> Result<(Vec<Image>, ShadeStats)> {
     let t = Instant::now();
     progress.start("shade", plan.window.n_pixels());
-    let (layers, mut counters, samples) = render_tiles(
-        plan.width,
-        plan.height,
-        plan.window,
-        plan.sampling(),
-        plan.seed,
+    let canvas = Canvas {
+        width: plan.width,
+        height: plan.height,
+        window: plan.window,
+        sampling: plan.sampling(),
+        seed: plan.seed,
         n_layers,
-        sampler,
-        &|n| progress.set(n),
-        cancel,
-    )?;
+    };
+    let (layers, mut counters, samples) =
+        render_tiles(&canvas, sampler, &|n| progress.set(n), cancel)?;
     progress.finish();
     // The gathers of records made between rounds are rays of the shading.
     let grown = sampler.grown();
