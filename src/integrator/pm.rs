@@ -17,11 +17,11 @@ use super::terms::Terms;
 use crate::counters::SampleCounters;
 use crate::geometry::Frame;
 use crate::geometry::{spawn, Hit};
-use crate::material::{glass_lobes, Bsdf, Transport};
+use crate::material::{glass_lobes, Bsdf, PhongLobe, Transport};
 use crate::medium::MediumId;
 use crate::photons::PhotonData;
 use crate::scene::{past, Scene};
-use crate::warp::{power_heuristic, reflect, to_world};
+use crate::warp::power_heuristic;
 
 /// Area-light samples per non-specular hit in `direct` (chosen from the chart's error/time trade-off).
 const AREA_LIGHT_SAMPLES: u32 = 4;
@@ -343,7 +343,7 @@ impl PmContext<'_> {
         let f_spec = f - f_diffuse;
         let w = match *bsdf {
             Bsdf::Glossy { exponent, .. } if !ls.delta => {
-                power_heuristic(ls.pdf, phong_pdf(reflect(wo, frame.n), ls.wi, exponent))
+                power_heuristic(ls.pdf, PhongLobe::new(wo, frame.n, exponent).pdf(ls.wi))
             }
             _ => 1.0,
         };
@@ -365,20 +365,16 @@ impl PmContext<'_> {
         rng: &mut Rng,
         c: &mut SampleCounters,
     ) -> Vec3 {
-        let r = reflect(wo, frame.n);
+        let lobe = PhongLobe::new(wo, frame.n, exponent);
         c.monte_carlo += 1;
         let (u0, u1) = (rng.uniform(), rng.uniform());
-        let cos_a = u0.powf(1.0 / (exponent + 1.0));
-        let sin_a = (1.0 - cos_a * cos_a).max(0.0).sqrt();
-        let phi = 2.0 * PI * u1;
-        let wi = to_world(r, Vec3::new(sin_a * phi.cos(), sin_a * phi.sin(), cos_a));
+        let wi = lobe.sample([u0, u1]);
         let cos_i = wi.dot(frame.n);
         if cos_i <= 0.0 || !frame.same_side(wi) {
             return Vec3::ZERO;
         }
-        // f_spec cos / pdf = ks (n+2)/(n+1) cos θi.
-        let weight = ks * ((exponent + 2.0) / (exponent + 1.0) * cos_i);
-        let pdf = phong_pdf(r, wi, exponent);
+        let weight = ks * lobe.sampled_weight(cos_i);
+        let pdf = lobe.pdf(wi);
         let next = self.scene.medium_after(hit, wi, medium);
         let sub = self.shade_ray(
             spawn(hit, wi),
@@ -703,12 +699,6 @@ const GLASS_SPLIT_DEPTH: u32 = 2;
 /// (letting its pixel take up to `spp` samples) only where the path carries at least this share of the
 /// sample: a pane's light reflected twice inside it (F² ≈ 0.2 %) does not.
 const MONTE_CARLO_MIN_THROUGHPUT: f32 = 0.1;
-
-/// Solid-angle pdf of the normalised Phong lobe about the mirror direction `r`.
-fn phong_pdf(r: Vec3, wi: Vec3, exponent: f32) -> f32 {
-    let cos_a = r.dot(wi).max(0.0);
-    (exponent + 1.0) / (2.0 * PI) * cos_a.powf(exponent)
-}
 
 /// What a final gather returns once the render is interrupted (its result is discarded): skipping the
 /// strata loops and the batched lookups keeps a 1M-ray gather from delaying the stop.

@@ -15,6 +15,7 @@ use super::volume_grid::{Photons, VolumeGrid};
 use crate::counters::SampleCounters;
 use crate::error::Result;
 use crate::geometry::Hit;
+use crate::material::PhongLobe;
 use crate::scene::Scene;
 
 /// Default size of an irradiance-atlas texel, in global photons at the scene's mean density
@@ -482,11 +483,8 @@ impl<'a> PhotonData<'a> {
             return Vec3::ZERO;
         }
         let n = frame.n;
-        let r = crate::warp::reflect(wo, n);
-        let lobe = |wi: Vec3| -> Vec3 {
-            let cos_a = r.dot(wi).max(0.0);
-            specular * ((exponent + 2.0) / (2.0 * std::f32::consts::PI) * cos_a.powf(exponent))
-        };
+        let phong = PhongLobe::new(wo, n, exponent);
+        let lobe = |wi: Vec3| -> Vec3 { specular * phong.brdf(wi) };
         self.global(|m| {
             m.radiance_with(
                 hit.p,
