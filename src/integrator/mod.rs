@@ -9,13 +9,13 @@ use glam::Vec3;
 
 use crate::counters::SampleCounters;
 
-/// Soft indirect (and faint caustic) irradiance already computed in one pixel (kept across the rounds of
-/// adaptive sampling while the pixel takes samples), per surface the camera sees there (triangle and side), for the pixel's later samples on that
-/// surface: the cache interpolates over records several pixels apart, and each lookup, like each
-/// caustic k-NN estimate with its coverage probes, costs more than the rest of a sample (on Sibenik,
-/// faint caustic estimates under the red pane were half of the shading). A bright caustic is estimated
-/// again at every sample: its edges are sharp within a pixel (cornell-caustics: relMSE 0.0017 → 0.0024
-/// when it was reused). Each sample still traces its own camera ray, shadow rays and texture lookups.
+/// Soft indirect (and faint caustic) irradiance already computed in one pixel, per surface the camera
+/// sees there (triangle and side), for the pixel's later samples on that surface; kept across the rounds
+/// of adaptive sampling while the pixel takes samples. Why: the cache interpolates over records several
+/// pixels apart, so its value barely changes within a pixel, while each lookup, like each caustic k-NN
+/// estimate with its coverage probes, costs more than the rest of a sample. A bright caustic is
+/// estimated again at every sample: its edges are sharp within a pixel, and reusing it blurred them.
+/// Each sample still traces its own camera ray, shadow rays and texture lookups.
 #[derive(Clone, Debug, Default)]
 pub struct PixelMemo {
     entries: Vec<MemoEntry>,

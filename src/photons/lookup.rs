@@ -19,9 +19,8 @@ use crate::material::PhongLobe;
 use crate::scene::Scene;
 
 /// Default size of an irradiance-atlas texel, in global photons at the scene's mean density
-/// (`[render.photons] precompute_every`). A k = 100 estimate blurs over ~12 texels; at 16 the stability
-/// suite's scanline case (20 k photons) lost its two-pass advantage (indirect relMSE 3.2e-4 → 5.5e-4)
-/// and the blinds room's walls moved +0.5 %.
+/// (`[render.photons] precompute_every`). A k = 100 estimate blurs over ~12 texels; coarser texels
+/// showed in scenes with few photons (their blur adds to the estimate's) and shifted large walls.
 pub const DEFAULT_PHOTONS_PER_TEXEL: usize = 8;
 
 /// `[render.photons]` resolved.
@@ -112,13 +111,11 @@ impl PhotonSettings {
     }
 }
 
-/// Photons per atlas texel estimate: a third of the lookup's `k` (at least 8). A texel is read only by
-/// final-gather rays, and a gather averages hundreds of texels, so a texel's noise averages out while the
-/// blur of a wider disc does not; its direct part comes from shadow rays, so only the smooth caustic and
-/// indirect part is estimated. At half the lookup's k (from k = 100: Sibenik 1024² image mean 0.9943 →
-/// 0.9957 of the reference, block relMSE 0.000046 → 0.000040); a third (128², against the references):
-/// Sponza block relMSE 0.000169 → 0.000154, blinds-room 0.000403 → 0.000373, Sibenik 0.000116 →
-/// 0.000126, the boxes unchanged, and FLANN's share of the render 10.3–11.0 % → 8.8–9.2 % (Sibenik 600²).
+/// Photons per atlas texel estimate: a third of the lookup's `k` (at least 8, at most `k`). A texel is
+/// read only by final-gather rays, and a gather averages hundreds of texels, so a texel's noise averages
+/// out while the blur of a wider disc does not; its direct part comes from shadow rays, so only the
+/// smooth caustic and indirect part is estimated. Fewer photons per estimate also make the k-NN
+/// searches, a large share of the render, cheaper.
 pub fn atlas_k(lookup: usize) -> usize {
     (lookup / 3).max(8).min(lookup)
 }

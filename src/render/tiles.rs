@@ -14,17 +14,15 @@
 //! nearly exact mean after a few groups, though its samples differ a lot. From the second group on, the
 //! estimate is made within the quarters — from the differences between the samples of the same quarter
 //! in successive groups, 4 degrees of freedom per pair of groups. After the first group alone there is
-//! no such difference and the estimate is the samples' plain variance, which can only be larger. On
-//! Sibenik at 1000² the plain estimate kept a quarter of the pixels (mortar between stones, mouldings)
-//! sampling to the limit of 32.
+//! no such difference and the estimate is the samples' plain variance, which can only be larger: over
+//! textures and edges it kept many pixels sampling to their limit.
 //!
 //! Pixels differ in what more samples buy. Where a pixel's samples make no Monte Carlo estimate — delta
 //! lights, cached and photon-map irradiance, mirrors — its samples differ only by where they fall in it
 //! (a texture's mortar lines, an edge), and it stops at `aa_spp` (32). Where they do (area-light samples,
 //! a glass's reflect-or-refract choice, glossy lobes, media, per-sample gathers), the pixel's noise is
-//! what more samples remove, and it may go on to `spp` (128): on the box scenes, lit by area lights, the
-//! error against the references fell by 35–50 % at little cost (cornell-caustics 0.00167 → 0.00104 in
-//! the same time), while Sibenik's textured stone (point and spot lights) stays at 32.
+//! what more samples remove, and it may go on to `spp` (128): scenes lit by area lights gain much
+//! accuracy at little cost, while textured surfaces under point and spot lights stay at `aa_spp`.
 
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
@@ -259,9 +257,9 @@ struct TileState {
     window: Window,
     pixels: Vec<PixelSums>,
     layers: Vec<Vec<Vec3>>,
-    /// Each pixel's memo, kept from round to round while the pixel takes samples (its later rounds
-    /// reuse the soft indirect light its first round computed: on Sibenik 500² the rounds made
-    /// adaptive sampling cost 1.5× per sample what fixed sampling does).
+    /// Each pixel's memo, kept from round to round while the pixel takes samples: its later rounds
+    /// reuse the soft indirect light its first round computed, so that sampling in rounds costs no
+    /// more per sample than sampling all at once.
     memos: Vec<PixelMemo>,
     /// This round's pixels that missed, as they stood before it (when the sampler adds records).
     redo: Vec<Redo>,
