@@ -59,6 +59,18 @@ pub struct PmContext<'a> {
 /// `PixelMemo`).
 const FAINT_CAUSTIC: f32 = 0.05;
 
+/// A surface point being shaded: the hit, its frame seen from `wo`, the medium the ray arrived in, and
+/// the path's depth and throughput there.
+#[derive(Clone, Copy)]
+struct Vertex<'h> {
+    hit: &'h Hit,
+    frame: Frame,
+    wo: Vec3,
+    medium: MediumId,
+    depth: u32,
+    beta: f32,
+}
+
 /// How the ray being shaded was generated, for MIS of emission.
 #[derive(Clone, Copy)]
 enum Via {
@@ -174,92 +186,24 @@ impl PmContext<'_> {
         let frame = Frame::new(&hit, wo);
         let bsdf = &self.scene.material(&hit).bsdf;
         let kd = self.scene.albedo(&hit);
+        let v = Vertex {
+            hit: &hit,
+            frame,
+            wo,
+            medium,
+            depth,
+            beta,
+        };
         if bsdf.is_specular() {
             if depth + 1 < self.max_depth {
-                // Glass met at the first GLASS_SPLIT_DEPTH bounces of a camera path is followed both
-                // ways, reflected and refracted, weighted by Fresnel: no choice, no noise. Deeper, one
-                // way is chosen (Fresnel's odds), a Monte Carlo estimate where the path still carries
-                // MONTE_CARLO_MIN_THROUGHPUT of the sample.
-                if let (&Bsdf::Glass { ior, transmittance }, true) =
-                    (bsdf, depth < GLASS_SPLIT_DEPTH)
-                {
-                    for (wi, weight) in glass_lobes(ior, transmittance, frame.n, wo, frame.front) {
-                        if weight == Vec3::ZERO {
-                            continue;
-                        }
-                        let next = self.scene.medium_after(&hit, wi, medium);
-                        let sub = self.shade_ray(
-                            spawn(&hit, wi),
-                            wi,
-                            0.0,
-                            depth + 1,
-                            beta * weight.max_element(),
-                            Via::Delta,
-                            None,
-                            next,
-                            rng,
-                            c,
-                        );
-                        t.specular += weight * sub.sum();
-                    }
-                    return t;
-                }
-                c.monte_carlo += (matches!(bsdf, Bsdf::Glass { .. })
-                    && beta >= MONTE_CARLO_MIN_THROUGHPUT) as u64;
-                let u = [rng.uniform(), rng.uniform(), rng.uniform()];
-                match bsdf.sample(kd, frame.n, wo, frame.front, u, Transport::Radiance) {
-                    Some(s) => {
-                        let next = self.scene.medium_after(&hit, s.wi, medium);
-                        let sub = self.shade_ray(
-                            spawn(&hit, s.wi),
-                            s.wi,
-                            0.0,
-                            depth + 1,
-                            beta * s.weight.max_element(),
-                            Via::Delta,
-                            None,
-                            next,
-                            rng,
-                            c,
-                        );
-                        t.specular = s.weight * sub.sum();
-                    }
-                    None => c.zero_pdf += 1,
-                }
+                t.specular = self.specular(&v, bsdf, kd, rng, c);
             }
             return t;
         }
         t.direct = self.direct(&hit, &frame, wo, kd, bsdf, medium, rng, c);
         let rho_d = bsdf.diffuse_albedo(kd) / PI;
         if rho_d != Vec3::ZERO {
-            let remembered = memo.as_ref().and_then(|m| m.get(hit.tri, frame.front, c));
-            let (caustic, indirect) = match remembered {
-                Some((Some(caustic), indirect)) => (caustic, indirect),
-                Some((None, indirect)) => (
-                    self.photons
-                        .caustic_irradiance(&hit, frame.front, frame.n, c),
-                    indirect,
-                ),
-                None => {
-                    let caustic = self
-                        .photons
-                        .caustic_irradiance(&hit, frame.front, frame.n, c);
-                    let before = c.lookups;
-                    let indirect =
-                        self.indirect(&hit, &frame, matches!(via, Via::Glossy { .. }), rng, c);
-                    if let Some(m) = memo {
-                        let faint = caustic.max_element() <= FAINT_CAUSTIC * indirect.max_element();
-                        m.put(
-                            hit.tri,
-                            frame.front,
-                            faint.then_some(caustic),
-                            indirect,
-                            c.lookups.since(&before),
-                        );
-                    }
-                    (caustic, indirect)
-                }
-            };
+            let (caustic, indirect) = self.irradiance(&v, via, memo, rng, c);
             t.caustic = rho_d * caustic;
             t.indirect = rho_d * indirect;
         }
@@ -268,12 +212,119 @@ impl PmContext<'_> {
         } = *bsdf
         {
             if depth + 1 < self.max_depth && specular.max_element() > 0.0 {
-                t.specular = self.glossy_lobe(
-                    &hit, &frame, wo, specular, exponent, depth, beta, medium, rng, c,
-                );
+                t.specular = self.glossy_lobe(&v, specular, exponent, rng, c);
             }
         }
         t
+    }
+
+    /// The light a mirror or glass reflects or refracts toward `wo` (at a depth below the limit).
+    fn specular(
+        &self,
+        v: &Vertex,
+        bsdf: &Bsdf,
+        kd: Vec3,
+        rng: &mut Rng,
+        c: &mut SampleCounters,
+    ) -> Vec3 {
+        let Vertex {
+            hit,
+            frame,
+            wo,
+            medium,
+            depth,
+            beta,
+        } = *v;
+        let mut specular = Vec3::ZERO;
+        // Glass met at the first GLASS_SPLIT_DEPTH bounces of a camera path is followed both
+        // ways, reflected and refracted, weighted by Fresnel: no choice, no noise. Deeper, one
+        // way is chosen (Fresnel's odds), a Monte Carlo estimate where the path still carries
+        // MONTE_CARLO_MIN_THROUGHPUT of the sample.
+        if let (&Bsdf::Glass { ior, transmittance }, true) = (bsdf, depth < GLASS_SPLIT_DEPTH) {
+            for (wi, weight) in glass_lobes(ior, transmittance, frame.n, wo, frame.front) {
+                if weight == Vec3::ZERO {
+                    continue;
+                }
+                let next = self.scene.medium_after(hit, wi, medium);
+                let sub = self.shade_ray(
+                    spawn(hit, wi),
+                    wi,
+                    0.0,
+                    depth + 1,
+                    beta * weight.max_element(),
+                    Via::Delta,
+                    None,
+                    next,
+                    rng,
+                    c,
+                );
+                specular += weight * sub.sum();
+            }
+            return specular;
+        }
+        c.monte_carlo +=
+            (matches!(bsdf, Bsdf::Glass { .. }) && beta >= MONTE_CARLO_MIN_THROUGHPUT) as u64;
+        let u = [rng.uniform(), rng.uniform(), rng.uniform()];
+        match bsdf.sample(kd, frame.n, wo, frame.front, u, Transport::Radiance) {
+            Some(s) => {
+                let next = self.scene.medium_after(hit, s.wi, medium);
+                let sub = self.shade_ray(
+                    spawn(hit, s.wi),
+                    s.wi,
+                    0.0,
+                    depth + 1,
+                    beta * s.weight.max_element(),
+                    Via::Delta,
+                    None,
+                    next,
+                    rng,
+                    c,
+                );
+                specular = s.weight * sub.sum();
+            }
+            None => c.zero_pdf += 1,
+        }
+        specular
+    }
+
+    /// (caustic, soft indirect) irradiance at a non-specular point: from the pixel's `memo` when an
+    /// earlier sample there computed them, else estimated (and remembered).
+    fn irradiance(
+        &self,
+        v: &Vertex,
+        via: Via,
+        memo: Option<&mut super::PixelMemo>,
+        rng: &mut Rng,
+        c: &mut SampleCounters,
+    ) -> (Vec3, Vec3) {
+        let (hit, frame) = (v.hit, &v.frame);
+        let remembered = memo.as_ref().and_then(|m| m.get(hit.tri, frame.front, c));
+        match remembered {
+            Some((Some(caustic), indirect)) => (caustic, indirect),
+            Some((None, indirect)) => (
+                self.photons
+                    .caustic_irradiance(hit, frame.front, frame.n, c),
+                indirect,
+            ),
+            None => {
+                let caustic = self
+                    .photons
+                    .caustic_irradiance(hit, frame.front, frame.n, c);
+                let before = c.lookups;
+                let indirect = self.indirect(hit, frame, matches!(via, Via::Glossy { .. }), rng, c);
+                if let Some(m) = memo {
+                    let faint = caustic.max_element() <= FAINT_CAUSTIC * indirect.max_element();
+                    m.put(
+                        hit.tri,
+                        frame.front,
+                        faint.then_some(caustic),
+                        indirect,
+                        c.lookups.since(&before),
+                    );
+                }
+                (caustic, indirect)
+            }
+        }
     }
 
     /// Direct light with the full BRDF: every point, spot and directional light exactly (a shadow ray
@@ -351,20 +402,22 @@ impl PmContext<'_> {
     }
 
     /// The glossy lobe of modified Phong, sampled exactly; its light is all of the next hit's radiance.
-    #[allow(clippy::too_many_arguments)]
     fn glossy_lobe(
         &self,
-        hit: &Hit,
-        frame: &Frame,
-        wo: Vec3,
+        v: &Vertex,
         ks: Vec3,
         exponent: f32,
-        depth: u32,
-        beta: f32,
-        medium: MediumId,
         rng: &mut Rng,
         c: &mut SampleCounters,
     ) -> Vec3 {
+        let Vertex {
+            hit,
+            frame,
+            wo,
+            medium,
+            depth,
+            beta,
+        } = *v;
         let lobe = PhongLobe::new(wo, frame.n, exponent);
         c.monte_carlo += 1;
         let (u0, u1) = (rng.uniform(), rng.uniform());
