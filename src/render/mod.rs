@@ -19,12 +19,13 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
 use gather::GatherParams;
+use icache::media::MediaCache;
 
 use crate::error::{Error, Result};
 use crate::io::output::Image;
 pub use crate::progress::{NoProgress, Progress};
 use crate::scene::{Method, Scene};
-use fill::{fill_cache, load_cache};
+use fill::{fill_cache, load_cache, CacheFill};
 use photons::{build_maps, load_photons, trace_photons};
 pub use plan::{plan, Plan, DEFAULT_NOISE};
 use shade::{beauty, sampler, shade, Lighting};
@@ -119,49 +120,55 @@ pub fn render(
     };
     interrupted(cancel)?;
 
-    // Pass B's gathers take as many rays as pass A's records chose.
-    let gather = match cache.as_ref().and_then(|c| c.chosen_rays) {
-        Some(rays) => GatherParams { rays },
-        None => plan.gather,
-    };
     let lighting = Lighting {
         photons: photons.as_ref(),
         media_cache: media_cache.as_ref(),
+        // Pass B's gathers take as many rays as pass A's records chose.
+        gather: cache
+            .as_ref()
+            .and_then(|c| c.chosen_rays)
+            .map_or(plan.gather, |rays| GatherParams { rays }),
         cache: cache.as_mut(),
-        gather,
     };
     let (mut sample, n_layers) = sampler(scene, &plan, lighting, cancel);
     let (layers, s) = shade(&plan, n_layers, &mut *sample, progress, cancel)?;
     drop(sample);
     stats.shade = s;
-    let (beauty, layers) = beauty(&plan, scene.media.is_some(), layers);
+    let images = beauty(&plan, scene.media.is_some(), layers);
     stats.finish(
         start,
         photons.as_ref(),
         media_cache.as_ref(),
         cache.as_ref().map(|c| &c.cache),
     );
-
-    let media_records = media_cache
-        .as_ref()
-        .map_or(Vec::new(), |c| c.records().iter().map(|r| r.pos).collect());
-    let photons = photons
+    let kept = photons
         .zip(photon_info)
         .map(|(p, info)| files::PhotonOutput {
             info,
             maps: p.into_maps(),
             precomputed,
         });
-    Ok((
-        RenderOutput {
-            beauty,
-            layers,
-            cache: cache.map(|c| c.cache),
-            photons,
-            media_records,
-        },
-        stats,
-    ))
+    Ok((output(images, kept, media_cache, cache), stats))
+}
+
+/// The images, with what the render made that the binary may save: the irradiance cache, the photon
+/// maps it was asked to keep, and the media cache's record positions.
+fn output(
+    (beauty, layers): (Image, Vec<(&'static str, Image)>),
+    photons: Option<files::PhotonOutput>,
+    media_cache: Option<MediaCache>,
+    cache: Option<CacheFill>,
+) -> RenderOutput {
+    let media_records = media_cache
+        .as_ref()
+        .map_or(Vec::new(), |c| c.records().iter().map(|r| r.pos).collect());
+    RenderOutput {
+        beauty,
+        layers,
+        cache: cache.map(|c| c.cache),
+        photons,
+        media_records,
+    }
 }
 
 fn interrupted(cancel: &AtomicBool) -> Result<()> {
