@@ -7,6 +7,8 @@ pub mod coverage;
 mod lookup;
 pub mod media_cache;
 mod photon_scene;
+mod settings;
 pub mod volume_grid;
 
-pub use lookup::{atlas_k, PhotonData, PhotonSettings, DEFAULT_PHOTONS_PER_TEXEL};
+pub use lookup::{atlas_k, PhotonData};
+pub use settings::{PhotonSettings, DEFAULT_PHOTONS_PER_TEXEL};
