@@ -11,7 +11,7 @@ use std::time::Instant;
 use glam::Vec3;
 use photon::sampling::Rng;
 use photon::KdTree;
-use pmrender::integrator::photons::{PhotonData, PhotonSettings};
+use pmrender::photons::{PhotonData, PhotonSettings};
 use pmrender::render::{render, NoProgress, Options};
 use pmrender::scene::{self, Method};
 use rayon::prelude::*;

@@ -169,3 +169,30 @@ pub fn spawn(hit: &Hit, dir: Vec3) -> Vec3 {
     };
     offset_origin(hit.p, n)
 }
+
+/// Shading frame at a hit seen from direction `wo`: the shading normal turned toward `wo`, and
+/// whether `wo` is on the side the geometric normal points to.
+#[derive(Clone, Copy, Debug)]
+pub struct Frame {
+    pub n: Vec3,
+    /// Geometric normal turned toward `wo`.
+    pub ng: Vec3,
+    pub front: bool,
+}
+
+impl Frame {
+    pub fn new(hit: &Hit, wo: Vec3) -> Frame {
+        let front = wo.dot(hit.ng) >= 0.0;
+        let s = if front { 1.0 } else { -1.0 };
+        Frame {
+            n: hit.ns * s,
+            ng: hit.ng * s,
+            front,
+        }
+    }
+
+    /// Reflection must stay on `wo`'s geometric side, or light leaks through shading normals.
+    pub fn same_side(&self, wi: Vec3) -> bool {
+        wi.dot(self.ng) > 0.0
+    }
+}

@@ -16,6 +16,8 @@ mod chi2;
 #[forbid(unsafe_code)]
 pub mod converge;
 #[forbid(unsafe_code)]
+pub mod counters;
+#[forbid(unsafe_code)]
 pub(crate) mod distribution;
 #[forbid(unsafe_code)]
 pub mod error;
@@ -32,6 +34,10 @@ pub(crate) mod light;
 pub(crate) mod material;
 #[forbid(unsafe_code)]
 pub mod medium;
+#[forbid(unsafe_code)]
+pub mod photons;
+#[forbid(unsafe_code)]
+pub mod progress;
 #[forbid(unsafe_code)]
 pub mod render;
 #[forbid(unsafe_code)]

@@ -57,6 +57,63 @@ pub struct BsdfSample {
     pub delta: bool,
 }
 
+/// The normalised lobe of modified Phong about the mirror direction `r` of `wo` (Lafortune & Willems
+/// 1994): the BRDF ks·(n+2)/(2π)·cosⁿα, sampled exactly with density (n+1)/(2π)·cosⁿα, where α is the
+/// angle between `r` and the incident direction. The material, the integrators and the photon-map
+/// estimate at gather ends all read this one lobe.
+#[derive(Clone, Copy, Debug)]
+pub struct PhongLobe {
+    /// The mirror direction.
+    pub r: Vec3,
+    pub exponent: f32,
+}
+
+impl PhongLobe {
+    /// The lobe of a surface with shading normal `n` seen from `wo`.
+    pub fn new(wo: Vec3, n: Vec3, exponent: f32) -> PhongLobe {
+        PhongLobe {
+            r: reflect(wo, n),
+            exponent,
+        }
+    }
+
+    fn cos(&self, wi: Vec3) -> f32 {
+        self.r.dot(wi).max(0.0)
+    }
+
+    /// The BRDF over ks toward `wi`: (n+2)/(2π)·cosⁿα.
+    pub fn brdf(&self, wi: Vec3) -> f32 {
+        let (cos_a, exponent) = (self.cos(wi), self.exponent);
+        (exponent + 2.0) / (2.0 * PI) * cos_a.powf(exponent)
+    }
+
+    /// The solid-angle density of [`sample`](Self::sample) choosing `wi`: (n+1)/(2π)·cosⁿα.
+    pub fn pdf(&self, wi: Vec3) -> f32 {
+        let (cos_a, exponent) = (self.cos(wi), self.exponent);
+        (exponent + 1.0) / (2.0 * PI) * cos_a.powf(exponent)
+    }
+
+    /// [`pdf`](Self::pdf) times `p`, the probability of choosing the lobe (multiplied in first).
+    pub fn chosen_pdf(&self, p: f32, wi: Vec3) -> f32 {
+        let (cos_a, exponent) = (self.cos(wi), self.exponent);
+        p * (exponent + 1.0) / (2.0 * PI) * cos_a.powf(exponent)
+    }
+
+    /// A direction drawn with density [`pdf`](Self::pdf) from two uniform numbers.
+    pub fn sample(&self, u: [f32; 2]) -> Vec3 {
+        let cos_a = u[0].powf(1.0 / (self.exponent + 1.0));
+        let sin_a = (1.0 - cos_a * cos_a).max(0.0).sqrt();
+        let phi = 2.0 * PI * u[1];
+        let local = Vec3::new(sin_a * phi.cos(), sin_a * phi.sin(), cos_a);
+        to_world(self.r, local)
+    }
+
+    /// BRDF · cos θi / pdf over ks for a direction the lobe sampled: (n+2)/(n+1)·cos θi.
+    pub fn sampled_weight(&self, cos_i: f32) -> f32 {
+        (self.exponent + 2.0) / (self.exponent + 1.0) * cos_i
+    }
+}
+
 impl Bsdf {
     /// Mirror and glass: a ray can only leave along a Dirac lobe.
     pub fn is_specular(&self) -> bool {
@@ -86,10 +143,7 @@ impl Bsdf {
             Bsdf::Diffuse { .. } => kd / PI,
             Bsdf::Glossy {
                 specular, exponent, ..
-            } => {
-                let cos_a = reflect(wo, n).dot(wi).max(0.0);
-                kd / PI + specular * ((exponent + 2.0) / (2.0 * PI) * cos_a.powf(exponent))
-            }
+            } => kd / PI + specular * PhongLobe::new(wo, n, exponent).brdf(wi),
             _ => Vec3::ZERO,
         }
     }
@@ -116,8 +170,7 @@ impl Bsdf {
                 specular, exponent, ..
             } => {
                 let pd = Self::glossy_diffuse_prob(kd, specular);
-                let cos_a = reflect(wo, n).dot(wi).max(0.0);
-                pd * cos_i / PI + (1.0 - pd) * (exponent + 1.0) / (2.0 * PI) * cos_a.powf(exponent)
+                pd * cos_i / PI + PhongLobe::new(wo, n, exponent).chosen_pdf(1.0 - pd, wi)
             }
             _ => 0.0,
         }
@@ -150,11 +203,7 @@ impl Bsdf {
                 let wi = if u[2] < pd {
                     to_world(n, cosine_hemisphere([u[0], u[1]]))
                 } else {
-                    let cos_a = u[0].powf(1.0 / (exponent + 1.0));
-                    let sin_a = (1.0 - cos_a * cos_a).max(0.0).sqrt();
-                    let phi = 2.0 * PI * u[1];
-                    let local = Vec3::new(sin_a * phi.cos(), sin_a * phi.sin(), cos_a);
-                    to_world(reflect(wo, n), local)
+                    PhongLobe::new(wo, n, exponent).sample([u[0], u[1]])
                 };
                 let pdf = self.pdf(kd, n, wo, wi);
                 if pdf <= 0.0 {

@@ -5,7 +5,7 @@ mod common;
 
 use glam::Vec3;
 use photon::Coverage;
-use pmrender::integrator::coverage::SceneCoverage;
+use pmrender::photons::coverage::SceneCoverage;
 
 /// Loads a scene made of `obj` (faces of material `m`) with a point light, from a temp dir.
 fn scene(obj: &str) -> (tempfile::TempDir, pmrender::scene::Scene) {

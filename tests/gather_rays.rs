@@ -1,4 +1,4 @@
-//! `pm` chooses its final gathers' rays from the noise of pass A's gathers (`integrator::gather_rays`)
+//! `pm` chooses its final gathers' rays from the noise of pass A's gathers (`render::gather_rays`)
 //! when the scene gives no `[render.icache] rays`: more where that noise would show in the pixels (the
 //! blinds room's walls under bright ceiling patches), the base 250 where it would not. These tests
 //! check the choice on two shipped scenes, that the records' further rounds are worth what a gather of

@@ -6,8 +6,9 @@ use glam::Vec3;
 use icache::{NewRecord, ShadingPoint};
 
 use super::pm::PmContext;
-use super::{Frame, SampleCounters};
 use crate::camera::Camera;
+use crate::counters::SampleCounters;
+use crate::geometry::Frame;
 use crate::geometry::{spawn, Hit};
 use crate::material::Bsdf;
 
@@ -17,7 +18,7 @@ const MAX_SPECULAR_DEPTH: u32 = 4;
 /// The non-specular points seen through pixel (x, y) that need soft indirect light: those through its
 /// centre, and those through its top-left corner that the centre does not see (another surface, an edge,
 /// a depth step). Pass B samples the whole pixel; with the centre alone, every surface smaller than a
-/// pixel or cut by a pixel's edge became a pass-B miss (1 % of Sibenik's lookups at 250²).
+/// pixel or cut by a pixel's edge became a pass-B miss.
 pub fn shading_hits(ctx: &PmContext, camera: &Camera, x: u32, y: u32) -> Vec<(ShadingPoint, Hit)> {
     let mut out = Vec::new();
     let d = camera.ray(x as f32 + 0.5, y as f32 + 0.5);
@@ -41,8 +42,8 @@ pub fn shading_hits(ctx: &PmContext, camera: &Camera, x: u32, y: u32) -> Vec<(Sh
 
 /// The non-specular points seen through pixel (x, y) at the given offsets within it (samples of pass B
 /// that found no record). Not merged: the fill looks each up before its gather, and a point merged into
-/// a neighbour half a pixel away was left uncovered as often as not (blinds room at 128²: 247 misses
-/// left of 203 k lookups merged, 96 not, for 3 % more records).
+/// a neighbour half a pixel away was left uncovered as often as not (more misses left, for few records
+/// saved).
 pub fn sample_hits(
     ctx: &PmContext,
     camera: &Camera,

@@ -6,10 +6,22 @@
 use glam::Vec3;
 use photon::sampling::Rng;
 
-use super::pm::PmContext;
-use super::SampleCounters;
+use icache::media::MediaCache;
+
+use crate::counters::SampleCounters;
 use crate::light::{Light, LightSample};
 use crate::medium::{phase, Medium, MediumId};
+use crate::photons::PhotonData;
+use crate::scene::Scene;
+
+/// What the light scattered toward a ray is estimated from: the scene's lights, the photon maps and,
+/// for `pm`, the media radiance cache.
+#[derive(Clone, Copy)]
+pub struct Sources<'a> {
+    pub scene: &'a Scene,
+    pub photons: &'a PhotonData<'a>,
+    pub media_cache: Option<&'a MediaCache>,
+}
 
 /// Steps per march: one per 1/32 of the scene's diagonal on the way (at least 2) …
 const MIN_STEPS: u32 = 2;
@@ -22,7 +34,7 @@ const UNCACHED_STRIDE: u32 = 4;
 /// medium `m` (id `medium`) over `[0, t_end)`, attenuated on the way back to `o`.
 #[allow(clippy::too_many_arguments)]
 pub fn in_scattered(
-    ctx: &PmContext,
+    ctx: &Sources,
     o: Vec3,
     d: Vec3,
     t_end: f32,
@@ -77,7 +89,7 @@ pub fn in_scattered(
     // Multiple scattering from the media radiance cache, at the same steps (it is smooth and cheap), and
     // the volume caustic from its own map at full resolution.
     let mut multiple = Vec3::ZERO;
-    if ctx.photons.maps.volume.is_some() {
+    if ctx.photons.maps().volume.is_some() {
         for i in 0..n {
             let t = (i as f32 + rng.uniform()) * dt;
             let x = o + d * t;
@@ -86,7 +98,7 @@ pub fn in_scattered(
         // Without a media cache (`pm-fg`, `photons`) each step is a k-NN estimate of the volume map:
         // at every UNCACHED_STRIDE-th step only (jittered over the ray), four times fewer for little
         // more noise — the multiple scattering is smooth.
-        let (m_steps, m_dt) = if ctx.photons.media_cache.is_some() {
+        let (m_steps, m_dt) = if ctx.media_cache.is_some() {
             (n, dt)
         } else {
             let k = n.div_ceil(UNCACHED_STRIDE);
@@ -95,7 +107,9 @@ pub fn in_scattered(
         for i in 0..m_steps {
             let t = (i as f32 + rng.uniform()) * m_dt;
             multiple += m.transmittance(t)
-                * ctx.photons.cached_multiple(o + d * t, d, m.g, c)
+                * ctx
+                    .photons
+                    .cached_multiple(ctx.media_cache, o + d * t, d, m.g, c)
                 * (m_dt / dt);
         }
         multiple *= dt;
@@ -108,7 +122,7 @@ pub fn in_scattered(
 /// toward a ray from `o` travelling along `d` for `t_end`.
 #[allow(clippy::too_many_arguments)]
 fn light_at(
-    ctx: &PmContext,
+    ctx: &Sources,
     x: Vec3,
     d: Vec3,
     g: f32,
@@ -145,7 +159,7 @@ fn light_at(
 
 /// One light sample's radiance at `x` (transmittance to the light included) times the phase function.
 fn arriving(
-    ctx: &PmContext,
+    ctx: &Sources,
     x: Vec3,
     d: Vec3,
     g: f32,

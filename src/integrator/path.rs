@@ -4,10 +4,10 @@
 use glam::Vec3;
 use photon::sampling::Rng;
 
-use super::{Frame, SampleCounters};
-use crate::geometry::spawn;
+use crate::counters::SampleCounters;
+use crate::geometry::{spawn, Frame, Hit};
 use crate::material::Transport;
-use crate::medium::{phase, sample_phase, Flight, MediumId};
+use crate::medium::{phase, sample_phase, Flight, Medium, MediumId};
 use crate::scene::{past, Scene, MAX_NULL_CROSSINGS};
 use crate::warp::power_heuristic;
 
@@ -25,101 +25,169 @@ pub fn radiance(
     c: &mut SampleCounters,
 ) -> Vec3 {
     c.monte_carlo += 1;
-    let mut l = Vec3::ZERO;
-    let mut beta = Vec3::ONE;
-    let (mut o, mut d) = (origin, dir);
-    let mut medium = medium;
-    let mut delta_bounce = true;
-    let mut prev_pdf = 0.0f32;
-    let mut prev_p = origin;
-    let mut crossings = 0;
-    let mut depth = 0;
-    // Past invisible boundaries the ray goes on along the same line: `t0` is how far it has come.
-    let mut t0 = 0.0f32;
-    // Spectral MIS in media (see `Flight`): the channel that samples distances, drawn at the first
-    // medium met, and each channel's path pdf over the hero's (scaled to mean 1); `beta` is already
-    // divided by their mean.
-    let mut hero = None;
-    let mut ratio = Vec3::ONE;
-    while depth < max_depth {
+    let mut path = Path {
+        l: Vec3::ZERO,
+        beta: Vec3::ONE,
+        o: origin,
+        d: dir,
+        medium,
+        delta_bounce: true,
+        prev_pdf: 0.0,
+        prev_p: origin,
+        crossings: 0,
+        depth: 0,
+        t0: 0.0,
+        hero: None,
+        ratio: Vec3::ONE,
+    };
+    while path.depth < max_depth {
         c.rays += 1;
-        let hit = scene.intersect_after(o, d, t0);
-        if let Some(m) = scene.medium(medium) {
-            let h = *hero.get_or_insert_with(|| ((rng.uniform() * 3.0) as usize).min(2));
-            match m.sample_flight(hit.map_or(f32::INFINITY, |h| h.t - t0), h, rng.uniform()) {
-                Flight::Scatter {
-                    t,
-                    weight,
-                    ratio: r,
-                } => {
-                    (beta, ratio) = spectral_mis(beta, ratio, weight, r);
-                    let p = o + d * (t0 + t);
-                    l += beta * medium_direct(scene, m.g, p, d, medium, rng, c);
-                    let (wi, pdf) = sample_phase(m.g, d, [rng.uniform(), rng.uniform()]);
-                    (delta_bounce, prev_pdf, prev_p) = (false, pdf, p);
-                    if !roulette(depth, &mut beta, rng) {
-                        break;
-                    }
-                    (o, d, t0) = (p, wi, 0.0);
-                    depth += 1;
+        let hit = scene.intersect_after(path.o, path.d, path.t0);
+        if let Some(m) = scene.medium(path.medium) {
+            if let Some(goes_on) = path.in_medium(scene, m, hit.as_ref(), rng, c) {
+                if goes_on {
                     continue;
                 }
-                Flight::Through { weight, ratio: r } => {
-                    (beta, ratio) = spectral_mis(beta, ratio, weight, r)
-                }
+                break;
             }
         }
         let Some(hit) = hit else { break };
-        let bsdf = &scene.material(&hit).bsdf;
-        if bsdf.is_null() {
-            crossings += 1;
-            if crossings > MAX_NULL_CROSSINGS {
-                break;
+        if !path.at_surface(scene, &hit, rng, c) {
+            break;
+        }
+    }
+    path.l
+}
+
+/// A path's state between its events.
+struct Path {
+    /// Radiance gathered so far.
+    l: Vec3,
+    /// Throughput.
+    beta: Vec3,
+    /// The ray being followed: origin and direction.
+    o: Vec3,
+    d: Vec3,
+    medium: MediumId,
+    /// The last bounce was through a Dirac lobe (or there was none): emission counts fully.
+    delta_bounce: bool,
+    /// The last bounce's pdf and point, for MIS of the emission the ray hits.
+    prev_pdf: f32,
+    prev_p: Vec3,
+    crossings: u32,
+    depth: u32,
+    /// Past invisible boundaries the ray goes on along the same line: `t0` is how far it has come.
+    t0: f32,
+    /// Spectral MIS in media (see `Flight`): the channel that samples distances, drawn at the first
+    /// medium met, and each channel's path pdf over the hero's (scaled to mean 1); `beta` is already
+    /// divided by their mean.
+    hero: Option<usize>,
+    ratio: Vec3,
+}
+
+impl Path {
+    /// The flight through medium `m` toward `hit`: `Some(goes on)` when the path scattered in the
+    /// medium, `None` when it passed through to the surface.
+    fn in_medium(
+        &mut self,
+        scene: &Scene,
+        m: &Medium,
+        hit: Option<&Hit>,
+        rng: &mut Rng,
+        c: &mut SampleCounters,
+    ) -> Option<bool> {
+        let h = *self
+            .hero
+            .get_or_insert_with(|| ((rng.uniform() * 3.0) as usize).min(2));
+        let (o, d, t0) = (self.o, self.d, self.t0);
+        match m.sample_flight(hit.map_or(f32::INFINITY, |h| h.t - t0), h, rng.uniform()) {
+            Flight::Scatter {
+                t,
+                weight,
+                ratio: r,
+            } => {
+                (self.beta, self.ratio) = spectral_mis(self.beta, self.ratio, weight, r);
+                let p = o + d * (t0 + t);
+                self.l += self.beta * medium_direct(scene, m.g, p, d, self.medium, rng, c);
+                let (wi, pdf) = sample_phase(m.g, d, [rng.uniform(), rng.uniform()]);
+                (self.delta_bounce, self.prev_pdf, self.prev_p) = (false, pdf, p);
+                if !roulette(self.depth, &mut self.beta, rng) {
+                    return Some(false);
+                }
+                (self.o, self.d, self.t0) = (p, wi, 0.0);
+                self.depth += 1;
+                Some(true)
             }
-            medium = scene.medium_after(&hit, d, medium);
-            t0 = past(hit.t, o);
-            continue;
+            Flight::Through { weight, ratio: r } => {
+                (self.beta, self.ratio) = spectral_mis(self.beta, self.ratio, weight, r);
+                None
+            }
+        }
+    }
+
+    /// The events at a surface `hit`: a null boundary crossed, or emission, direct light and the next
+    /// bounce. False when the path ends.
+    fn at_surface(
+        &mut self,
+        scene: &Scene,
+        hit: &Hit,
+        rng: &mut Rng,
+        c: &mut SampleCounters,
+    ) -> bool {
+        let d = self.d;
+        let bsdf = &scene.material(hit).bsdf;
+        if bsdf.is_null() {
+            self.crossings += 1;
+            if self.crossings > MAX_NULL_CROSSINGS {
+                return false;
+            }
+            self.medium = scene.medium_after(hit, d, self.medium);
+            self.t0 = past(hit.t, self.o);
+            return true;
         }
         let wo = -d;
-        let le = scene.emitted(&hit, wo);
+        let le = scene.emitted(hit, wo);
         if le != Vec3::ZERO {
-            let w = if delta_bounce {
+            let w = if self.delta_bounce {
                 1.0
             } else {
-                power_heuristic(prev_pdf, scene.lights.pdf_hit(hit.tri, prev_p, hit.p))
+                power_heuristic(
+                    self.prev_pdf,
+                    scene.lights.pdf_hit(hit.tri, self.prev_p, hit.p),
+                )
             };
-            l += beta * le * w;
+            self.l += self.beta * le * w;
         }
-        let frame = Frame::new(&hit, wo);
-        let kd = scene.albedo(&hit);
+        let frame = Frame::new(hit, wo);
+        let kd = scene.albedo(hit);
         if !bsdf.is_specular() {
-            l += beta * direct_light(scene, &hit, &frame, wo, kd, medium, rng, c);
+            self.l += self.beta * direct_light(scene, hit, &frame, wo, kd, self.medium, rng, c);
         }
         let u = [rng.uniform(), rng.uniform(), rng.uniform()];
         let Some(s) = bsdf.sample(kd, frame.n, wo, frame.front, u, Transport::Radiance) else {
             c.zero_pdf += 1;
-            break;
+            return false;
         };
         if !s.delta && !frame.same_side(s.wi) {
-            break;
+            return false;
         }
-        beta *= s.weight;
-        if beta == Vec3::ZERO {
-            break;
+        self.beta *= s.weight;
+        if self.beta == Vec3::ZERO {
+            return false;
         }
-        delta_bounce = s.delta;
-        prev_pdf = s.pdf;
-        prev_p = hit.p;
-        if !roulette(depth, &mut beta, rng) {
-            break;
+        self.delta_bounce = s.delta;
+        self.prev_pdf = s.pdf;
+        self.prev_p = hit.p;
+        if !roulette(self.depth, &mut self.beta, rng) {
+            return false;
         }
-        medium = scene.medium_after(&hit, s.wi, medium);
-        o = spawn(&hit, s.wi);
-        d = s.wi;
-        t0 = 0.0;
-        depth += 1;
+        self.medium = scene.medium_after(hit, s.wi, self.medium);
+        self.o = spawn(hit, s.wi);
+        self.d = s.wi;
+        self.t0 = 0.0;
+        self.depth += 1;
+        true
     }
-    l
 }
 
 /// One free flight into the path's spectral MIS: `beta` is the throughput f/p̄ with p̄ the mean over

@@ -8,18 +8,20 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use gather::{GatherParams, GatherRay, GatherResult};
 use glam::Vec3;
+use icache::media::MediaCache;
 use icache::{IrradianceCache, Pass};
 use photon::sampling::{hash_keys, Rng};
 
 use super::media;
-use super::photons::PhotonData;
 use super::terms::Terms;
-use super::{Frame, SampleCounters};
+use crate::counters::SampleCounters;
+use crate::geometry::Frame;
 use crate::geometry::{spawn, Hit};
-use crate::material::{glass_lobes, Bsdf, Transport};
+use crate::material::{glass_lobes, Bsdf, PhongLobe, Transport};
 use crate::medium::MediumId;
+use crate::photons::PhotonData;
 use crate::scene::{past, Scene};
-use crate::warp::{power_heuristic, reflect, to_world};
+use crate::warp::power_heuristic;
 
 /// Area-light samples per non-specular hit in `direct` (chosen from the chart's error/time trade-off).
 const AREA_LIGHT_SAMPLES: u32 = 4;
@@ -39,6 +41,9 @@ pub enum IndirectSource<'a> {
 pub struct PmContext<'a> {
     pub scene: &'a Scene,
     pub photons: &'a PhotonData<'a>,
+    /// The media radiance cache camera rays read (`pm`, filled by its own phase before pass A; the
+    /// other methods estimate at every step).
+    pub media_cache: Option<&'a MediaCache>,
     pub source: IndirectSource<'a>,
     pub gather: GatherParams,
     pub max_depth: u32,
@@ -53,6 +58,18 @@ pub struct PmContext<'a> {
 /// A caustic irradiance at most this fraction of the soft indirect one is reused within a pixel (see
 /// `PixelMemo`).
 const FAINT_CAUSTIC: f32 = 0.05;
+
+/// A surface point being shaded: the hit, its frame seen from `wo`, the medium the ray arrived in, and
+/// the path's depth and throughput there.
+#[derive(Clone, Copy)]
+struct Vertex<'h> {
+    hit: &'h Hit,
+    frame: Frame,
+    wo: Vec3,
+    medium: MediumId,
+    depth: u32,
+    beta: f32,
+}
 
 /// How the ray being shaded was generated, for MIS of emission.
 #[derive(Clone, Copy)]
@@ -119,7 +136,12 @@ impl PmContext<'_> {
         };
         let t_end = hit.map_or(f32::INFINITY, |h| h.t - t0);
         let (single, multiple) = if t_end.is_finite() {
-            media::in_scattered(self, o + d * t0, d, t_end, medium, m, rng, c)
+            let sources = media::Sources {
+                scene: self.scene,
+                photons: self.photons,
+                media_cache: self.media_cache,
+            };
+            media::in_scattered(&sources, o + d * t0, d, t_end, medium, m, rng, c)
         } else {
             (Vec3::ZERO, Vec3::ZERO)
         };
@@ -164,92 +186,24 @@ impl PmContext<'_> {
         let frame = Frame::new(&hit, wo);
         let bsdf = &self.scene.material(&hit).bsdf;
         let kd = self.scene.albedo(&hit);
+        let v = Vertex {
+            hit: &hit,
+            frame,
+            wo,
+            medium,
+            depth,
+            beta,
+        };
         if bsdf.is_specular() {
             if depth + 1 < self.max_depth {
-                // Glass met at the first GLASS_SPLIT_DEPTH bounces of a camera path is followed both
-                // ways, reflected and refracted, weighted by Fresnel: no choice, no noise. Deeper, one
-                // way is chosen (Fresnel's odds), a Monte Carlo estimate where the path still carries
-                // MONTE_CARLO_MIN_THROUGHPUT of the sample.
-                if let (&Bsdf::Glass { ior, transmittance }, true) =
-                    (bsdf, depth < GLASS_SPLIT_DEPTH)
-                {
-                    for (wi, weight) in glass_lobes(ior, transmittance, frame.n, wo, frame.front) {
-                        if weight == Vec3::ZERO {
-                            continue;
-                        }
-                        let next = self.scene.medium_after(&hit, wi, medium);
-                        let sub = self.shade_ray(
-                            spawn(&hit, wi),
-                            wi,
-                            0.0,
-                            depth + 1,
-                            beta * weight.max_element(),
-                            Via::Delta,
-                            None,
-                            next,
-                            rng,
-                            c,
-                        );
-                        t.specular += weight * sub.sum();
-                    }
-                    return t;
-                }
-                c.monte_carlo += (matches!(bsdf, Bsdf::Glass { .. })
-                    && beta >= MONTE_CARLO_MIN_THROUGHPUT) as u64;
-                let u = [rng.uniform(), rng.uniform(), rng.uniform()];
-                match bsdf.sample(kd, frame.n, wo, frame.front, u, Transport::Radiance) {
-                    Some(s) => {
-                        let next = self.scene.medium_after(&hit, s.wi, medium);
-                        let sub = self.shade_ray(
-                            spawn(&hit, s.wi),
-                            s.wi,
-                            0.0,
-                            depth + 1,
-                            beta * s.weight.max_element(),
-                            Via::Delta,
-                            None,
-                            next,
-                            rng,
-                            c,
-                        );
-                        t.specular = s.weight * sub.sum();
-                    }
-                    None => c.zero_pdf += 1,
-                }
+                t.specular = self.specular(&v, bsdf, kd, rng, c);
             }
             return t;
         }
         t.direct = self.direct(&hit, &frame, wo, kd, bsdf, medium, rng, c);
         let rho_d = bsdf.diffuse_albedo(kd) / PI;
         if rho_d != Vec3::ZERO {
-            let remembered = memo.as_ref().and_then(|m| m.get(hit.tri, frame.front, c));
-            let (caustic, indirect) = match remembered {
-                Some((Some(caustic), indirect)) => (caustic, indirect),
-                Some((None, indirect)) => (
-                    self.photons
-                        .caustic_irradiance(&hit, frame.front, frame.n, c),
-                    indirect,
-                ),
-                None => {
-                    let caustic = self
-                        .photons
-                        .caustic_irradiance(&hit, frame.front, frame.n, c);
-                    let before = c.lookups;
-                    let indirect =
-                        self.indirect(&hit, &frame, matches!(via, Via::Glossy { .. }), rng, c);
-                    if let Some(m) = memo {
-                        let faint = caustic.max_element() <= FAINT_CAUSTIC * indirect.max_element();
-                        m.put(
-                            hit.tri,
-                            frame.front,
-                            faint.then_some(caustic),
-                            indirect,
-                            c.lookups.since(&before),
-                        );
-                    }
-                    (caustic, indirect)
-                }
-            };
+            let (caustic, indirect) = self.irradiance(&v, via, memo, rng, c);
             t.caustic = rho_d * caustic;
             t.indirect = rho_d * indirect;
         }
@@ -258,12 +212,119 @@ impl PmContext<'_> {
         } = *bsdf
         {
             if depth + 1 < self.max_depth && specular.max_element() > 0.0 {
-                t.specular = self.glossy_lobe(
-                    &hit, &frame, wo, specular, exponent, depth, beta, medium, rng, c,
-                );
+                t.specular = self.glossy_lobe(&v, specular, exponent, rng, c);
             }
         }
         t
+    }
+
+    /// The light a mirror or glass reflects or refracts toward `wo` (at a depth below the limit).
+    fn specular(
+        &self,
+        v: &Vertex,
+        bsdf: &Bsdf,
+        kd: Vec3,
+        rng: &mut Rng,
+        c: &mut SampleCounters,
+    ) -> Vec3 {
+        let Vertex {
+            hit,
+            frame,
+            wo,
+            medium,
+            depth,
+            beta,
+        } = *v;
+        let mut specular = Vec3::ZERO;
+        // Glass met at the first GLASS_SPLIT_DEPTH bounces of a camera path is followed both
+        // ways, reflected and refracted, weighted by Fresnel: no choice, no noise. Deeper, one
+        // way is chosen (Fresnel's odds), a Monte Carlo estimate where the path still carries
+        // MONTE_CARLO_MIN_THROUGHPUT of the sample.
+        if let (&Bsdf::Glass { ior, transmittance }, true) = (bsdf, depth < GLASS_SPLIT_DEPTH) {
+            for (wi, weight) in glass_lobes(ior, transmittance, frame.n, wo, frame.front) {
+                if weight == Vec3::ZERO {
+                    continue;
+                }
+                let next = self.scene.medium_after(hit, wi, medium);
+                let sub = self.shade_ray(
+                    spawn(hit, wi),
+                    wi,
+                    0.0,
+                    depth + 1,
+                    beta * weight.max_element(),
+                    Via::Delta,
+                    None,
+                    next,
+                    rng,
+                    c,
+                );
+                specular += weight * sub.sum();
+            }
+            return specular;
+        }
+        c.monte_carlo +=
+            (matches!(bsdf, Bsdf::Glass { .. }) && beta >= MONTE_CARLO_MIN_THROUGHPUT) as u64;
+        let u = [rng.uniform(), rng.uniform(), rng.uniform()];
+        match bsdf.sample(kd, frame.n, wo, frame.front, u, Transport::Radiance) {
+            Some(s) => {
+                let next = self.scene.medium_after(hit, s.wi, medium);
+                let sub = self.shade_ray(
+                    spawn(hit, s.wi),
+                    s.wi,
+                    0.0,
+                    depth + 1,
+                    beta * s.weight.max_element(),
+                    Via::Delta,
+                    None,
+                    next,
+                    rng,
+                    c,
+                );
+                specular = s.weight * sub.sum();
+            }
+            None => c.zero_pdf += 1,
+        }
+        specular
+    }
+
+    /// (caustic, soft indirect) irradiance at a non-specular point: from the pixel's `memo` when an
+    /// earlier sample there computed them, else estimated (and remembered).
+    fn irradiance(
+        &self,
+        v: &Vertex,
+        via: Via,
+        memo: Option<&mut super::PixelMemo>,
+        rng: &mut Rng,
+        c: &mut SampleCounters,
+    ) -> (Vec3, Vec3) {
+        let (hit, frame) = (v.hit, &v.frame);
+        let remembered = memo.as_ref().and_then(|m| m.get(hit.tri, frame.front, c));
+        match remembered {
+            Some((Some(caustic), indirect)) => (caustic, indirect),
+            Some((None, indirect)) => (
+                self.photons
+                    .caustic_irradiance(hit, frame.front, frame.n, c),
+                indirect,
+            ),
+            None => {
+                let caustic = self
+                    .photons
+                    .caustic_irradiance(hit, frame.front, frame.n, c);
+                let before = c.lookups;
+                let indirect = self.indirect(hit, frame, matches!(via, Via::Glossy { .. }), rng, c);
+                if let Some(m) = memo {
+                    let faint = caustic.max_element() <= FAINT_CAUSTIC * indirect.max_element();
+                    m.put(
+                        hit.tri,
+                        frame.front,
+                        faint.then_some(caustic),
+                        indirect,
+                        c.lookups.since(&before),
+                    );
+                }
+                (caustic, indirect)
+            }
+        }
     }
 
     /// Direct light with the full BRDF: every point, spot and directional light exactly (a shadow ray
@@ -333,7 +394,7 @@ impl PmContext<'_> {
         let f_spec = f - f_diffuse;
         let w = match *bsdf {
             Bsdf::Glossy { exponent, .. } if !ls.delta => {
-                power_heuristic(ls.pdf, phong_pdf(reflect(wo, frame.n), ls.wi, exponent))
+                power_heuristic(ls.pdf, PhongLobe::new(wo, frame.n, exponent).pdf(ls.wi))
             }
             _ => 1.0,
         };
@@ -341,34 +402,32 @@ impl PmContext<'_> {
     }
 
     /// The glossy lobe of modified Phong, sampled exactly; its light is all of the next hit's radiance.
-    #[allow(clippy::too_many_arguments)]
     fn glossy_lobe(
         &self,
-        hit: &Hit,
-        frame: &Frame,
-        wo: Vec3,
+        v: &Vertex,
         ks: Vec3,
         exponent: f32,
-        depth: u32,
-        beta: f32,
-        medium: MediumId,
         rng: &mut Rng,
         c: &mut SampleCounters,
     ) -> Vec3 {
-        let r = reflect(wo, frame.n);
+        let Vertex {
+            hit,
+            frame,
+            wo,
+            medium,
+            depth,
+            beta,
+        } = *v;
+        let lobe = PhongLobe::new(wo, frame.n, exponent);
         c.monte_carlo += 1;
         let (u0, u1) = (rng.uniform(), rng.uniform());
-        let cos_a = u0.powf(1.0 / (exponent + 1.0));
-        let sin_a = (1.0 - cos_a * cos_a).max(0.0).sqrt();
-        let phi = 2.0 * PI * u1;
-        let wi = to_world(r, Vec3::new(sin_a * phi.cos(), sin_a * phi.sin(), cos_a));
+        let wi = lobe.sample([u0, u1]);
         let cos_i = wi.dot(frame.n);
         if cos_i <= 0.0 || !frame.same_side(wi) {
             return Vec3::ZERO;
         }
-        // f_spec cos / pdf = ks (n+2)/(n+1) cos θi.
-        let weight = ks * ((exponent + 2.0) / (exponent + 1.0) * cos_i);
-        let pdf = phong_pdf(r, wi, exponent);
+        let weight = ks * lobe.sampled_weight(cos_i);
+        let pdf = lobe.pdf(wi);
         let next = self.scene.medium_after(hit, wi, medium);
         let sub = self.shade_ray(
             spawn(hit, wi),
@@ -693,12 +752,6 @@ const GLASS_SPLIT_DEPTH: u32 = 2;
 /// (letting its pixel take up to `spp` samples) only where the path carries at least this share of the
 /// sample: a pane's light reflected twice inside it (F² ≈ 0.2 %) does not.
 const MONTE_CARLO_MIN_THROUGHPUT: f32 = 0.1;
-
-/// Solid-angle pdf of the normalised Phong lobe about the mirror direction `r`.
-fn phong_pdf(r: Vec3, wi: Vec3, exponent: f32) -> f32 {
-    let cos_a = r.dot(wi).max(0.0);
-    (exponent + 1.0) / (2.0 * PI) * cos_a.powf(exponent)
-}
 
 /// What a final gather returns once the render is interrupted (its result is discarded): skipping the
 /// strata loops and the batched lookups keeps a 1M-ray gather from delaying the stop.

@@ -112,7 +112,7 @@ fn file_len(path: Option<&Path>) -> u64 {
 /// What the render will need, item by item (name, bytes).
 /// A media record in its lazily filled slot.
 const MEDIA_RECORD_BYTES: u64 =
-    std::mem::size_of::<std::sync::OnceLock<crate::integrator::volume_grid::MediaRecord>>() as u64;
+    std::mem::size_of::<std::sync::OnceLock<crate::photons::volume_grid::MediaRecord>>() as u64;
 
 pub fn estimate(scene: &Scene, plan: &Plan, opts: &Options) -> Vec<(String, u64)> {
     let pixels = plan.width as u64 * plan.height as u64;
@@ -149,7 +149,7 @@ pub fn estimate(scene: &Scene, plan: &Plan, opts: &Options) -> Vec<(String, u64)
         // The irradiance atlas: at most MAX_TEXEL_SLOTS slots (and as many caustic slots with a caustic
         // map), and a grid per triangle.
         let slot =
-            std::mem::size_of::<std::sync::OnceLock<crate::integrator::atlas::TexelIrradiance>>()
+            std::mem::size_of::<std::sync::OnceLock<crate::photons::atlas::TexelIrradiance>>()
                 as u64;
         let caustic_slot = std::mem::size_of::<std::sync::OnceLock<(glam::Vec3, bool)>>() as u64;
         let slot_bytes = if plan.photons.caustic > 0 {
@@ -157,7 +157,7 @@ pub fn estimate(scene: &Scene, plan: &Plan, opts: &Options) -> Vec<(String, u64)
         } else {
             slot
         };
-        let atlas = crate::integrator::atlas::MAX_TEXEL_SLOTS * slot_bytes
+        let atlas = crate::photons::atlas::MAX_TEXEL_SLOTS * slot_bytes
             + scene.geometry.triangles.len() as u64 * 64;
         items.push(("irradiance atlas".into(), atlas));
         if scene.media.is_some() {
@@ -165,14 +165,14 @@ pub fn estimate(scene: &Scene, plan: &Plan, opts: &Options) -> Vec<(String, u64)
             // the media cache's records (each with a few index entries) and pass A's points.
             items.push((
                 "media records".into(),
-                crate::integrator::volume_grid::MAX_RECORDS * MEDIA_RECORD_BYTES,
+                crate::photons::volume_grid::MAX_RECORDS * MEDIA_RECORD_BYTES,
             ));
             if plan.method == Method::Pm {
                 let cache = icache::media::MAX_RECORDS as u64
                     * (std::mem::size_of::<icache::media::VolumeRecord>() as u64 + 64);
                 // Points are gathered with a sort key, then copied out: both lists at the peak.
                 let point = std::mem::size_of::<icache::media::MediaPoint>() as u64;
-                let points = crate::integrator::media_cache::MAX_POINTS as u64 * (2 * point + 4);
+                let points = crate::photons::media_cache::MAX_POINTS as u64 * (2 * point + 4);
                 items.push(("media radiance cache".into(), cache + points));
             }
         }

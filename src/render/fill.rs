@@ -9,16 +9,16 @@ use std::time::Instant;
 use icache::media::{MediaCache, MediaFillStats, MediaPoint};
 use icache::{IrradianceCache, OnePassFill, ShadingPoint};
 
-use super::files;
 use super::stats::CacheFillStats;
-use super::{Plan, Progress};
+use super::Plan;
+use super::{files, gather_rays};
 use crate::error::{runtime, Result};
 use crate::geometry::Hit;
 use crate::integrator::cache_fill::{gather_record, shading_hits};
-use crate::integrator::gather_rays;
-use crate::integrator::media_cache;
-use crate::integrator::photons::PhotonData;
 use crate::integrator::pm::IndirectSource;
+use crate::photons::media_cache;
+use crate::photons::PhotonData;
+use crate::progress::Progress;
 use crate::scene::{FillMode, Scene};
 
 /// A filled (or loaded) cache.
@@ -26,6 +26,8 @@ pub struct CacheFill {
     pub cache: IrradianceCache,
     /// With the one-pass fill: the records each pixel may see.
     pub one_pass: Option<OnePassFill>,
+    /// Rays per final gather of pass B when pass A chose them (see [`gather_rays`]).
+    pub chosen_rays: Option<usize>,
 }
 
 /// Each pixel's shading points are traced once, with their hits, and a gather starts from the hit it is
@@ -35,11 +37,18 @@ pub fn fill_cache(
     scene: &Scene,
     plan: &Plan,
     photons: &PhotonData,
+    media_cache: Option<&MediaCache>,
     progress: &dyn Progress,
     cancel: &AtomicBool,
 ) -> Result<(CacheFill, CacheFillStats)> {
     let t = Instant::now();
-    let ctx = plan.pm_context(scene, photons, IndirectSource::PhotonMap, cancel);
+    let ctx = plan.pm_context(
+        scene,
+        photons,
+        media_cache,
+        IndirectSource::PhotonMap,
+        cancel,
+    );
     let (lo, hi) = scene.bounds;
     let mut cache = IrradianceCache::new(lo, hi, plan.cache).map_err(runtime)?;
     let points = |x, y| shading_hits(&ctx, &plan.camera, x, y);
@@ -100,7 +109,15 @@ pub fn fill_cache(
         n_loaded: 0,
         rays_choice,
     };
-    Ok((CacheFill { cache, one_pass }, stats))
+    let chosen_rays = rays_choice.map(|(_, rounds)| gather_rays::rays_for_rounds(rounds));
+    Ok((
+        CacheFill {
+            cache,
+            one_pass,
+            chosen_rays,
+        },
+        stats,
+    ))
 }
 
 /// A `--save-cache` file of the same scene, instead of `fill_cache` (pass B only).
@@ -114,30 +131,31 @@ pub fn load_cache(scene: &Scene, path: &Path) -> Result<(CacheFill, CacheFillSta
         CacheFill {
             cache,
             one_pass: None,
+            chosen_rays: None,
         },
         stats,
     ))
 }
 
 /// `pm`'s pass A in participating media (scenes with a volume photon map): the media radiance cache
-/// filled at the points where the camera rays of a pixel lattice cross a medium.
+/// filled at the points where the camera rays of a pixel lattice cross a medium (none without media or
+/// a volume map).
 pub fn fill_media_cache(
     scene: &Scene,
     plan: &Plan,
-    photons: &mut PhotonData,
+    photons: &PhotonData,
     progress: &dyn Progress,
     cancel: &AtomicBool,
-) -> MediaFillStats {
-    let (Some(media), Some(_)) = (&scene.media, &photons.maps.volume) else {
-        return MediaFillStats::default();
+) -> (Option<MediaCache>, MediaFillStats) {
+    let (Some(media), Some(_)) = (&scene.media, &photons.maps().volume) else {
+        return (None, MediaFillStats::default());
     };
     let (lo, hi) = media.bounds();
     let mut cache = MediaCache::new(lo, hi, scene.settings.icache.media_gradients());
     let stride = media_cache::lattice_stride(plan.width, plan.height);
     let points = media_cache::media_points(scene, &plan.camera, plan.width, plan.height, stride);
     progress.start("media cache", points.len() as u64);
-    let data: &PhotonData = photons;
-    let estimate = |p: &MediaPoint| media_cache::media_record(scene, data, p, stride);
+    let estimate = |p: &MediaPoint| media_cache::media_record(scene, photons, p, stride);
     let stats = icache::media::fill_media(
         &mut cache,
         &points,
@@ -146,6 +164,5 @@ pub fn fill_media_cache(
         cancel,
     );
     progress.finish();
-    photons.media_cache = Some(cache);
-    MediaFillStats { stride, ..stats }
+    (Some(cache), MediaFillStats { stride, ..stats })
 }

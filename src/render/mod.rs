@@ -6,6 +6,7 @@
 pub mod budget;
 pub mod files;
 pub mod fill;
+pub mod gather_rays;
 pub mod outputs;
 pub mod photons;
 pub mod plan;
@@ -17,30 +18,19 @@ pub mod write;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
+use gather::GatherParams;
+use icache::media::MediaCache;
+
 use crate::error::{Error, Result};
 use crate::io::output::Image;
+pub use crate::progress::{NoProgress, Progress};
 use crate::scene::{Method, Scene};
-use fill::{fill_cache, load_cache};
+use fill::{fill_cache, load_cache, CacheFill};
 use photons::{build_maps, load_photons, trace_photons};
 pub use plan::{plan, Plan, DEFAULT_NOISE};
-use shade::{beauty, sampler, shade};
+use shade::{beauty, sampler, shade, Lighting};
 pub use stats::RenderStats;
 use tiles::Window;
-
-/// Progress of long phases; the binary draws a bar, tests pass [`NoProgress`].
-pub trait Progress: Sync {
-    fn start(&self, phase: &str, total: u64);
-    fn set(&self, done: u64);
-    fn finish(&self);
-}
-
-pub struct NoProgress;
-
-impl Progress for NoProgress {
-    fn start(&self, _: &str, _: u64) {}
-    fn set(&self, _: u64) {}
-    fn finish(&self) {}
-}
 
 /// Command-line overrides of the scene's `[render]` and `[camera]` values.
 #[derive(Clone, Debug, Default)]
@@ -80,44 +70,49 @@ pub fn render(
     cancel: &AtomicBool,
 ) -> Result<(RenderOutput, RenderStats)> {
     let start = Instant::now();
-    let mut plan = plan(scene, opts)?;
+    let plan = plan(scene, opts)?;
     budget::check(scene, &plan, opts)?;
     let mut stats = RenderStats::new(scene, &plan);
 
-    let (mut photons, photon_info) = if plan.method.uses_photon_maps() {
+    let (photons, photon_info, precomputed) = if plan.method.uses_photon_maps() {
         let (traced, s) = match &opts.files.load_photons {
             Some(file) => load_photons(scene, &plan, file)?,
             None => trace_photons(scene, &plan, &opts.files, progress, cancel)?,
         };
         stats.photons = Some(s);
         (
-            Some(build_maps(scene, &plan, traced.maps, traced.precomputed)),
+            Some(build_maps(scene, &plan, traced.maps)),
             traced.info,
+            traced.precomputed,
         )
     } else {
-        (None, None)
+        (None, None, None)
     };
     interrupted(cancel)?;
 
-    if let (Method::Pm, Some(photons)) = (plan.method, photons.as_mut()) {
-        if photons.maps.volume.is_some() {
-            stats.media_fill = Some(fill::fill_media_cache(
-                scene, &plan, photons, progress, cancel,
-            ));
+    let media_cache = match (plan.method, &photons) {
+        (Method::Pm, Some(photons)) if photons.maps().volume.is_some() => {
+            let (cache, s) = fill::fill_media_cache(scene, &plan, photons, progress, cancel);
+            stats.media_fill = Some(s);
             interrupted(cancel)?;
+            cache
         }
-    }
+        _ => None,
+    };
 
     let mut cache = match (plan.method, &photons) {
         (Method::Pm, Some(photons)) => {
             let (cache, s) = match &opts.files.load_cache {
                 Some(file) => load_cache(scene, file)?,
-                None => fill_cache(scene, &plan, photons, progress, cancel)?,
+                None => fill_cache(
+                    scene,
+                    &plan,
+                    photons,
+                    media_cache.as_ref(),
+                    progress,
+                    cancel,
+                )?,
             };
-            // Pass B's gathers take as many rays as pass A's records chose.
-            if let Some((_, rounds)) = s.rays_choice {
-                plan.gather.rays = crate::integrator::gather_rays::rays_for_rounds(rounds);
-            }
             stats.fill = Some(s);
             Some(cache)
         }
@@ -125,34 +120,55 @@ pub fn render(
     };
     interrupted(cancel)?;
 
-    let (mut sample, n_layers) = sampler(scene, &plan, photons.as_ref(), cache.as_mut(), cancel);
+    let lighting = Lighting {
+        photons: photons.as_ref(),
+        media_cache: media_cache.as_ref(),
+        // Pass B's gathers take as many rays as pass A's records chose.
+        gather: cache
+            .as_ref()
+            .and_then(|c| c.chosen_rays)
+            .map_or(plan.gather, |rays| GatherParams { rays }),
+        cache: cache.as_mut(),
+    };
+    let (mut sample, n_layers) = sampler(scene, &plan, lighting, cancel);
     let (layers, s) = shade(&plan, n_layers, &mut *sample, progress, cancel)?;
     drop(sample);
     stats.shade = s;
-    let (beauty, layers) = beauty(&plan, scene.media.is_some(), layers);
-    stats.finish(start, photons.as_ref(), cache.as_ref().map(|c| &c.cache));
-
-    let media_records = photons
-        .as_ref()
-        .and_then(|p| p.media_cache.as_ref())
-        .map_or(Vec::new(), |c| c.records().iter().map(|r| r.pos).collect());
-    let photons = photons
+    let images = beauty(&plan, scene.media.is_some(), layers);
+    stats.finish(
+        start,
+        photons.as_ref(),
+        media_cache.as_ref(),
+        cache.as_ref().map(|c| &c.cache),
+    );
+    let kept = photons
         .zip(photon_info)
         .map(|(p, info)| files::PhotonOutput {
             info,
-            maps: p.maps,
-            precomputed: p.precomputed,
+            maps: p.into_maps(),
+            precomputed,
         });
-    Ok((
-        RenderOutput {
-            beauty,
-            layers,
-            cache: cache.map(|c| c.cache),
-            photons,
-            media_records,
-        },
-        stats,
-    ))
+    Ok((output(images, kept, media_cache, cache), stats))
+}
+
+/// The images, with what the render made that the binary may save: the irradiance cache, the photon
+/// maps it was asked to keep, and the media cache's record positions.
+fn output(
+    (beauty, layers): (Image, Vec<(&'static str, Image)>),
+    photons: Option<files::PhotonOutput>,
+    media_cache: Option<MediaCache>,
+    cache: Option<CacheFill>,
+) -> RenderOutput {
+    let media_records = media_cache
+        .as_ref()
+        .map_or(Vec::new(), |c| c.records().iter().map(|r| r.pos).collect());
+    RenderOutput {
+        beauty,
+        layers,
+        cache: cache.map(|c| c.cache),
+        photons,
+        media_records,
+    }
 }
 
 fn interrupted(cancel: &AtomicBool) -> Result<()> {

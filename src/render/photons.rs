@@ -10,9 +10,10 @@ use photon::{MapsInfo, PhotonMaps, PrecomputedIrradiance};
 
 use super::files::{self, FileOptions};
 use super::stats::PhotonStats;
-use super::{Plan, Progress};
+use super::Plan;
 use crate::error::Result;
-use crate::integrator::photons::PhotonData;
+use crate::photons::PhotonData;
+use crate::progress::Progress;
 use crate::scene::Scene;
 
 /// Photon maps traced or loaded.
@@ -133,11 +134,6 @@ fn photon_stats(
 }
 
 /// The maps wrapped for the render (see [`PhotonData::new`]); nothing here is counted.
-pub fn build_maps<'a>(
-    scene: &'a Scene,
-    plan: &Plan,
-    maps: PhotonMaps,
-    precomputed: Option<PrecomputedIrradiance>,
-) -> PhotonData<'a> {
-    PhotonData::new(maps, precomputed, plan.photons.clone(), scene)
+pub fn build_maps<'a>(scene: &'a Scene, plan: &Plan, maps: PhotonMaps) -> PhotonData<'a> {
+    PhotonData::new(maps, plan.photons.clone(), scene)
 }

@@ -5,14 +5,15 @@
 use std::sync::atomic::AtomicBool;
 
 use gather::GatherParams;
+use icache::media::MediaCache;
 use icache::CacheParams;
 
 use super::tiles::{Sampling, Window};
 use super::Options;
 use crate::camera::Camera;
 use crate::error::{option, Result};
-use crate::integrator::photons::{PhotonData, PhotonSettings};
 use crate::integrator::pm::{IndirectSource, PmContext};
+use crate::photons::{PhotonData, PhotonSettings};
 use crate::scene::{Method, Scene};
 
 /// Resolved settings of one render.
@@ -38,7 +39,7 @@ pub struct Plan {
     /// Rays per final gather (`pm`'s records and `pm-fg`'s samples).
     pub gather: GatherParams,
     /// `pm` chooses its gathers' rays after pass A (the file gives no `rays`; a two-pass fill, not a
-    /// loaded cache): pass A gathers with `gather`'s [`crate::integrator::gather_rays::BASE_RAYS`].
+    /// loaded cache): pass A gathers with `gather`'s [`crate::render::gather_rays::BASE_RAYS`].
     pub choose_rays: bool,
 }
 
@@ -46,8 +47,8 @@ pub struct Plan {
 pub const DEFAULT_NOISE: f32 = 0.04;
 /// Default `aa_spp`: the most samples of a pixel whose samples differ only by where they fall in it.
 /// Its light (delta lights, cached and photon-map irradiance) is then a smooth function of the point,
-/// and what more samples would resolve is a texture's or an edge's coverage of the pixel. On Sibenik at
-/// 1000² letting those pixels go on to 128 cost +50 % of the shading (5.9 → 8.8 s).
+/// and what more samples would resolve is a texture's or an edge's coverage of the pixel, which nobody
+/// sees as noise: letting those pixels go on to `spp` costs much shading time for little gain.
 pub const DEFAULT_AA_SPP: u32 = 32;
 
 impl Plan {
@@ -59,17 +60,20 @@ impl Plan {
         }
     }
 
-    /// The photon-map methods' integrator, reading soft indirect light from `source`.
+    /// The photon-map methods' integrator, reading soft indirect light from `source` (its gathers take
+    /// the plan's rays: pass B's may differ, chosen by pass A).
     pub fn pm_context<'a>(
         &self,
         scene: &'a Scene,
         photons: &'a PhotonData<'a>,
+        media_cache: Option<&'a MediaCache>,
         source: IndirectSource<'a>,
         cancel: &'a AtomicBool,
     ) -> PmContext<'a> {
         PmContext {
             scene,
             photons,
+            media_cache,
             source,
             gather: self.gather,
             max_depth: scene.settings.max_depth,
@@ -139,7 +143,7 @@ pub fn plan(scene: &Scene, opts: &Options) -> Result<Plan> {
         pass_a_stride: icache.pass_a_stride(width, height),
         gather: GatherParams {
             rays: if choose_rays {
-                crate::integrator::gather_rays::BASE_RAYS
+                crate::render::gather_rays::BASE_RAYS
             } else {
                 icache.rays
             },

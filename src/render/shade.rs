@@ -9,18 +9,22 @@ use photon::sampling::Rng;
 
 use super::fill::CacheFill;
 use super::stats::ShadeStats;
-use super::tiles::{render_tiles, GrowStats, MissedSample, Sampler};
-use super::{Plan, Progress};
+use super::tiles::{render_tiles, Canvas, GrowStats, MissedSample, Sampler};
+use super::Plan;
 use crate::camera::Camera;
+use crate::counters::SampleCounters;
 use crate::error::Result;
 use crate::geometry::Hit;
 use crate::integrator::cache_fill::{gather_record, sample_hits};
-use crate::integrator::photons::PhotonData;
 use crate::integrator::pm::{IndirectSource, PmContext};
 use crate::integrator::terms::{term_names, LayerValues};
-use crate::integrator::{path, PixelMemo, SampleCounters};
+use crate::integrator::{path, PixelMemo};
 use crate::io::output::Image;
+use crate::photons::PhotonData;
+use crate::progress::Progress;
 use crate::scene::{Method, Scene};
+use gather::GatherParams;
+use icache::media::MediaCache;
 use icache::{IrradianceCache, ShadingPoint};
 
 /// `n_layers` images of the plan's window, by `sampler`. `cancel` is read before every sample.
@@ -33,17 +37,16 @@ pub fn shade(
 ) -> Result<(Vec<Image>, ShadeStats)> {
     let t = Instant::now();
     progress.start("shade", plan.window.n_pixels());
-    let (layers, mut counters, samples) = render_tiles(
-        plan.width,
-        plan.height,
-        plan.window,
-        plan.sampling(),
-        plan.seed,
+    let canvas = Canvas {
+        width: plan.width,
+        height: plan.height,
+        window: plan.window,
+        sampling: plan.sampling(),
+        seed: plan.seed,
         n_layers,
-        sampler,
-        &|n| progress.set(n),
-        cancel,
-    )?;
+    };
+    let (layers, mut counters, samples) =
+        render_tiles(&canvas, sampler, &|n| progress.set(n), cancel)?;
     progress.finish();
     // The gathers of records made between rounds are rays of the shading.
     let grown = sampler.grown();
@@ -59,22 +62,42 @@ pub fn shade(
     ))
 }
 
+/// What shading reads from the phases before it.
+pub struct Lighting<'a> {
+    /// The photon maps (none for `path`).
+    pub photons: Option<&'a PhotonData<'a>>,
+    /// `pm`'s media radiance cache.
+    pub media_cache: Option<&'a MediaCache>,
+    /// `pm`'s irradiance cache.
+    pub cache: Option<&'a mut CacheFill>,
+    /// Rays per final gather: pass A's choice when it made one, else the plan's.
+    pub gather: GatherParams,
+}
+
 /// The method's sampler and its number of layers: `path`'s radiance without photon maps; with them,
-/// the terms of the split, soft indirect light read from `cache` when there is one (which grows
-/// between rounds where samples find no record, except a one-pass cache).
+/// the terms of the split, soft indirect light read from the irradiance cache when there is one (which
+/// grows between rounds where samples find no record, except a one-pass cache).
 pub fn sampler<'a>(
     scene: &'a Scene,
     plan: &'a Plan,
-    photons: Option<&'a PhotonData<'a>>,
-    cache: Option<&'a mut CacheFill>,
+    lighting: Lighting<'a>,
     cancel: &'a AtomicBool,
 ) -> (Box<dyn Sampler + 'a>, usize) {
-    let Some(photons) = photons else {
+    let Some(photons) = lighting.photons else {
         return (path_sample(scene, &plan.camera), 1);
     };
     let n_layers = term_names(scene.media.is_some()).len();
-    let ctx = plan.pm_context(scene, photons, IndirectSource::PhotonMap, cancel);
-    match cache {
+    let ctx = PmContext {
+        gather: lighting.gather,
+        ..plan.pm_context(
+            scene,
+            photons,
+            lighting.media_cache,
+            IndirectSource::PhotonMap,
+            cancel,
+        )
+    };
+    match lighting.cache {
         Some(fill) if fill.one_pass.is_none() => {
             (Box::new(GrowingCache::new(ctx, plan, fill)), n_layers)
         }

@@ -4,13 +4,14 @@
 
 use std::time::Instant;
 
+use icache::media::MediaCache;
 use icache::{CacheStats, IrradianceCache};
 
 use super::tiles::{GrowStats, SampleCount};
 use super::Plan;
-use crate::integrator::atlas::AtlasStats;
-use crate::integrator::photons::PhotonData;
-use crate::integrator::SampleCounters;
+use crate::counters::SampleCounters;
+use crate::photons::atlas::AtlasStats;
+use crate::photons::PhotonData;
 use crate::scene::{Method, Scene};
 use crate::stats::{peak_rss_bytes, Report};
 
@@ -77,7 +78,7 @@ pub struct CacheFillStats {
     /// The fill's final gathers (their rays).
     pub counters: SampleCounters,
     pub n_loaded: u64,
-    /// With rays chosen by `pm` (`integrator::gather_rays`): the predicted relative variance the pass-A
+    /// With rays chosen by `pm` (`render::gather_rays`): the predicted relative variance the pass-A
     /// gathers' noise gives the pixels (at one round), and the rounds chosen.
     pub rays_choice: Option<(f64, u32)>,
 }
@@ -127,15 +128,12 @@ impl RenderStats {
         &mut self,
         start: Instant,
         photons: Option<&PhotonData>,
+        media_cache: Option<&MediaCache>,
         cache: Option<&IrradianceCache>,
     ) {
-        self.atlas = photons.and_then(|p| p.atlas.as_ref()).map(|a| a.stats());
-        self.volume_grid = photons
-            .and_then(|p| p.volume_grid.as_ref())
-            .map(|g| g.filled());
-        self.media_cache = photons
-            .and_then(|p| p.media_cache.as_ref())
-            .map(|c| (c.len() as u64, c.memory_bytes() as u64));
+        self.atlas = photons.and_then(|p| p.atlas()).map(|a| a.stats());
+        self.volume_grid = photons.and_then(|p| p.volume_grid()).map(|g| g.filled());
+        self.media_cache = media_cache.map(|c| (c.len() as u64, c.memory_bytes() as u64));
         let fill = self.fill.as_ref();
         self.cache = cache.map(|c| {
             let mut s = CacheStats::collect(
@@ -325,10 +323,10 @@ impl RenderStats {
             fill.gather_rays,
         );
         if let Some((noise, rounds)) = self.fill.as_ref().and_then(|f| f.rays_choice) {
-            let base = crate::integrator::gather_rays::BASE_RAYS;
+            let base = crate::render::gather_rays::BASE_RAYS;
             let title = format!(
                 "Predicted gather-noise variance at {base} rays (target {:.0e})",
-                crate::integrator::gather_rays::NOISE_TARGET
+                crate::render::gather_rays::NOISE_TARGET
             );
             r.value(
                 "Final gather",
@@ -341,7 +339,7 @@ impl RenderStats {
                 "Final gather",
                 "Rays per gather (chosen from that prediction)",
                 "gather.rays_chosen",
-                crate::integrator::gather_rays::rays_for_rounds(rounds) as u64,
+                crate::render::gather_rays::rays_for_rounds(rounds) as u64,
             );
         }
         let mut noise = fill.gather_noise;

@@ -14,17 +14,15 @@
 //! nearly exact mean after a few groups, though its samples differ a lot. From the second group on, the
 //! estimate is made within the quarters — from the differences between the samples of the same quarter
 //! in successive groups, 4 degrees of freedom per pair of groups. After the first group alone there is
-//! no such difference and the estimate is the samples' plain variance, which can only be larger. On
-//! Sibenik at 1000² the plain estimate kept a quarter of the pixels (mortar between stones, mouldings)
-//! sampling to the limit of 32.
+//! no such difference and the estimate is the samples' plain variance, which can only be larger: over
+//! textures and edges it kept many pixels sampling to their limit.
 //!
 //! Pixels differ in what more samples buy. Where a pixel's samples make no Monte Carlo estimate — delta
 //! lights, cached and photon-map irradiance, mirrors — its samples differ only by where they fall in it
 //! (a texture's mortar lines, an edge), and it stops at `aa_spp` (32). Where they do (area-light samples,
 //! a glass's reflect-or-refract choice, glossy lobes, media, per-sample gathers), the pixel's noise is
-//! what more samples remove, and it may go on to `spp` (128): on the box scenes, lit by area lights, the
-//! error against the references fell by 35–50 % at little cost (cornell-caustics 0.00167 → 0.00104 in
-//! the same time), while Sibenik's textured stone (point and spot lights) stays at 32.
+//! what more samples remove, and it may go on to `spp` (128): scenes lit by area lights gain much
+//! accuracy at little cost, while textured surfaces under point and spot lights stay at `aa_spp`.
 
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
@@ -32,9 +30,10 @@ use glam::Vec3;
 use photon::sampling::{hash_keys, Rng};
 use rayon::prelude::*;
 
+use crate::counters::SampleCounters;
 use crate::error::{Error, Result};
 use crate::integrator::terms::LayerValues;
-use crate::integrator::{sanitize, PixelMemo, SampleCounters};
+use crate::integrator::{sanitize, PixelMemo};
 use crate::io::output::Image;
 
 const TILE: u32 = 16;
@@ -258,9 +257,9 @@ struct TileState {
     window: Window,
     pixels: Vec<PixelSums>,
     layers: Vec<Vec<Vec3>>,
-    /// Each pixel's memo, kept from round to round while the pixel takes samples (its later rounds
-    /// reuse the soft indirect light its first round computed: on Sibenik 500² the rounds made
-    /// adaptive sampling cost 1.5× per sample what fixed sampling does).
+    /// Each pixel's memo, kept from round to round while the pixel takes samples: its later rounds
+    /// reuse the soft indirect light its first round computed, so that sampling in rounds costs no
+    /// more per sample than sampling all at once.
     memos: Vec<PixelMemo>,
     /// This round's pixels that missed, as they stood before it (when the sampler adds records).
     redo: Vec<Redo>,
@@ -299,7 +298,19 @@ fn rounds(spp: u32, aa_spp: u32, adaptive: bool) -> Vec<u32> {
     r
 }
 
-/// Renders `n_layers` images of the window (box filter: the mean of each pixel's samples).
+/// What [`render_tiles`] renders: `n_layers` images of `width` × `height`, of which the samples fill
+/// `window`, with `sampling` and the pixels' random numbers drawn from `seed`.
+#[derive(Clone, Copy, Debug)]
+pub struct Canvas {
+    pub width: u32,
+    pub height: u32,
+    pub window: Window,
+    pub sampling: Sampling,
+    pub seed: u64,
+    pub n_layers: usize,
+}
+
+/// Renders the canvas's images (box filter: the mean of each pixel's samples).
 ///
 /// With a noise target the samples are taken in rounds (4, 8, 16, … per pixel); after each round a pixel
 /// goes on if it, or any of its 8 neighbours, has not [`converged`]. Looking at the neighbours catches
@@ -307,50 +318,30 @@ fn rounds(spp: u32, aa_spp: u32, adaptive: bool) -> Vec<u32> {
 /// has seen it; each round's decisions read only the previous rounds' sums, so the image does not depend
 /// on the thread count. After each round, a sampler that [`Sampler::adds_records`] gets the samples whose
 /// lookups missed (answered cheaply: see [`Sampler::sample`]); their pixels then take that round's
-/// samples again (from their state before it), reading the records the sampler made for them. `progress` is called with a number of pixels
-/// (rounds count as fractions of the window); `cancel` (read before every sample) stops early with
-/// `Interrupted`.
-#[allow(clippy::too_many_arguments)]
+/// samples again (from their state before it), reading the records the sampler made for them.
+/// `progress` is called with a number of pixels (rounds count as fractions of the window); `cancel`
+/// (read before every sample) stops early with `Interrupted`.
 pub fn render_tiles(
-    width: u32,
-    height: u32,
-    window: Window,
-    sampling: Sampling,
-    seed: u64,
-    n_layers: usize,
+    canvas: &Canvas,
     sampler: &mut dyn Sampler,
     progress: &(dyn Fn(u64) + Sync),
     cancel: &AtomicBool,
 ) -> Result<(Vec<Image>, SampleCounters, SampleCount)> {
+    let Canvas {
+        width,
+        window,
+        sampling,
+        seed,
+        n_layers,
+        ..
+    } = *canvas;
     let spp = sampling.spp.max(1);
     let adaptive = sampling.noise > 0.0 && spp > MIN_ADAPTIVE_SPP;
     let aa_spp = sampling.aa_spp.clamp(1, spp);
     let keep_redo = sampler.adds_records() && n_layers <= MAX_LAYERS;
-    let mut tiles = Vec::new();
-    for ty in (window.y0..window.y1).step_by(TILE as usize) {
-        for tx in (window.x0..window.x1).step_by(TILE as usize) {
-            let w = Window {
-                x0: tx,
-                y0: ty,
-                x1: (tx + TILE).min(window.x1),
-                y1: (ty + TILE).min(window.y1),
-            };
-            let n = w.n_pixels() as usize;
-            tiles.push(TileState {
-                window: w,
-                pixels: vec![PixelSums::default(); n],
-                layers: vec![vec![Vec3::ZERO; n]; n_layers],
-                memos: vec![PixelMemo::default(); n],
-                redo: Vec::new(),
-            });
-        }
-    }
-    let (ww, wh) = (
-        (window.x1 - window.x0) as usize,
-        (window.y1 - window.y0) as usize,
-    );
-    // Pixels (window row-major) that take the next round's samples.
-    let mut active = vec![true; ww * wh];
+    let mut tiles = tile_states(window, n_layers);
+    // Pixels that take the next round's samples.
+    let mut active = Active::all(window);
     let rounds = rounds(spp, aa_spp, adaptive);
     let done = AtomicU64::new(0);
     let mut total = SampleCounters::default();
@@ -375,7 +366,7 @@ pub fn render_tiles(
                 let mut counters = SampleCounters::default();
                 for y in w.y0..w.y1 {
                     for x in w.x0..w.x1 {
-                        if !active_ref[(y - window.y0) as usize * ww + (x - window.x0) as usize] {
+                        if !active_ref.is(x, y) {
                             continue;
                         }
                         if !round_of.take(
@@ -412,32 +403,9 @@ pub fn render_tiles(
         if round + 1 == rounds.len() {
             break;
         }
-        // Next round: pixels not converged, and their neighbours; past `aa_spp`, only those whose samples
-        // made Monte Carlo estimates.
+        // Past `aa_spp`, only pixels whose samples made Monte Carlo estimates go on.
         let past_aa = rounds[round + 1] > aa_spp;
-        let mut open = vec![false; ww * wh];
-        let mut allowed = vec![true; ww * wh];
-        for t in &tiles {
-            let w = t.window;
-            for y in w.y0..w.y1 {
-                for x in w.x0..w.x1 {
-                    let k = ((y - w.y0) * (w.x1 - w.x0) + (x - w.x0)) as usize;
-                    let px = &t.pixels[k];
-                    let mean = t.layers.iter().map(|l| l[k]).sum::<Vec3>() / px.n as f32;
-                    let at = (y - window.y0) as usize * ww + (x - window.x0) as usize;
-                    allowed[at] = !past_aa || px.monte_carlo;
-                    open[at] = allowed[at] && !converged(px, mean, sampling.noise);
-                }
-            }
-        }
-        for y in 0..wh {
-            for x in 0..ww {
-                active[y * ww + x] = allowed[y * ww + x]
-                    && (y.saturating_sub(1)..(y + 2).min(wh)).any(|yy| {
-                        (x.saturating_sub(1)..(x + 2).min(ww)).any(|xx| open[yy * ww + xx])
-                    });
-            }
-        }
+        active = next_round(&tiles, window, past_aa, sampling.noise);
         // A pixel that stops sampling needs its memo no more.
         for t in &mut tiles {
             let w = t.window;
@@ -446,30 +414,128 @@ pub fn render_tiles(
                     w.x0 + k as u32 % (w.x1 - w.x0),
                     w.y0 + k as u32 / (w.x1 - w.x0),
                 );
-                if !active[(y - window.y0) as usize * ww + (x - window.x0) as usize] {
+                if !active.is(x, y) {
                     memo.clear();
                 }
             }
         }
     }
-    let mut images = vec![Image::new(width, height); n_layers];
-    for t in &tiles {
+    let images = images(canvas, &tiles, |n, monte_carlo| {
+        count.samples += n as u64;
+        count.pixels += 1;
+        count.at_limit += (adaptive && n == if monte_carlo { spp } else { aa_spp }) as u64;
+        count.monte_carlo_pixels += monte_carlo as u64;
+    });
+    Ok((images, total, count))
+}
+
+/// The window cut into tiles of [`TILE`]² pixels, none sampled yet.
+fn tile_states(window: Window, n_layers: usize) -> Vec<TileState> {
+    let mut tiles = Vec::new();
+    for ty in (window.y0..window.y1).step_by(TILE as usize) {
+        for tx in (window.x0..window.x1).step_by(TILE as usize) {
+            let w = Window {
+                x0: tx,
+                y0: ty,
+                x1: (tx + TILE).min(window.x1),
+                y1: (ty + TILE).min(window.y1),
+            };
+            let n = w.n_pixels() as usize;
+            tiles.push(TileState {
+                window: w,
+                pixels: vec![PixelSums::default(); n],
+                layers: vec![vec![Vec3::ZERO; n]; n_layers],
+                memos: vec![PixelMemo::default(); n],
+                redo: Vec::new(),
+            });
+        }
+    }
+    tiles
+}
+
+/// One flag per pixel of a window (row-major).
+struct Active {
+    window: Window,
+    flags: Vec<bool>,
+}
+
+impl Active {
+    fn all(window: Window) -> Active {
+        Active {
+            window,
+            flags: vec![true; window.n_pixels() as usize],
+        }
+    }
+
+    fn is(&self, x: u32, y: u32) -> bool {
+        self.flags[self.at(x, y)]
+    }
+
+    fn at(&self, x: u32, y: u32) -> usize {
+        let w = self.window;
+        (y - w.y0) as usize * (w.x1 - w.x0) as usize + (x - w.x0) as usize
+    }
+}
+
+/// The pixels that take the next round's samples: those not converged (at `noise`) and their
+/// neighbours; `past_aa`, only among those whose samples made Monte Carlo estimates.
+fn next_round(tiles: &[TileState], window: Window, past_aa: bool, noise: f32) -> Active {
+    let (ww, wh) = (
+        (window.x1 - window.x0) as usize,
+        (window.y1 - window.y0) as usize,
+    );
+    let mut open = vec![false; ww * wh];
+    let mut allowed = vec![true; ww * wh];
+    for t in tiles {
+        let w = t.window;
+        for y in w.y0..w.y1 {
+            for x in w.x0..w.x1 {
+                let k = ((y - w.y0) * (w.x1 - w.x0) + (x - w.x0)) as usize;
+                let px = &t.pixels[k];
+                let mean = t.layers.iter().map(|l| l[k]).sum::<Vec3>() / px.n as f32;
+                let at = (y - window.y0) as usize * ww + (x - window.x0) as usize;
+                allowed[at] = !past_aa || px.monte_carlo;
+                open[at] = allowed[at] && !converged(px, mean, noise);
+            }
+        }
+    }
+    let mut active = vec![false; ww * wh];
+    for y in 0..wh {
+        for x in 0..ww {
+            active[y * ww + x] = allowed[y * ww + x]
+                && (y.saturating_sub(1)..(y + 2).min(wh))
+                    .any(|yy| (x.saturating_sub(1)..(x + 2).min(ww)).any(|xx| open[yy * ww + xx]));
+        }
+    }
+    Active {
+        window,
+        flags: active,
+    }
+}
+
+/// The canvas's images from the tiles' sums, each pixel's mean of its samples; `each_pixel` sees every
+/// pixel's sample count and whether its samples made Monte Carlo estimates.
+fn images(
+    canvas: &Canvas,
+    tiles: &[TileState],
+    mut each_pixel: impl FnMut(u32, bool),
+) -> Vec<Image> {
+    let width = canvas.width;
+    let mut images = vec![Image::new(width, canvas.height); canvas.n_layers];
+    for t in tiles {
         let w = t.window;
         for y in w.y0..w.y1 {
             for x in w.x0..w.x1 {
                 let k = ((y - w.y0) * (w.x1 - w.x0) + (x - w.x0)) as usize;
                 let (n, monte_carlo) = (t.pixels[k].n, t.pixels[k].monte_carlo);
-                count.samples += n as u64;
-                count.pixels += 1;
-                count.at_limit += (adaptive && n == if monte_carlo { spp } else { aa_spp }) as u64;
-                count.monte_carlo_pixels += monte_carlo as u64;
+                each_pixel(n, monte_carlo);
                 for (img, layer) in images.iter_mut().zip(&t.layers) {
                     img.pixels[(y * width + x) as usize] = layer[k] / n.max(1) as f32;
                 }
             }
         }
     }
-    Ok((images, total, count))
+    images
 }
 
 /// What every round shares: where samples go and how their random numbers are drawn.
@@ -660,6 +726,14 @@ mod tests {
             c.monte_carlo += (x < 4) as u64;
             LayerValues::one(Vec3::splat((rng.uniform() < 0.5) as u32 as f32))
         };
+        let canvas = |sampling| Canvas {
+            width: 8,
+            height: 1,
+            window: Window::full(8, 1),
+            sampling,
+            seed: 1,
+            n_layers: 1,
+        };
         let run = |spp, aa_spp| {
             let mut s = sampler;
             let sampling = Sampling {
@@ -667,19 +741,9 @@ mod tests {
                 noise: 0.01,
                 aa_spp,
             };
-            render_tiles(
-                8,
-                1,
-                Window::full(8, 1),
-                sampling,
-                1,
-                1,
-                &mut s,
-                &|_| {},
-                &AtomicBool::new(false),
-            )
-            .unwrap()
-            .2
+            render_tiles(&canvas(sampling), &mut s, &|_| {}, &AtomicBool::new(false))
+                .unwrap()
+                .2
         };
         let count = run(128, 32);
         // 4 pixels × 128 + 4 × 32, every one at its limit.
@@ -690,16 +754,11 @@ mod tests {
         // Fixed sampling (no noise target) ignores aa_spp.
         let mut s = sampler;
         let fixed = render_tiles(
-            8,
-            1,
-            Window::full(8, 1),
-            Sampling {
+            &canvas(Sampling {
                 spp: 16,
                 noise: 0.0,
                 aa_spp: 4,
-            },
-            1,
-            1,
+            }),
             &mut s,
             &|_| {},
             &AtomicBool::new(false),

@@ -61,7 +61,7 @@ pub struct IcacheSettings {
     /// chooses its own then, see [`Self::rays_given`]).
     pub rays: usize,
     /// Whether the file gives `rays`. If not, `pm` sets its gathers' rays from the noise its pass-A
-    /// gathers show (`integrator::gather_rays`).
+    /// gathers show (`render::gather_rays`).
     pub rays_given: bool,
     pub fill: FillMode,
     /// Media radiance-cache records extrapolated by their gradients (`media_gradients`, default true).

@@ -4,7 +4,7 @@
 use glam::Vec3;
 use photon::{EmittedRay, PhotonScene, Propagation, Scatter, SurfaceHit};
 
-use super::Frame;
+use crate::geometry::Frame;
 use crate::geometry::{offset_origin, spawn, Hit};
 use crate::material::Transport;
 use crate::medium::{sample_phase, Flight, VACUUM};

@@ -20,8 +20,8 @@
 use glam::Vec3;
 use icache::media::{MediaPoint, VolumeRecord};
 
-use super::photons::PhotonData;
 use super::volume_grid::{estimate_within, Surroundings};
+use super::PhotonData;
 use crate::camera::Camera;
 use crate::geometry::spawn;
 use crate::material::{glass_lobes, Bsdf};
@@ -43,9 +43,8 @@ const MAX_SPECULAR_DEPTH: u32 = 2;
 pub const HARMONIC_SCALE: f32 = 0.5;
 /// R from the gradient: R·|∇S| ≤ this fraction of S.
 pub const GRADIENT_CHANGE: f32 = 0.5;
-/// R is at least this many kernel radii: at 1 fog-cornell and fog-spot (64², seeds 1–2, 32 spp)
-/// rendered with the same error as at ½ and ¾ (relMSE within 1 %), from half the records (2.9 k
-/// instead of 5.8 k; pass A 0.36 s instead of 0.58 s).
+/// R is at least this many kernel radii: the records' values are already blurred over the kernel, so a
+/// smaller R only makes more records (and a longer pass A) for no less error.
 const KERNEL_REACH: f32 = 1.0;
 /// R is at least this many lattice spacings (pixels × stride) at the record's point.
 const LATTICE_REACH: f32 = 1.5;
@@ -140,7 +139,7 @@ fn follow(
     if depth >= MAX_SPECULAR_DEPTH {
         return;
     }
-    let frame = super::Frame::new(&hit, -d);
+    let frame = crate::geometry::Frame::new(&hit, -d);
     let dist = dist + hit.t;
     match scene.material(&hit).bsdf {
         Bsdf::Glass { ior, transmittance } => {
@@ -186,20 +185,23 @@ pub fn media_record(
     p: &MediaPoint,
     stride: u32,
 ) -> VolumeRecord {
-    let Some(map) = &photons.maps.volume else {
+    let Some(map) = &photons.maps().volume else {
         return VolumeRecord::default();
     };
     let around = Surroundings::measure(|dir| match scene.intersect_after(p.pos, dir, 0.0) {
         Some(h) => (h.t, !scene.material(&h).bsdf.is_null(), h.ng),
         None => (f32::INFINITY, false, Vec3::ZERO),
     });
-    let (k, cap) = (photons.settings.lookup, photons.settings.max_radius_volume);
+    let (k, cap) = (
+        photons.settings().lookup,
+        photons.settings().max_radius_volume,
+    );
     let (rec, r_kernel) = estimate_within(
         map,
         p.pos,
         k,
         cap,
-        photons.camera_photons,
+        photons.camera_photons(),
         true,
         scene.settings.icache.media_visibility().then_some(&around),
     );

@@ -51,9 +51,8 @@ pub struct VolumeGrid {
 
 impl VolumeGrid {
     /// A lattice over `bounds` with records about half the estimate's radius cap apart (about the mean
-    /// k-NN radius). Twice as far apart, fog-cornell 64² renders in 1.6 s instead of 2.4 s with its mean
-    /// still within 0.6 % of Mitsuba's (−1.1 % without gradients), but fog-spot's narrow beam and volume
-    /// caustic come out 11 % too bright: a lattice cannot be coarse where the light is concentrated.
+    /// k-NN radius). A coarser lattice is faster and fine for smooth fog, but a narrow beam and its
+    /// volume caustic come out too bright: a lattice cannot be coarse where the light is concentrated.
     pub fn new(bounds: (Vec3, Vec3), k: usize, max_radius: f32, gradients: bool) -> VolumeGrid {
         let extent = (bounds.1 - bounds.0).max(Vec3::splat(1e-6));
         let mut cell = (0.5 * max_radius).max(extent.max_element() * 1e-3);

@@ -20,13 +20,13 @@ use icache::{IrradianceCache, NewRecord, Pass, Record, ShadingPoint};
 use photon::sampling::hash_keys;
 use rayon::prelude::*;
 
-use super::atlas::direct_irradiance;
-use super::cache_fill::{gather_record_round, shading_hits};
-use super::pm::PmContext;
-use super::SampleCounters;
 use crate::camera::Camera;
+use crate::counters::SampleCounters;
 use crate::geometry::Hit;
-use crate::render::Progress;
+use crate::integrator::cache_fill::{gather_record_round, shading_hits};
+use crate::integrator::pm::PmContext;
+use crate::photons::atlas::direct_irradiance;
+use crate::progress::Progress;
 use crate::warp::luminance;
 
 /// Rays of a pass-A gather, and of each further round of [`refine_records`].
@@ -36,8 +36,8 @@ pub const MAX_ROUNDS: u32 = 4;
 /// Largest mean relative variance ([`predicted_noise`]) the records' gather noise may add to a pixel:
 /// (0.04 / 4)², a sixteenth of what the default noise target leaves of the samples' own (the records'
 /// noise lies in blotches over many pixels, which more samples do not average). Chosen from the shipped
-/// and benchmark scenes at three seeds (README: where 1000 rays paid — the blinds room, 1.0e-3 at 250
-/// rays; spot-point 2.1e-4 — and where 250 were as good — interior-diffuse, water-caustics ≤ 7e-5).
+/// and benchmark scenes: it separates those where more rays paid from those where [`BASE_RAYS`] were
+/// as good.
 pub const NOISE_TARGET: f64 = 1e-4;
 /// Most pixels [`predicted_noise`] looks at.
 const NOISE_PIXELS: u32 = 4096;

@@ -1,121 +1,30 @@
-//! The photon pass as the render uses it: settings with scene-derived defaults, tracing both maps,
-//! precomputed irradiance, and the three kinds of lookup the integrators make.
+//! The photon maps as the render uses them: tracing them, and the lookups the integrators make —
+//! caustic and indirect irradiance, radiance at final-gather ends through the atlas, glossy estimates,
+//! and the media's in-scattered radiance.
 
 use std::sync::atomic::AtomicBool;
 
 use glam::Vec3;
+use icache::media::MediaCache;
 use photon::reach::ReachGrid;
-use photon::{Filter, PhotonMap, PhotonMaps, PhotonTargets, PrecomputedIrradiance, TraceStats};
+use photon::{Filter, PhotonMap, PhotonMaps, PhotonTargets, TraceStats};
 
 use super::atlas::IrradianceAtlas;
 use super::coverage::SceneCoverage;
 use super::photon_scene::PhotonView;
-use super::volume_grid::Photons;
+use super::settings::PhotonSettings;
+use super::volume_grid::{Photons, VolumeGrid};
+use crate::counters::SampleCounters;
 use crate::error::Result;
 use crate::geometry::Hit;
+use crate::material::PhongLobe;
 use crate::scene::Scene;
 
-/// Default size of an irradiance-atlas texel, in global photons at the scene's mean density
-/// (`[render.photons] precompute_every`). A k = 100 estimate blurs over ~12 texels; at 16 the stability
-/// suite's scanline case (20 k photons) lost its two-pass advantage (indirect relMSE 3.2e-4 → 5.5e-4)
-/// and the blinds room's walls moved +0.5 %.
-pub const DEFAULT_PHOTONS_PER_TEXEL: usize = 8;
-
-/// `[render.photons]` resolved.
-#[derive(Clone, Debug, PartialEq)]
-pub struct PhotonSettings {
-    pub global: usize,
-    pub caustic: usize,
-    pub lookup: usize,
-    pub max_radius_global: f32,
-    pub max_radius_caustic: f32,
-    pub precompute_every: usize,
-    pub caustic_filter: Filter,
-    /// Photons stored at scattering events in media (0 without media) and their estimate's radius cap.
-    pub volume: usize,
-    pub max_radius_volume: f32,
-    /// L S+ V photons (scenes with media and specular surfaces; 0 otherwise), and their radius cap.
-    pub volume_caustic: usize,
-    pub max_radius_volume_caustic: f32,
-}
-
-impl PhotonSettings {
-    /// `[render.photons]` (checked when the scene was loaded) with the scene's defaults where it gives no
-    /// value: global photons from the triangle count (200 k up to 5 k triangles, growing as its square
-    /// root, at most 2 M), 100 k caustic photons when the scene has mirror or glass (none otherwise),
-    /// k = 100, radii from the scene's real surface area and the photon count (see `photon::defaults`);
-    /// the caustic radius half the global one (or less, with more caustic photons).
-    pub fn resolve(scene: &Scene) -> PhotonSettings {
-        let d = &scene.settings.photons;
-        let global = d.global.unwrap_or_else(|| {
-            photon::defaults::default_global_photons(scene.geometry.triangles.len())
-        });
-        let caustic = d
-            .caustic
-            .unwrap_or(if scene.has_specular() { 100_000 } else { 0 });
-        let lookup = d.lookup.unwrap_or(100);
-        let precompute_every = d.precompute_every.unwrap_or(DEFAULT_PHOTONS_PER_TEXEL);
-        let (max_radius_global, max_radius_caustic) = match d.max_radius {
-            Some(r) => (r, r),
-            None => {
-                let area: f32 = scene.geometry.triangles.iter().map(|t| t.area).sum();
-                let diag = scene.diagonal();
-                (
-                    photon::defaults::max_radius_for_area(area, diag, global, lookup),
-                    // Caustics are concentrated light: their estimates reach no farther than half the
-                    // global map's. Sized from the caustic count alone, Sibenik's sparse red-pane photons
-                    // (0.1 % of the image) were looked up 1.5 m around nearly every shading sample.
-                    photon::defaults::max_radius_for_area(
-                        area,
-                        diag,
-                        caustic.max(global).max(1),
-                        lookup,
-                    ) * 0.5,
-                )
-            }
-        };
-        // Media: as many volume photons as global ones, the radius cap from the media's volume as the
-        // surface caps come from the area (twice the radius holding k photons at the mean density).
-        let (volume, max_radius_volume) = match &scene.media {
-            Some(m) => {
-                let v = m.volume().max(1e-30);
-                let r = (3.0 * lookup as f64 * v
-                    / (4.0 * std::f64::consts::PI * global.max(1) as f64))
-                    .cbrt() as f32;
-                (global, (2.0 * r).min(scene.diagonal() * 0.25))
-            }
-            None => (0, 0.0),
-        };
-        // The volume caustic map as the surface one: 100 k photons, half the radius.
-        let volume_caustic = if volume > 0 && scene.has_specular() {
-            100_000
-        } else {
-            0
-        };
-        let max_radius_volume_caustic = max_radius_volume * 0.5;
-        PhotonSettings {
-            global,
-            caustic,
-            lookup,
-            max_radius_global,
-            max_radius_caustic,
-            precompute_every,
-            caustic_filter: d.caustic_filter,
-            volume,
-            max_radius_volume,
-            volume_caustic,
-            max_radius_volume_caustic,
-        }
-    }
-}
-
-/// Photons per atlas texel estimate: a third of the lookup's `k` (at least 8). A texel is read only by
-/// final-gather rays, and a gather averages hundreds of texels, so a texel's noise averages out while the
-/// blur of a wider disc does not; its direct part comes from shadow rays, so only the smooth caustic and
-/// indirect part is estimated. At half the lookup's k (from k = 100: Sibenik 1024² image mean 0.9943 →
-/// 0.9957 of the reference, block relMSE 0.000046 → 0.000040); a third (128², against the references):
-/// Sponza block relMSE 0.000169 → 0.000154, blinds-room 0.000403 → 0.000373, Sibenik 0.000116 →
-/// 0.000126, the boxes unchanged, and FLANN's share of the render 10.3–11.0 % → 8.8–9.2 % (Sibenik 600²).
+/// Photons per atlas texel estimate: a third of the lookup's `k` (at least 8, at most `k`). A texel is
+/// read only by final-gather rays, and a gather averages hundreds of texels, so a texel's noise averages
+/// out while the blur of a wider disc does not; its direct part comes from shadow rays, so only the
+/// smooth caustic and indirect part is estimated. Fewer photons per estimate also make the k-NN
+/// searches, a large share of the render, cheaper.
 pub fn atlas_k(lookup: usize) -> usize {
     (lookup / 3).max(8).min(lookup)
 }
@@ -124,26 +33,35 @@ thread_local! {
     static NEIGHBORS: std::cell::RefCell<Vec<photon::Neighbor>> = const { std::cell::RefCell::new(Vec::new()) };
 }
 
+/// The photon maps with what the render reads them through: the maps and their settings, the scene's
+/// coverage of estimate discs, and lookup accelerators for the surfaces and for the media. Built once
+/// by the `build_maps` phase; the atlas and the volume grid fill lazily as shading reads them.
 pub struct PhotonData<'a> {
-    pub maps: PhotonMaps,
-    pub precomputed: Option<PrecomputedIrradiance>,
-    pub settings: PhotonSettings,
+    maps: PhotonMaps,
+    settings: PhotonSettings,
     /// What part of each estimate's disc is surface (the scene's geometry answers).
-    pub coverage: SceneCoverage<'a>,
+    coverage: SceneCoverage<'a>,
+    surfaces: SurfaceLookups,
+    media: MediaLookups,
+}
+
+/// Accelerators of the surface maps' lookups.
+struct SurfaceLookups {
     /// Where the caustic map has a photon within its lookup radius (most shading samples have none).
-    pub caustic_reach: Option<ReachGrid>,
+    caustic_reach: Option<ReachGrid>,
     /// The global map's irradiance baked lazily onto the triangles, for final-gather rays.
-    pub atlas: Option<IrradianceAtlas>,
+    atlas: Option<IrradianceAtlas>,
+}
+
+/// What the media's estimates read besides the volume maps.
+struct MediaLookups {
     /// The volume map's in-scattered radiance baked lazily over the media, for final-gather rays.
-    pub volume_grid: Option<super::volume_grid::VolumeGrid>,
-    /// The media radiance cache camera rays read (`pm`: filled by its pass A before shading; the other
-    /// methods estimate at every step).
-    pub media_cache: Option<icache::media::MediaCache>,
+    volume_grid: Option<VolumeGrid>,
     /// The photons camera rays' multiple scattering sums: without the L S+ V ones when the volume
     /// caustic map has them (denser).
-    pub camera_photons: super::volume_grid::Photons,
+    camera_photons: Photons,
     /// Where the volume caustic map has a photon within its lookup radius.
-    pub volume_caustic_reach: Option<ReachGrid>,
+    volume_caustic_reach: Option<ReachGrid>,
 }
 
 impl<'a> PhotonData<'a> {
@@ -196,7 +114,7 @@ impl<'a> PhotonData<'a> {
     /// In-scattered radiance σs·Li at `x` toward a final-gather ray travelling along `d` (medium asymmetry
     /// `g`), all volume photons counted (single scattering included): the volume grid's.
     pub fn gather_volume_radiance(&self, x: Vec3, d: Vec3, g: f32) -> Vec3 {
-        match (&self.volume_grid, &self.maps.volume) {
+        match (&self.media.volume_grid, &self.maps.volume) {
             (Some(grid), Some(map)) => grid.radiance(map, x, d, g),
             _ => Vec3::ZERO,
         }
@@ -210,12 +128,13 @@ impl<'a> PhotonData<'a> {
         x: Vec3,
         d: Vec3,
         g: f32,
-        c: &mut super::SampleCounters,
+        c: &mut SampleCounters,
     ) -> Vec3 {
         let Some(map) = &self.maps.volume_caustic else {
             return Vec3::ZERO;
         };
         if self
+            .media
             .volume_caustic_reach
             .as_ref()
             .is_some_and(|r| !r.may_reach(x))
@@ -249,12 +168,19 @@ impl<'a> PhotonData<'a> {
     }
 
     /// Multiply scattered radiance σs·Li at `x` toward a camera ray travelling along `d` (asymmetry
-    /// `g`): the media radiance cache's where it has records there, else the volume map's estimate.
-    pub fn cached_multiple(&self, x: Vec3, d: Vec3, g: f32, c: &mut super::SampleCounters) -> Vec3 {
+    /// `g`): the media radiance cache's where `cache` has records there, else the volume map's estimate.
+    pub fn cached_multiple(
+        &self,
+        cache: Option<&MediaCache>,
+        x: Vec3,
+        d: Vec3,
+        g: f32,
+        c: &mut SampleCounters,
+    ) -> Vec3 {
         let Some(map) = &self.maps.volume else {
             return Vec3::ZERO;
         };
-        let cached = self.media_cache.as_ref().and_then(|cache| {
+        let cached = cache.and_then(|cache| {
             c.media_lookups += 1;
             let found = cache.lookup(x);
             c.media_misses += found.is_none() as u64;
@@ -263,7 +189,7 @@ impl<'a> PhotonData<'a> {
         let s = cached.unwrap_or_else(|| {
             c.photon_estimates += 1;
             let (k, cap) = (self.settings.lookup, self.settings.max_radius_volume);
-            super::volume_grid::estimate(map, x, k, cap, self.camera_photons, false)
+            super::volume_grid::estimate(map, x, k, cap, self.media.camera_photons, false)
                 .0
                 .s
         });
@@ -271,12 +197,7 @@ impl<'a> PhotonData<'a> {
     }
 
     /// Wraps the maps for the render: the caustic map's reach grid is built here.
-    pub fn new(
-        maps: PhotonMaps,
-        precomputed: Option<PrecomputedIrradiance>,
-        settings: PhotonSettings,
-        scene: &'a Scene,
-    ) -> Self {
+    pub fn new(maps: PhotonMaps, settings: PhotonSettings, scene: &'a Scene) -> Self {
         let caustic_reach = maps.caustic.as_ref().map(|m| {
             ReachGrid::build(
                 m.photons().iter().map(|ph| ph.pos),
@@ -298,7 +219,7 @@ impl<'a> PhotonData<'a> {
             atlas
         };
         let volume_grid = match (&maps.volume, &scene.media) {
-            (Some(_), Some(m)) => Some(super::volume_grid::VolumeGrid::new(
+            (Some(_), Some(m)) => Some(VolumeGrid::new(
                 m.bounds(),
                 settings.lookup,
                 settings.max_radius_volume,
@@ -319,16 +240,46 @@ impl<'a> PhotonData<'a> {
         };
         PhotonData {
             maps,
-            precomputed,
             settings,
             coverage: SceneCoverage(scene),
-            caustic_reach,
-            atlas,
-            volume_grid,
-            media_cache: None,
-            camera_photons,
-            volume_caustic_reach,
+            surfaces: SurfaceLookups {
+                caustic_reach,
+                atlas,
+            },
+            media: MediaLookups {
+                volume_grid,
+                camera_photons,
+                volume_caustic_reach,
+            },
         }
+    }
+
+    pub fn maps(&self) -> &PhotonMaps {
+        &self.maps
+    }
+
+    /// The maps, for saving once the render is done.
+    pub fn into_maps(self) -> PhotonMaps {
+        self.maps
+    }
+
+    pub fn settings(&self) -> &PhotonSettings {
+        &self.settings
+    }
+
+    /// The irradiance atlas (there with a global map).
+    pub fn atlas(&self) -> Option<&IrradianceAtlas> {
+        self.surfaces.atlas.as_ref()
+    }
+
+    /// The volume grid (there with a volume map in a scene with media).
+    pub fn volume_grid(&self) -> Option<&VolumeGrid> {
+        self.media.volume_grid.as_ref()
+    }
+
+    /// The photons camera rays' multiple-scattering estimates sum.
+    pub fn camera_photons(&self) -> Photons {
+        self.media.camera_photons
     }
 
     pub fn caustic_irradiance(
@@ -336,10 +287,15 @@ impl<'a> PhotonData<'a> {
         hit: &Hit,
         front: bool,
         n: Vec3,
-        c: &mut super::SampleCounters,
+        c: &mut SampleCounters,
     ) -> Vec3 {
         let p = hit.p;
-        if self.caustic_reach.as_ref().is_some_and(|g| !g.may_reach(p)) {
+        if self
+            .surfaces
+            .caustic_reach
+            .as_ref()
+            .is_some_and(|g| !g.may_reach(p))
+        {
             return Vec3::ZERO;
         }
         let Some(m) = &self.maps.caustic else {
@@ -351,7 +307,7 @@ impl<'a> PhotonData<'a> {
             self.settings.caustic_filter,
         );
         // A faint caustic's sparse photons make wide discs: one estimate per atlas texel serves it.
-        let smooth = self.atlas.as_ref().and_then(|a| {
+        let smooth = self.surfaces.atlas.as_ref().and_then(|a| {
             let ng = self.coverage.0.geometry.triangles[hit.tri as usize].ng;
             a.caustic(hit.tri, ng, front, p, |middle, n| {
                 m.irradiance(middle, n, k, r, filter, &self.coverage)
@@ -388,7 +344,8 @@ impl<'a> PhotonData<'a> {
     /// [`gather_radiance`](Self::gather_radiance) at many ends at once, appended to `out` in order: the
     /// texels are found first, then read, so that the memory reads of neighbouring ends overlap.
     pub fn gather_radiance_batch(&self, ends: &[(u32, bool, Vec3)], out: &mut Vec<Vec3>) {
-        let (Some(atlas), Some(global)) = (self.atlas.as_ref(), self.maps.global.as_ref()) else {
+        let (Some(atlas), Some(global)) = (self.surfaces.atlas.as_ref(), self.maps.global.as_ref())
+        else {
             out.extend(ends.iter().map(|_| Vec3::ZERO));
             return;
         };
@@ -409,7 +366,7 @@ impl<'a> PhotonData<'a> {
     }
 
     fn texel(&self, tri: u32, front: bool, p: Vec3) -> Option<super::atlas::TexelIrradiance> {
-        let (atlas, global) = (self.atlas.as_ref()?, self.maps.global.as_ref()?);
+        let (atlas, global) = (self.surfaces.atlas.as_ref()?, self.maps.global.as_ref()?);
         Some(atlas.lookup(&self.coverage, global, tri, front, p))
     }
 
@@ -419,7 +376,7 @@ impl<'a> PhotonData<'a> {
         &self,
         bsdf: &crate::material::Bsdf,
         hit: &crate::geometry::Hit,
-        frame: &super::Frame,
+        frame: &crate::geometry::Frame,
         wo: Vec3,
     ) -> Vec3 {
         let crate::material::Bsdf::Glossy {
@@ -432,11 +389,8 @@ impl<'a> PhotonData<'a> {
             return Vec3::ZERO;
         }
         let n = frame.n;
-        let r = crate::warp::reflect(wo, n);
-        let lobe = |wi: Vec3| -> Vec3 {
-            let cos_a = r.dot(wi).max(0.0);
-            specular * ((exponent + 2.0) / (2.0 * std::f32::consts::PI) * cos_a.powf(exponent))
-        };
+        let phong = PhongLobe::new(wo, n, exponent);
+        let lobe = |wi: Vec3| -> Vec3 { specular * phong.brdf(wi) };
         self.global(|m| {
             m.radiance_with(
                 hit.p,

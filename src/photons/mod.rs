@@ -1,0 +1,14 @@
+//! The photon maps as the render uses them: settings with scene-derived defaults, tracing the maps, and
+//! the services built over them that the integrators read — the irradiance atlas, the disc coverage
+//! of estimates, the volume grid and the media radiance cache's estimates.
+
+pub mod atlas;
+pub mod coverage;
+mod lookup;
+pub mod media_cache;
+mod photon_scene;
+mod settings;
+pub mod volume_grid;
+
+pub use lookup::{atlas_k, PhotonData};
+pub use settings::{PhotonSettings, DEFAULT_PHOTONS_PER_TEXEL};
