@@ -377,7 +377,7 @@ fn pass_a_stride_must_be_in_range() {
 #[test]
 fn cache_settings_are_checked_whatever_the_method() {
     // `[render.icache]` is checked when the scene is loaded: a bad value is an error under `--method path`
-    // too (it was accepted, and ignored, until issue 11).
+    // too.
     for extra in ["fill = \"three-pass\"", "weight = \"gauss\"", "rays = 2"] {
         let toml = format!("{ROOM_TOML}\n[render.icache]\n{extra}\n");
         let d = with_toml(&toml);
