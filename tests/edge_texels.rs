@@ -6,7 +6,7 @@
 //! texel middle was either in the strip or not, so the whole texel was lit or dark and the light the
 //! strip bounces was off by whatever the texels' alignment made it: `pm` 0.952 on the shaded pixels,
 //! 0.977 on the image. With edge texels: `pm` 1.0014 / 0.9980, `pm-fg` 0.978 / 0.996. The same fault
-//! left the shaded arcades of Sponza up to 18 % dark at the default texel size (issue 10); with edge
+//! left the shaded arcades of Sponza up to 18 % dark at the default texel size; with edge
 //! texels 3 %. `pm` and `pm-fg` against `path` at 1024 spp, on the pixels whose direct light is zero.
 //! (A 20 cm slit on these texels is narrower than the 2 × 2 probes of a texel can see: −7.6 %.)
 

@@ -1,4 +1,4 @@
-//! Hostile runs (issue 12, part B): resource requests that cannot fit, outputs that collide with each
+//! Hostile runs: resource requests that cannot fit, outputs that collide with each
 //! other or with inputs, late write failures, exceptions in the image library, and SIGINT/SIGTERM in
 //! every long phase. Each case: the exit status, one line naming the option, no file created, inputs
 //! unchanged, bounded time.

@@ -1,4 +1,4 @@
-//! Hostile scene content (issue 12, part A): values outside their physical range, coordinates whose
+//! Hostile scene content: values outside their physical range, coordinates whose
 //! differences overflow, directions that normalise badly, mirrored meshes, odd textures, non-regular
 //! and oversized input files, malformed OBJ/MTL/TOML, and photon or cache files with bad values behind a
 //! valid checksum. Bad input ends with exit status 2, one line on stderr naming the file and line, no

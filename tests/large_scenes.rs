@@ -1,6 +1,6 @@
 //! `pm` with its defaults on the scenes people render, against independent Mitsuba 3 references
 //! (`tests/reference/<scene>-path.exr`, 128×128, made by `tools/mitsuba_reference.py`; the command, sample
-//! count and the reference's own noise are in the JSON beside each). Issue 10: on these scenes `pm` was
+//! count and the reference's own noise are in the JSON beside each). On these scenes `pm` was once
 //! 4–12 % too dark (density estimates divided by a disc the surface did not fill) while it was excellent
 //! on boxes.
 //!
@@ -9,7 +9,7 @@
 //! (the records' gathers and the photons: ±0.5–1 % on the blinds room's walls from seed to seed) and
 //! the target is the bias — and the 8×8-block relMSE of the first render against what `path` reaches in
 //! the same wall time (the path tracer's sample count is set from timed calibration renders in the same
-//! run). Every bound is issue 10's target: 1 % on every mean and 1.5× path's block error (Sponza's right
+//! run). Every bound is the accuracy target: 1 % on every mean and 1.5× path's block error (Sponza's right
 //! wall meets it by 0.1 %; its comment says what is left there). Slow (renders of 66–75 k-triangle scenes, several
 //! per scene): `make test-slow`.
 
@@ -99,7 +99,7 @@ fn check_scene(scene: &str, name: &str, regions: &[Region], max_block_ratio: f64
         render_with(&scene, "pm", 32, &out, &["--seed", &seed.to_string()]);
         renders.push(read(&out));
     }
-    // Pass-B misses: samples that shaded with no record of their own surface (issue 10: ≤ 0.1 %).
+    // Pass-B misses: samples that shaded with no record of their own surface (target: ≤ 0.1 %).
     let stats: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&pm_stats).unwrap()).unwrap();
     let (misses, lookups) = (
@@ -235,7 +235,7 @@ fn blinds_room_pm_matches_mitsuba() {
     );
 }
 
-/// Issue 10: pass-B misses (samples no record interpolates) ≤ 0.1 % of the lookups on every shipped and
+/// Pass-B misses (samples no record interpolates) ≤ 0.1 % of the lookups on every shipped and
 /// benchmark scene at 1000² too (`shipped_scenes` checks the default sizes, the tests above 128²).
 /// Measured 2026-11-24 at 4 spp: 0 misses of 3.7–4.2 M lookups everywhere but fog-spot (11 of 4.0 M);
 /// the fog scenes take 73 and 92 s, the others 4–12 s.

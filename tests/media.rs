@@ -1,4 +1,4 @@
-//! Participating media (issue 13): closed forms that a volumetric renderer must reproduce, the scene
+//! Participating media: closed forms that a volumetric renderer must reproduce, the scene
 //! keys' validation, and determinism across thread counts.
 //!
 //! - Beer–Lambert: an emitter seen through purely absorbing slabs, one nested in the other (exact).
@@ -785,7 +785,7 @@ fn timed_render(
     (img, start.elapsed().as_secs_f64())
 }
 
-/// Issue 13's last condition: `pm` with its defaults is more accurate than `path` in the same wall time
+/// `pm` with its defaults is more accurate than `path` in the same wall time
 /// on both shipped fog scenes. `path` is timed at 8 and 24 spp (a fixed cost plus a cost per sample)
 /// and rendered at the count that fits `pm`'s time; both against the Mitsuba references by pixel relMSE.
 /// Measured (chart of 2026-11-24): fog-cornell pm 0.00285 in 3.6 s against path's 0.0074; fog-spot pm

@@ -62,7 +62,7 @@ fn rare_events_stay_rare_on_every_shipped_scene() {
         );
         eprintln!("[shipped] {name}: pass-B lookups {lookups}, misses {misses}, gathered {gathered}, one-record {}", ic("single_record_pass_b"));
         assert!(lookups > 0.0, "{name}: no pass-B lookups");
-        // Issue 10: ≤ 0.1 % (pass B makes records for the samples that miss, between its rounds).
+        // Target: ≤ 0.1 % (pass B makes records for the samples that miss, between its rounds).
         assert!(
             misses <= 1e-3 * lookups,
             "{name}: {misses} misses of {lookups} lookups"

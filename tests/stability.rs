@@ -1,4 +1,4 @@
-//! Failure-case stability suite (issue 6, item 1): scenes where photon maps and irradiance caching are
+//! Failure-case stability suite: scenes where photon maps and irradiance caching are
 //! known to break — cracks, small geometry, creases, scanline order, splotches, caustics, specular-only,
 //! unlit and sealed scenes, broken meshes, extreme scales. Each is rendered small with `pm` and compared
 //! with `path` (or an analytic answer).

@@ -351,7 +351,7 @@ def machine():
 
 
 def default_bound(name):
-    return 0.006 if "water" in name else 0.003  # issue 5: water caustics get twice the bound
+    return 0.006 if "water" in name else 0.003  # water caustics get twice the bound
 
 
 def write_markdown(path, results, quick, elapsed):

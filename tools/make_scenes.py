@@ -310,7 +310,7 @@ def blinds_room():
     """A closed meeting room (x in [-3, 3], y in [0, 2.8], z in [-6, 0]) lit only by six point lights under
     the ceiling ([[light]] entries): venetian blinds of 3 mm slats 3 cm apart in front of the back wall, a
     stack of thin vertical fins (a radiator) on the left wall, a table and chairs. Thin, closely stacked
-    geometry is where photon density estimates lose light at edges (issue 10)."""
+    geometry is where photon density estimates lose light at edges."""
     o = Obj()
     W, H, D = 3.0, 2.8, 6.0
     o.quad("floor", "carpet", (-W, 0, 0), (W, 0, 0), (W, 0, -D), (-W, 0, -D))
@@ -377,7 +377,7 @@ def fog_box(name, lo, hi):
 
 
 def fog_cornell():
-    """The Cornell box filled with a thin fog (issue 13): the box's inside, just within its walls and
+    """The Cornell box filled with a thin fog: the box's inside, just within its walls and
     around its light, is the boundary of the medium; a white block and a glass sphere stand in it. The
     sphere is its own mesh, a boundary of the fog too (fog on both sides of the glass): a dielectric
     that names no medium would leave the fog behind in Mitsuba, keep it in pmrender."""
@@ -392,7 +392,7 @@ def fog_cornell():
 
 
 def fog_spot():
-    """A spot of light shining down through a glass sphere in a fog-filled open room (issue 13): the beam,
+    """A spot of light shining down through a glass sphere in a fog-filled open room: the beam,
     and the volume caustic the sphere focuses into the fog below it. The spot is a small emitter inside a
     black snoot, not a point spot light: light from a point reaches the fog through glass only along
     paths a path tracer (ours or Mitsuba's) cannot sample, and both must be able to render the reference."""
