@@ -197,7 +197,7 @@ fn write_outputs(
     }
     let noise_note = setting.reference_noise.map(|v| {
         format!(
-            "Dashed line: the reference's own noise, relMSE {v:.1e} (from the JSON beside the \
+            "Dashed line: the reference's own noise, relMSE {v:.2e} (from the JSON beside the \
              reference); the beauty's error cannot be measured below it."
         )
     });
