@@ -50,8 +50,9 @@ pub fn fmt_rel_mse(x: f64) -> String {
 
 /// Why some cells show `—` (and the chart leaves those points out), if any do.
 pub fn missing_values_note(rows: &[ConvergeRow]) -> Option<String> {
+    let mut notes = Vec::new();
     if let Some(r) = rows.iter().find(|r| r.terms_are_reference) {
-        return Some(format!(
+        notes.push(format!(
             "At {} photons the caustic and indirect terms are the reference that the other counts' \
              terms are measured against (self-convergence: the reference image has no such layers), \
              so they have no error of their own.",
@@ -59,9 +60,19 @@ pub fn missing_values_note(rows: &[ConvergeRow]) -> Option<String> {
         ));
     }
     let missing = |x: f64| !x.is_finite();
-    rows.iter()
-        .any(|r| missing(r.beauty) || missing(r.caustic) || missing(r.indirect))
-        .then(|| "No value where the render or the reference has no such layer.".to_string())
+    if rows.iter().any(|r| {
+        missing(r.beauty) || (!r.terms_are_reference && (missing(r.caustic) || missing(r.indirect)))
+    }) {
+        let which = if notes.is_empty() {
+            "No value"
+        } else {
+            "Other values missing"
+        };
+        notes.push(format!(
+            "{which}: the render or the reference has no such layer."
+        ));
+    }
+    (!notes.is_empty()).then(|| notes.join(" "))
 }
 
 /// The footnote under the terminal table and `converge.md`'s table.
