@@ -414,11 +414,19 @@ fn converge_command(a: ConvergeArgs) -> Result<()> {
         "{:>10} {:>9} {:>14} {:>14} {:>14}",
         "photons", "time s", "beauty relMSE", "caustic", "indirect"
     );
-    for r in rows {
+    let f = pmrender::converge::fmt_rel_mse;
+    for r in &rows {
         println!(
-            "{:>10} {:>9.2} {:>14.5} {:>14.5} {:>14.5}",
-            r.photons, r.time_s, r.beauty, r.caustic, r.indirect
+            "{:>10} {:>9.2} {:>14} {:>14} {:>14}",
+            r.photons,
+            r.time_s,
+            f(r.beauty),
+            f(r.caustic),
+            f(r.indirect)
         );
+    }
+    if let Some(note) = pmrender::converge::footnote(&rows) {
+        println!("{note}");
     }
     println!(
         "wrote {}/converge.md, converge.json, converge.png",

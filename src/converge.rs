@@ -9,7 +9,7 @@ use std::path::Path;
 use std::sync::atomic::AtomicBool;
 use std::time::Instant;
 
-use crate::chart::{log_log_png, Series, PALETTE};
+use crate::chart::{log_log_png, Level, LogLogChart, Series, PALETTE};
 use crate::error::{in_file, option, Result};
 use crate::io::atomic::write_bytes;
 use crate::io::output::{read_layer, Image};
@@ -34,6 +34,68 @@ pub struct ConvergeRow {
     pub beauty: f64,
     pub caustic: f64,
     pub indirect: f64,
+    /// This row's caustic and indirect terms are the reference of the others' (self-convergence), so
+    /// they have no error (NaN).
+    pub terms_are_reference: bool,
+}
+
+/// A relMSE as the terminal table and `converge.md` show it: `—` where there is none (see [`footnote`]).
+pub fn fmt_rel_mse(x: f64) -> String {
+    if x.is_finite() {
+        format!("{x:.5}")
+    } else {
+        "—".to_string()
+    }
+}
+
+/// Why some cells show `—` (and the chart leaves those points out), if any do.
+pub fn missing_values_note(rows: &[ConvergeRow]) -> Option<String> {
+    let mut notes = Vec::new();
+    if let Some(r) = rows.iter().find(|r| r.terms_are_reference) {
+        notes.push(format!(
+            "At {} photons the caustic and indirect terms are the reference that the other counts' \
+             terms are measured against (self-convergence: the reference image has no such layers), \
+             so they have no error of their own.",
+            r.photons
+        ));
+    }
+    let missing = |x: f64| !x.is_finite();
+    if rows.iter().any(|r| {
+        missing(r.beauty) || (!r.terms_are_reference && (missing(r.caustic) || missing(r.indirect)))
+    }) {
+        let which = if notes.is_empty() {
+            "No value"
+        } else {
+            "Other values missing"
+        };
+        notes.push(format!(
+            "{which}: the render or the reference has no such layer."
+        ));
+    }
+    (!notes.is_empty()).then(|| notes.join(" "))
+}
+
+/// The footnote under the terminal table and `converge.md`'s table.
+pub fn footnote(rows: &[ConvergeRow]) -> Option<String> {
+    missing_values_note(rows).map(|n| format!("— {n}"))
+}
+
+/// What the chart's title and dashed line name.
+struct Setting {
+    scene: String,
+    method: Method,
+    spp: u32,
+    /// The reference's own relMSE noise, from the JSON beside it (`noise_relmse`).
+    reference_noise: Option<f64>,
+}
+
+/// `noise_relmse` from the JSON beside `reference` (as `tools/mitsuba_reference.py` writes it), if any.
+fn reference_noise(reference: &Path) -> Option<f64> {
+    let text = std::fs::read_to_string(reference.with_extension("json")).ok()?;
+    let json: serde_json::Value = serde_json::from_str(&text).ok()?;
+    json.get("noise_relmse")?
+        .as_f64()
+        .filter(|v| v.is_finite() && *v > 0.0)
 }
 
 fn layer<'a>(layers: &'a [(&'static str, Image)], name: &str) -> Option<&'a Image> {
@@ -74,11 +136,13 @@ pub fn converge(
     opts.width = Some(reference_img.width);
     opts.height = Some(reference_img.height);
     let mut renders = Vec::new();
+    let mut spp = 0;
     for &n in counts {
         scene.settings.photons.global = Some(n);
         scene.settings.photons.caustic = Some(if scene.has_specular() { n } else { 0 });
         let t = Instant::now();
-        let (out, _) = render(scene, &opts, progress, cancel)?;
+        let (out, stats) = render(scene, &opts, progress, cancel)?;
+        spp = stats.setup.spp;
         renders.push((n, t.elapsed().as_secs_f64(), out));
     }
     let Some((_, _, last)) = renders.last() else {
@@ -107,14 +171,34 @@ pub fn converge(
                 beauty: rel_mse(&out.beauty, &reference_img),
                 caustic: term_err(0, "caustic"),
                 indirect: term_err(1, "indirect"),
+                terms_are_reference: ref_terms.iter().all(Option::is_none) && i + 1 == n_renders,
             }
         })
         .collect();
-    write_outputs(&rows, ref_terms.iter().any(Option::is_some), out_dir)?;
+    let setting = Setting {
+        scene: scene.path.file_stem().map_or_else(
+            || scene.path.display().to_string(),
+            |s| s.to_string_lossy().into_owned(),
+        ),
+        method,
+        spp,
+        reference_noise: reference_noise(reference),
+    };
+    write_outputs(
+        &rows,
+        ref_terms.iter().any(Option::is_some),
+        &setting,
+        out_dir,
+    )?;
     Ok(rows)
 }
 
-fn write_outputs(rows: &[ConvergeRow], terms_from_reference: bool, out_dir: &Path) -> Result<()> {
+fn write_outputs(
+    rows: &[ConvergeRow],
+    terms_from_reference: bool,
+    setting: &Setting,
+    out_dir: &Path,
+) -> Result<()> {
     let basis = if terms_from_reference {
         "the reference's layers"
     } else {
@@ -124,14 +208,8 @@ fn write_outputs(rows: &[ConvergeRow], terms_from_reference: bool, out_dir: &Pat
         "# Photon-count convergence\n\nrelMSE = mean (x − r)² / (r² + 0.01). Beauty against the reference; caustic and indirect terms against {basis}.\n\n\
          | photons | time (s) | beauty relMSE | caustic relMSE | indirect relMSE |\n|---:|---:|---:|---:|---:|\n"
     );
+    let f = fmt_rel_mse;
     for r in rows {
-        let f = |x: f64| {
-            if x.is_finite() {
-                format!("{x:.5}")
-            } else {
-                "—".to_string()
-            }
-        };
         md += &format!(
             "| {} | {:.2} | {} | {} | {} |\n",
             r.photons,
@@ -140,6 +218,15 @@ fn write_outputs(rows: &[ConvergeRow], terms_from_reference: bool, out_dir: &Pat
             f(r.caustic),
             f(r.indirect)
         );
+    }
+    let noise_note = setting.reference_noise.map(|v| {
+        format!(
+            "Dashed line: the reference's own noise, relMSE {v:.2e} (from the JSON beside the \
+             reference); the beauty's error cannot be measured below it."
+        )
+    });
+    for note in footnote(rows).iter().chain(&noise_note) {
+        md += &format!("\n{note}\n");
     }
     md += &format!("\nChart `converge.png`: x = photons, y = relMSE; {} = beauty, {} = caustic, {} = indirect.\n", PALETTE[0].0, PALETTE[1].0, PALETTE[2].0);
     write_bytes(&out_dir.join("converge.md"), md.as_bytes())?;
@@ -150,9 +237,48 @@ fn write_outputs(rows: &[ConvergeRow], terms_from_reference: bool, out_dir: &Pat
             .unwrap_or_default()
             .as_bytes(),
     )?;
-    let mk = |f: &dyn Fn(&ConvergeRow) -> f64| Series {
+    let notes: Vec<String> = missing_values_note(rows)
+        .into_iter()
+        .chain(noise_note)
+        .collect();
+    write_chart(rows, setting, &notes, &out_dir.join("converge.png"))
+}
+
+fn write_chart(
+    rows: &[ConvergeRow],
+    setting: &Setting,
+    notes: &[String],
+    path: &Path,
+) -> Result<()> {
+    let mk = |name: &str, f: &dyn Fn(&ConvergeRow) -> f64| Series {
+        name: name.into(),
         points: rows.iter().map(|r| (r.photons as f64, f(r))).collect(),
     };
-    let series = [mk(&|r| r.beauty), mk(&|r| r.caustic), mk(&|r| r.indirect)];
-    log_log_png(&out_dir.join("converge.png"), &series, &[])
+    let series = [
+        mk("beauty", &|r| r.beauty),
+        mk("caustic term", &|r| r.caustic),
+        mk("indirect term", &|r| r.indirect),
+    ];
+    let levels: Vec<Level> = setting
+        .reference_noise
+        .map(|y| Level {
+            name: "reference's own noise".into(),
+            y,
+        })
+        .into_iter()
+        .collect();
+    let chart = LogLogChart {
+        title: format!(
+            "Photon-count convergence — {}, method {}, {} spp",
+            setting.scene,
+            setting.method.name(),
+            setting.spp
+        ),
+        x_label: "photons",
+        y_label: "relMSE",
+        series: &series,
+        levels: &levels,
+        notes,
+    };
+    log_log_png(path, &chart)
 }

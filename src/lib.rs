@@ -10,7 +10,7 @@ pub(crate) mod accel;
 #[forbid(unsafe_code)]
 pub(crate) mod camera;
 #[forbid(unsafe_code)]
-pub(crate) mod chart;
+pub mod chart;
 #[forbid(unsafe_code)]
 mod chi2;
 #[forbid(unsafe_code)]

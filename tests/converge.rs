@@ -1,5 +1,6 @@
-//! `pmrender converge` writes its table and chart, and the error of the caustic and indirect terms falls
-//! as the photon count grows (on the shipped caustic scene, against its Mitsuba reference).
+//! `pmrender converge` writes its table and chart, the terminal table says what `converge.md` says, and
+//! the error of the caustic and indirect terms falls as the photon count grows (on the shipped caustic
+//! scene, against its Mitsuba reference).
 
 mod common;
 use common::*;
@@ -26,6 +27,26 @@ fn converge_writes_chart_and_errors_fall() {
     for f in ["converge.md", "converge.json", "converge.png"] {
         assert!(d.path().join(f).exists(), "{f}");
     }
+    let png = pmrender::io::oiio::read(&d.path().join("converge.png")).expect("the chart decodes");
+    let (w, h) = pmrender::chart::SIZE;
+    assert_eq!((png.width, png.height, png.channels), (w, h, 3));
+    // The beauty's line and markers, in the chart's first colour (8-bit sRGB 31, 120, 181).
+    let blue = [0.12, 0.47, 0.71];
+    let beauty_blue = png
+        .data
+        .chunks_exact(3)
+        .filter(|p| p.iter().zip(blue).all(|(a, b)| (a - b).abs() < 0.02))
+        .count();
+    assert!(
+        beauty_blue > 500,
+        "{beauty_blue} pixels of the beauty's blue"
+    );
+    let md = std::fs::read_to_string(d.path().join("converge.md")).unwrap();
+    assert_table_agrees_with_markdown(&String::from_utf8_lossy(&r.stdout), &md);
+    assert!(
+        md.contains("the reference's own noise, relMSE 7.84e-5"),
+        "noise_relmse of the JSON beside the reference: {md}"
+    );
     let rows: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(d.path().join("converge.json")).unwrap())
             .unwrap();
@@ -46,4 +67,35 @@ fn converge_writes_chart_and_errors_fall() {
         caustic[3].is_nan() && indirect[3].is_nan(),
         "the largest count is the terms' own reference"
     );
+}
+
+/// The terminal table's rows and footnote are `converge.md`'s: the same cells, `—` (not NaN) where there is
+/// no error, the same note saying why.
+fn assert_table_agrees_with_markdown(stdout: &str, md: &str) {
+    assert!(!stdout.contains("NaN"), "{stdout}");
+    let terminal: Vec<Vec<&str>> = stdout
+        .lines()
+        .map(|l| l.split_whitespace().collect::<Vec<_>>())
+        .filter(|cells| cells.len() == 5 && cells[0].parse::<usize>().is_ok())
+        .collect();
+    let markdown: Vec<Vec<&str>> = md
+        .lines()
+        .filter(|l| {
+            l.starts_with("| ") && l.split('|').nth(1).unwrap().trim().parse::<usize>().is_ok()
+        })
+        .map(|l| {
+            l.split('|')
+                .map(str::trim)
+                .filter(|c| !c.is_empty())
+                .collect()
+        })
+        .collect();
+    assert_eq!(terminal.len(), 4, "{stdout}");
+    assert_eq!(terminal, markdown, "{stdout}\n{md}");
+    let note = stdout
+        .lines()
+        .find(|l| l.starts_with("— "))
+        .expect("a footnote");
+    assert!(note.contains("self-convergence"), "{note}");
+    assert!(md.lines().any(|l| l == note), "{md}");
 }

@@ -1,4 +1,4 @@
 //! Files in and out: OpenImageIO shim, atomic writes, image outputs.
 pub(crate) mod atomic;
-pub(crate) mod oiio;
+pub mod oiio;
 pub mod output;

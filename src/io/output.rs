@@ -6,7 +6,7 @@ use std::path::Path;
 
 use glam::Vec3;
 
-use super::atomic::{write_atomically, OutputSet};
+use super::atomic::OutputSet;
 use super::oiio::{self, Pixels};
 use crate::error::Result;
 
@@ -80,24 +80,6 @@ pub(crate) fn stage_png(set: &mut OutputSet, path: &Path, image: &Image) -> Resu
         .flat_map(|p| p.to_array().map(srgb_encode))
         .collect();
     set.stage(path, |tmp| {
-        oiio::write(
-            tmp,
-            image.width,
-            image.height,
-            &["R", "G", "B"],
-            Pixels::U8(&data),
-        )
-    })
-}
-
-/// Writes one PNG on its own (charts), atomically.
-pub(crate) fn write_png(path: &Path, image: &Image) -> Result<()> {
-    let data: Vec<u8> = image
-        .pixels
-        .iter()
-        .flat_map(|p| p.to_array().map(srgb_encode))
-        .collect();
-    write_atomically(path, |tmp| {
         oiio::write(
             tmp,
             image.width,
