@@ -25,7 +25,7 @@ def fmt3(v):
 
 
 def group_triangles(scene):
-    """{(material, flat, boundary): [(p, n, uv)]} with emissive triangles flattened and re-wound, and a
+    """{(material, flat, boundary, outside medium): [(p, n, uv)]} with emissive triangles flattened and re-wound, and a
     medium's boundary triangles wound so that their normal points out of the medium (Mitsuba's
     interior is behind the normal)."""
     groups = {}
@@ -34,7 +34,7 @@ def group_triangles(scene):
             p = list(t.p) if scene.boundaries[t.boundary]["outward"] else [t.p[0], t.p[2], t.p[1]]
             n = t.n if scene.boundaries[t.boundary]["outward"] or t.n is None else [t.n[0], t.n[2], t.n[1]]
             uv = t.uv if scene.boundaries[t.boundary]["outward"] or not t.uv else [t.uv[0], t.uv[2], t.uv[1]]
-            groups.setdefault((t.material, n is None, t.boundary), []).append((p, n, uv))
+            groups.setdefault((t.material, n is None, t.boundary, t.outside or ""), []).append((p, n, uv))
             continue
         mat = scene.materials[t.material]
         p, n = list(t.p), t.n
@@ -45,9 +45,9 @@ def group_triangles(scene):
                 t_uv = [t.uv[0], t.uv[2], t.uv[1]] if t.uv else None
             else:
                 t_uv = t.uv
-            groups.setdefault((t.material, True, -1), []).append((p, None, t_uv))
+            groups.setdefault((t.material, True, -1, ""), []).append((p, None, t_uv))
         else:
-            groups.setdefault((t.material, n is None, -1), []).append((p, n, t.uv))
+            groups.setdefault((t.material, n is None, -1, ""), []).append((p, n, t.uv))
     return groups
 
 
@@ -173,15 +173,16 @@ def export(scene, out_dir, spp, width, height):
         body.insert(0, f'<medium type="homogeneous" id="{mid(name)}"><rgb name="albedo" value="{fmt3(albedo)}"/>'
                        f'<rgb name="sigma_t" value="{fmt3(tuple(x / scale for x in st))}"/>'
                        f'<float name="scale" value="{scale:.9g}"/><phase type="hg"><float name="g" value="{m["g"]:.9g}"/></phase></medium>')
-    for (mi, flat, boundary), tris in sorted(group_triangles(scene).items()):
+    for (mi, flat, boundary, outside), tris in sorted(group_triangles(scene).items()):
         mat = scene.materials[mi]
-        name = f"m{mi:03d}_{'flat' if flat else 'smooth'}{'' if boundary < 0 else f'_b{boundary}'}.obj"
+        faces = "" if boundary < 0 or outside == (scene.boundaries[boundary]["outside"] or "") else "_" + mid(outside)
+        name = f"m{mi:03d}_{'flat' if flat else 'smooth'}{'' if boundary < 0 else f'_b{boundary}{faces}'}.obj"
         interface = ""
         if boundary >= 0:
             b = scene.boundaries[boundary]
             interface = f'<ref name="interior" id="{mid(b["medium"])}"/>'
-            if b["outside"]:
-                interface += f'<ref name="exterior" id="{mid(b["outside"])}"/>'
+            if outside:
+                interface += f'<ref name="exterior" id="{mid(outside)}"/>'
         elif media:
             # Every other surface in a medium keeps the ray's medium: in Mitsuba a shape without an
             # interface does too, except a dielectric's transmission, which pmrender's scenes avoid by
