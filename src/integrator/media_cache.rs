@@ -11,7 +11,8 @@
 //!   sphere, each distance cut at the mean free path;
 //! - the distance over which the gradient changes the estimate by [`GRADIENT_CHANGE`] of itself (a
 //!   record's first-order extrapolation is trusted that far);
-//! - the medium's mean free path 1/σt and a quarter of the scene's diagonal,
+//! - the medium's mean free path 1/σt and a quarter of the scene's diagonal;
+//! - [`MAX_ANGLE`] times the distance from the camera along the record's path,
 //!
 //! but not below [`KERNEL_REACH`] times the estimate's own kernel radius (records closer than that
 //! hold nearly the same photons) nor below [`LATTICE_REACH`] lattice spacings of pixels at x (pass B's
@@ -47,6 +48,10 @@ pub const GRADIENT_CHANGE: f32 = 0.5;
 /// rendered with the same error as at ½ and ¾ (relMSE within 1 %), from half the records (2.9 k
 /// instead of 5.8 k; pass A 0.36 s instead of 0.58 s).
 const KERNEL_REACH: f32 = 1.0;
+/// R is at most this many radians seen from the camera along the record's path: one record's estimate
+/// (and its noise) is then shared by a bounded part of the image; unbounded, with the camera inside a
+/// medium, the records near the eye spanned the whole image and biased it.
+const MAX_ANGLE: f32 = 0.15;
 /// R is at least this many lattice spacings (pixels × stride) at the record's point.
 const LATTICE_REACH: f32 = 1.5;
 
@@ -132,7 +137,7 @@ fn follow(
             out.push(MediaPoint {
                 pos: start + d * t,
                 pixel_world: pixel(along + t),
-                max_radius: max_radius(m.sigma_t),
+                max_radius: max_radius(m.sigma_t).min(MAX_ANGLE * (along + t)),
             });
         }
     });
