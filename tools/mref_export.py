@@ -25,7 +25,7 @@ def fmt3(v):
 
 
 def group_triangles(scene):
-    """{(material, flat, boundary): [(p, n, uv)]} with emissive triangles flattened and re-wound, and a
+    """{(material, flat, boundary, outside medium): [(p, n, uv)]} with emissive triangles flattened and re-wound, and a
     medium's boundary triangles wound so that their normal points out of the medium (Mitsuba's
     interior is behind the normal)."""
     groups = {}
@@ -34,7 +34,7 @@ def group_triangles(scene):
             p = list(t.p) if scene.boundaries[t.boundary]["outward"] else [t.p[0], t.p[2], t.p[1]]
             n = t.n if scene.boundaries[t.boundary]["outward"] or t.n is None else [t.n[0], t.n[2], t.n[1]]
             uv = t.uv if scene.boundaries[t.boundary]["outward"] or not t.uv else [t.uv[0], t.uv[2], t.uv[1]]
-            groups.setdefault((t.material, n is None, t.boundary), []).append((p, n, uv))
+            groups.setdefault((t.material, n is None, t.boundary, t.outside or ""), []).append((p, n, uv))
             continue
         mat = scene.materials[t.material]
         p, n = list(t.p), t.n
@@ -45,9 +45,9 @@ def group_triangles(scene):
                 t_uv = [t.uv[0], t.uv[2], t.uv[1]] if t.uv else None
             else:
                 t_uv = t.uv
-            groups.setdefault((t.material, True, -1), []).append((p, None, t_uv))
+            groups.setdefault((t.material, True, -1, ""), []).append((p, None, t_uv))
         else:
-            groups.setdefault((t.material, n is None, -1), []).append((p, n, t.uv))
+            groups.setdefault((t.material, n is None, -1, ""), []).append((p, n, t.uv))
     return groups
 
 
@@ -130,6 +130,23 @@ def clip_range(scene):
     return 1e-5 * extent, 10.0 * (extent + eye_far)
 
 
+def emitter_offset(scene):
+    """How far behind a transparent emitter its surface is drawn: 20 times Mitsuba's ray offset
+    ((1 + max |p|) * RayEpsilon, RayEpsilon = 1500 * 2^-24) at the scene's largest coordinate, enough
+    for the offsets of a few null boundaries crossed on the way."""
+    extent = max(abs(p[k]) for t in scene.triangles for p in t.p for k in range(3))
+    return 20.0 * (1.0 + extent) * 1500.0 * 2.0 ** -24
+
+
+def behind(tris, d):
+    """Flat triangles moved by `d` against their geometric normal."""
+    out = []
+    for p, n, uv in tris:
+        ng = normalize(cross(sub(p[1], p[0]), sub(p[2], p[0])))
+        out.append(([tuple(c - d * w for c, w in zip(v, ng)) for v in p], None, uv))
+    return out
+
+
 def export(scene, out_dir, spp, width, height):
     """Writes scene.xml and its OBJs into out_dir; returns the XML path."""
     os.makedirs(out_dir, exist_ok=True)
@@ -151,17 +168,21 @@ def export(scene, out_dir, spp, width, height):
     for name, m in scene.media.items():
         st = tuple(a + b for a, b in zip(m["sigma_a"], m["sigma_s"]))
         albedo = tuple(s_ / t if t > 0 else 0.0 for s_, t in zip(m["sigma_s"], st))
+        # An RGB sigma_t is read as a reflectance (each channel at most 1): scaled into that range.
+        scale = max(max(st), 1.0)
         body.insert(0, f'<medium type="homogeneous" id="{mid(name)}"><rgb name="albedo" value="{fmt3(albedo)}"/>'
-                       f'<rgb name="sigma_t" value="{fmt3(st)}"/><phase type="hg"><float name="g" value="{m["g"]:.9g}"/></phase></medium>')
-    for (mi, flat, boundary), tris in sorted(group_triangles(scene).items()):
+                       f'<rgb name="sigma_t" value="{fmt3(tuple(x / scale for x in st))}"/>'
+                       f'<float name="scale" value="{scale:.9g}"/><phase type="hg"><float name="g" value="{m["g"]:.9g}"/></phase></medium>')
+    for (mi, flat, boundary, outside), tris in sorted(group_triangles(scene).items()):
         mat = scene.materials[mi]
-        name = f"m{mi:03d}_{'flat' if flat else 'smooth'}{'' if boundary < 0 else f'_b{boundary}'}.obj"
+        faces = "" if boundary < 0 or outside == (scene.boundaries[boundary]["outside"] or "") else "_" + mid(outside)
+        name = f"m{mi:03d}_{'flat' if flat else 'smooth'}{'' if boundary < 0 else f'_b{boundary}{faces}'}.obj"
         interface = ""
         if boundary >= 0:
             b = scene.boundaries[boundary]
             interface = f'<ref name="interior" id="{mid(b["medium"])}"/>'
-            if b["outside"]:
-                interface += f'<ref name="exterior" id="{mid(b["outside"])}"/>'
+            if outside:
+                interface += f'<ref name="exterior" id="{mid(outside)}"/>'
         elif media:
             # Every other surface in a medium keeps the ray's medium: in Mitsuba a shape without an
             # interface does too, except a dielectric's transmission, which pmrender's scenes avoid by
@@ -170,10 +191,21 @@ def export(scene, out_dir, spp, width, height):
         write_obj(os.path.join(out_dir, name), tris, with_uv=bool(mat.texture))
         emitter = (f'<emitter type="area"><rgb name="radiance" value="{fmt3(mat.emission)}"/></emitter>'
                    if mat.emissive() else "")
+        bsdf = bsdf_xml(mat)
+        if emitter and media:
+            # volpath moves a shadow ray's origin off every null boundary it crosses, along the boundary's
+            # normal, after cutting the ray ShadowEpsilon short of the light: a grazing ray to an emitter
+            # just beyond a boundary parallel to it then ends inside the emitter and is blocked by its own
+            # surface. The emitter is made transparent (null) and its surface drawn again just behind it.
+            twin = name.replace(".obj", "_surface.obj")
+            write_obj(os.path.join(out_dir, twin), behind(tris, emitter_offset(scene)), with_uv=bool(mat.texture))
+            body.append(f'<shape type="obj"><string name="filename" value="{twin}"/>'
+                        f'<boolean name="face_normals" value="true"/>{bsdf}</shape>')
+            bsdf = '<bsdf type="null"/>'
         body.append(f'<!-- material {mat.name.replace("--", "- -")} ({mat.kind}) -->\n<shape type="obj">'
                     f'<string name="filename" value="{name}"/>'
                     f'<boolean name="face_normals" value="{"true" if flat else "false"}"/>'
-                    f'{bsdf_xml(mat)}{emitter}{interface}</shape>')
+                    f'{bsdf}{emitter}{interface}</shape>')
     body += [light_xml(l) for l in scene.lights]
     xml = os.path.join(out_dir, "scene.xml")
     with open(xml, "w") as f:

@@ -212,7 +212,51 @@ def media_sides(scene):
         area = norm(cross(sub(big[1], big[0]), sub(big[2], big[0]))) / 2
         inward = tuple(-x for x in ng) if b["outward"] else ng
         b["outside"] = innermost(tuple(ci + 1e-3 * math.sqrt(area) * w for ci, w in zip(c, inward)), skip=i)
+    for t in scene.triangles:
+        if t.boundary is not None:
+            t.outside = scene.boundaries[t.boundary]["outside"]
+    shared_faces(scene)
     scene.camera_medium = innermost(scene.camera["eye"])
+
+
+def shared_faces(scene):
+    """As pmrender, face by face where two media meet: a boundary triangle lying on another boundary
+    mesh's face, the two facing away from each other, has that mesh's medium outside."""
+    import numpy as np
+    by_boundary = {}
+    for t in scene.triangles:
+        if t.boundary is not None:
+            by_boundary.setdefault(t.boundary, []).append(t)
+    if len(by_boundary) < 2:
+        return
+    geo = {}
+    for b, ts in by_boundary.items():
+        p = np.array([t.p for t in ts], dtype=float)
+        n = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+        n /= np.linalg.norm(n, axis=1, keepdims=True)
+        if not scene.boundaries[b]["outward"]:
+            n = -n
+        geo[b] = (p, n)
+    for a, ts in by_boundary.items():
+        pa, na = geo[a]
+        c = pa.mean(axis=1)
+        eps = 1e-5 * max(1.0, float(np.abs(c).max()))
+        for b, (pb, nb) in geo.items():
+            if b == a:
+                continue
+            # Distance of each centroid of a to each plane of b, and barycentrics in b's triangles.
+            e1, e2 = pb[:, 1] - pb[:, 0], pb[:, 2] - pb[:, 0]
+            w = c[:, None, :] - pb[None, :, 0]
+            dist = np.abs(np.einsum("ijk,jk->ij", w, nb))
+            d11, d12, d22 = (e1 * e1).sum(1), (e1 * e2).sum(1), (e2 * e2).sum(1)
+            w1, w2 = np.einsum("ijk,jk->ij", w, e1), np.einsum("ijk,jk->ij", w, e2)
+            det = d11 * d22 - d12 * d12
+            u = (d22 * w1 - d12 * w2) / det
+            v = (d11 * w2 - d12 * w1) / det
+            facing = (na @ nb.T) < -0.99
+            on = (dist < eps) & (u >= -1e-6) & (v >= -1e-6) & (u + v <= 1 + 1e-6) & facing
+            for i in np.nonzero(on.any(axis=1))[0]:
+                ts[i].outside = scene.boundaries[b]["medium"]
 
 
 def load(path):

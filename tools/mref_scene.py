@@ -45,6 +45,7 @@ class Triangle:
     uv: list | None  # three (u, v), or None
     material: int
     boundary: int | None = None  # index into Scene.boundaries for a medium's boundary mesh
+    outside: str | None = None  # a boundary triangle's medium on its outer side (None: vacuum)
 
 
 @dataclass

@@ -11,7 +11,8 @@
 //!   sphere, each distance cut at the mean free path;
 //! - the distance over which the gradient changes the estimate by [`GRADIENT_CHANGE`] of itself (a
 //!   record's first-order extrapolation is trusted that far);
-//! - the medium's mean free path 1/σt and a quarter of the scene's diagonal,
+//! - the medium's mean free path 1/σt and a quarter of the scene's diagonal;
+//! - [`MAX_ANGLE`] times the distance from the camera along the record's path,
 //!
 //! but not below [`KERNEL_REACH`] times the estimate's own kernel radius (records closer than that
 //! hold nearly the same photons) nor below [`LATTICE_REACH`] lattice spacings of pixels at x (pass B's
@@ -46,6 +47,10 @@ pub const GRADIENT_CHANGE: f32 = 0.5;
 /// R is at least this many kernel radii: the records' values are already blurred over the kernel, so a
 /// smaller R only makes more records (and a longer pass A) for no less error.
 const KERNEL_REACH: f32 = 1.0;
+/// R is at most this many radians seen from the camera along the record's path: one record's estimate
+/// (and its noise) is then shared by a bounded part of the image; unbounded, with the camera inside a
+/// medium, the records near the eye spanned the whole image and biased it.
+const MAX_ANGLE: f32 = 0.15;
 /// R is at least this many lattice spacings (pixels × stride) at the record's point.
 const LATTICE_REACH: f32 = 1.5;
 
@@ -131,7 +136,7 @@ fn follow(
             out.push(MediaPoint {
                 pos: start + d * t,
                 pixel_world: pixel(along + t),
-                max_radius: max_radius(m.sigma_t),
+                max_radius: max_radius(m.sigma_t).min(MAX_ANGLE * (along + t)),
             });
         }
     });

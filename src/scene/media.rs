@@ -10,6 +10,7 @@ use std::collections::HashMap;
 use std::ops::Range;
 
 use glam::Vec3;
+use rayon::prelude::*;
 
 use super::context::Ctx;
 use super::file::SceneFile;
@@ -109,8 +110,23 @@ fn innermost_by_bvh(
     p: Vec3,
     skip: Option<usize>,
 ) -> MediumId {
+    innermost_along(boundaries, bvh, boundary_of, p, PARITY_DIR, skip)
+}
+
+/// The direction of parity rays: off every axis, so that it runs along no face of an axis-aligned box.
+const PARITY_DIR: Vec3 = Vec3::new(0.5711, 0.6353, 0.5198);
+
+/// [`innermost_by_bvh`] with the parity ray along `d` (need not be unit length).
+fn innermost_along(
+    boundaries: &[Boundary],
+    bvh: &Bvh,
+    boundary_of: &[u32],
+    p: Vec3,
+    d: Vec3,
+    skip: Option<usize>,
+) -> MediumId {
     {
-        let d = Vec3::new(0.5711, 0.6353, 0.5198).normalize();
+        let d = d.normalize();
         let mut inside = vec![false; boundaries.len()];
         let mut o = p;
         // Every crossing counts: a ray crosses each boundary face at most once.
@@ -173,11 +189,20 @@ pub(super) fn media(
     let innermost = |p: Vec3, skip: Option<usize>| {
         innermost_by_bvh(&boundaries, &boundary_bvh, &boundary_of, p, skip)
     };
-    // Each boundary mesh's outside: the innermost other boundary containing a point just inside it.
+    // Each boundary mesh's outside: the innermost other boundary containing a point just inside it;
+    // face by face where other boundaries could meet it (two media sharing a face).
     let mut sides = vec![None; geo.triangles.len()];
     for (bi, b) in boundaries.iter().enumerate() {
         let outside = innermost(point_inside(geo, b), Some(bi));
-        for t in b.tris.clone() {
+        let face_outside = |t: usize| {
+            if boundaries.len() == 1 {
+                return outside;
+            }
+            let (p, away) = point_outside(geo, t, b.outward);
+            innermost_along(&boundaries, &boundary_bvh, &boundary_of, p, away, Some(bi))
+        };
+        let outsides: Vec<MediumId> = b.tris.clone().into_par_iter().map(face_outside).collect();
+        for (t, outside) in b.tris.clone().zip(outsides) {
             sides[t] = Some(if b.outward {
                 [outside, b.medium]
             } else {
@@ -410,6 +435,17 @@ fn point_inside(geo: &Geometry, b: &Boundary) -> Vec3 {
     let c = geo.point_on(t as u32, 1.0 / 3.0, 1.0 / 3.0);
     let inward = if b.outward { -tri.ng } else { tri.ng };
     c + inward * (1e-3 * tri.area.sqrt())
+}
+
+/// A point just outside boundary triangle `t` (on the side away from its mesh's inside) and a
+/// direction for its parity ray that leaves the triangle's plane on that side at once: the ray then
+/// never crosses a face lying in that plane (another medium's face shared with this one).
+fn point_outside(geo: &Geometry, t: usize, outward: bool) -> (Vec3, Vec3) {
+    let tri = &geo.triangles[t];
+    let n = if outward { tri.ng } else { -tri.ng };
+    let c = geo.point_on(t as u32, 1.0 / 3.0, 1.0 / 3.0);
+    let eps = (c.abs().max_element() * 1e-5).max(1e-5);
+    (c + n * eps, n + 0.25 * PARITY_DIR.normalize())
 }
 
 fn signed_volume(geo: &Geometry, tris: Range<usize>) -> f64 {
