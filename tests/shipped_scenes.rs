@@ -85,7 +85,7 @@ fn rare_events_stay_rare_on_every_shipped_scene() {
             .as_u64()
             .unwrap_or_else(|| panic!("{name}: gather.rays_chosen"));
         assert!(
-            (250..=1000).contains(&chosen) && chosen % 250 == 0,
+            (250..=1000).contains(&chosen) && chosen.is_multiple_of(250),
             "{name}: {chosen} rays chosen"
         );
         let rays = j["rays"]["total"].as_f64().unwrap();

@@ -213,6 +213,7 @@ impl PhotonMap {
     /// Reflected radiance at `p`: `Σ f(wi) Φ / (π r²)` over the same neighbourhood as
     /// [`irradiance`](Self::irradiance); `brdf(wi)` is the receiver's BRDF for the outgoing direction
     /// the caller has in mind (for a glossy receiver).
+    #[allow(clippy::too_many_arguments)] // the query (p, n, k, radius, filter, coverage) and what to sum
     pub fn radiance_with(
         &self,
         p: Vec3,
@@ -228,6 +229,7 @@ impl PhotonMap {
         })
     }
 
+    #[allow(clippy::too_many_arguments)] // the query (p, n, k, radius, filter, coverage) and what to sum
     fn estimate(
         &self,
         p: Vec3,
@@ -245,6 +247,7 @@ impl PhotonMap {
 
     /// `N` estimates over one neighbourhood, one per entry of `contribution`'s answer (`Estimate::e`
     /// is left zero).
+    #[allow(clippy::too_many_arguments)] // the query (p, n, k, radius, filter, coverage) and what to sum
     fn estimate_sums<const N: usize>(
         &self,
         p: Vec3,

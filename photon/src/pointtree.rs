@@ -228,7 +228,7 @@ mod tests {
                 }
             })
             .collect();
-        points.extend_from_slice(&points[..50].to_vec());
+        points.extend_from_within(..50);
         points.push(Vec3::NAN);
         let tree = PointTree::build(&points);
         assert_eq!(tree.len(), points.len() - 1);

@@ -5,8 +5,6 @@
 //! Text is drawn with the DejaVu Sans bundled in `assets/fonts/` (not a system font), so every machine
 //! writes the same PNG.
 
-#![forbid(unsafe_code)]
-
 mod axis;
 mod text;
 

@@ -52,7 +52,7 @@ pub fn parse_size(text: &str) -> Option<u64> {
         _ => return None,
     };
     let x: f64 = digits.trim().parse().ok()?;
-    (x.is_finite() && x > 0.0 && x * (scale as f64) < 1.8e19).then(|| (x * scale as f64) as u64)
+    (x.is_finite() && x > 0.0 && x * (scale as f64) < 1.8e19).then_some((x * scale as f64) as u64)
 }
 
 /// The budget and where it came from (for the message).
