@@ -28,6 +28,12 @@ def write_obj(name, build, mtl):
     o = Obj()
     build(o)
     o.write(name, mtl)
+    for ext in ("obj", "mtl"):
+        path = os.path.join(make_scenes.OUT, f"{name}.{ext}")
+        with open(path) as f:
+            text = f.read().replace("tools/make_scenes.py", "tools/make_media_matrix.py", 1)
+        with open(path, "w") as f:
+            f.write(text)
     return f"models/{name}.obj"
 
 
