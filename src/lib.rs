@@ -44,6 +44,8 @@ pub mod render;
 pub mod scene;
 pub mod signal;
 #[forbid(unsafe_code)]
+pub(crate) mod sh;
+#[forbid(unsafe_code)]
 pub(crate) mod stats;
 #[forbid(unsafe_code)]
 pub(crate) mod texture;

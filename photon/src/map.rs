@@ -229,6 +229,23 @@ impl PhotonMap {
         })
     }
 
+    /// Irradiance resolved in direction: `Σ basis(wi)·Φ / (π r²)` over the same neighbourhood as
+    /// [`irradiance`](Self::irradiance), one sum per basis function (a projection of `L(ω)·cos θ`
+    /// on `basis` when it is orthonormal).
+    pub fn projected<const N: usize>(
+        &self,
+        p: Vec3,
+        n: Vec3,
+        k: usize,
+        max_radius: f32,
+        cov: &dyn Coverage,
+        basis: impl Fn(Vec3) -> [f32; N],
+    ) -> (Estimate, [Vec3; N]) {
+        self.estimate_sums(p, n, k, max_radius, Filter::None, cov, |ph| {
+            basis(ph.wi).map(|b| b * ph.power)
+        })
+    }
+
     #[allow(clippy::too_many_arguments)] // the query (p, n, k, radius, filter, coverage) and what to sum
     fn estimate(
         &self,

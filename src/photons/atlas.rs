@@ -370,7 +370,7 @@ fn delta_over_texel(
 /// A texel: its slot, and the triangle side and cell it belongs to.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Texel {
-    index: u32,
+    pub(crate) index: u32,
     tri: u32,
     front: bool,
     i: u32,
@@ -472,6 +472,17 @@ impl IrradianceAtlas {
             i,
             j,
         }
+    }
+
+    /// Texels of triangle `tri` (both sides), and the index of its first.
+    pub fn texel_range(&self, tri: u32) -> (u32, u32) {
+        let (grid, first) = &self.grids[tri as usize];
+        (2 * grid.nu as u32 * grid.nv as u32, *first)
+    }
+
+    /// The middle of a texel's part of its triangle (where its estimates are made).
+    pub fn middle(&self, texel: &Texel) -> Vec3 {
+        self.grids[texel.tri as usize].0.middle(texel.i, texel.j)
     }
 
     /// A texel's value: its slot's, estimated first if no ray has reached it yet.

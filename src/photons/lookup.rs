@@ -7,9 +7,10 @@ use std::sync::atomic::AtomicBool;
 use glam::Vec3;
 use icache::media::MediaCache;
 use photon::reach::ReachGrid;
-use photon::{Filter, PhotonMap, PhotonMaps, PhotonTargets, TraceStats};
+use photon::{PhotonMap, PhotonMaps, PhotonTargets, TraceStats};
 
 use super::atlas::IrradianceAtlas;
+use super::glossy_texels::GlossyTexels;
 use super::coverage::SceneCoverage;
 use super::photon_scene::PhotonView;
 use super::settings::PhotonSettings;
@@ -17,7 +18,6 @@ use super::volume_grid::{Photons, VolumeGrid};
 use crate::counters::SampleCounters;
 use crate::error::Result;
 use crate::geometry::Hit;
-use crate::material::PhongLobe;
 use crate::scene::Scene;
 
 /// Photons per atlas texel estimate: a third of the lookup's `k` (at least 8, at most `k`). A texel is
@@ -51,6 +51,8 @@ struct SurfaceLookups {
     caustic_reach: Option<ReachGrid>,
     /// The global map's irradiance baked lazily onto the triangles, for final-gather rays.
     atlas: Option<IrradianceAtlas>,
+    /// The light arriving at glossy surfaces per atlas texel, for gather rays ending there.
+    glossy: Option<GlossyTexels>,
 }
 
 /// What the media's estimates read besides the volume maps.
@@ -218,6 +220,7 @@ impl<'a> PhotonData<'a> {
         } else {
             atlas
         };
+        let glossy = atlas.as_ref().and_then(|a| GlossyTexels::new(scene, a));
         let volume_grid = match (&maps.volume, &scene.media) {
             (Some(_), Some(m)) => Some(VolumeGrid::new(
                 m.bounds(),
@@ -245,6 +248,7 @@ impl<'a> PhotonData<'a> {
             surfaces: SurfaceLookups {
                 caustic_reach,
                 atlas,
+                glossy,
             },
             media: MediaLookups {
                 volume_grid,
@@ -370,8 +374,9 @@ impl<'a> PhotonData<'a> {
         Some(atlas.lookup(&self.coverage, global, tri, front, p))
     }
 
-    /// Radiance leaving a glossy surface toward `wo` through its specular lobe, estimated from the global
-    /// map with the lobe as BRDF (Jensen's estimate at final-gather hits); zero for other materials.
+    /// Radiance leaving a glossy surface toward `wo` through its specular lobe, where a final-gather
+    /// ray ends: from the texel's harmonics of the global map's light (see `glossy_texels`); zero for
+    /// other materials.
     pub fn glossy_radiance(
         &self,
         bsdf: &crate::material::Bsdf,
@@ -379,30 +384,25 @@ impl<'a> PhotonData<'a> {
         frame: &crate::geometry::Frame,
         wo: Vec3,
     ) -> Vec3 {
-        let crate::material::Bsdf::Glossy {
-            specular, exponent, ..
-        } = *bsdf
-        else {
+        let crate::material::Bsdf::Glossy { specular, .. } = *bsdf else {
             return Vec3::ZERO;
         };
-        if specular == Vec3::ZERO {
+        let (Some(texels), Some(atlas), Some(global)) = (
+            self.surfaces.glossy.as_ref(),
+            self.surfaces.atlas.as_ref(),
+            self.maps.global.as_ref(),
+        ) else {
             return Vec3::ZERO;
-        }
-        let n = frame.n;
-        let phong = PhongLobe::new(wo, n, exponent);
-        let lobe = |wi: Vec3| -> Vec3 { specular * phong.brdf(wi) };
-        self.global(|m| {
-            m.radiance_with(
-                hit.p,
-                n,
-                self.settings.lookup,
-                self.settings.max_radius_global,
-                Filter::None,
-                &self.coverage,
-                lobe,
-            )
-            .e
-        })
+        };
+        texels.radiance(
+            atlas,
+            &self.coverage,
+            global,
+            (self.settings.lookup, self.settings.max_radius_global),
+            (hit.tri, frame.front, hit.p),
+            (hit.material, specular),
+            (frame.n, wo),
+        )
     }
 
     /// Indirect-only irradiance read straight from the global map (method `photons`): photons that came

@@ -4,6 +4,7 @@
 
 pub mod atlas;
 pub mod coverage;
+mod glossy_texels;
 mod lookup;
 pub mod media_cache;
 mod photon_scene;
