@@ -42,9 +42,9 @@ pub mod progress;
 pub mod render;
 #[forbid(unsafe_code)]
 pub mod scene;
-pub mod signal;
 #[forbid(unsafe_code)]
 pub(crate) mod sh;
+pub mod signal;
 #[forbid(unsafe_code)]
 pub(crate) mod stats;
 #[forbid(unsafe_code)]

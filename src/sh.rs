@@ -30,7 +30,10 @@ pub fn eval(order: usize, d: Vec3, out: &mut [f32]) {
     let mut pmm = 1.0f64;
     for m in 0..order {
         if m > 0 {
-            let (c, s) = (cm * d.x as f64 - sm * d.y as f64, cm * d.y as f64 + sm * d.x as f64);
+            let (c, s) = (
+                cm * d.x as f64 - sm * d.y as f64,
+                cm * d.y as f64 + sm * d.x as f64,
+            );
             cm = c;
             sm = s;
             pmm *= (2 * m - 1) as f64;
@@ -206,7 +209,11 @@ mod tests {
             let k = PhongKernel::new(n);
             // λ_0 = (n+2)/(n+1), λ_1 = (n+2)/(n+2) = 1.
             let l0 = (n + 2.0) / (n + 1.0);
-            assert!((k.lambda[0] - l0).abs() < 1e-4 * l0, "n {n}: {:?}", k.lambda);
+            assert!(
+                (k.lambda[0] - l0).abs() < 1e-4 * l0,
+                "n {n}: {:?}",
+                k.lambda
+            );
             assert!((k.lambda[1] - 1.0).abs() < 1e-4, "n {n}: {:?}", k.lambda);
             // Sharper lobes keep more of the high bands.
             assert!(k.lambda[9] > 0.0 || n < 40.0);
@@ -233,7 +240,8 @@ mod tests {
             for (c, yi) in coeffs.iter_mut().zip(&y) {
                 *c += Vec3::splat(g(w) * yi);
             }
-            direct += (g(w) * 10.0 / (2.0 * std::f32::consts::PI) * w.dot(r).max(0.0).powi(8)) as f64;
+            direct +=
+                (g(w) * 10.0 / (2.0 * std::f32::consts::PI) * w.dot(r).max(0.0).powi(8)) as f64;
         }
         let scale = 4.0 * std::f32::consts::PI / samples as f32;
         coeffs.iter_mut().for_each(|c| *c *= scale);

@@ -200,6 +200,14 @@ impl PmContext<'_> {
             }
             return t;
         }
+        if let Via::Glossy { .. } = via {
+            // After a glossy reflection the light is read, not shaded again: the lobe blurs it, and
+            // a full shading here (shadow rays to every light, another lobe sample) made glossy
+            // scenes many times slower than diffuse ones.
+            t.indirect = self.photons.gather_radiance(hit.tri, frame.front, hit.p);
+            t.glossy = self.photons.glossy_radiance(bsdf, &hit, &frame, wo);
+            return t;
+        }
         t.direct = self.direct(&hit, &frame, wo, kd, bsdf, medium, rng, c);
         let rho_d = bsdf.diffuse_albedo(kd) / PI;
         if rho_d != Vec3::ZERO {
@@ -212,7 +220,7 @@ impl PmContext<'_> {
         } = *bsdf
         {
             if depth + 1 < self.max_depth && specular.max_element() > 0.0 {
-                t.specular = self.glossy_lobe(&v, specular, exponent, rng, c);
+                t.glossy = self.glossy_lobe(&v, specular, exponent, rng, c);
             }
         }
         t

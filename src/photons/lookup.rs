@@ -10,8 +10,8 @@ use photon::reach::ReachGrid;
 use photon::{PhotonMap, PhotonMaps, PhotonTargets, TraceStats};
 
 use super::atlas::IrradianceAtlas;
-use super::glossy_texels::GlossyTexels;
 use super::coverage::SceneCoverage;
+use super::glossy_texels::GlossyTexels;
 use super::photon_scene::PhotonView;
 use super::settings::PhotonSettings;
 use super::volume_grid::{Photons, VolumeGrid};

@@ -134,7 +134,7 @@ pub fn render(
     let (layers, s) = shade(&plan, n_layers, &mut *sample, progress, cancel)?;
     drop(sample);
     stats.shade = s;
-    let images = beauty(&plan, scene.media.is_some(), layers);
+    let images = beauty(&plan, crate::integrator::terms::Layout::of(scene), layers);
     stats.finish(
         start,
         photons.as_ref(),

@@ -17,7 +17,7 @@ use crate::error::Result;
 use crate::geometry::Hit;
 use crate::integrator::cache_fill::{gather_record, sample_hits};
 use crate::integrator::pm::{IndirectSource, PmContext};
-use crate::integrator::terms::{term_names, LayerValues};
+use crate::integrator::terms::{LayerValues, Layout};
 use crate::integrator::{path, PixelMemo};
 use crate::io::output::Image;
 use crate::photons::PhotonData;
@@ -86,7 +86,7 @@ pub fn sampler<'a>(
     let Some(photons) = lighting.photons else {
         return (path_sample(scene, &plan.camera), 1);
     };
-    let n_layers = term_names(scene.media.is_some()).len();
+    let n_layers = Layout::of(scene).len();
     let ctx = PmContext {
         gather: lighting.gather,
         ..plan.pm_context(
@@ -297,14 +297,14 @@ fn camera_sample(
 ) -> LayerValues {
     let d = camera.ray(x as f32 + off[0], y as f32 + off[1]);
     ctx.shade(camera.eye, d, Some(memo), rng, c)
-        .to_layers(ctx.scene.media.is_some())
+        .to_layers(Layout::of(ctx.scene))
 }
 
 /// The beauty and the named layers: `path`'s one image is the beauty; the photon-map methods' beauty
 /// is the sum of their terms.
 pub fn beauty(
     plan: &Plan,
-    media: bool,
+    layout: Layout,
     mut layers: Vec<Image>,
 ) -> (Image, Vec<(&'static str, Image)>) {
     if !plan.method.uses_photon_maps() {
@@ -316,8 +316,5 @@ pub fn beauty(
             *b += *v;
         }
     }
-    (
-        beauty,
-        term_names(media).iter().copied().zip(layers).collect(),
-    )
+    (beauty, layout.names().into_iter().zip(layers).collect())
 }

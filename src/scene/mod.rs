@@ -386,6 +386,13 @@ impl Scene {
         }
     }
 
+    /// Whether some material has a glossy lobe (the render then has a `glossy` layer).
+    pub fn has_glossy(&self) -> bool {
+        self.materials.iter().any(|m| {
+            matches!(m.bsdf, crate::material::Bsdf::Glossy { specular, .. } if specular != Vec3::ZERO)
+        })
+    }
+
     pub(crate) fn material(&self, hit: &Hit) -> &Material {
         &self.materials[hit.material as usize]
     }
