@@ -188,6 +188,33 @@ impl IrradianceCache {
         })
     }
 
+    /// The records [`lookup_first_visible`](Self::lookup_first_visible) would interpolate at (p, n), each
+    /// with its weight and its irradiance extrapolated to p by its gradients: `each(id, w, e)` in record
+    /// order. For payloads the caller keeps beside the records (a radiance cache's coefficients).
+    pub fn each_used(
+        &self,
+        p: Vec3,
+        n: Vec3,
+        pass: Pass,
+        n_records: usize,
+        visible: impl Fn(&Record) -> bool,
+        mut each: impl FnMut(u32, f32, Vec3),
+    ) {
+        if !(p.is_finite() && n.is_finite()) {
+            return;
+        }
+        self.with_candidates(p, pass, n_records, |ids| {
+            for &id in ids {
+                let rec = &self.records[id as usize];
+                if let Some((w, e)) = self.weighted(rec, p, n, pass) {
+                    if visible(rec) {
+                        each(id, w, e);
+                    }
+                }
+            }
+        })
+    }
+
     /// [`lookup`](Self::lookup) over the first `n_records` records only (in insertion order): what the
     /// cache held at that moment of a one-pass fill.
     pub fn lookup_first(&self, p: Vec3, n: Vec3, pass: Pass, n_records: usize) -> Option<Lookup> {

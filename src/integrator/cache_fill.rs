@@ -160,7 +160,23 @@ pub fn gather_record_round(
     // The render's seed too: another seed must give another set of gathers (and so an independent
     // estimate: convergence tests over seeds), not the same strata jitter at every pixel.
     let seed = photon::sampling::hash_keys(&[ctx.seed, x as u64, y as u64, i as u64]);
-    let g = ctx.final_gather_round(hit, &frame, seed, round, &mut counters);
+    // A first gather on a glossy surface the radiance cache serves also keeps its light's harmonics.
+    let order = ctx
+        .radiance
+        .filter(|_| round == 0)
+        .and_then(|r| r.order(hit.material));
+    let mut coefficients = Vec::new();
+    let g = ctx.gather_projected(
+        hit,
+        &frame,
+        seed,
+        round,
+        order.map(|o| (o, &mut coefficients)),
+        &mut counters,
+    );
+    if let (Some(r), Some(_)) = (ctx.radiance, order) {
+        r.keep(sp.pos, coefficients);
+    }
     let record = NewRecord {
         pos: sp.pos,
         normal: sp.normal,

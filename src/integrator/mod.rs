@@ -3,6 +3,7 @@ pub mod cache_fill;
 pub mod media;
 pub mod path;
 pub mod pm;
+pub mod radiance_cache;
 pub mod terms;
 
 use glam::Vec3;

@@ -32,7 +32,8 @@ impl Layout {
         names
     }
 
-    pub fn len(self) -> usize {
+    /// How many layers there are.
+    pub fn count(self) -> usize {
         5 + self.glossy as usize + 2 * self.media as usize
     }
 }

@@ -277,6 +277,11 @@ impl<'a> PhotonData<'a> {
     }
 
     /// The volume grid (there with a volume map in a scene with media).
+    /// Glossy texels estimated so far and their bytes; `None` without glossy materials.
+    pub fn glossy_texel_stats(&self) -> Option<(u64, u64)> {
+        self.surfaces.glossy.as_ref().map(GlossyTexels::stats)
+    }
+
     pub fn volume_grid(&self) -> Option<&VolumeGrid> {
         self.media.volume_grid.as_ref()
     }
@@ -403,6 +408,79 @@ impl<'a> PhotonData<'a> {
             (hit.material, specular),
             (frame.n, wo),
         )
+    }
+
+    /// The global map's light reflected by a glossy lobe toward `wo`: Jensen's estimate with the lobe
+    /// as BRDF at the point itself (for points reached through another glossy lobe).
+    pub fn glossy_estimate(
+        &self,
+        bsdf: &crate::material::Bsdf,
+        hit: &crate::geometry::Hit,
+        frame: &crate::geometry::Frame,
+        wo: Vec3,
+    ) -> Vec3 {
+        let crate::material::Bsdf::Glossy {
+            specular, exponent, ..
+        } = *bsdf
+        else {
+            return Vec3::ZERO;
+        };
+        if specular == Vec3::ZERO {
+            return Vec3::ZERO;
+        }
+        let lobe = crate::material::PhongLobe::new(wo, frame.n, exponent);
+        self.global(|m| {
+            m.radiance_with(
+                hit.p,
+                frame.n,
+                self.settings.lookup,
+                self.settings.max_radius_global,
+                photon::Filter::None,
+                &self.coverage,
+                |wi| specular * lobe.brdf(wi),
+            )
+            .e
+        })
+    }
+
+    /// The caustic map's light reflected by a glossy lobe toward `wo` (Jensen's estimate with the lobe
+    /// as BRDF), for glossy points whose lobe is not sampled: light that reaches them through mirrors
+    /// and glass. Zero without a caustic map or where it has no photon within reach.
+    pub fn caustic_glossy(
+        &self,
+        bsdf: &crate::material::Bsdf,
+        hit: &crate::geometry::Hit,
+        frame: &crate::geometry::Frame,
+        wo: Vec3,
+    ) -> Vec3 {
+        let crate::material::Bsdf::Glossy {
+            specular, exponent, ..
+        } = *bsdf
+        else {
+            return Vec3::ZERO;
+        };
+        let Some(m) = &self.maps.caustic else {
+            return Vec3::ZERO;
+        };
+        if self
+            .surfaces
+            .caustic_reach
+            .as_ref()
+            .is_some_and(|g| !g.may_reach(hit.p))
+        {
+            return Vec3::ZERO;
+        }
+        let lobe = crate::material::PhongLobe::new(wo, frame.n, exponent);
+        m.radiance_with(
+            hit.p,
+            frame.n,
+            self.settings.lookup,
+            self.settings.max_radius_caustic,
+            self.settings.caustic_filter,
+            &self.coverage,
+            |wi| specular * lobe.brdf(wi),
+        )
+        .e
     }
 
     /// Indirect-only irradiance read straight from the global map (method `photons`): photons that came

@@ -118,7 +118,7 @@ pub fn estimate(scene: &Scene, plan: &Plan, opts: &Options) -> Vec<(String, u64)
     let pixels = plan.width as u64 * plan.height as u64;
     let photon_method = plan.method != Method::Path;
     let n_images: u64 = if photon_method {
-        1 + crate::integrator::terms::Layout::of(scene).len() as u64
+        1 + crate::integrator::terms::Layout::of(scene).count() as u64
     } else {
         1
     };

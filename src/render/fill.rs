@@ -15,7 +15,8 @@ use super::{files, gather_rays};
 use crate::error::{runtime, Result};
 use crate::geometry::Hit;
 use crate::integrator::cache_fill::{gather_record, shading_hits};
-use crate::integrator::pm::IndirectSource;
+use crate::integrator::pm::{IndirectSource, PmContext};
+use crate::integrator::radiance_cache::RadianceCache;
 use crate::photons::media_cache;
 use crate::photons::PhotonData;
 use crate::progress::Progress;
@@ -38,17 +39,21 @@ pub fn fill_cache(
     plan: &Plan,
     photons: &PhotonData,
     media_cache: Option<&MediaCache>,
+    radiance: Option<&RadianceCache>,
     progress: &dyn Progress,
     cancel: &AtomicBool,
 ) -> Result<(CacheFill, CacheFillStats)> {
     let t = Instant::now();
-    let ctx = plan.pm_context(
-        scene,
-        photons,
-        media_cache,
-        IndirectSource::PhotonMap,
-        cancel,
-    );
+    let ctx = PmContext {
+        radiance,
+        ..plan.pm_context(
+            scene,
+            photons,
+            media_cache,
+            IndirectSource::PhotonMap,
+            cancel,
+        )
+    };
     let (lo, hi) = scene.bounds;
     let mut cache = IrradianceCache::new(lo, hi, plan.cache).map_err(runtime)?;
     let points = |x, y| shading_hits(&ctx, &plan.camera, x, y);
@@ -101,6 +106,9 @@ pub fn fill_cache(
         }
     };
     progress.finish();
+    if let Some(r) = radiance {
+        r.attach(&cache);
+    }
     let stats = CacheFillStats {
         time_s: Some(t.elapsed().as_secs_f64()),
         one_pass: one_pass.is_some(),

@@ -22,6 +22,7 @@ use gather::GatherParams;
 use icache::media::MediaCache;
 
 use crate::error::{Error, Result};
+use crate::integrator::radiance_cache::RadianceCache;
 use crate::io::output::Image;
 pub use crate::progress::{NoProgress, Progress};
 use crate::scene::{Method, Scene};
@@ -100,6 +101,11 @@ pub fn render(
         _ => None,
     };
 
+    // Records read from a cache file have no harmonics: their glossy lobes are sampled.
+    let radiance = match (plan.method, &opts.files.load_cache) {
+        (Method::Pm, None) => RadianceCache::new(scene),
+        _ => None,
+    };
     let mut cache = match (plan.method, &photons) {
         (Method::Pm, Some(photons)) => {
             let (cache, s) = match &opts.files.load_cache {
@@ -109,6 +115,7 @@ pub fn render(
                     &plan,
                     photons,
                     media_cache.as_ref(),
+                    radiance.as_ref(),
                     progress,
                     cancel,
                 )?,
@@ -129,6 +136,7 @@ pub fn render(
             .and_then(|c| c.chosen_rays)
             .map_or(plan.gather, |rays| GatherParams { rays }),
         cache: cache.as_mut(),
+        radiance: radiance.as_ref(),
     };
     let (mut sample, n_layers) = sampler(scene, &plan, lighting, cancel);
     let (layers, s) = shade(&plan, n_layers, &mut *sample, progress, cancel)?;
@@ -140,6 +148,7 @@ pub fn render(
         photons.as_ref(),
         media_cache.as_ref(),
         cache.as_ref().map(|c| &c.cache),
+        radiance.as_ref(),
     );
     let kept = photons
         .zip(photon_info)

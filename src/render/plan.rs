@@ -80,6 +80,7 @@ impl Plan {
             seed: self.seed,
             cancel,
             defer_misses: false,
+            radiance: None,
         }
     }
 }

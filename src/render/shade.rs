@@ -17,6 +17,7 @@ use crate::error::Result;
 use crate::geometry::Hit;
 use crate::integrator::cache_fill::{gather_record, sample_hits};
 use crate::integrator::pm::{IndirectSource, PmContext};
+use crate::integrator::radiance_cache::RadianceCache;
 use crate::integrator::terms::{LayerValues, Layout};
 use crate::integrator::{path, PixelMemo};
 use crate::io::output::Image;
@@ -72,6 +73,8 @@ pub struct Lighting<'a> {
     pub cache: Option<&'a mut CacheFill>,
     /// Rays per final gather: pass A's choice when it made one, else the plan's.
     pub gather: GatherParams,
+    /// `pm`'s radiance cache on glossy surfaces.
+    pub radiance: Option<&'a RadianceCache>,
 }
 
 /// The method's sampler and its number of layers: `path`'s radiance without photon maps; with them,
@@ -86,9 +89,10 @@ pub fn sampler<'a>(
     let Some(photons) = lighting.photons else {
         return (path_sample(scene, &plan.camera), 1);
     };
-    let n_layers = Layout::of(scene).len();
+    let n_layers = Layout::of(scene).count();
     let ctx = PmContext {
         gather: lighting.gather,
+        radiance: lighting.radiance,
         ..plan.pm_context(
             scene,
             photons,

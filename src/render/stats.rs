@@ -10,6 +10,7 @@ use icache::{CacheStats, IrradianceCache};
 use super::tiles::{GrowStats, SampleCount};
 use super::Plan;
 use crate::counters::SampleCounters;
+use crate::integrator::radiance_cache::{RadianceCache, RadianceCacheStats};
 use crate::photons::atlas::AtlasStats;
 use crate::photons::PhotonData;
 use crate::scene::{Method, Scene};
@@ -33,6 +34,8 @@ pub struct RenderStats {
     pub media_cache: Option<(u64, u64)>,
     /// The cache after shading; records loaded from a file are not counted as made in pass B.
     pub cache: Option<CacheStats>,
+    /// Glossy surfaces: the radiance cache and the gather rays' texel harmonics.
+    pub glossy: Option<GlossyStats>,
     /// Seconds from the plan to the end of shading.
     pub total_s: f64,
     /// Set by `write_outputs`.
@@ -116,6 +119,7 @@ impl RenderStats {
             media_fill: None,
             media_cache: None,
             cache: None,
+            glossy: None,
             total_s: 0.0,
             write_outputs_s: None,
             peak_rss_bytes: 0,
@@ -130,8 +134,16 @@ impl RenderStats {
         photons: Option<&PhotonData>,
         media_cache: Option<&MediaCache>,
         cache: Option<&IrradianceCache>,
+        radiance: Option<&RadianceCache>,
     ) {
         self.atlas = photons.and_then(|p| p.atlas()).map(|a| a.stats());
+        let texels = photons.and_then(|p| p.glossy_texel_stats());
+        if texels.is_some() || radiance.is_some() {
+            self.glossy = Some(GlossyStats {
+                radiance: radiance.map(|r| r.stats()).unwrap_or_default(),
+                texels: texels.unwrap_or_default(),
+            });
+        }
         self.volume_grid = photons.and_then(|p| p.volume_grid()).map(|g| g.filled());
         self.media_cache = media_cache.map(|c| (c.len() as u64, c.memory_bytes() as u64));
         let fill = self.fill.as_ref();
@@ -286,6 +298,9 @@ impl RenderStats {
         }
         if let (Some(f), Some((records, bytes))) = (&self.media_fill, self.media_cache) {
             media_cache_rows(r, f, records, bytes, shade);
+        }
+        if let Some(g) = &self.glossy {
+            glossy_rows(r, g);
         }
         if let (Some(cs), Some(f)) = (&self.cache, &self.fill) {
             if f.n_loaded > 0 {
@@ -797,4 +812,49 @@ fn media_cache_rows(
     );
     radius_row(r, c, "media.radius_px", &f.radius_px);
     r.bytes(c, "Memory", "media.memory_bytes", bytes);
+}
+
+/// Glossy surfaces' statistics: the radiance cache's, and the gather rays' texel harmonics
+/// ((estimated, bytes)).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct GlossyStats {
+    pub radiance: RadianceCacheStats,
+    pub texels: (u64, u64),
+}
+
+fn glossy_rows(r: &mut Report, g: &GlossyStats) {
+    let c = "Glossy";
+    let rc = &g.radiance;
+    r.count(c, "Radiance-cache records", "glossy.records", rc.records);
+    r.count(
+        c,
+        "Harmonic bands kept (most of any lobe)",
+        "glossy.order",
+        rc.max_order as u64,
+    );
+    r.count(c, "Radiance-cache lookups", "glossy.lookups", rc.lookups);
+    r.count(
+        c,
+        "Lookups without records: lobe sampled",
+        "glossy.fallbacks",
+        rc.fallbacks,
+    );
+    r.bytes(
+        c,
+        "Radiance-cache memory",
+        "glossy.memory_bytes",
+        rc.memory_bytes,
+    );
+    r.count(
+        c,
+        "Texel harmonics estimated (gather rays)",
+        "glossy.texels",
+        g.texels.0,
+    );
+    r.bytes(
+        c,
+        "Texel harmonics memory",
+        "glossy.texel_memory_bytes",
+        g.texels.1,
+    );
 }
