@@ -53,6 +53,10 @@ pub struct RadianceCacheStats {
 impl RadianceCache {
     /// The cache for the scene's glossy materials; `None` when no lobe is smooth enough for it.
     pub fn new(scene: &Scene) -> Option<RadianceCache> {
+        let settings = &scene.settings.icache;
+        if !settings.radiance_cache {
+            return None;
+        }
         let lobes: Vec<_> = scene
             .materials
             .iter()
@@ -61,7 +65,8 @@ impl RadianceCache {
                     specular, exponent, ..
                 } if specular != Vec3::ZERO => {
                     let kernel = PhongKernel::new(exponent);
-                    kernel.order_for(TOLERANCE).map(|order| (kernel, order))
+                    let needed = kernel.order_for(TOLERANCE)?;
+                    Some((kernel, settings.radiance_bands.unwrap_or(needed)))
                 }
                 _ => None,
             })

@@ -137,6 +137,8 @@ pub struct IcacheDesc {
     pub media_visibility: Option<bool>,
     pub pass_a_stride: Option<i64>,
     pub visibility: Option<bool>,
+    pub radiance_cache: Option<bool>,
+    pub radiance_bands: Option<i64>,
 }
 
 /// Parses the scene file text; errors name the file and line.

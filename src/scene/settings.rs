@@ -74,6 +74,11 @@ pub struct IcacheSettings {
     /// Pass B leaves out the records an occluder hides from the lookup point (`visibility`, default
     /// false): see [`Self::visibility`].
     visibility: bool,
+    /// The radiance cache on glossy surfaces (`radiance_cache`, default true).
+    pub radiance_cache: bool,
+    /// Harmonic bands every cached lobe keeps (`radiance_bands`); `None`: each lobe the fewest its
+    /// kernel needs (see `integrator::radiance_cache`).
+    pub radiance_bands: Option<usize>,
 }
 
 impl IcacheSettings {
@@ -337,6 +342,8 @@ fn icache(cx: &Ctx, d: &IcacheDesc) -> Result<IcacheSettings> {
     let pass_a_stride = d.pass_a_stride.map(|s| s as u32);
     let visibility = d.visibility.unwrap_or(false);
     Ok(IcacheSettings {
+        radiance_cache: d.radiance_cache.unwrap_or(true),
+        radiance_bands: d.radiance_bands.map(|b| b as usize),
         params,
         min_spacing_given: d.min_spacing_px.is_some(),
         max_spacing_given: d.max_spacing_px.is_some(),
@@ -390,6 +397,9 @@ fn check_icache(cx: &Ctx, d: &IcacheDesc) -> Result<()> {
             format!("pass_b_accuracy = {b} is smaller than accuracy = {a}"),
         ));
     }
+    if let Some(b) = d.radiance_bands.filter(|b| !(2..=10).contains(b)) {
+        return Err(err("radiance_bands", format!("{b} must be in 2..=10")));
+    }
     if let Some(s) = d.pass_a_stride.filter(|s| !(1..=64).contains(s)) {
         return Err(err("pass_a_stride", format!("{s} must be in 1..=64")));
     }
@@ -423,6 +433,8 @@ mod tests {
             media_visibility: false,
             pass_a_stride: None,
             visibility: false,
+            radiance_cache: true,
+            radiance_bands: None,
         }
     }
 
