@@ -218,10 +218,17 @@ mod tests {
             // Sharper lobes keep more of the high bands.
             assert!(k.lambda[9] > 0.0 || n < 40.0);
         }
-        // The radiance cache's choice (tolerance 0.5), as the docs state it.
+        // The radiance cache serves the lobes whose kernel falls below half within 10 bands
+        // (tolerance 0.5): up to about exponent 65, as the docs state it.
         let bands = |n: f32| PhongKernel::new(n).order_for(0.5);
         assert_eq!(
-            [bands(10.0), bands(25.0), bands(40.0), bands(60.0), bands(70.0)],
+            [
+                bands(10.0),
+                bands(25.0),
+                bands(40.0),
+                bands(60.0),
+                bands(70.0)
+            ],
             [Some(4), Some(6), Some(8), Some(9), None]
         );
         assert!(PhongKernel::new(10.0).order_for(0.1).is_some());

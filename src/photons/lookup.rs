@@ -410,8 +410,9 @@ impl<'a> PhotonData<'a> {
         )
     }
 
-    /// The global map's light reflected by a glossy lobe toward `wo`: Jensen's estimate with the lobe
-    /// as BRDF at the point itself (for points reached through another glossy lobe).
+    /// The global map's light reflected by a glossy lobe toward `wo`, direct light left out (the caller
+    /// samples it): Jensen's estimate with the lobe as BRDF at the point itself (for points reached
+    /// through another glossy lobe).
     pub fn glossy_estimate(
         &self,
         bsdf: &crate::material::Bsdf,
@@ -430,7 +431,7 @@ impl<'a> PhotonData<'a> {
         }
         let lobe = crate::material::PhongLobe::new(wo, frame.n, exponent);
         self.global(|m| {
-            m.radiance_with(
+            m.radiance_not_direct_with(
                 hit.p,
                 frame.n,
                 self.settings.lookup,

@@ -76,8 +76,8 @@ pub struct IcacheSettings {
     visibility: bool,
     /// The radiance cache on glossy surfaces (`radiance_cache`, default true).
     pub radiance_cache: bool,
-    /// Harmonic bands every cached lobe keeps (`radiance_bands`); `None`: each lobe the fewest its
-    /// kernel needs (see `integrator::radiance_cache`).
+    /// Harmonic bands every cached lobe keeps (`radiance_bands`); `None`: all ten (see
+    /// `integrator::radiance_cache`).
     pub radiance_bands: Option<usize>,
 }
 
