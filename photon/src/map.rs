@@ -229,31 +229,10 @@ impl PhotonMap {
         })
     }
 
-    /// [`radiance_with`](Self::radiance_with) over the photons that did not come straight from a light
-    /// (for a receiver whose direct light is sampled).
-    #[allow(clippy::too_many_arguments)] // the query (p, n, k, radius, filter, coverage) and what to sum
-    pub fn radiance_not_direct_with(
-        &self,
-        p: Vec3,
-        n: Vec3,
-        k: usize,
-        max_radius: f32,
-        filter: Filter,
-        cov: &dyn Coverage,
-        brdf: impl Fn(Vec3) -> Vec3,
-    ) -> Estimate {
-        self.estimate(p, n, k, max_radius, filter, cov, |ph| {
-            if ph.direct {
-                Vec3::ZERO
-            } else {
-                brdf(ph.wi) * ph.power
-            }
-        })
-    }
-
     /// Irradiance resolved in direction: `Σ basis(wi)·Φ / (π r²)` over the same neighbourhood as
     /// [`irradiance`](Self::irradiance), one sum per basis function (a projection of `L(ω)·cos θ`
-    /// on `basis` when it is orthonormal).
+    /// on `basis` when it is orthonormal); `basis(wi, direct)` also learns whether the photon came
+    /// straight from a light.
     pub fn projected<const N: usize>(
         &self,
         p: Vec3,
@@ -261,10 +240,10 @@ impl PhotonMap {
         k: usize,
         max_radius: f32,
         cov: &dyn Coverage,
-        basis: impl Fn(Vec3) -> [f32; N],
+        basis: impl Fn(Vec3, bool) -> [f32; N],
     ) -> (Estimate, [Vec3; N]) {
         self.estimate_sums(p, n, k, max_radius, Filter::None, cov, |ph| {
-            basis(ph.wi).map(|b| b * ph.power)
+            basis(ph.wi, ph.direct).map(|b| b * ph.power)
         })
     }
 

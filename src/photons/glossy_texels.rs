@@ -4,7 +4,8 @@
 //! A gather ray that ends on a glossy surface needs the light the lobe reflects back along the ray. A
 //! k-NN estimate with the lobe as BRDF per ray (Jensen's) was 59 % of the render of Sibenik with a
 //! polished floor. Here the first ray to reach a texel projects the photons around the texel's middle
-//! (`L·cos θ` of every global photon, direct ones included) on [`ORDER`] bands of spherical harmonics;
+//! (`L·cos θ` of every global photon, and apart of those that are not direct) on [`ORDER`] bands of
+//! spherical harmonics;
 //! every ray reads the texel and turns it into the lobe's radiance toward it with one dot product
 //! (`sh::reflect`). Few bands blur the lobe — what a gather ray needs, since hundreds of them are
 //! averaged — while keeping its total reflected power. A texel's value is a function of its position
@@ -23,10 +24,11 @@ use crate::scene::Scene;
 use crate::sh::{self, PhongKernel};
 
 /// Bands of the texels' harmonics.
-pub const ORDER: usize = 3;
+pub const ORDER: usize = 4;
 const LEN: usize = sh::len(ORDER);
 
-type Coefficients = [Vec3; LEN];
+/// The harmonics of all the photons' light, then of the light of those that are not direct.
+type Coefficients = [Vec3; 2 * LEN];
 
 pub struct GlossyTexels {
     /// Each triangle's first slot; `u32::MAX` for triangles that are not glossy.
@@ -78,7 +80,8 @@ impl GlossyTexels {
 
     /// The light the glossy lobe of the surface at point `p` (the `front` or back side of triangle
     /// `tri`, shading normal `n`, material `material` with specular reflectance `ks`) reflects toward
-    /// `wo`, from its texel's harmonics.
+    /// `wo`, from its texel's harmonics: of all the light, or with `not_direct` of all but the light
+    /// that came straight from a light (for a point whose direct light is sampled).
     #[allow(clippy::too_many_arguments)]
     pub fn radiance(
         &self,
@@ -89,6 +92,7 @@ impl GlossyTexels {
         (tri, front, p): (u32, bool, Vec3),
         (material, ks): (u32, Vec3),
         (n, wo): (Vec3, Vec3),
+        not_direct: bool,
     ) -> Vec3 {
         let (Some(kernel), Some(&first)) = (
             self.kernels.get(material as usize).copied().flatten(),
@@ -105,14 +109,28 @@ impl GlossyTexels {
             self.estimated.fetch_add(1, Ordering::Relaxed);
             let ng = cov.0.geometry.triangles[tri as usize].ng;
             let side = if front { ng } else { -ng };
-            let (_, sums) = global.projected(atlas.middle(&texel), side, k, max_radius, cov, |w| {
-                let mut y = [0.0f32; LEN];
-                sh::eval(ORDER, w, &mut y);
-                y
-            });
+            let (_, sums) = global.projected(
+                atlas.middle(&texel),
+                side,
+                k,
+                max_radius,
+                cov,
+                |w, direct| {
+                    let mut y = [0.0f32; 2 * LEN];
+                    sh::eval(ORDER, w, &mut y);
+                    let (all, not_direct) = y.split_at_mut(LEN);
+                    if !direct {
+                        not_direct.copy_from_slice(all);
+                    }
+                    y
+                },
+            );
             Box::new(sums)
         });
-        ks * sh::reflect(&g[..], ORDER, &kernel, crate::warp::reflect(wo, n))
+        let g = if not_direct { &g[LEN..] } else { &g[..LEN] };
+        // Truncated harmonics ring, below zero in some directions: the caller clamps the point's sum
+        // (clamping here alone put a mirror-like floor +3 % over its reference).
+        ks * sh::reflect(g, ORDER, &kernel, crate::warp::reflect(wo, n))
     }
 
     /// Texels estimated so far, and the bytes held.

@@ -379,15 +379,17 @@ impl<'a> PhotonData<'a> {
         Some(atlas.lookup(&self.coverage, global, tri, front, p))
     }
 
-    /// Radiance leaving a glossy surface toward `wo` through its specular lobe, where a final-gather
-    /// ray ends: from the texel's harmonics of the global map's light (see `glossy_texels`); zero for
-    /// other materials.
+    /// Radiance leaving a glossy surface toward `wo` through its specular lobe, from the texel's
+    /// harmonics of the global map's light (see `glossy_texels`): all of it where a final-gather ray
+    /// ends, all but the direct light with `not_direct` (a point whose direct light is sampled); zero
+    /// for other materials.
     pub fn glossy_radiance(
         &self,
         bsdf: &crate::material::Bsdf,
         hit: &crate::geometry::Hit,
         frame: &crate::geometry::Frame,
         wo: Vec3,
+        not_direct: bool,
     ) -> Vec3 {
         let crate::material::Bsdf::Glossy { specular, .. } = *bsdf else {
             return Vec3::ZERO;
@@ -407,41 +409,8 @@ impl<'a> PhotonData<'a> {
             (hit.tri, frame.front, hit.p),
             (hit.material, specular),
             (frame.n, wo),
+            not_direct,
         )
-    }
-
-    /// The global map's light reflected by a glossy lobe toward `wo`, direct light left out (the caller
-    /// samples it): Jensen's estimate with the lobe as BRDF at the point itself (for points reached
-    /// through another glossy lobe).
-    pub fn glossy_estimate(
-        &self,
-        bsdf: &crate::material::Bsdf,
-        hit: &crate::geometry::Hit,
-        frame: &crate::geometry::Frame,
-        wo: Vec3,
-    ) -> Vec3 {
-        let crate::material::Bsdf::Glossy {
-            specular, exponent, ..
-        } = *bsdf
-        else {
-            return Vec3::ZERO;
-        };
-        if specular == Vec3::ZERO {
-            return Vec3::ZERO;
-        }
-        let lobe = crate::material::PhongLobe::new(wo, frame.n, exponent);
-        self.global(|m| {
-            m.radiance_not_direct_with(
-                hit.p,
-                frame.n,
-                self.settings.lookup,
-                self.settings.max_radius_global,
-                photon::Filter::None,
-                &self.coverage,
-                |wi| specular * lobe.brdf(wi),
-            )
-            .e
-        })
     }
 
     /// The caustic map's light reflected by a glossy lobe toward `wo` (Jensen's estimate with the lobe
