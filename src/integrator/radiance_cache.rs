@@ -181,6 +181,14 @@ impl RadianceCache {
         Some(l.max(Vec3::ZERO))
     }
 
+    /// Where the records with coefficients are (for `--cache-image`).
+    pub fn positions(&self) -> Vec<Vec3> {
+        let made = self.made.lock().unwrap_or_else(|e| e.into_inner());
+        made.keys()
+            .map(|k| Vec3::from_array(k.map(f32::from_bits)))
+            .collect()
+    }
+
     pub fn stats(&self) -> RadianceCacheStats {
         let made = self.made.lock().unwrap_or_else(|e| e.into_inner());
         let floats: usize = made.values().map(|g| g.len()).sum();

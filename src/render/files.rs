@@ -109,21 +109,36 @@ fn write_ply(
 }
 
 /// The beauty with a dot at every record, coloured by its radius in pixels (blue small → red large,
-/// log scale between the cache's min and max spacing); in scenes with media, a white pixel at every
-/// media record in view (drawn first: surface records stay on top).
+/// log scale between the cache's min and max spacing), ringed in white where the record also keeps a
+/// glossy surface's incident light (`glossy`: the radiance cache's records); in scenes with media, a
+/// white pixel at every media record in view (drawn first: surface records stay on top).
 pub fn cache_image(
     set: &mut OutputSet,
     path: &Path,
     beauty: &Image,
     cache: &IrradianceCache,
     camera: &Camera,
-    media_records: &[Vec3],
+    (media_records, glossy): (&[Vec3], &[Vec3]),
 ) -> Result<()> {
     let mut img = beauty.clone();
+    let mut put = |px: i32, py: i32, colour: Vec3| {
+        if px >= 0 && py >= 0 && (px as u32) < img.width && (py as u32) < img.height {
+            img.pixels[(py as u32 * img.width + px as u32) as usize] = colour;
+        }
+    };
+    for &q in glossy {
+        if let Some((x, y)) = camera.project(q) {
+            for d in -2i32..=2 {
+                for (dx, dy) in [(d, -2), (d, 2), (-2, d), (2, d)] {
+                    put(x as i32 + dx, y as i32 + dy, Vec3::ONE);
+                }
+            }
+        }
+    }
     for &q in media_records {
         if let Some((x, y)) = camera.project(q) {
-            if (x as u32) < img.width && (y as u32) < img.height && x >= 0.0 && y >= 0.0 {
-                img.pixels[(y as u32 * img.width + x as u32) as usize] = Vec3::ONE;
+            if x >= 0.0 && y >= 0.0 {
+                put(x as i32, y as i32, Vec3::ONE);
             }
         }
     }
@@ -140,10 +155,7 @@ pub fn cache_image(
         let colour = Vec3::new(t, 1.0 - (2.0 * t - 1.0).abs(), 1.0 - t);
         for dy in -1i32..=1 {
             for dx in -1i32..=1 {
-                let (px, py) = (x as i32 + dx, y as i32 + dy);
-                if px >= 0 && py >= 0 && (px as u32) < img.width && (py as u32) < img.height {
-                    img.pixels[(py as u32 * img.width + px as u32) as usize] = colour;
-                }
+                put(x as i32 + dx, y as i32 + dy, colour);
             }
         }
     }

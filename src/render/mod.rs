@@ -61,6 +61,8 @@ pub struct RenderOutput {
     pub photons: Option<files::PhotonOutput>,
     /// Where the media radiance cache made records (for `--cache-image`); empty without media.
     pub media_records: Vec<glam::Vec3>,
+    /// Where the glossy radiance cache's records are (for `--cache-image`); empty without it.
+    pub radiance_records: Vec<glam::Vec3>,
 }
 
 /// Renders `scene` without writing anything; `Interrupted` soon after `cancel` is set, in any phase.
@@ -157,7 +159,9 @@ pub fn render(
             maps: p.into_maps(),
             precomputed,
         });
-    Ok((output(images, kept, media_cache, cache), stats))
+    let mut out = output(images, kept, media_cache, cache);
+    out.radiance_records = radiance.map_or(Vec::new(), |r| r.positions());
+    Ok((out, stats))
 }
 
 /// The images, with what the render made that the binary may save: the irradiance cache, the photon
@@ -177,6 +181,7 @@ fn output(
         cache: cache.map(|c| c.cache),
         photons,
         media_records,
+        radiance_records: Vec::new(),
     }
 }
 

@@ -69,7 +69,14 @@ pub fn write_outputs(
                 let cam = scene
                     .camera
                     .with_resolution(out.beauty.width, out.beauty.height);
-                cache_image(&mut set, p, &out.beauty, c, &cam, &out.media_records)?;
+                cache_image(
+                    &mut set,
+                    p,
+                    &out.beauty,
+                    c,
+                    &cam,
+                    (&out.media_records, &out.radiance_records),
+                )?;
                 interrupted()?;
             }
         }
