@@ -51,6 +51,7 @@ fuzz: build
 bench: build
 	$(CARGO) bench --bench render
 	$(CARGO) bench --bench passes
+	$(CARGO) bench --bench glossy
 
 clean:
 	$(CARGO) clean
