@@ -49,9 +49,10 @@ FRONT_TIME_TOL, FRONT_ERR_TOL = 0.03, 0.03
 PM_DEFAULT_SPP = 128
 
 
-def plan(quick, media=False):
+def plan(quick, media=False, glossy=False):
     """(method, label, series, spp, edits) per run; edits are dotted [render] keys for the scene copy.
-    Scenes with participating media add pm without the media records' gradients."""
+    Scenes with participating media add pm without the media records' gradients; scenes with glossy
+    materials add pm without the radiance cache and with fewer harmonic bands."""
     runs = [("pm", f"pm spp={s}", "pm (spp)", s, {}) for s in ((8, PM_DEFAULT_SPP) if quick else (4, 8, 16, 32, 64, PM_DEFAULT_SPP))]
     rays = (250,) if quick else (125, 250, 500, 1000)
     runs += [("pm", f"pm rays={r}", "pm (gather rays)", PM_DEFAULT_SPP, {"icache.rays": r}) for r in rays]
@@ -68,6 +69,11 @@ def plan(quick, media=False):
         runs += [("pm", f"pm no media gradients spp={s}", "pm (no media gradients)", s,
                   {"icache.media_gradients": False}) for s in ((PM_DEFAULT_SPP,) if quick else (8, PM_DEFAULT_SPP))]
         runs += [("pm", "pm media visibility", "pm (media visibility)", PM_DEFAULT_SPP, {"icache.media_visibility": True})]
+    if glossy:
+        runs += [("pm", f"pm no radiance cache spp={s}", "pm (radiance cache off)", s,
+                  {"icache.radiance_cache": False}) for s in ((PM_DEFAULT_SPP,) if quick else (8, PM_DEFAULT_SPP))]
+        runs += [("pm", f"pm radiance bands={b}", "pm (radiance bands)", PM_DEFAULT_SPP,
+                  {"icache.radiance_bands": b}) for b in ((6,) if quick else (4, 6, 8))]
     return runs
 
 
@@ -202,12 +208,14 @@ def run_scene(binary, name, quick, tmp, log):
     hq_edits = {"photons.global": 200_000 * hq_scale, "photons.caustic": 100_000 * hq_scale}
     hq_path = os.path.join(tmp, f"{name}-hq.exr")
     log(f"{name}: high-quality pm render for masks and term references")
-    render(binary, scene_copy(scene, hq_edits, tmp, f"{name}-hq"), hq_path, "pm", 16 if quick else 64, size, seed=7)
+    _, _, hq_stats = render(binary, scene_copy(scene, hq_edits, tmp, f"{name}-hq"), hq_path, "pm",
+                            16 if quick else 64, size, seed=7)
+    glossy = "glossy" in hq_stats
     masks = {k: term_mask(hq_path, k, read_rgb(hq_path)) for k in ("caustic", "specular")}
     rows = []
     with open(scene) as f:
         media = "[[medium]]" in f.read()
-    for i, (method, label, series, spp, edits) in enumerate(plan(quick, media)):
+    for i, (method, label, series, spp, edits) in enumerate(plan(quick, media, glossy)):
         sc = scene_copy(scene, edits, tmp, f"{name}-{i}") if edits else scene
         # The defaults and the gather-ray series are the means of SEEDS renders: the defaults choose their
         # rays, and whether that choice is on the Pareto front is a comparison within a few per cent.
