@@ -258,21 +258,30 @@ fn apply_overrides(cx: &Ctx, desc: &SceneFile, loaded: &mut LoadedMaterials) -> 
         };
         for &i in idx {
             let mat = &mut loaded.materials[i];
-            let was_diffuse = matches!(mat.bsdf, Bsdf::Diffuse { .. });
+            let was = textured_kind(&mat.bsdf);
             let tex = mtl::apply_override(cx.path, &line_of_mat, mat, d)?;
             if d.emission.is_some() {
                 loaded.emission_at[i] = (cx.path.to_path_buf(), line_of_mat("emission"));
             }
-            let is_diffuse = matches!(mat.bsdf, Bsdf::Diffuse { .. });
+            let is = textured_kind(&mat.bsdf);
             let tex_path = &mut loaded.tex_paths[i];
             if let Some(t) = tex {
                 *tex_path = Some((cx.path.parent().unwrap_or(Path::new(".")).to_path_buf(), t));
-            } else if !is_diffuse || !was_diffuse {
+            } else if is.is_none() || is != was {
                 *tex_path = None;
             }
         }
     }
     Ok(())
+}
+
+/// The kinds of BSDF that take a texture: an override keeps a material's texture when it keeps its kind.
+fn textured_kind(bsdf: &Bsdf) -> Option<&'static str> {
+    match bsdf {
+        Bsdf::Diffuse { .. } => Some("diffuse"),
+        Bsdf::Glossy { .. } => Some("glossy"),
+        _ => None,
+    }
 }
 
 /// Appends one model's vertices and triangles, transformed. A mirroring transform (negative
@@ -356,7 +365,7 @@ fn textures(cx: &Ctx, materials: &mut [Material], tex_paths: TexPaths) -> Result
                 textures.len() - 1
             }
         };
-        if let Bsdf::Diffuse { texture, .. } = &mut mat.bsdf {
+        if let Bsdf::Diffuse { texture, .. } | Bsdf::Glossy { texture, .. } = &mut mat.bsdf {
             *texture = Some(idx);
         }
     }
