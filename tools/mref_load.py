@@ -85,6 +85,12 @@ def load_mesh(scene, mesh, toml_dir, by_name, boundary=None):
             scene.materials.append(mat)
     xp = lambda p: tuple(a + b for a, b in zip(apply(m, p), t))
     for mat_name, corners in faces:
+        if mat_name is not None and mat_name not in local:
+            # As pmrender: a `usemtl` name no library defines is the default diffuse 0.8 under that name,
+            # so that a [materials.NAME] override can reach it.
+            local[mat_name] = len(scene.materials)
+            by_name.setdefault(mat_name, []).append(len(scene.materials))
+            scene.materials.append(Material(name=mat_name))
         if mat_name in local:
             mi = local[mat_name]
         else:
