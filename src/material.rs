@@ -22,8 +22,8 @@ pub enum Bsdf {
         ior: f32,
         transmittance: Vec3,
     },
-    /// Modified Phong. With a texture, the diffuse colour is [`glossy_texel`] of the texel; `albedo` (the
-    /// scaled Kd) is then what an override without `albedo` keeps.
+    /// Modified Phong. With a texture, the diffuse colour is [`glossy_texel`] of the texel, and once the
+    /// scene is loaded `albedo` is its mean over the texture (for readers that take no texel).
     Glossy {
         albedo: Vec3,
         specular: Vec3,
