@@ -26,19 +26,23 @@ fn v(p: Vec3) -> String {
     format!("{}, {}, {}", p.x, p.y, p.z)
 }
 
+/// A bitmap texture element named `name` reading texture `t` (Mitsuba's defaults, bilinear and
+/// repeating, are ours).
+fn bitmap(scene: &Scene, t: usize, name: &str) -> String {
+    let path = std::fs::canonicalize(&scene.textures[t].path)
+        .unwrap_or_else(|_| scene.textures[t].path.clone());
+    format!(
+        r#"<texture type="bitmap" name="{name}"><string name="filename" value="{}"/></texture>"#,
+        path.display()
+    )
+}
+
 fn bsdf_xml(scene: &Scene, m: usize) -> String {
     let mat = &scene.materials[m];
     match &mat.bsdf {
         Bsdf::Diffuse { albedo, texture } => {
             let refl = match texture {
-                Some(t) => {
-                    let path = std::fs::canonicalize(&scene.textures[*t].path)
-                        .unwrap_or_else(|_| scene.textures[*t].path.clone());
-                    format!(
-                        r#"<texture type="bitmap" name="reflectance"><string name="filename" value="{}"/></texture>"#,
-                        path.display()
-                    )
-                }
+                Some(t) => bitmap(scene, *t, "reflectance"),
                 None => rgb("reflectance", *albedo),
             };
             format!(r#"<bsdf type="twosided"><bsdf type="diffuse">{refl}</bsdf></bsdf>"#)
@@ -55,11 +59,22 @@ fn bsdf_xml(scene: &Scene, m: usize) -> String {
             albedo,
             specular,
             exponent,
-        } => format!(
-            r#"<bsdf type="pm_phong">{}{}<float name="exponent" value="{exponent}"/></bsdf>"#,
-            rgb("diffuse_reflectance", *albedo),
-            rgb("specular_reflectance", *specular)
-        ),
+            texture,
+            texel_scale,
+        } => {
+            // pm_phong's parameters (tools/mref_phong.py): colours as strings, the texture nested.
+            let tex = match texture {
+                Some(t) => format!(
+                    r#"{}<float name="texture_scale" value="{texel_scale}"/>"#,
+                    bitmap(scene, *t, "texture")
+                ),
+                None => String::new(),
+            };
+            format!(
+                r#"<bsdf type="pm_phong"><string name="albedo" value="{} {} {}"/><string name="specular" value="{} {} {}"/><float name="exponent" value="{exponent}"/>{tex}</bsdf>"#,
+                albedo.x, albedo.y, albedo.z, specular.x, specular.y, specular.z
+            )
+        }
         Bsdf::Null => r#"<bsdf type="null"/>"#.into(),
     }
 }

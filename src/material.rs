@@ -22,10 +22,16 @@ pub enum Bsdf {
         ior: f32,
         transmittance: Vec3,
     },
+    /// Modified Phong. With a texture, the diffuse colour is [`glossy_texel`] of the texel, and once the
+    /// scene is loaded `albedo` is its mean over the texture (for readers that take no texel).
     Glossy {
         albedo: Vec3,
         specular: Vec3,
         exponent: f32,
+        texture: Option<usize>,
+        /// The factor that brought Kd + Ks down to at most 1 (1 when they were within it), applied to
+        /// `albedo` and `specular` already and to the texels when they are read.
+        texel_scale: f32,
     },
     /// The invisible boundary of a medium (index-matched): light crosses it unchanged.
     Null,
@@ -37,6 +43,12 @@ pub struct Material {
     pub bsdf: Bsdf,
     /// Radiance emitted on the front side (W/(m²·sr)); zero for non-emitters.
     pub emission: Vec3,
+}
+
+/// The diffuse colour of a textured glossy surface: the texel scaled as Kd was, capped per channel at
+/// 1 − ks so that kd + ks ≤ 1 holds for texels brighter than Kd too.
+pub fn glossy_texel(texel: Vec3, texel_scale: f32, specular: Vec3) -> Vec3 {
+    (texel * texel_scale).min(Vec3::ONE - specular)
 }
 
 /// Whether a radiance (camera) or importance (photon) path is being traced: refraction scales radiance by
@@ -388,11 +400,24 @@ mod tests {
     }
 
     #[test]
+    fn glossy_texels_are_scaled_as_kd_and_capped_at_one_minus_ks() {
+        let ks = Vec3::new(0.4, 0.2, 0.0);
+        assert_eq!(glossy_texel(Vec3::splat(0.5), 0.8, ks), Vec3::splat(0.4));
+        assert_eq!(
+            glossy_texel(Vec3::ONE, 0.8, ks),
+            Vec3::new(0.6, 0.8, 0.8),
+            "kd + ks <= 1 for texels brighter than Kd"
+        );
+    }
+
+    #[test]
     fn glossy_conserves_energy_at_grazing_and_normal() {
         let bsdf = Bsdf::Glossy {
             albedo: Vec3::splat(0.0),
             specular: Vec3::splat(1.0),
             exponent: 20.0,
+            texture: None,
+            texel_scale: 1.0,
         };
         let n = Vec3::Z;
         for wo in [Vec3::Z, Vec3::new(0.8, 0.0, 0.6).normalize()] {
@@ -449,6 +474,8 @@ mod tests {
                     albedo: kd,
                     specular: Vec3::splat(0.5),
                     exponent,
+                    texture: None,
+                    texel_scale: 1.0,
                 },
                 kd,
                 wo.normalize(),

@@ -82,9 +82,13 @@ def bsdf_xml(mat):
                 f'<float name="ext_ior" value="1"/>'
                 f'<rgb name="specular_transmittance" value="{fmt3(mat.transmittance)}"/></bsdf>')
     if mat.kind == "glossy":
+        # A texture is the diffuse colour: texel x texture_scale, capped at 1 - Ks (tools/mref_phong.py).
+        tex = (f'<texture type="bitmap" name="texture"><string name="filename" value={quoteattr(mat.texture)}/>'
+               f'<string name="filter_type" value="bilinear"/><string name="wrap_mode" value="repeat"/></texture>'
+               f'<float name="texture_scale" value="{mat.texture_scale:.9g}"/>' if mat.texture else "")
         return (f'<bsdf type="pm_phong"><string name="albedo" value="{" ".join("%.9g" % x for x in mat.albedo)}"/>'
                 f'<string name="specular" value="{" ".join("%.9g" % x for x in mat.specular)}"/>'
-                f'<float name="exponent" value="{mat.exponent:.9g}"/></bsdf>')
+                f'<float name="exponent" value="{mat.exponent:.9g}"/>{tex}</bsdf>')
     if mat.kind == "mirror":
         inner = (f'<bsdf type="conductor"><string name="material" value="none"/>'
                  f'<rgb name="specular_reflectance" value="{fmt3(mat.reflectance)}"/></bsdf>')

@@ -14,7 +14,7 @@ OVERRIDE_KEYS = {
     "diffuse": {"albedo", "texture"},
     "mirror": {"reflectance"},
     "glass": {"ior", "transmittance"},
-    "glossy": {"albedo", "specular", "exponent"},
+    "glossy": {"albedo", "specular", "exponent", "texture"},
     "null": set(),
 }
 
@@ -85,6 +85,12 @@ def load_mesh(scene, mesh, toml_dir, by_name, boundary=None):
             scene.materials.append(mat)
     xp = lambda p: tuple(a + b for a, b in zip(apply(m, p), t))
     for mat_name, corners in faces:
+        if mat_name is not None and mat_name not in local:
+            # As pmrender: a `usemtl` name no library defines is the default diffuse 0.8 under that name,
+            # so that a [materials.NAME] override can reach it.
+            local[mat_name] = len(scene.materials)
+            by_name.setdefault(mat_name, []).append(len(scene.materials))
+            scene.materials.append(Material(name=mat_name))
         if mat_name in local:
             mi = local[mat_name]
         else:
@@ -114,7 +120,8 @@ def default_material(scene):
 def apply_override(mat, d, toml_dir):
     """`[materials.NAME]` as pmrender's mtl::apply_override: keys not given default from the current
     material when it is diffuse or glossy (albedo, specular, exponent), else albedo 0.8, specular 0,
-    exponent 1; mirror reflectance defaults to the current mirror's, else that specular if > 0, else 1;
+    exponent 1; a diffuse or glossy material keeps its texture when its type is unchanged, else only
+    a `texture` given; mirror reflectance defaults to the current mirror's, else that specular if > 0, else 1;
     glass to the current glass's ior and transmittance, else 1.5 and 1. The type defaults to the
     current one."""
     kind = d.get("type", mat.kind)
@@ -131,12 +138,12 @@ def apply_override(mat, d, toml_dir):
         kd, ks, ns = (0.8, 0.8, 0.8), (0.0, 0.0, 0.0), 1.0
     get = lambda k, dflt: vec3(d[k], f"materials.{mat.name}.{k}") if k in d else dflt
     was = mat.kind
-    if kind != "diffuse" or mat.kind != "diffuse":
+    if kind != mat.kind or kind not in ("diffuse", "glossy"):
         mat.texture = None
+    if kind in ("diffuse", "glossy") and "texture" in d:
+        mat.texture = resolve_texture(toml_dir, d["texture"])
     if kind == "diffuse":
         mat.albedo = get("albedo", kd)
-        if "texture" in d:
-            mat.texture = resolve_texture(toml_dir, d["texture"])
     elif kind == "mirror":
         own = mat.reflectance if was == "mirror" else None
         mat.reflectance = get("reflectance", own or (ks if max(ks) > 0 else (1.0, 1.0, 1.0)))
@@ -147,7 +154,10 @@ def apply_override(mat, d, toml_dir):
         own_t = mat.transmittance if was == "glass" else (1.0, 1.0, 1.0)
         mat.ior, mat.transmittance = ior, get("transmittance", own_t)
     elif kind == "glossy":
+        # A texel stands for Kd: when Kd is the old glossy one, it was scaled down once already.
+        old_scale = mat.texture_scale if was == "glossy" and "albedo" not in d else 1.0
         set_glossy(mat, get("albedo", kd), get("specular", ks), float(d.get("exponent", max(ns, 1.0))))
+        mat.texture_scale *= old_scale
     mat.kind = kind
     if "emission" in d:
         mat.emission = vec3(d["emission"], f"materials.{mat.name}.emission")

@@ -7,9 +7,9 @@ Semantics reproduced (src/scene/*.rs, the scene-format spec):
     normals by the inverse transpose.
   * OBJ polygons are fan-triangulated (0, i, i+1); zero-area triangles are dropped.
   * MTL: Ke > 0 emits (area light); illum 3/5 mirror (Ks); illum 4/6/7 glass (Ni, 1.5 when absent
-    or <= 1; Tf, 1 when absent); Ks > 0 and Ns > 1 glossy (scaled down so max(Kd + Ks) <= 1);
-    otherwise diffuse (Kd, 0.8 when absent; map_Kd texture). Faces with no known material get
-    the default diffuse 0.8.
+    or <= 1; Tf, 1 when absent); Ks > 0 and Ns > 1 glossy (scaled down so max(Kd + Ks) <= 1; map_Kd
+    texture, its texels scaled by the same factor and capped at 1 - Ks); otherwise diffuse (Kd, 0.8
+    when absent; map_Kd texture). Faces with no known material get the default diffuse 0.8.
   * [materials.NAME] overrides apply to every material of that name in every mesh.
 """
 import math
@@ -27,6 +27,7 @@ class Material:
     kind: str = "diffuse"  # diffuse | mirror | glass | glossy | null
     albedo: tuple = (0.8, 0.8, 0.8)
     texture: str | None = None  # absolute path
+    texture_scale: float = 1.0  # glossy: the factor applied to Kd (and to the texels) so that Kd + Ks <= 1
     reflectance: tuple = (1.0, 1.0, 1.0)
     ior: float = 1.5
     transmittance: tuple = (1.0, 1.0, 1.0)
@@ -163,10 +164,11 @@ def material_from_mtl(name, d, mtl_dir):
         ni = float(d["Ni"].split()[0]) if "Ni" in d else 1.5
         m.kind, m.ior = "glass", (1.5 if ni <= 1.0 else ni)
         m.transmittance = floats(d["Tf"]) if "Tf" in d else (1.0, 1.0, 1.0)
-    elif max(ks) > 0.0 and ns > 1.0:
-        set_glossy(m, kd, ks, ns)
     else:
-        m.kind, m.albedo = "diffuse", kd
+        if max(ks) > 0.0 and ns > 1.0:
+            set_glossy(m, kd, ks, ns)
+        else:
+            m.kind, m.albedo = "diffuse", kd
         tex = d.get("map_Kd", "").strip()
         if tex:
             m.texture = resolve_texture(mtl_dir, tex)
@@ -178,6 +180,7 @@ def set_glossy(m, kd, ks, exponent):
     total = max(a + b for a, b in zip(kd, ks))
     s = 1.0 / total if total > 1.0 else 1.0
     m.kind, m.albedo, m.specular, m.exponent = "glossy", tuple(x * s for x in kd), tuple(x * s for x in ks), exponent
+    m.texture_scale = s
 
 
 def resolve_texture(directory, name):

@@ -258,21 +258,30 @@ fn apply_overrides(cx: &Ctx, desc: &SceneFile, loaded: &mut LoadedMaterials) -> 
         };
         for &i in idx {
             let mat = &mut loaded.materials[i];
-            let was_diffuse = matches!(mat.bsdf, Bsdf::Diffuse { .. });
+            let was = textured_kind(&mat.bsdf);
             let tex = mtl::apply_override(cx.path, &line_of_mat, mat, d)?;
             if d.emission.is_some() {
                 loaded.emission_at[i] = (cx.path.to_path_buf(), line_of_mat("emission"));
             }
-            let is_diffuse = matches!(mat.bsdf, Bsdf::Diffuse { .. });
+            let is = textured_kind(&mat.bsdf);
             let tex_path = &mut loaded.tex_paths[i];
             if let Some(t) = tex {
                 *tex_path = Some((cx.path.parent().unwrap_or(Path::new(".")).to_path_buf(), t));
-            } else if !is_diffuse || !was_diffuse {
+            } else if is.is_none() || is != was {
                 *tex_path = None;
             }
         }
     }
     Ok(())
+}
+
+/// The kinds of BSDF that take a texture: an override keeps a material's texture when it keeps its kind.
+fn textured_kind(bsdf: &Bsdf) -> Option<&'static str> {
+    match bsdf {
+        Bsdf::Diffuse { .. } => Some("diffuse"),
+        Bsdf::Glossy { .. } => Some("glossy"),
+        _ => None,
+    }
 }
 
 /// Appends one model's vertices and triangles, transformed. A mirroring transform (negative
@@ -356,11 +365,34 @@ fn textures(cx: &Ctx, materials: &mut [Material], tex_paths: TexPaths) -> Result
                 textures.len() - 1
             }
         };
-        if let Bsdf::Diffuse { texture, .. } = &mut mat.bsdf {
-            *texture = Some(idx);
+        match &mut mat.bsdf {
+            Bsdf::Diffuse { texture, .. } => *texture = Some(idx),
+            Bsdf::Glossy {
+                albedo,
+                specular,
+                texture,
+                texel_scale,
+                ..
+            } => {
+                *texture = Some(idx);
+                *albedo = mean_glossy_texel(&textures[idx], *texel_scale, *specular);
+            }
+            _ => {}
         }
     }
     Ok(textures)
+}
+
+/// The mean diffuse colour of a textured glossy material over its texture: its `albedo`, for readers
+/// that do not look the texel up (the irradiance atlas gives a glossy texel its material's albedo; the
+/// scaled Kd there made pm 7.9 % bright on Sibenik with a polished marble floor).
+fn mean_glossy_texel(t: &Texture, texel_scale: f32, specular: Vec3) -> Vec3 {
+    let sum: glam::DVec3 = t
+        .texels
+        .iter()
+        .map(|&c| crate::material::glossy_texel(c, texel_scale, specular).as_dvec3())
+        .sum();
+    (sum / t.texels.len().max(1) as f64).as_vec3()
 }
 
 /// FNV-1a (the cache file's checksum function) over positions, triangles, materials and lights.

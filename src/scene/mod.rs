@@ -374,14 +374,24 @@ impl Scene {
         (None, Vec3::ZERO, medium)
     }
 
-    /// Diffuse albedo at a hit (texture-resolved).
+    /// Diffuse albedo at a hit (texture-resolved; for glossy, the diffuse part of Phong).
     pub(crate) fn albedo(&self, hit: &Hit) -> Vec3 {
+        use crate::material::{glossy_texel, Bsdf};
         match &self.materials[hit.material as usize].bsdf {
-            crate::material::Bsdf::Diffuse { albedo, texture } => match texture {
+            Bsdf::Diffuse { albedo, texture } => match texture {
                 Some(t) => self.textures[*t].lookup(hit.uv),
                 None => *albedo,
             },
-            crate::material::Bsdf::Glossy { albedo, .. } => *albedo,
+            Bsdf::Glossy {
+                albedo,
+                specular,
+                texture,
+                texel_scale,
+                ..
+            } => match texture {
+                Some(t) => glossy_texel(self.textures[*t].lookup(hit.uv), *texel_scale, *specular),
+                None => *albedo,
+            },
             _ => Vec3::ZERO,
         }
     }

@@ -27,7 +27,8 @@ fn param3(m: &tobj::Material, key: &str) -> Option<Vec3> {
 }
 
 /// The MTL mapping: Ke > 0 → emission; illum 3/5 → mirror; 4/6/7 → glass; Ks > 0 with Ns > 1 →
-/// glossy; otherwise diffuse. Returns the material and the texture path (`map_Kd`), if any.
+/// glossy; otherwise diffuse. Returns the material and the texture path (`map_Kd`, for diffuse and
+/// glossy), if any.
 pub fn from_mtl(m: &tobj::Material) -> (Material, Option<String>) {
     let kd = v3(m.diffuse).unwrap_or(Vec3::splat(0.8));
     let ks = v3(m.specular).unwrap_or(Vec3::ZERO);
@@ -52,7 +53,9 @@ pub fn from_mtl(m: &tobj::Material) -> (Material, Option<String>) {
         },
     };
     let texture = match bsdf {
-        Bsdf::Diffuse { .. } => m.diffuse_texture.clone().filter(|t| !t.trim().is_empty()),
+        Bsdf::Diffuse { .. } | Bsdf::Glossy { .. } => {
+            m.diffuse_texture.clone().filter(|t| !t.trim().is_empty())
+        }
         _ => None,
     };
     (
@@ -73,6 +76,8 @@ fn glossy(kd: Vec3, ks: Vec3, exponent: f32) -> Bsdf {
         albedo: kd * s,
         specular: ks * s,
         exponent,
+        texture: None,
+        texel_scale: s,
     }
 }
 
@@ -159,7 +164,7 @@ fn allowed_keys(kind: &str) -> Option<&'static [&'static str]> {
         "diffuse" => &["albedo", "texture"],
         "mirror" => &["reflectance"],
         "glass" => &["ior", "transmittance"],
-        "glossy" => &["albedo", "specular", "exponent"],
+        "glossy" => &["albedo", "specular", "exponent", "texture"],
         "null" => &[],
         _ => return None,
     })
@@ -180,6 +185,7 @@ fn overridden_bsdf(
             albedo,
             specular,
             exponent,
+            ..
         } => (*albedo, *specular, *exponent),
         _ => (Vec3::splat(0.8), Vec3::ZERO, 1.0),
     };
@@ -221,6 +227,7 @@ fn overridden_bsdf(
             }
         }
         _ => {
+            texture = d.texture.clone();
             let exponent = d.exponent.unwrap_or(ns.max(1.0));
             if !(0.0..=MAX_EXPONENT).contains(&exponent) {
                 return Err(key_err(
@@ -228,11 +235,20 @@ fn overridden_bsdf(
                     format!("{exponent} is outside [0, {MAX_EXPONENT:e}]"),
                 ));
             }
-            glossy(
+            // A texel stands for Kd: when Kd is the old glossy one, it was scaled down once already.
+            let old_scale = match *old {
+                Bsdf::Glossy { texel_scale, .. } if d.albedo.is_none() => texel_scale,
+                _ => 1.0,
+            };
+            let mut bsdf = glossy(
                 v3(d.albedo).unwrap_or(kd),
                 v3(d.specular).unwrap_or(ks),
                 exponent,
-            )
+            );
+            if let Bsdf::Glossy { texel_scale, .. } = &mut bsdf {
+                *texel_scale *= old_scale;
+            }
+            bsdf
         }
     };
     Ok((bsdf, texture))
@@ -241,6 +257,79 @@ fn overridden_bsdf(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A Blender-style material (`Ks 0.5`, `Ns 250`, `illum 2`, `map_Kd`) is glossy and keeps its
+    /// texture, read as the diffuse colour scaled by the factor that brought Kd + Ks to 1; a `glossy`
+    /// override takes a texture as a diffuse one does, and a type change drops it unless given.
+    #[test]
+    fn glossy_materials_keep_their_texture() {
+        let d = tempfile::tempdir().unwrap();
+        let w = |name: &str, text: &str| std::fs::write(d.path().join(name), text).unwrap();
+        // Two quads facing +z, side by side, each with its own material.
+        w(
+            "m.obj",
+            "mtllib m.mtl\nv -2 -1 0\nv 0 -1 0\nv 0 1 0\nv -2 1 0\nv 0 -1 0\nv 2 -1 0\nv 2 1 0\nv 0 1 0\n\
+             vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n\
+             usemtl blender\nf 1/1 2/2 3/3 4/4\nusemtl plain\nf 5/1 6/2 7/3 8/4\n",
+        );
+        w(
+            "m.mtl",
+            "newmtl blender\nKd 0.8 0.8 0.8\nKs 0.5 0.5 0.5\nNs 250\nillum 2\nmap_Kd grey.ppm\n\
+             newmtl plain\nKd 0.5 0.5 0.5\nmap_Kd grey.ppm\n",
+        );
+        // sRGB 128: linear 0.2158.
+        w("grey.ppm", "P3\n1 1\n255\n128 128 128\n");
+        let scene = |overrides: &str| {
+            w(
+                "s.toml",
+                &format!(
+                    "[camera]\neye = [0.0, 0.0, 4.0]\ntarget = [0.0, 0.0, 0.0]\nfov = 60.0\n\
+                     width = 8\nheight = 8\n[[mesh]]\nobj = \"m.obj\"\n\
+                     [[light]]\ntype = \"point\"\nposition = [0.0, 0.0, 2.0]\n\
+                     intensity = [1.0, 1.0, 1.0]\n{overrides}"
+                ),
+            );
+            crate::scene::load(&d.path().join("s.toml")).unwrap()
+        };
+        let eye = Vec3::new(0.0, 0.0, 4.0);
+        let albedo_at = |s: &crate::scene::Scene, x: f32| {
+            let hit = s.intersect(eye, (Vec3::new(x, 0.0, 0.0) - eye).normalize());
+            s.albedo(&hit.expect("the ray hits a quad"))
+        };
+        let grey = 0.21586;
+        let s = scene("");
+        let blender = s.materials.iter().find(|m| m.name == "blender").unwrap();
+        let Bsdf::Glossy {
+            texture: Some(_),
+            texel_scale,
+            specular,
+            ..
+        } = blender.bsdf
+        else {
+            panic!("{:?}", blender.bsdf);
+        };
+        assert!((texel_scale - 1.0 / 1.3).abs() < 1e-6);
+        assert!((specular.x - 0.5 / 1.3).abs() < 1e-6);
+        let a = albedo_at(&s, -1.0);
+        assert!((a.x - grey / 1.3).abs() < 1e-3, "{a}");
+        assert!((albedo_at(&s, 1.0).x - grey).abs() < 1e-3);
+        // A diffuse material made glossy keeps a texture only when the override gives one; the texel
+        // is scaled as its Kd: 0.5 + 0.75 → 1/1.25.
+        let s = scene("[materials.plain]\ntype = \"glossy\"\nspecular = [0.75, 0.75, 0.75]\nexponent = 20.0\n");
+        assert!((albedo_at(&s, 1.0).x - 0.5 / 1.25).abs() < 1e-5);
+        let s = scene(
+            "[materials.plain]\ntype = \"glossy\"\nspecular = [0.75, 0.75, 0.75]\nexponent = 20.0\n\
+             texture = \"grey.ppm\"\n",
+        );
+        assert!((albedo_at(&s, 1.0).x - grey / 1.25).abs() < 1e-3);
+        // Glossy kept glossy keeps its texture, and Kd's first scaling: 0.8/1.3 + 0.5/1.3 = 1, so the
+        // override scales no further.
+        let s = scene("[materials.blender]\nexponent = 40.0\n");
+        assert!((albedo_at(&s, -1.0).x - grey / 1.3).abs() < 1e-3);
+        // Glossy made diffuse drops it unless given.
+        let s = scene("[materials.blender]\ntype = \"diffuse\"\n");
+        assert!((albedo_at(&s, -1.0).x - 0.8 / 1.3).abs() < 1e-5);
+    }
 
     #[test]
     fn overrides_keep_the_values_they_do_not_set() {

@@ -56,6 +56,7 @@ pub fn check_obj(path: &Path, text: &str) -> Result<CheckedObj> {
         ke_at: HashMap::new(),
     };
     let mut counts = [0i64; 3];
+    let mut used: Vec<String> = Vec::new();
     for (i, raw) in text.lines().enumerate() {
         let line_no = i + 1;
         let line = strip_comment(raw);
@@ -103,6 +104,12 @@ pub fn check_obj(path: &Path, text: &str) -> Result<CheckedObj> {
             "usemtl" if args.is_empty() => {
                 return Err(at_line(path, line_no, "'usemtl' needs a material name"))
             }
+            "usemtl" => {
+                let name = line.trim()["usemtl".len()..].trim();
+                if !used.iter().any(|u| u == name) {
+                    used.push(name.to_string());
+                }
+            }
             "mtllib" => {
                 for lib in libraries(path, line_no, line)? {
                     let mtl_text = read_text(&lib, "material library", MAX_MTL_BYTES, Some(b'#'))?;
@@ -119,7 +126,31 @@ pub fn check_obj(path: &Path, text: &str) -> Result<CheckedObj> {
         out.text.push_str(line);
         out.text.push('\n');
     }
+    define_missing(path, &mut out, &used);
     Ok(out)
+}
+
+/// Gives each `usemtl` name that no library defines the default material (diffuse 0.8) under its own
+/// name, in a library of its own read first, so that a scene's `[materials.NAME]` can override it:
+/// McGuire's CornellBox-Glossy.mtl lacks the `light` its OBJ uses.
+fn define_missing(path: &Path, out: &mut CheckedObj, used: &[String]) {
+    let defined: std::collections::HashSet<&str> = out
+        .libraries
+        .iter()
+        .flat_map(|(_, text)| text.lines())
+        .filter_map(|l| l.trim().strip_prefix("newmtl"))
+        .map(str::trim)
+        .collect();
+    let missing: String = used
+        .iter()
+        .filter(|u| !defined.contains(u.as_str()))
+        .map(|u| format!("newmtl {u}\nKd 0.8 0.8 0.8\n"))
+        .collect();
+    if missing.is_empty() {
+        return;
+    }
+    out.text = format!("mtllib {}\n{}", out.libraries.len(), out.text);
+    out.libraries.push((path.to_path_buf(), missing));
 }
 
 /// The files an `mtllib` statement names: the whole rest of the line when that is a file (names may
@@ -273,6 +304,16 @@ mod tests {
             .err()
             .map(|e| e.to_string())
             .unwrap_or_default()
+    }
+
+    #[test]
+    fn a_usemtl_name_no_library_defines_gets_the_default_material() {
+        let c = check_obj(Path::new("m.obj"), "usemtl light\nv 0 0 0\nusemtl light\n").unwrap();
+        assert!(c.text.starts_with("mtllib 0\n"), "{}", c.text);
+        assert_eq!(c.libraries.len(), 1);
+        assert_eq!(c.libraries[0].1, "newmtl light\nKd 0.8 0.8 0.8\n");
+        let c = check_obj(Path::new("m.obj"), "v 0 0 0\n").unwrap();
+        assert!(c.libraries.is_empty());
     }
 
     #[test]
