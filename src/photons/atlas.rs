@@ -198,10 +198,17 @@ const TEXEL_ALBEDO_SIDE: u32 = 2;
 fn texel_albedo(scene: &Scene, tri: u32, grid: &Grid, i: u32, j: u32, seed: u64) -> Vec3 {
     let t = &scene.geometry.triangles[tri as usize];
     let material = &scene.materials[t.material as usize].bsdf;
-    let texture = match *material {
+    // A glossy material's texel is scaled as at a hit (`Scene::albedo`).
+    let (texture, glossy) = match *material {
         Bsdf::Diffuse {
             texture: Some(k), ..
-        } => &scene.textures[k],
+        } => (&scene.textures[k], None),
+        Bsdf::Glossy {
+            texture: Some(k),
+            texel_scale,
+            specular,
+            ..
+        } => (&scene.textures[k], Some((texel_scale, specular))),
         Bsdf::Diffuse { albedo, .. } | Bsdf::Glossy { albedo, .. } => {
             return material.diffuse_albedo(albedo)
         }
@@ -235,7 +242,10 @@ fn texel_albedo(scene: &Scene, tri: u32, grid: &Grid, i: u32, j: u32, seed: u64)
     let points = texel_points(grid, i, j, TEXEL_ALBEDO_SIDE, hash_keys(&[seed, 0xa1bed0]));
     let mean = points
         .iter()
-        .map(|&q| texture.lookup(uv_at(q)))
+        .map(|&q| {
+            let t = texture.lookup(uv_at(q));
+            glossy.map_or(t, |(scale, ks)| crate::material::glossy_texel(t, scale, ks))
+        })
         .sum::<Vec3>()
         / points.len() as f32;
     material.diffuse_albedo(mean)
