@@ -37,6 +37,9 @@ type Coefficients = [Vec3; 2 * LEN + 3];
 /// highlight (a glossy box's highlight lit the ceiling above it 7 % too bright, beside 5 % too dark).
 const COHERENT_DIRECT: f32 = 0.95;
 
+/// Bytes a glossy texel's harmonics take once estimated.
+pub const TEXEL_BYTES: u64 = std::mem::size_of::<Coefficients>() as u64;
+
 pub struct GlossyTexels {
     /// Each triangle's first slot; `u32::MAX` for triangles that are not glossy.
     first: Vec<u32>,

@@ -1,6 +1,6 @@
 //! The photon maps as the render uses them: settings with scene-derived defaults, tracing the maps, and
-//! the services built over them that the integrators read — the irradiance atlas, the disc coverage
-//! of estimates, the volume grid and the media radiance cache's estimates.
+//! the services built over them that the integrators read — the irradiance atlas and its glossy
+//! texels, the disc coverage of estimates, the volume grid and the media radiance cache's estimates.
 
 pub mod atlas;
 pub mod coverage;
@@ -11,5 +11,6 @@ mod photon_scene;
 mod settings;
 pub mod volume_grid;
 
+pub use glossy_texels::TEXEL_BYTES as GLOSSY_TEXEL_BYTES;
 pub use lookup::{atlas_k, PhotonData};
 pub use settings::{PhotonSettings, DEFAULT_PHOTONS_PER_TEXEL};

@@ -160,6 +160,16 @@ pub fn estimate(scene: &Scene, plan: &Plan, opts: &Options) -> Vec<(String, u64)
         let atlas = crate::photons::atlas::MAX_TEXEL_SLOTS * slot_bytes
             + scene.geometry.triangles.len() as u64 * 64;
         items.push(("irradiance atlas".into(), atlas));
+        if scene.has_glossy() {
+            // Glossy texels: a slot per texel, and the harmonics of those rays reach (about two per
+            // pixel on an all-glossy Sponza; counted as four).
+            let texels = crate::photons::atlas::MAX_TEXEL_SLOTS;
+            let estimated = texels.min(4 * pixels);
+            items.push((
+                "glossy texels".into(),
+                texels * 16 + estimated * crate::photons::GLOSSY_TEXEL_BYTES,
+            ));
+        }
         if scene.media.is_some() {
             // The final-gather rays' lattice of at most MAX_RECORDS (a record and its lock), and for `pm`
             // the media cache's records (each with a few index entries) and pass A's points.
