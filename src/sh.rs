@@ -157,8 +157,19 @@ impl PhongKernel {
 /// Light reflected by a zonal kernel about unit direction `r` from stored coefficients `g` of `order`
 /// bands: `Σ_l λ_l Σ_m g_lm Y_lm(r)`.
 pub fn reflect(g: &[Vec3], order: usize, kernel: &PhongKernel, r: Vec3) -> Vec3 {
+    if order <= 4 {
+        // The glossy texels' every read: no 100-value buffer to clear.
+        let mut y = [0.0f32; 16];
+        eval_low(order, r, &mut y);
+        return bands(g, order, kernel, &y);
+    }
     let mut y = [0.0f32; len(MAX_ORDER)];
     eval(order, r, &mut y);
+    bands(g, order, kernel, &y)
+}
+
+/// `Σ_l λ_l Σ_m g_lm y_lm` over `order` bands.
+fn bands(g: &[Vec3], order: usize, kernel: &PhongKernel, y: &[f32]) -> Vec3 {
     let mut out = Vec3::ZERO;
     for l in 0..order {
         let mut band = Vec3::ZERO;

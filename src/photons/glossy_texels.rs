@@ -140,11 +140,23 @@ impl GlossyTexels {
         let r = crate::warp::reflect(wo, n);
         // Truncated harmonics ring, below zero in some directions: the caller clamps the point's sum
         // (clamping here alone put a mirror-like floor +3 % over its reference).
-        let mut l = sh::reflect(&g[..LEN], ORDER, &kernel, r);
-        if !not_direct {
-            l += direct_reflected(g, &kernel, exponent, r);
+        if not_direct {
+            return ks * sh::reflect(&g[..LEN], ORDER, &kernel, r);
         }
-        ks * l
+        ks * match coherent_direct(g) {
+            Some((d, e)) => {
+                let cos = d.dot(r).max(0.0);
+                sh::reflect(&g[..LEN], ORDER, &kernel, r)
+                    + e * (exponent + 2.0) / (2.0 * std::f32::consts::PI) * cos.powf(exponent)
+            }
+            None => {
+                let mut all = [Vec3::ZERO; LEN];
+                for (a, (x, y)) in all.iter_mut().zip(g[..LEN].iter().zip(&g[LEN..2 * LEN])) {
+                    *a = *x + *y;
+                }
+                sh::reflect(&all, ORDER, &kernel, r)
+            }
+        }
     }
 
     /// Texels estimated so far, and the bytes held.
@@ -157,9 +169,9 @@ impl GlossyTexels {
     }
 }
 
-/// The lobe's reflection (per unit specular, about the mirror direction `r`) of a texel's direct light:
-/// from the photons' mean direction when they nearly share one, else through the bands.
-fn direct_reflected(g: &Coefficients, kernel: &PhongKernel, exponent: f32, r: Vec3) -> Vec3 {
+/// A texel's direct light as arriving from one direction, when its photons nearly share one (one small
+/// light): that direction and the light's irradiance.
+fn coherent_direct(g: &Coefficients) -> Option<(Vec3, Vec3)> {
     let sum = Vec3::new(
         luminance(g[2 * LEN]),
         luminance(g[2 * LEN + 1]),
@@ -168,10 +180,5 @@ fn direct_reflected(g: &Coefficients, kernel: &PhongKernel, exponent: f32, r: Ve
     // The irradiance of the direct photons: band 0 times √(4π).
     let e = g[LEN] * (4.0 * std::f32::consts::PI).sqrt();
     let (len, e_lum) = (sum.length(), luminance(e));
-    if e_lum > 0.0 && len >= COHERENT_DIRECT * e_lum {
-        let d = sum / len;
-        let cos = d.dot(r).max(0.0);
-        return e * (exponent + 2.0) / (2.0 * std::f32::consts::PI) * cos.powf(exponent);
-    }
-    sh::reflect(&g[LEN..2 * LEN], ORDER, kernel, r)
+    (e_lum > 0.0 && len >= COHERENT_DIRECT * e_lum).then(|| (sum / len, e))
 }
