@@ -568,6 +568,19 @@ fn toml_range_errors_name_the_right_line() {
     }
 }
 
+/// A huge `max_spacing_px` is legal (no upper clamp) and renders in bounded time: pass A's repair
+/// queries spanned 2^21 cells per axis, whose product overflowed.
+#[test]
+fn a_huge_max_spacing_renders_in_bounded_time() {
+    for value in ["1e8", "3e38"] {
+        let d = room_with(
+            ROOM_MTL,
+            &format!("{ROOM_TOML}\n[render.icache]\nmax_spacing_px = {value}\n"),
+        );
+        renders(d.path(), &["--method", "pm"]);
+    }
+}
+
 /// Saves photons and a cache for the room; returns the directory, the two files and the fingerprint.
 fn saved_files() -> (tempfile::TempDir, Vec<u8>, Vec<u8>, u64) {
     let d = room();
