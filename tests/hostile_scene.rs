@@ -568,6 +568,24 @@ fn toml_range_errors_name_the_right_line() {
     }
 }
 
+/// A record reaching far less than a pixel (tiny `accuracy` or `min_spacing_px`) makes pass B create a
+/// record per sample, memory and time growing as 1/reach²: refused on its key.
+#[test]
+fn cache_records_reaching_less_than_a_pixel_are_refused() {
+    for (key, value) in [
+        ("accuracy", "0.01"),
+        ("accuracy", "1e-30"),
+        ("min_spacing_px", "0.001"),
+    ] {
+        let toml = format!("{ROOM_TOML}\n[render.icache]\n{key} = {value}\n");
+        refused_room(
+            ROOM_MTL,
+            &toml,
+            &["scene.toml:16:", &format!("render.icache.{key}"), "0.3 px"],
+        );
+    }
+}
+
 /// A huge `max_spacing_px` is legal (no upper clamp) and renders in bounded time: pass A's repair
 /// queries spanned 2^21 cells per axis, whose product overflowed.
 #[test]

@@ -350,9 +350,16 @@ fn icache(cx: &Ctx, d: &IcacheDesc) -> Result<IcacheSettings> {
     })
 }
 
+/// The least reach of a record, `accuracy` × `min_spacing_px`, in pixels. A record reaching less than a
+/// pixel leaves the samples between records uncovered: pass B makes a record for nearly every sample,
+/// and the records, their neighbour lists and the time grow as 1/reach² (accuracy 0.01 took 20
+/// records per pixel and 780 MB at 32²; 0.1 × 3 px, the least Ward's practice uses, 1 and 190 MB).
+pub const MIN_RECORD_REACH_PX: f32 = 0.3;
+
 /// `[render.icache]` numbers, each blamed on its own key: accuracies and spacings positive and finite,
-/// `min_spacing_px ≤ max_spacing_px`, `pass_b_accuracy ≥ accuracy` (defaults fill the keys not given;
-/// pass B's is 1.5 times the accuracy given).
+/// `min_spacing_px ≤ max_spacing_px`, a record's least reach at least [`MIN_RECORD_REACH_PX`],
+/// `pass_b_accuracy ≥ accuracy` (defaults fill the keys not given; pass B's is 1.5 times the accuracy
+/// given).
 fn check_icache(cx: &Ctx, d: &IcacheDesc) -> Result<()> {
     let err = |key: &str, msg: String| cx.err("render.icache", 0, key, msg);
     let defaults = icache::CacheParams::default();
@@ -384,6 +391,30 @@ fn check_icache(cx: &Ctx, d: &IcacheDesc) -> Result<()> {
         ));
     }
     let a = d.accuracy.unwrap_or(defaults.accuracy);
+    if a * min < MIN_RECORD_REACH_PX {
+        let key = if d.accuracy.is_some() {
+            "accuracy"
+        } else {
+            "min_spacing_px"
+        };
+        let num = |x: f32| {
+            if x != 0.0 && x.abs() < 1e-3 {
+                format!("{x:e}")
+            } else {
+                format!("{x}")
+            }
+        };
+        return Err(err(
+            key,
+            format!(
+                "accuracy × min_spacing_px = {} × {} = {} px: a record must reach at least \
+                 {MIN_RECORD_REACH_PX} px",
+                num(a),
+                num(min),
+                num(a * min)
+            ),
+        ));
+    }
     if let Some(b) = d.pass_b_accuracy.filter(|&b| b < a) {
         return Err(err(
             "pass_b_accuracy",
