@@ -813,3 +813,54 @@ fn pm_beats_path_at_equal_time_in_both_fog_scenes() {
         assert!(e_pm < 0.5 * e_path, "{name}: pm relMSE {e_pm:.5} in {t_pm:.1} s is not half of path's {e_path:.5} at {spp} spp ({t_path:.1} s)");
     }
 }
+
+/// Boundaries nested deeper than the limit are refused on the innermost's line, before any ray: every
+/// ray crosses each of them, so the time grew with the depth (80 nested boxes took 75 s at 32²). The
+/// limit itself renders.
+#[test]
+fn boundaries_nested_too_deep_are_refused() {
+    let scene = |n: usize| {
+        let mut toml = String::from(
+            "version = 1\n[camera]\neye = [0.0, 0.0, 5.0]\ntarget = [0.0, 0.0, 0.0]\nfov = 40.0\nwidth = 8\nheight = 8\n\n[[medium]]\nname = \"fog\"\nsigma_a = [0.01, 0.01, 0.01]\nsigma_s = [0.05, 0.05, 0.05]\n\n[materials.boundary]\ntype = \"null\"\n\n[render]\nmethod = \"path\"\nspp = 1\n\n[[mesh]]\nobj = \"lamp.obj\"\n",
+        );
+        let mut files = vec![
+            ("scene.mtl".to_string(), SLAB_MTL.to_string()),
+            (
+                "lamp.obj".into(),
+                String::from("mtllib scene.mtl\n") + &quad_facing_z(-3.0, 4.0, "lamp", 0),
+            ),
+        ];
+        for i in 0..n {
+            let e = 2.0 - 1.9 * i as f32 / n as f32;
+            files.push((
+                format!("b{i}.obj"),
+                String::from("mtllib scene.mtl\n")
+                    + &box_obj([-e, -e, -e], [e, e, e], "boundary", 0, false),
+            ));
+            toml += &format!("\n[[mesh]]\nobj = \"b{i}.obj\"\ninterior = \"fog\"\n");
+        }
+        files.push(("scene.toml".into(), toml));
+        let refs: Vec<(&str, &str)> = files
+            .iter()
+            .map(|(a, b)| (a.as_str(), b.as_str()))
+            .collect();
+        scene_dir(&refs)
+    };
+    render(scene(16).path(), &[]);
+    let d = scene(40);
+    let out = d.path().join("out.exr");
+    let r = run(&[
+        "render",
+        &p(d.path(), "scene.toml"),
+        "-o",
+        out.to_str().unwrap(),
+        "--quiet",
+    ]);
+    let stderr = String::from_utf8_lossy(&r.stderr);
+    assert_eq!(r.status.code(), Some(2), "{stderr}");
+    assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
+    for e in ["scene.toml:90:", "mesh.interior", "'b16.obj'", "at most 16"] {
+        assert!(stderr.contains(e), "'{e}' not in: {stderr}");
+    }
+    assert!(!out.exists());
+}
