@@ -864,3 +864,52 @@ fn boundaries_nested_too_deep_are_refused() {
     }
     assert!(!out.exists());
 }
+
+/// A clear medium changes nothing, however many of its boundaries a path crosses: `path` counted the
+/// crossings over the whole path and ended it after 256, so behind 127 thin boxes of clear medium (254
+/// crossings on the camera ray) the room lost its indirect light (0.88×). The count is per ray now, as
+/// everywhere else.
+#[test]
+fn many_clear_boundaries_change_nothing() {
+    let room = |n: usize| {
+        let mut obj = ROOM_OBJ.replace("mtllib room.mtl", "mtllib room.mtl\nmtllib slab.mtl");
+        let mut toml = ROOM_TOML.replace("spp = 2", "spp = 32\nmethod = \"path\"");
+        if n > 0 {
+            toml += "\n[[medium]]\nname = \"clear\"\nsigma_a = [0.0, 0.0, 0.0]\nsigma_s = [0.0, 0.0, 0.0]\n\n[materials.boundary]\ntype = \"null\"\n";
+        }
+        let mut files = vec![
+            ("room.mtl".to_string(), ROOM_MTL.to_string()),
+            ("slab.mtl".into(), "newmtl boundary\nKd 0 0 0\n".into()),
+        ];
+        for i in 0..n {
+            let z = -0.95 + 1.9 * i as f32 / n as f32;
+            files.push((
+                format!("s{i}.obj"),
+                String::from("mtllib slab.mtl\n")
+                    + &box_obj(
+                        [-0.99, 0.01, z],
+                        [0.99, 1.98, z + 0.005],
+                        "boundary",
+                        0,
+                        false,
+                    ),
+            ));
+            toml += &format!("\n[[mesh]]\nobj = \"s{i}.obj\"\ninterior = \"clear\"\n");
+        }
+        obj = obj.replace("mtllib slab.mtl\n", "");
+        files.push(("room.obj".into(), obj));
+        files.push(("scene.toml".into(), toml));
+        let refs: Vec<(&str, &str)> = files
+            .iter()
+            .map(|(a, b)| (a.as_str(), b.as_str()))
+            .collect();
+        scene_dir(&refs)
+    };
+    let plain = mean(&render(room(0).path(), &[]));
+    let slabs = mean(&render(room(127).path(), &[]));
+    let ratio = slabs / plain;
+    assert!(
+        ratio.min_element() > 0.98 && ratio.max_element() < 1.02,
+        "127 clear boxes: {ratio} × the plain room"
+    );
+}
