@@ -599,6 +599,26 @@ fn a_huge_max_spacing_renders_in_bounded_time() {
     }
 }
 
+/// One face line of 3 M vertex references (`1 2 3` repeated) fans into 333 k copies of one triangle and
+/// 667 k degenerate ones: the copies are one place every ray had to test them all (74 s at 32²). They
+/// are dropped at load; the render takes about as long as the plain room's.
+#[test]
+fn a_face_line_repeating_one_triangle_renders_in_bounded_time() {
+    let face = format!("usemtl wall\nf {}\n", ["1 2 3"; 1_000_000].join(" "));
+    let d = room_with(ROOM_MTL, ROOM_TOML);
+    std::fs::write(d.path().join("room.obj"), format!("{ROOM_OBJ}{face}")).unwrap();
+    let start = std::time::Instant::now();
+    renders(
+        d.path(),
+        &["--method", "pm", "--width", "32", "--height", "32"],
+    );
+    assert!(
+        start.elapsed() < Duration::from_secs(30),
+        "{:?}",
+        start.elapsed()
+    );
+}
+
 /// Saves photons and a cache for the room; returns the directory, the two files and the fingerprint.
 fn saved_files() -> (tempfile::TempDir, Vec<u8>, Vec<u8>, u64) {
     let d = room();
