@@ -586,6 +586,23 @@ fn cache_records_reaching_less_than_a_pixel_are_refused() {
     }
 }
 
+/// Gather rays past 65536 only make the fill longer (1 M, the old maximum, took 73 s at 32²): refused
+/// on their line; the maximum renders.
+#[test]
+fn gather_rays_are_bounded() {
+    let toml = format!("{ROOM_TOML}\n[render.icache]\nrays = 1000000\n");
+    refused_room(
+        ROOM_MTL,
+        &toml,
+        &["scene.toml:16:", "render.icache.rays", "4..=65536"],
+    );
+    let d = room_with(
+        ROOM_MTL,
+        &format!("{ROOM_TOML}\n[render.icache]\nrays = 65536\n"),
+    );
+    renders(d.path(), &["--method", "pm"]);
+}
+
 /// A huge `max_spacing_px` is legal (no upper clamp) and renders in bounded time: pass A's repair
 /// queries spanned 2^21 cells per axis, whose product overflowed.
 #[test]
