@@ -112,7 +112,24 @@ impl Texture {
                     )
                 }
             })
-            .collect();
+            .collect::<Vec<Vec3>>();
+        // A texture is an albedo, held to [0, 1] as `Kd` is: a float texel of 5 made a wall 12×
+        // brighter without a word.
+        let width = img.width.max(1) as usize;
+        if let Some((i, t)) = texels
+            .iter()
+            .enumerate()
+            .find(|(_, t)| !(t.min_element() >= 0.0 && t.max_element() <= 1.0))
+        {
+            return Err(format!(
+                "texel ({}, {}) is ({}, {}, {}): an albedo must be in [0, 1]",
+                i % width,
+                i / width,
+                t.x,
+                t.y,
+                t.z
+            ));
+        }
         Ok(Texture {
             path: path.to_path_buf(),
             width: img.width,

@@ -773,3 +773,35 @@ fn photon_and_cache_files_with_bad_values_are_refused() {
         );
     }
 }
+
+/// A texture is an albedo: a float texel outside [0, 1] (an EXR of 5.0 made the walls 12× brighter,
+/// where `Kd 5` is refused) or not a number is refused, naming the texture and the texel.
+#[test]
+fn float_texels_outside_zero_one_are_refused() {
+    for (value, expect) in [
+        (5.0f32, "(5, 5, 5)"),
+        (-0.5, "(-0.5, -0.5, -0.5)"),
+        (f32::NAN, "NaN"),
+    ] {
+        let d = room_with(
+            &ROOM_MTL.replace("Kd 0.6 0.6 0.6", "Kd 0.6 0.6 0.6\nmap_Kd tex.exr"),
+            ROOM_TOML,
+        );
+        let mut pixels = vec![0.5f32; 2 * 2 * 3];
+        pixels[9..12].copy_from_slice(&[value; 3]);
+        pmrender::io::oiio::write(
+            &d.path().join("tex.exr"),
+            2,
+            2,
+            &["R", "G", "B"],
+            pmrender::io::oiio::Pixels::F32(&pixels),
+        )
+        .unwrap();
+        refused(
+            d.path(),
+            &p(d.path(), "scene.toml"),
+            &[],
+            &["tex.exr", "texel (1, 1)", expect, "[0, 1]"],
+        );
+    }
+}
