@@ -145,6 +145,15 @@ fn black_ppm(path: &Path, w: u32, h: u32) {
         .unwrap();
 }
 
+/// A flat Radiance HDR of `w`×`h` black pixels, written sparsely.
+fn black_hdr(path: &Path, w: u32, h: u32) {
+    let header = format!("#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y {h} +X {w}\n");
+    std::fs::write(path, &header).unwrap();
+    let f = std::fs::OpenOptions::new().write(true).open(path).unwrap();
+    f.set_len(header.len() as u64 + w as u64 * h as u64 * 4)
+        .unwrap();
+}
+
 #[test]
 fn what_textures_hold_counts_against_the_budget() {
     let (d, out) = room_with_out();
@@ -236,7 +245,7 @@ fn png_header(w: u32, h: u32) -> Vec<u8> {
 fn converge_against_a_reference_too_large_to_render_is_refused() {
     // A 4096² reference sets a 4096² render: more than the address space left.
     let (d, out) = room_with_out();
-    black_ppm(&d.path().join("ref.ppm"), 4096, 4096);
+    black_hdr(&d.path().join("ref.hdr"), 4096, 4096);
     let t = Instant::now();
     let r = run_limited(
         LIMIT_KB,
@@ -246,7 +255,7 @@ fn converge_against_a_reference_too_large_to_render_is_refused() {
             "--photons",
             "1000,2000",
             "--reference",
-            &p(d.path(), "ref.ppm"),
+            &p(d.path(), "ref.hdr"),
             "-o",
             out.to_str().unwrap(),
             "--quiet",
