@@ -93,6 +93,11 @@ fn read_params(c: &mut Reader) -> Result<CacheParams> {
     Ok(p)
 }
 
+/// Largest irradiance or gradient component a record read from a file may hold: interpolation sums
+/// weighted records, and values near f32's limit (3.4e38) overflowed to inf pixels. No scene within
+/// the loader's limits comes near it.
+pub const MAX_RECORD_VALUE: f32 = 1e30;
+
 /// Why a record read from a file cannot be used, if it cannot.
 fn record_problem(r: &Record) -> Option<&'static str> {
     let vecs_finite = [r.pos, r.normal, r.e, r.dir]
@@ -102,6 +107,14 @@ fn record_problem(r: &Record) -> Option<&'static str> {
         .all(|v| v.is_finite());
     if !vecs_finite {
         return Some("non-finite vector");
+    }
+    let vecs_bounded = [r.e]
+        .iter()
+        .chain(&r.grad_r)
+        .chain(&r.grad_t)
+        .all(|v| v.abs().max_element() <= MAX_RECORD_VALUE);
+    if !vecs_bounded {
+        return Some("irradiance or gradient beyond 1e30");
     }
     if (r.normal.length() - 1.0).abs() > 1e-3 {
         return Some("normal is not unit length");
