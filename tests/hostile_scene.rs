@@ -805,3 +805,22 @@ fn float_texels_outside_zero_one_are_refused() {
         );
     }
 }
+
+/// A k-NN estimate from too few photons is biased (k = 2: a fog ×1.20) or unbounded (k = 1: ×6.2):
+/// `lookup` below 16 is refused on its line; 16 renders.
+#[test]
+fn photon_lookups_below_sixteen_are_refused() {
+    for k in [1, 2, 15] {
+        let toml = format!("{ROOM_TOML}\n[render.photons]\nlookup = {k}\n");
+        refused_room(
+            ROOM_MTL,
+            &toml,
+            &["scene.toml:16:", "render.photons.lookup", "16..="],
+        );
+    }
+    let d = room_with(
+        ROOM_MTL,
+        &format!("{ROOM_TOML}\n[render.photons]\nlookup = 16\n"),
+    );
+    renders(d.path(), &["--method", "pm"]);
+}
