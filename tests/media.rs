@@ -913,3 +913,53 @@ fn many_clear_boundaries_change_nothing() {
         "127 clear boxes: {ratio} × the plain room"
     );
 }
+
+/// Two boundaries enclosing the same space — the same box listed twice, or bounding two media — leave
+/// which medium fills it to the order of the meshes (`pm` 0.141, `path` 0.065, neither medium alone):
+/// refused on the second's line. Nested boxes sharing a face stay legal.
+#[test]
+fn boundaries_enclosing_the_same_space_are_refused() {
+    let unit = |base: usize| box_obj([-1.0, -1.0, -1.0], [1.0, 1.0, 1.0], "boundary", base, false);
+    let half = box_obj([-1.0, -1.0, -1.0], [0.0, 1.0, 1.0], "boundary", 0, false);
+    let lamp_obj = String::from("mtllib scene.mtl\n") + &quad_facing_z(-3.0, 4.0, "lamp", 0);
+    let toml = |second: &str| {
+        format!(
+            "version = 1\n[camera]\neye = [0.0, 0.0, 5.0]\ntarget = [0.0, 0.0, 0.0]\nfov = 40.0\nwidth = 8\nheight = 8\n\n[[medium]]\nname = \"fog\"\nsigma_a = [0.1, 0.1, 0.1]\nsigma_s = [0.5, 0.5, 0.5]\n\n[[medium]]\nname = \"ink\"\nsigma_a = [1.0, 1.0, 1.0]\nsigma_s = [0.0, 0.0, 0.0]\n\n[materials.boundary]\ntype = \"null\"\n\n[render]\nmethod = \"path\"\nspp = 1\n\n[[mesh]]\nobj = \"lamp.obj\"\n\n[[mesh]]\nobj = \"a.obj\"\ninterior = \"fog\"\n\n[[mesh]]\nobj = \"b.obj\"\ninterior = \"{second}\"\n"
+        )
+    };
+    let dir = |b_obj: &str, second: &str| {
+        scene_dir(&[
+            ("scene.mtl", SLAB_MTL),
+            ("lamp.obj", &lamp_obj),
+            ("a.obj", &(String::from("mtllib scene.mtl\n") + &unit(0))),
+            ("b.obj", &(String::from("mtllib scene.mtl\n") + b_obj)),
+            ("scene.toml", &toml(second)),
+        ])
+    };
+    for second in ["fog", "ink"] {
+        let d = dir(&unit(0), second);
+        let out = d.path().join("out.exr");
+        let r = run(&[
+            "render",
+            &p(d.path(), "scene.toml"),
+            "-o",
+            out.to_str().unwrap(),
+            "--quiet",
+        ]);
+        let stderr = String::from_utf8_lossy(&r.stderr);
+        assert_eq!(r.status.code(), Some(2), "{second}: {stderr}");
+        assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
+        for e in [
+            "scene.toml:35:",
+            "mesh.interior",
+            "'b.obj'",
+            "same space as",
+            "'a.obj'",
+        ] {
+            assert!(stderr.contains(e), "'{e}' not in: {stderr}");
+        }
+        assert!(!out.exists());
+    }
+    // Half the box, inside it and sharing three of its faces: nested, legal.
+    render(dir(&half, "ink").path(), &[]);
+}

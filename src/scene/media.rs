@@ -349,7 +349,10 @@ fn boundaries(
 /// handful (a liquid in a glass in fog).
 pub const MAX_NESTED_BOUNDARIES: usize = 16;
 
-/// Refuses a boundary mesh inside more than [`MAX_NESTED_BOUNDARIES`] − 1 others, naming it.
+/// Refuses, naming the mesh, a boundary inside more than [`MAX_NESTED_BOUNDARIES`] − 1 others, and
+/// two boundaries enclosing the same space (the same box listed twice, or bounding two media): which
+/// medium fills it would depend on the order of the meshes (`pm` and `path` then disagreed, and
+/// neither matched either medium alone). Faces shared between boundaries stay legal.
 fn check_nesting(
     cx: &Ctx,
     desc: &SceneFile,
@@ -358,10 +361,8 @@ fn check_nesting(
     bvh: &Bvh,
     boundary_of: &[u32],
 ) -> Result<()> {
-    if boundaries.len() <= MAX_NESTED_BOUNDARIES {
-        return Ok(());
-    }
-    let depths: Vec<usize> = boundaries
+    // Per boundary: the boundaries around a point just inside it (itself included).
+    let around: Vec<Vec<usize>> = boundaries
         .par_iter()
         .map(|b| {
             let inside = containing(
@@ -371,23 +372,56 @@ fn check_nesting(
                 point_inside(geo, b),
                 PARITY_DIR,
             );
-            inside.iter().filter(|&&i| i).count()
+            (0..boundaries.len()).filter(|&a| inside[a]).collect()
         })
         .collect();
-    match depths.iter().position(|&d| d > MAX_NESTED_BOUNDARIES) {
-        Some(b) => Err(cx.err(
+    let name = |b: usize| &desc.mesh[boundaries[b].mesh].obj;
+    if let Some(b) = (0..boundaries.len()).find(|&b| around[b].len() > MAX_NESTED_BOUNDARIES) {
+        return Err(cx.err(
             "mesh",
             boundaries[b].mesh,
             "interior",
             format!(
                 "'{}' lies inside {} other medium boundaries: at most {MAX_NESTED_BOUNDARIES} may \
                  nest (every ray crosses each one)",
-                desc.mesh[boundaries[b].mesh].obj,
-                depths[b] - 1
+                name(b),
+                around[b].len() - 1
             ),
-        )),
-        None => Ok(()),
+        ));
     }
+    // The same surface: the same triangles (by position, either winding) in any order. A parity ray
+    // cannot tell (Embree reports one of two coincident faces), so the surfaces are compared.
+    let surface = |b: &Boundary| {
+        let mut tris: Vec<[[u32; 3]; 3]> = geo.triangles[b.tris.clone()]
+            .iter()
+            .map(|t| {
+                let mut v =
+                    t.v.map(|i| geo.positions[i as usize].to_array().map(f32::to_bits));
+                v.sort_unstable();
+                v
+            })
+            .collect();
+        tris.sort_unstable();
+        tris
+    };
+    let mut seen: HashMap<Vec<[[u32; 3]; 3]>, usize> = HashMap::new();
+    for (b, boundary) in boundaries.iter().enumerate() {
+        if let Some(&a) = seen.get(&surface(boundary)) {
+            return Err(cx.err(
+                "mesh",
+                boundary.mesh,
+                "interior",
+                format!(
+                    "'{}' encloses the same space as the boundary '{}' before it: which medium \
+                     fills it would be undefined",
+                    name(b),
+                    name(a)
+                ),
+            ));
+        }
+        seen.insert(surface(boundary), b);
+    }
+    Ok(())
 }
 
 fn camera_line(cx: &Ctx) -> usize {
