@@ -129,7 +129,7 @@ pub fn converge(
         method,
         out_dir,
     } = *study;
-    let reference_img = read_layer(reference, None).map_err(|e| in_file(reference, e))?;
+    let reference_img = read_reference(reference)?;
     let ref_terms = ["caustic", "indirect"].map(|n| read_layer(reference, Some(n)).ok());
     let mut opts = opts.clone();
     opts.method = Some(method);
@@ -191,6 +191,42 @@ pub fn converge(
         out_dir,
     )?;
     Ok(rows)
+}
+
+/// The reference's beauty: an HDR image (EXR or Radiance HDR; an 8-bit PNG is no measure of radiance)
+/// whose pixels are finite and non-negative (one NaN or inf makes every relMSE meaningless).
+fn read_reference(reference: &Path) -> Result<Image> {
+    let ext = reference
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_lowercase);
+    if !matches!(ext.as_deref(), Some("exr" | "hdr")) {
+        return Err(in_file(
+            reference,
+            "a reference must be an HDR image (.exr or .hdr): 8-bit images clip and quantise radiance",
+        ));
+    }
+    let img = read_layer(reference, None).map_err(|e| in_file(reference, e))?;
+    let width = img.width.max(1) as usize;
+    if let Some((i, px)) = img
+        .pixels
+        .iter()
+        .enumerate()
+        .find(|(_, px)| !(px.is_finite() && px.min_element() >= 0.0))
+    {
+        return Err(in_file(
+            reference,
+            format!(
+                "pixel ({}, {}) is ({}, {}, {}): a reference's pixels must be finite and non-negative",
+                i % width,
+                i / width,
+                px.x,
+                px.y,
+                px.z
+            ),
+        ));
+    }
+    Ok(img)
 }
 
 fn write_outputs(

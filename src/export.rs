@@ -7,15 +7,16 @@
 
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use glam::Vec3;
 
 use crate::error::{option, Result};
-use crate::io::atomic::write_bytes;
+use crate::io::atomic::OutputSet;
 use crate::light::Light;
 use crate::material::Bsdf;
 use crate::medium::{MediumId, VACUUM};
+use crate::render::outputs::{check_distinct, scene_inputs, Output};
 use crate::scene::Scene;
 
 fn rgb(name: &str, c: Vec3) -> String {
@@ -89,10 +90,34 @@ const SMOOTH: u8 = 1;
 /// Other triangles, written flat.
 const FLAT: u8 = 2;
 
-/// Writes DIR/scene.xml and DIR/mesh_<material>_<kind>.obj.
+/// Writes DIR/scene.xml and DIR/mesh_<material>_<kind>.obj: all of them or none. A file that would
+/// overwrite one the scene reads (the scene itself, an OBJ, MTL or texture: `export-mitsuba scene.xml .`
+/// or an input named `mesh_0_2.obj` in DIR) is refused before anything is written, and a DIR this
+/// command created is removed again when it fails.
 pub fn export_mitsuba(scene: &Scene, dir: &Path, spp: u32) -> Result<()> {
+    let files = mitsuba_files(scene, spp);
+    let paths: Vec<PathBuf> = files.iter().map(|(name, _)| dir.join(name)).collect();
+    let outputs: Vec<Output> = paths.iter().map(|p| ("DIR", p.as_path())).collect();
+    check_distinct(&outputs, &scene_inputs(&scene.path))?;
+    let created = !dir.exists();
     std::fs::create_dir_all(dir)
         .map_err(|e| option("DIR", format!("cannot create '{}': {e}", dir.display())))?;
+    let written = (|| {
+        let mut set = OutputSet::new();
+        for ((_, bytes), path) in files.iter().zip(&paths) {
+            set.stage_bytes(path, bytes.as_bytes())?;
+        }
+        set.commit()
+    })();
+    if written.is_err() && created {
+        let _ = std::fs::remove_dir(dir);
+    }
+    written
+}
+
+/// The files of the export, by name: one OBJ per triangle group, then scene.xml.
+fn mitsuba_files(scene: &Scene, spp: u32) -> Vec<(String, String)> {
+    let mut files = Vec::new();
     let mut xml = String::from("<scene version=\"3.0.0\">\n");
     media_xml(&mut xml, scene);
     integrator_and_sensor_xml(&mut xml, scene, spp);
@@ -103,8 +128,8 @@ pub fn export_mitsuba(scene: &Scene, dir: &Path, spp: u32) -> Result<()> {
         } else {
             format!("mesh_{m}_{kind}.obj")
         };
-        write_bytes(&dir.join(&name), group_obj(scene, kind, tris).as_bytes())?;
         shape_xml(&mut xml, scene, key, &name);
+        files.push((name, group_obj(scene, kind, tris)));
     }
     for l in &scene.lights.lights {
         if let Some(line) = light_xml(l) {
@@ -112,7 +137,8 @@ pub fn export_mitsuba(scene: &Scene, dir: &Path, spp: u32) -> Result<()> {
         }
     }
     xml.push_str("</scene>\n");
-    write_bytes(&dir.join("scene.xml"), xml.as_bytes())
+    files.push(("scene.xml".into(), xml));
+    files
 }
 
 /// The scene's triangles grouped by [`GroupKey`], in key order.

@@ -3,8 +3,8 @@
 //! The root crate loads scenes, wraps Embree, holds materials, lights and the camera, combines the terms
 //! of Jensen's split, and writes images and statistics. `photon`, `gather` and `icache` are its passes.
 //!
-//! `unsafe` lives only in the FFI modules — `accel` (Embree), `io::oiio` (OpenImageIO) and `signal`
-//! (`sigaction`) — each behind a safe interface; every other module forbids it.
+//! `unsafe` lives only in the FFI modules — `accel` (Embree), `io::oiio` (OpenImageIO), `signal`
+//! (`sigaction`) and `memory` (`getrlimit`) — each behind a safe interface; every other module forbids it.
 
 pub(crate) mod accel;
 #[forbid(unsafe_code)]
@@ -34,6 +34,7 @@ pub(crate) mod light;
 pub(crate) mod material;
 #[forbid(unsafe_code)]
 pub mod medium;
+pub mod memory;
 #[forbid(unsafe_code)]
 pub mod photons;
 #[forbid(unsafe_code)]

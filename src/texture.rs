@@ -64,7 +64,8 @@ pub fn resolve(dir: &Path, name: &str) -> Result<PathBuf, String> {
 impl Texture {
     /// Loads an 8-bit (sRGB-encoded) or float (linear) image.
     /// Grey and grey+alpha images are grey (alpha is ignored). The size in the file's header is checked
-    /// against [`MAX_TEXTURE_PIXELS`] before any pixel is decoded.
+    /// against [`MAX_TEXTURE_PIXELS`], and the memory decoding takes against the address space left
+    /// (textures loaded before it hold theirs), before any pixel is decoded.
     pub fn load(path: &Path) -> Result<Texture, String> {
         let (width, height, channels) = oiio::image_size(path)?;
         let n_pixels = width as u64 * height as u64;
@@ -73,6 +74,13 @@ impl Texture {
                 "{width}×{height} pixels × {channels} channels: more than the limit of {MAX_TEXTURE_PIXELS} pixels (8192×8192)"
             ));
         }
+        // Decoding holds the library's floats and their copy, then the copy and the texels.
+        let floats = 4 * channels.min(64) as u64;
+        let peak = n_pixels * (2 * floats).max(floats + 12);
+        crate::memory::check_address_space(
+            &format!("decoding its {width}×{height} pixels × {channels} channels"),
+            peak,
+        )?;
         let img = oiio::read(path)?;
         if img.channels == 0 {
             return Err("image has no channels".into());
@@ -104,7 +112,24 @@ impl Texture {
                     )
                 }
             })
-            .collect();
+            .collect::<Vec<Vec3>>();
+        // A texture is an albedo, held to [0, 1] as `Kd` is: a float texel of 5 made a wall 12×
+        // brighter without a word.
+        let width = img.width.max(1) as usize;
+        if let Some((i, t)) = texels
+            .iter()
+            .enumerate()
+            .find(|(_, t)| !(t.min_element() >= 0.0 && t.max_element() <= 1.0))
+        {
+            return Err(format!(
+                "texel ({}, {}) is ({}, {}, {}): an albedo must be in [0, 1]",
+                i % width,
+                i / width,
+                t.x,
+                t.y,
+                t.z
+            ));
+        }
         Ok(Texture {
             path: path.to_path_buf(),
             width: img.width,

@@ -99,3 +99,51 @@ fn assert_table_agrees_with_markdown(stdout: &str, md: &str) {
     assert!(note.contains("self-convergence"), "{note}");
     assert!(md.lines().any(|l| l == note), "{md}");
 }
+
+/// The reference is the truth every error is measured against: an 8-bit image (clipped, quantised), or
+/// one with a NaN, inf or negative pixel, is refused naming it, and nothing is written.
+#[test]
+fn converge_refuses_a_reference_that_is_no_measure() {
+    let d = room();
+    let out = d.path().join("out");
+    std::fs::create_dir(&out).unwrap();
+    let write = |name: &str, pixels: &[f32]| {
+        pmrender::io::oiio::write(
+            &d.path().join(name),
+            24,
+            16,
+            &["R", "G", "B"],
+            pmrender::io::oiio::Pixels::F32(pixels),
+        )
+        .unwrap();
+    };
+    let mut cases = vec![("ref.png", vec![0.5f32; 24 * 16 * 3], "HDR image")];
+    for (name, bad) in [
+        ("nan.exr", f32::NAN),
+        ("inf.exr", f32::INFINITY),
+        ("neg.exr", -1.0),
+    ] {
+        let mut pixels = vec![0.5f32; 24 * 16 * 3];
+        pixels[3 * (24 * 2 + 5) + 1] = bad;
+        cases.push((name, pixels, "pixel (5, 2)"));
+    }
+    for (name, pixels, expect) in cases {
+        write(name, &pixels);
+        let r = run(&[
+            "converge",
+            &p(d.path(), "scene.toml"),
+            "--photons",
+            "1000",
+            "--reference",
+            &p(d.path(), name),
+            "-o",
+            out.to_str().unwrap(),
+            "--quiet",
+        ]);
+        let stderr = String::from_utf8_lossy(&r.stderr);
+        assert_eq!(r.status.code(), Some(2), "{name}: {stderr}");
+        assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
+        assert!(stderr.contains(name) && stderr.contains(expect), "{stderr}");
+        assert_eq!(std::fs::read_dir(&out).unwrap().count(), 0);
+    }
+}

@@ -44,3 +44,53 @@ fn export_writes_camera_materials_lights_and_all_triangles() {
     }
     assert_eq!(faces, loaded.geometry.triangles.len());
 }
+
+/// Every file the export would write is checked against the files the scene reads before anything is
+/// written: a scene named `scene.xml` exported into its own folder, or an input OBJ named like an
+/// output group (`mesh_0_2.obj`), was overwritten.
+#[test]
+fn export_never_overwrites_its_inputs() {
+    let listing = |d: &std::path::Path| {
+        let mut v: Vec<(String, Vec<u8>)> = std::fs::read_dir(d)
+            .unwrap()
+            .map(|e| {
+                let p = e.unwrap().path();
+                (p.display().to_string(), std::fs::read(&p).unwrap())
+            })
+            .collect();
+        v.sort();
+        v
+    };
+    let scene_xml = room();
+    let d = scene_xml.path();
+    std::fs::rename(d.join("scene.toml"), d.join("scene.xml")).unwrap();
+    let obj_named_like_a_group = room();
+    let e = obj_named_like_a_group.path();
+    std::fs::rename(e.join("room.obj"), e.join("mesh_0_2.obj")).unwrap();
+    let toml = std::fs::read_to_string(e.join("scene.toml")).unwrap();
+    std::fs::write(
+        e.join("scene.toml"),
+        toml.replace("room.obj", "mesh_0_2.obj"),
+    )
+    .unwrap();
+    for (dir, scene, what) in [
+        (d, "scene.xml", "the scene file"),
+        (e, "scene.toml", "the OBJ file"),
+    ] {
+        let before = listing(dir);
+        let r = run(&["export-mitsuba", &p(dir, scene), dir.to_str().unwrap()]);
+        let stderr = String::from_utf8_lossy(&r.stderr);
+        assert_eq!(r.status.code(), Some(2), "{stderr}");
+        assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
+        assert!(stderr.contains("DIR") && stderr.contains(what), "{stderr}");
+        assert_eq!(listing(dir), before, "nothing written, nothing changed");
+    }
+    // Exported elsewhere, the same scenes are fine.
+    let out = tempfile::tempdir().unwrap();
+    let r = run(&[
+        "export-mitsuba",
+        &p(d, "scene.xml"),
+        out.path().to_str().unwrap(),
+    ]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+}

@@ -450,11 +450,15 @@ fn sigint_and_sigterm_stop_every_phase_and_leave_nothing() {
     let photons = ROOM_TOML.replace("spp = 2", "spp = 2\n[render.photons]\nglobal = 20000000");
     let fill = ROOM_TOML.replace(
         "spp = 2",
-        "spp = 2\n[render.photons]\nglobal = 5000\n[render.icache]\nrays = 200000",
+        "spp = 2\n[render.photons]\nglobal = 5000\n[render.icache]\nrays = 65536",
     );
     let phases: [(&str, &str, &[&str]); 4] = [
         ("photon pass", &photons, &["--method", "pm"]),
-        ("cache fill", &fill, &["--method", "pm"]),
+        (
+            "cache fill",
+            &fill,
+            &["--method", "pm", "--width", "96", "--height", "64"],
+        ),
         ("final gather per sample", &fill, &["--method", "pm-fg"]),
         (
             "shading, one tile at 100000 spp",

@@ -568,6 +568,74 @@ fn toml_range_errors_name_the_right_line() {
     }
 }
 
+/// A record reaching far less than a pixel (tiny `accuracy` or `min_spacing_px`) makes pass B create a
+/// record per sample, memory and time growing as 1/reach²: refused on its key.
+#[test]
+fn cache_records_reaching_less_than_a_pixel_are_refused() {
+    for (key, value) in [
+        ("accuracy", "0.01"),
+        ("accuracy", "1e-30"),
+        ("min_spacing_px", "0.001"),
+    ] {
+        let toml = format!("{ROOM_TOML}\n[render.icache]\n{key} = {value}\n");
+        refused_room(
+            ROOM_MTL,
+            &toml,
+            &["scene.toml:16:", &format!("render.icache.{key}"), "0.3 px"],
+        );
+    }
+}
+
+/// Gather rays past 65536 only make the fill longer (1 M, the old maximum, took 73 s at 32²): refused
+/// on their line; the maximum renders.
+#[test]
+fn gather_rays_are_bounded() {
+    let toml = format!("{ROOM_TOML}\n[render.icache]\nrays = 1000000\n");
+    refused_room(
+        ROOM_MTL,
+        &toml,
+        &["scene.toml:16:", "render.icache.rays", "4..=65536"],
+    );
+    let d = room_with(
+        ROOM_MTL,
+        &format!("{ROOM_TOML}\n[render.icache]\nrays = 65536\n"),
+    );
+    renders(d.path(), &["--method", "pm"]);
+}
+
+/// A huge `max_spacing_px` is legal (no upper clamp) and renders in bounded time: pass A's repair
+/// queries spanned 2^21 cells per axis, whose product overflowed.
+#[test]
+fn a_huge_max_spacing_renders_in_bounded_time() {
+    for value in ["1e8", "3e38"] {
+        let d = room_with(
+            ROOM_MTL,
+            &format!("{ROOM_TOML}\n[render.icache]\nmax_spacing_px = {value}\n"),
+        );
+        renders(d.path(), &["--method", "pm"]);
+    }
+}
+
+/// One face line of 3 M vertex references (`1 2 3` repeated) fans into 333 k copies of one triangle and
+/// 667 k degenerate ones: the copies are one place every ray had to test them all (74 s at 32²). They
+/// are dropped at load; the render takes about as long as the plain room's.
+#[test]
+fn a_face_line_repeating_one_triangle_renders_in_bounded_time() {
+    let face = format!("usemtl wall\nf {}\n", ["1 2 3"; 1_000_000].join(" "));
+    let d = room_with(ROOM_MTL, ROOM_TOML);
+    std::fs::write(d.path().join("room.obj"), format!("{ROOM_OBJ}{face}")).unwrap();
+    let start = std::time::Instant::now();
+    renders(
+        d.path(),
+        &["--method", "pm", "--width", "32", "--height", "32"],
+    );
+    assert!(
+        start.elapsed() < Duration::from_secs(30),
+        "{:?}",
+        start.elapsed()
+    );
+}
+
 /// Saves photons and a cache for the room; returns the directory, the two files and the fingerprint.
 fn saved_files() -> (tempfile::TempDir, Vec<u8>, Vec<u8>, u64) {
     let d = room();
@@ -702,6 +770,74 @@ fn photon_and_cache_files_with_bad_values_are_refused() {
             &p(d.path(), "scene.toml"),
             &["--method", "pm", "--load-photons", path.to_str().unwrap()],
             &["--load-photons"],
+        );
+    }
+}
+
+/// A texture is an albedo: a float texel outside [0, 1] (an EXR of 5.0 made the walls 12× brighter,
+/// where `Kd 5` is refused) or not a number is refused, naming the texture and the texel.
+#[test]
+fn float_texels_outside_zero_one_are_refused() {
+    for (value, expect) in [
+        (5.0f32, "(5, 5, 5)"),
+        (-0.5, "(-0.5, -0.5, -0.5)"),
+        (f32::NAN, "NaN"),
+    ] {
+        let d = room_with(
+            &ROOM_MTL.replace("Kd 0.6 0.6 0.6", "Kd 0.6 0.6 0.6\nmap_Kd tex.exr"),
+            ROOM_TOML,
+        );
+        let mut pixels = vec![0.5f32; 2 * 2 * 3];
+        pixels[9..12].copy_from_slice(&[value; 3]);
+        pmrender::io::oiio::write(
+            &d.path().join("tex.exr"),
+            2,
+            2,
+            &["R", "G", "B"],
+            pmrender::io::oiio::Pixels::F32(&pixels),
+        )
+        .unwrap();
+        refused(
+            d.path(),
+            &p(d.path(), "scene.toml"),
+            &[],
+            &["tex.exr", "texel (1, 1)", expect, "[0, 1]"],
+        );
+    }
+}
+
+/// A k-NN estimate from too few photons is biased (k = 2: a fog ×1.20) or unbounded (k = 1: ×6.2):
+/// `lookup` below 16 is refused on its line; 16 renders.
+#[test]
+fn photon_lookups_below_sixteen_are_refused() {
+    for k in [1, 2, 15] {
+        let toml = format!("{ROOM_TOML}\n[render.photons]\nlookup = {k}\n");
+        refused_room(
+            ROOM_MTL,
+            &toml,
+            &["scene.toml:16:", "render.photons.lookup", "16..="],
+        );
+    }
+    let d = room_with(
+        ROOM_MTL,
+        &format!("{ROOM_TOML}\n[render.photons]\nlookup = 16\n"),
+    );
+    renders(d.path(), &["--method", "pm"]);
+}
+
+/// An MTL statement the format does not have — a misspelling (`kd`, `Kx`), or a file that is no MTL
+/// (`mtllib` naming /etc/passwd) — gave the default material without a word: refused with file:line.
+#[test]
+fn unknown_mtl_statements_are_refused() {
+    for (bad, expect) in [
+        ("kd 0.6 0.6 0.6", "'Kd'?"),
+        ("Kx 1", "'Kx'"),
+        ("root:x:0:0:root:/root:/bin/bash", "MTL file"),
+    ] {
+        refused_room(
+            &ROOM_MTL.replace("Kd 0.6 0.6 0.6", bad),
+            ROOM_TOML,
+            &["room.mtl:2:", expect],
         );
     }
 }

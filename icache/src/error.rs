@@ -28,6 +28,8 @@ pub enum Error {
     },
     #[error("cache file checksum mismatch (stored {stored:#018x}, computed {computed:#018x})")]
     ChecksumMismatch { stored: u64, computed: u64 },
+    #[error("not enough memory to read the cache file ({bytes} bytes)")]
+    OutOfMemory { bytes: u64 },
     #[error("cache file record {index} is invalid: {reason}")]
     CorruptRecord { index: u64, reason: &'static str },
 }

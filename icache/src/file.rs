@@ -9,6 +9,7 @@
 //! [`pmbase::container`]'s, shared with photon-map files.
 #![forbid(unsafe_code)]
 
+use std::io::Read;
 use std::path::Path;
 
 use pmbase::container::{Format, OpenError, PrefixError, Reader, CHECKSUM_BYTES, PREFIX_BYTES};
@@ -92,6 +93,11 @@ fn read_params(c: &mut Reader) -> Result<CacheParams> {
     Ok(p)
 }
 
+/// Largest irradiance or gradient component a record read from a file may hold: interpolation sums
+/// weighted records, and values near f32's limit (3.4e38) overflowed to inf pixels. No scene within
+/// the loader's limits comes near it.
+pub const MAX_RECORD_VALUE: f32 = 1e30;
+
 /// Why a record read from a file cannot be used, if it cannot.
 fn record_problem(r: &Record) -> Option<&'static str> {
     let vecs_finite = [r.pos, r.normal, r.e, r.dir]
@@ -101,6 +107,14 @@ fn record_problem(r: &Record) -> Option<&'static str> {
         .all(|v| v.is_finite());
     if !vecs_finite {
         return Some("non-finite vector");
+    }
+    let vecs_bounded = [r.e]
+        .iter()
+        .chain(&r.grad_r)
+        .chain(&r.grad_t)
+        .all(|v| v.abs().max_element() <= MAX_RECORD_VALUE);
+    if !vecs_bounded {
+        return Some("irradiance or gradient beyond 1e30");
     }
     if (r.normal.length() - 1.0).abs() > 1e-3 {
         return Some("normal is not unit length");
@@ -119,6 +133,42 @@ fn record_problem(r: &Record) -> Option<&'static str> {
         return Some("invalid radius or pixel footprint");
     }
     None
+}
+
+/// Checks the header at the start of `bytes` (magic, version, stage count) against the length of the
+/// file, `available` bytes, and returns its stage and record counts.
+fn check_layout(bytes: &[u8], available: u64) -> Result<(usize, u64)> {
+    let truncated = |what, needed: u64| Error::Truncated {
+        what,
+        needed,
+        available,
+    };
+    let version = FORMAT.version(bytes).map_err(|e| match e {
+        PrefixError::BadMagic => Error::BadMagic,
+        PrefixError::Truncated => truncated("magic and version", PREFIX_BYTES as u64),
+    })?;
+    if version != FILE_VERSION {
+        return Err(Error::UnsupportedVersion {
+            found: version,
+            supported: FILE_VERSION,
+        });
+    }
+    if bytes.len() < HEADER_BYTES || available < (HEADER_BYTES + CHECKSUM_BYTES) as u64 {
+        return Err(truncated("header", (HEADER_BYTES + CHECKSUM_BYTES) as u64));
+    }
+    let n_stages = Reader::new(bytes, HEADER_BYTES - 12).u32() as usize;
+    if n_stages > MAX_STAGES {
+        return Err(Error::InvalidParams(format!(
+            "{n_stages} stages in cache file (at most {MAX_STAGES})"
+        )));
+    }
+    let count = Reader::new(bytes, HEADER_BYTES - 8).u64();
+    let needed = (count as u128) * RECORD_BYTES as u128
+        + (HEADER_BYTES + 4 * n_stages + CHECKSUM_BYTES) as u128;
+    if needed != available as u128 {
+        return Err(truncated("records", needed.min(u64::MAX as u128) as u64));
+    }
+    Ok((n_stages, count))
 }
 
 impl IrradianceCache {
@@ -153,37 +203,7 @@ impl IrradianceCache {
 
     /// Read a cache written by [`to_bytes`](Self::to_bytes) for the scene with `fingerprint`.
     pub fn from_bytes(bytes: &[u8], fingerprint: u64) -> Result<Self> {
-        let available = bytes.len() as u64;
-        let truncated = |what, needed: u64| Error::Truncated {
-            what,
-            needed,
-            available,
-        };
-        let version = FORMAT.version(bytes).map_err(|e| match e {
-            PrefixError::BadMagic => Error::BadMagic,
-            PrefixError::Truncated => truncated("magic and version", PREFIX_BYTES as u64),
-        })?;
-        if version != FILE_VERSION {
-            return Err(Error::UnsupportedVersion {
-                found: version,
-                supported: FILE_VERSION,
-            });
-        }
-        if bytes.len() < HEADER_BYTES + CHECKSUM_BYTES {
-            return Err(truncated("header", (HEADER_BYTES + CHECKSUM_BYTES) as u64));
-        }
-        let n_stages = Reader::new(bytes, HEADER_BYTES - 12).u32() as usize;
-        if n_stages > MAX_STAGES {
-            return Err(Error::InvalidParams(format!(
-                "{n_stages} stages in cache file (at most {MAX_STAGES})"
-            )));
-        }
-        let count = Reader::new(bytes, HEADER_BYTES - 8).u64();
-        let needed = (count as u128) * RECORD_BYTES as u128
-            + (HEADER_BYTES + 4 * n_stages + CHECKSUM_BYTES) as u128;
-        if needed != available as u128 {
-            return Err(truncated("records", needed.min(u64::MAX as u128) as u64));
-        }
+        let (n_stages, count) = check_layout(bytes, bytes.len() as u64)?;
         FORMAT
             .verify_checksum(bytes)
             .map_err(|m| Error::ChecksumMismatch {
@@ -211,7 +231,12 @@ impl IrradianceCache {
                 "cache file stages {stages:?} are not record counts in order (of {count})"
             )));
         }
-        cache.records.reserve_exact(count as usize);
+        cache
+            .records
+            .try_reserve_exact(count as usize)
+            .map_err(|_| Error::OutOfMemory {
+                bytes: count.saturating_mul(std::mem::size_of::<Record>() as u64),
+            })?;
         for index in 0..count {
             let mut floats = [0f32; RECORD_FLOATS];
             floats.iter_mut().for_each(|f| *f = c.f32());
@@ -227,13 +252,27 @@ impl IrradianceCache {
     }
 
     /// Read a cache file for the scene with `fingerprint`: only a regular file (a FIFO would block, a
-    /// device never end) of at most `MAX_FILE_BYTES`.
+    /// device never end) of at most `MAX_FILE_BYTES`, whose header agrees with its length and whose
+    /// checksum, streamed from the disk, matches — before its records are allocated.
     pub fn load(path: &Path, fingerprint: u64) -> Result<Self> {
-        let bytes = FORMAT.read(path).map_err(|e| match e {
+        let open_error = |e| match e {
             OpenError::Io(e) => Error::Io(e),
             OpenError::NotRegularFile => Error::NotRegularFile,
             OpenError::TooLarge { bytes, limit } => Error::TooLarge { bytes, limit },
-        })?;
+            OpenError::Checksum(m) => Error::ChecksumMismatch {
+                stored: m.stored,
+                computed: m.computed,
+            },
+            OpenError::OutOfMemory { bytes } => Error::OutOfMemory { bytes },
+        };
+        let (mut file, len) = FORMAT.open(path).map_err(open_error)?;
+        let mut header = Vec::new();
+        (&mut file)
+            .take(HEADER_BYTES as u64)
+            .read_to_end(&mut header)?;
+        check_layout(&header, len)?;
+        FORMAT.verify_file(&mut file, len).map_err(open_error)?;
+        let bytes = FORMAT.read_open(file, len).map_err(open_error)?;
         Self::from_bytes(&bytes, fingerprint)
     }
 }

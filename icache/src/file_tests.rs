@@ -159,6 +159,21 @@ fn damaged_files_give_clear_errors() {
         Err(Error::CorruptRecord { index: 1, .. })
     ));
 
+    // Irradiance near f32's limit (interpolation overflowed it to inf pixels), with a valid checksum;
+    // likewise a gradient component (the first of the rotational gradient).
+    for at in [RECORDS_AT + 132 + 24, RECORDS_AT + 132 + 36] {
+        let mut bad = good.clone();
+        bad[at..at + 4].copy_from_slice(&3e38f32.to_le_bytes());
+        reseal(&mut bad);
+        assert!(
+            matches!(
+                IrradianceCache::from_bytes(&bad, FP),
+                Err(Error::CorruptRecord { index: 1, .. })
+            ),
+            "byte {at}"
+        );
+    }
+
     // Invalid parameters, with a valid checksum.
     let mut bad = good.clone();
     bad[20..24].copy_from_slice(&(-1.0f32).to_le_bytes()); // accuracy

@@ -17,6 +17,8 @@ const MAX_CELLS_PER_QUERY: i64 = 4096;
 pub(crate) struct PointGrid {
     origin: Vec3,
     cell: f32,
+    /// The highest cell coordinates of any point: a query clamps its cells to them.
+    top: IVec3,
     /// (cell key, point index), sorted.
     keys: Vec<(u64, u32)>,
     /// Every point's position, by index.
@@ -51,9 +53,13 @@ impl PointGrid {
         let mut grid = PointGrid {
             origin,
             cell,
+            top: IVec3::ZERO,
             keys: Vec::new(),
             positions,
         };
+        if hi.is_finite() {
+            grid.top = grid.coords(hi);
+        }
         let mut keys: Vec<(u64, u32)> = grid
             .positions
             .iter()
@@ -85,11 +91,14 @@ impl PointGrid {
                 f(i)
             }
         };
+        // Cells past the points' are empty: a sphere far larger than the scene (a record allowed
+        // 1e8 pixels) spans no more cells than the grid has, and its product of spans cannot
+        // overflow (2^21 cells per axis cubed is 2^63).
         let (lo, hi) = (
-            self.coords(c - Vec3::splat(r)),
-            self.coords(c + Vec3::splat(r)),
+            self.coords(c - Vec3::splat(r)).min(self.top),
+            self.coords(c + Vec3::splat(r)).min(self.top),
         );
-        let span = (hi - lo + IVec3::ONE).as_i64vec3();
+        let span = (hi - lo + IVec3::ONE).max(IVec3::ZERO).as_i64vec3();
         if !r.is_finite() || span.x * span.y * span.z > MAX_CELLS_PER_QUERY {
             self.keys.iter().for_each(|&(_, i)| test(i));
             return;
@@ -169,5 +178,20 @@ mod tests {
         // An infinite radius finds every finite point.
         grid.for_each_within(Vec3::ZERO, f32::INFINITY, |_| n += 1);
         assert_eq!(n, 20_000);
+    }
+
+    /// A finite sphere spanning more cells than the keys hold on every axis (2^21 each: the product
+    /// overflowed, and the query walked 2^42 rows) finds every point at once.
+    #[test]
+    fn a_sphere_far_larger_than_the_grid_is_answered_at_once() {
+        let points: Vec<Vec3> = (0..1000).map(|i| Vec3::splat(i as f32 * 0.01)).collect();
+        let grid = PointGrid::new(points, 0.3);
+        let start = std::time::Instant::now();
+        for r in [1e7, 1e12, 3e38] {
+            let mut n = 0;
+            grid.for_each_within(Vec3::splat(5.0), r, |_| n += 1);
+            assert_eq!(n, 1000, "radius {r}");
+        }
+        assert!(start.elapsed().as_secs_f32() < 1.0);
     }
 }

@@ -43,6 +43,8 @@ pub enum Error {
     Checksum,
     #[error("photon-map file was made for another scene (fingerprint {found:#018x}, expected {expected:#018x})")]
     SceneMismatch { found: u64, expected: u64 },
+    #[error("not enough memory to read the photon-map file ({bytes} bytes)")]
+    OutOfMemory { bytes: u64 },
     #[error("photon-map file is corrupt: {0}")]
     Corrupt(String),
 }

@@ -11,8 +11,8 @@
 //! volume and volume caustic maps (a volume photon's normal is zero) and the irradiance points (13 f32:
 //! pos, normal, e, e_indirect, half_thickness); then an FNV-1a 64 checksum of everything between the
 //! magic and it.
-//! Loading checks magic, version, that the counts match the file length (before allocating), the
-//! checksum, then the scene fingerprint, then every value: positions finite, directions and normals unit
+//! Loading checks magic, version, that the counts match the file length, the checksum (streamed from
+//! the disk: all three before allocating; allocations that fail are errors, not aborts), then the scene fingerprint, then every value: positions finite, directions and normals unit
 //! length, power and irradiance finite and non-negative, the max radius positive (a file edited with its
 //! checksum recomputed is still refused). Only regular files up to [`MAX_FILE_BYTES`] are opened.
 //! Kd-trees are rebuilt on load. Magic, version, checksum and the bounded read are
@@ -204,7 +204,7 @@ pub fn load(path: &Path, expected_fingerprint: u64) -> Result<LoadedMaps> {
         path: path.to_path_buf(),
         source,
     };
-    let (mut file, actual) = FORMAT.open(path).map_err(|e| match e {
+    let open_error = |e| match e {
         OpenError::Io(source) => io(source),
         OpenError::NotRegularFile => Error::NotRegularFile {
             path: path.to_path_buf(),
@@ -214,16 +214,19 @@ pub fn load(path: &Path, expected_fingerprint: u64) -> Result<LoadedMaps> {
             bytes,
             limit,
         },
-    })?;
+        OpenError::Checksum(_) => Error::Checksum,
+        OpenError::OutOfMemory { bytes } => Error::OutOfMemory { bytes },
+    };
+    let (mut file, actual) = FORMAT.open(path).map_err(open_error)?;
     let mut header = vec![0u8; HEADER_BYTES.min(actual as usize)];
     file.read_exact(&mut header).map_err(io)?;
     let expected = Header::parse(&header)?.file_len()?;
     if expected != actual {
         return Err(Error::BadLength { expected, actual });
     }
-    let mut bytes = header;
-    bytes.reserve_exact((actual as usize).saturating_sub(HEADER_BYTES));
-    file.read_to_end(&mut bytes).map_err(io)?;
+    // The counts agree with the length; a damaged file is still refused before they are allocated.
+    FORMAT.verify_file(&mut file, actual).map_err(open_error)?;
+    let bytes = FORMAT.read_open(file, actual).map_err(open_error)?;
     read_maps(&bytes, expected_fingerprint)
 }
 
@@ -403,6 +406,12 @@ pub fn read_maps(bytes: &[u8], expected_fingerprint: u64) -> Result<LoadedMaps> 
     let mut floats = Reader::new(bytes, header.len);
     let mut next = || floats.f32();
     let mut read_photons = |map: &str, n: u64, in_medium: bool| -> Result<Vec<Photon>> {
+        let mut photons = Vec::new();
+        photons
+            .try_reserve_exact(n as usize)
+            .map_err(|_| Error::OutOfMemory {
+                bytes: n.saturating_mul(std::mem::size_of::<Photon>() as u64),
+            })?;
         (0..n)
             .map(|index| {
                 let mut v = || Vec3::new(next(), next(), next());
@@ -420,25 +429,30 @@ pub fn read_maps(bytes: &[u8], expected_fingerprint: u64) -> Result<LoadedMaps> 
                     }),
                 }
             })
-            .collect()
+            .try_for_each(|photon| photon.map(|p| photons.push(p)))?;
+        Ok(photons)
     };
     let global = read_photons("global", n_global, false)?;
     let caustic = read_photons("caustic", n_caustic, false)?;
     let volume = read_photons("volume", n_volume, true)?;
     let volume_caustic = read_photons("volume caustic", n_volume_caustic, true)?;
-    let points: Vec<IrradiancePoint> = (0..n_points)
-        .map(|_| {
-            let mut v = || Vec3::new(next(), next(), next());
-            let (pos, normal, e, e_indirect) = (v(), v(), v(), v());
-            IrradiancePoint {
-                pos,
-                normal,
-                e,
-                e_indirect,
-                half_thickness: next(),
-            }
-        })
-        .collect();
+    let mut points: Vec<IrradiancePoint> = Vec::new();
+    points
+        .try_reserve_exact(n_points as usize)
+        .map_err(|_| Error::OutOfMemory {
+            bytes: n_points.saturating_mul(std::mem::size_of::<IrradiancePoint>() as u64),
+        })?;
+    points.extend((0..n_points).map(|_| {
+        let mut v = || Vec3::new(next(), next(), next());
+        let (pos, normal, e, e_indirect) = (v(), v(), v(), v());
+        IrradiancePoint {
+            pos,
+            normal,
+            e,
+            e_indirect,
+            half_thickness: next(),
+        }
+    }));
     if let Some((index, why)) = points
         .iter()
         .enumerate()

@@ -11,7 +11,7 @@
 #![forbid(unsafe_code)]
 
 use std::fs::File;
-use std::io::{self, Read, Write};
+use std::io::{self, Read, Seek, SeekFrom, Write};
 use std::path::Path;
 
 use glam::Vec3;
@@ -52,6 +52,12 @@ pub enum OpenError {
     TooLarge {
         bytes: u64,
         limit: u64,
+    },
+    /// The checksum does not match (streamed from the disk, before the file is held in memory).
+    Checksum(ChecksumMismatch),
+    /// No memory for the file's `bytes`: the allocation failed and was not retried.
+    OutOfMemory {
+        bytes: u64,
     },
 }
 
@@ -134,10 +140,46 @@ impl Format {
     /// it is read is refused too.
     pub fn read(&self, path: &Path) -> Result<Vec<u8>, OpenError> {
         let (file, len) = self.open(path)?;
-        let mut bytes = Vec::with_capacity(len as usize);
+        self.read_open(file, len)
+    }
+
+    /// The rest of `file` (`len` bytes from its start, as [`open`](Self::open) measured it), in a
+    /// buffer whose allocation may fail with [`OpenError::OutOfMemory`] rather than abort.
+    pub fn read_open(&self, file: File, len: u64) -> Result<Vec<u8>, OpenError> {
+        let mut bytes = Vec::new();
+        bytes
+            .try_reserve_exact(len as usize)
+            .map_err(|_| OpenError::OutOfMemory { bytes: len })?;
         file.take(self.max_file_bytes + 1).read_to_end(&mut bytes)?;
         self.check_size(bytes.len() as u64)?;
         Ok(bytes)
+    }
+
+    /// Checks the checksum ending `file`, `len` bytes long, reading it in small pieces — so that a
+    /// damaged file whose header claims a large count is refused before that count is allocated —
+    /// then rewinds it.
+    pub fn verify_file(&self, file: &mut File, len: u64) -> Result<(), OpenError> {
+        let body = len.saturating_sub(CHECKSUM_BYTES as u64);
+        file.seek(SeekFrom::Start(0))?;
+        let mut hash = Fnv1a::new();
+        let mut buf = vec![0u8; 1 << 20];
+        let mut at = 0u64;
+        while at < body {
+            let n = buf.len().min((body - at) as usize);
+            file.read_exact(&mut buf[..n])?;
+            let from = (self.checksum_from as u64).saturating_sub(at).min(n as u64) as usize;
+            hash.update(&buf[from..n]);
+            at += n as u64;
+        }
+        let mut stored = [0u8; CHECKSUM_BYTES];
+        file.read_exact(&mut stored)?;
+        file.seek(SeekFrom::Start(0))?;
+        let (stored, computed) = (u64::from_le_bytes(stored), hash.finish());
+        if stored == computed {
+            Ok(())
+        } else {
+            Err(OpenError::Checksum(ChecksumMismatch { stored, computed }))
+        }
     }
 
     fn check_size(&self, bytes: u64) -> Result<(), OpenError> {
@@ -336,6 +378,21 @@ mod tests {
         ));
         std::fs::write(&path, [0u8; 64]).unwrap();
         assert_eq!(FORMAT.read(&path).unwrap().len(), 64);
+        // Streamed, the checksum agrees with the one over the bytes in memory.
+        let mut w = FORMAT.writer(Vec::new(), 7).unwrap();
+        w.write_all(&[3u8; 40]).unwrap();
+        let mut good = w.finish().unwrap();
+        std::fs::write(&path, &good).unwrap();
+        let (mut file, len) = FORMAT.open(&path).unwrap();
+        assert!(FORMAT.verify_file(&mut file, len).is_ok());
+        assert_eq!(FORMAT.read_open(file, len).unwrap(), good);
+        good[20] ^= 1;
+        std::fs::write(&path, &good).unwrap();
+        let (mut file, len) = FORMAT.open(&path).unwrap();
+        assert!(matches!(
+            FORMAT.verify_file(&mut file, len),
+            Err(OpenError::Checksum(_))
+        ));
         std::fs::remove_dir_all(&dir).unwrap();
         assert!(matches!(FORMAT.read(&path), Err(OpenError::Io(_))));
     }

@@ -74,6 +74,8 @@ struct Path {
     /// The last bounce's pdf and point, for MIS of the emission the ray hits.
     prev_pdf: f32,
     prev_p: Vec3,
+    /// Null boundaries crossed along the current ray (since the last scattering or bounce): a ray
+    /// trapped by a pathological mesh ends, a path through many thin boundaries does not.
     crossings: u32,
     depth: u32,
     /// Past invisible boundaries the ray goes on along the same line: `t0` is how far it has come.
@@ -114,7 +116,7 @@ impl Path {
                 if !roulette(self.depth, &mut self.beta, rng) {
                     return Some(false);
                 }
-                (self.o, self.d, self.t0) = (p, wi, 0.0);
+                (self.o, self.d, self.t0, self.crossings) = (p, wi, 0.0, 0);
                 self.depth += 1;
                 Some(true)
             }
@@ -185,6 +187,7 @@ impl Path {
         self.o = spawn(hit, s.wi);
         self.d = s.wi;
         self.t0 = 0.0;
+        self.crossings = 0;
         self.depth += 1;
         true
     }

@@ -91,8 +91,16 @@ pub(crate) fn stage_png(set: &mut OutputSet, path: &Path, image: &Image) -> Resu
 }
 
 /// Reads an EXR written by us (or any RGB image): the beauty layer, or the layer `name` (`name.R` …).
+/// The decoded image's size is checked against the address space left before any pixel is read.
 pub fn read_layer(path: &Path, name: Option<&str>) -> std::result::Result<Image, String> {
     let names = oiio::channel_names(path)?;
+    let (w, h, c) = oiio::image_size(path)?;
+    // The library's floats and their copy, then the copy and the layer's pixels.
+    let floats = 4 * c as u64;
+    crate::memory::check_address_space(
+        &format!("reading its {w}×{h} pixels × {c} channels"),
+        w as u64 * h as u64 * (2 * floats).max(floats + 12),
+    )?;
     let img = oiio::read(path)?;
     let find = |c: &str| -> std::result::Result<usize, String> {
         let full = match name {

@@ -4,7 +4,10 @@
 //!
 //! The budget is `--max-memory`, else the `PMRENDER_MAX_MEMORY` environment variable, else 75 % of the
 //! physical RAM (`MemTotal` in /proc/meminfo, or the cgroup's memory limit when smaller; 8 GiB when
-//! neither can be read). The estimates are upper bounds of the peaks, per item:
+//! neither can be read); what the process already holds (the scene, its textures, a reference image)
+//! counts against it. Whatever the budget, the estimate must also fit in the address space left under
+//! `RLIMIT_AS` ([`crate::memory`]): past it an allocation aborts. The estimates are upper bounds of the
+//! peaks, per item:
 //! - image: every full-size layer (beauty + terms, 12 B per pixel each), adaptive sampling's sums, the
 //!   interleaved EXR buffer and the PNG/cache-image copies, over the whole image even with `--crop`
 //!   (other pixels are black);
@@ -20,6 +23,7 @@ use std::path::Path;
 use super::{Options, Plan};
 use crate::error::{Error, Result};
 use crate::integrator::MEMO_BYTES_PER_PIXEL;
+use crate::memory;
 use crate::scene::{Method, Scene};
 
 /// Largest image side (the scene file's limit too).
@@ -66,7 +70,7 @@ pub fn budget(opts: &Options) -> (u64, String) {
     {
         return (b, "PMRENDER_MAX_MEMORY".into());
     }
-    match physical_memory() {
+    match memory::physical_memory() {
         Some(ram) => (
             (ram as f64 * DEFAULT_FRACTION) as u64,
             format!("75 % of {} RAM; raise it with --max-memory", human(ram)),
@@ -75,34 +79,7 @@ pub fn budget(opts: &Options) -> (u64, String) {
     }
 }
 
-fn physical_memory() -> Option<u64> {
-    let meminfo = std::fs::read_to_string("/proc/meminfo").ok()?;
-    let kib: u64 = meminfo
-        .lines()
-        .find(|l| l.starts_with("MemTotal:"))?
-        .split_whitespace()
-        .nth(1)?
-        .parse()
-        .ok()?;
-    let ram = kib.saturating_mul(1024);
-    let cgroup = [
-        "/sys/fs/cgroup/memory.max",
-        "/sys/fs/cgroup/memory/memory.limit_in_bytes",
-    ]
-    .iter()
-    .filter_map(|p| std::fs::read_to_string(p).ok()?.trim().parse::<u64>().ok())
-    .min();
-    Some(cgroup.map_or(ram, |c| c.min(ram)))
-}
-
-pub fn human(bytes: u64) -> String {
-    let b = bytes as f64;
-    match bytes {
-        0..=1_048_575 => format!("{:.0} KiB", b / 1024.0),
-        1_048_576..=1_073_741_823 => format!("{:.0} MiB", b / 1_048_576.0),
-        _ => format!("{:.1} GiB", b / 1_073_741_824.0),
-    }
-}
+pub use crate::memory::human;
 
 fn file_len(path: Option<&Path>) -> u64 {
     path.and_then(|p| std::fs::metadata(p).ok())
@@ -145,7 +122,11 @@ pub fn estimate(scene: &Scene, plan: &Plan, opts: &Options) -> Vec<(String, u64)
                     .saturating_mul(PHOTON_PEAK_BYTES)
             }
         };
-        items.push(("photon maps".into(), photons));
+        let name = match &opts.files.load_photons {
+            Some(p) => format!("photon maps from {} (--load-photons)", p.display()),
+            None => "photon maps".into(),
+        };
+        items.push((name, photons));
         // The irradiance atlas: at most MAX_TEXEL_SLOTS slots (and as many caustic slots with a caustic
         // map), and a grid per triangle.
         let slot =
@@ -193,34 +174,50 @@ pub fn estimate(scene: &Scene, plan: &Plan, opts: &Options) -> Vec<(String, u64)
             Some(p) => file_len(Some(p)).saturating_mul(3),
             None => pixels.saturating_mul(FILL_BYTES_PER_PIXEL),
         };
-        items.push((
-            "irradiance cache fill, then shading memos".into(),
-            cache.max(memos),
-        ));
+        let name = match &opts.files.load_cache {
+            Some(p) => format!(
+                "irradiance cache from {} (--load-cache), or shading memos",
+                p.display()
+            ),
+            None => "irradiance cache fill, then shading memos".into(),
+        };
+        items.push((name, cache.max(memos)));
     } else if plan.method == Method::Photons {
         items.push(("shading memos".into(), memos));
     }
     items
 }
 
-/// Refuses (exit 2) a render whose estimate exceeds the budget.
+/// Refuses (exit 2) a render whose estimate, with what the process already holds (the scene, its
+/// textures, a reference image), exceeds the budget — or exceeds the address space left under
+/// `RLIMIT_AS` whatever the budget, since an allocation past it aborts.
 pub fn check(scene: &Scene, plan: &Plan, opts: &Options) -> Result<()> {
     let items = estimate(scene, plan, opts);
-    let total = items.iter().fold(0u64, |a, (_, b)| a.saturating_add(*b));
+    let need = items.iter().fold(0u64, |a, (_, b)| a.saturating_add(*b));
+    let held = memory::resident();
     let (limit, source) = budget(opts);
-    if total <= limit {
-        return Ok(());
-    }
+    let over = match memory::address_space_left() {
+        Some(left) if need > left => format!(
+            "more than the {} of address space left under the process's limit of {} (ulimit -v)",
+            human(left),
+            human(memory::address_space_limit().unwrap_or(0))
+        ),
+        _ if need.saturating_add(held) > limit => format!(
+            "with the {} already held, over the memory budget of {} ({source})",
+            human(held),
+            human(limit)
+        ),
+        _ => return Ok(()),
+    };
     let parts: Vec<String> = items
         .iter()
         .filter(|(_, b)| *b > 0)
         .map(|(n, b)| format!("{n}: {}", human(*b)))
         .collect();
     Err(Error::Input(format!(
-        "memory: the render needs about {} ({}), over the memory budget of {} ({source})",
-        human(total),
+        "memory: the render needs about {} ({}), {over}",
+        human(need),
         parts.join(", "),
-        human(limit)
     )))
 }
 
