@@ -824,3 +824,20 @@ fn photon_lookups_below_sixteen_are_refused() {
     );
     renders(d.path(), &["--method", "pm"]);
 }
+
+/// An MTL statement the format does not have — a misspelling (`kd`, `Kx`), or a file that is no MTL
+/// (`mtllib` naming /etc/passwd) — gave the default material without a word: refused with file:line.
+#[test]
+fn unknown_mtl_statements_are_refused() {
+    for (bad, expect) in [
+        ("kd 0.6 0.6 0.6", "'Kd'?"),
+        ("Kx 1", "'Kx'"),
+        ("root:x:0:0:root:/root:/bin/bash", "MTL file"),
+    ] {
+        refused_room(
+            &ROOM_MTL.replace("Kd 0.6 0.6 0.6", bad),
+            ROOM_TOML,
+            &["room.mtl:2:", expect],
+        );
+    }
+}

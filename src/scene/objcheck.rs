@@ -256,12 +256,59 @@ pub fn check_mtl(path: &Path, text: &str) -> Result<(String, KeAt)> {
             {
                 return Err(err("needs a file name".into()));
             }
+            t if !is_mtl_statement(t) => {
+                return Err(at_line(path, line_no, unknown_statement(t)));
+            }
             _ => {}
         }
         out.push_str(line);
         out.push('\n');
     }
     Ok((out, ke_at))
+}
+
+/// The MTL statements of the format and its common extensions (PBR, Blender's exports); others are
+/// refused as the scene file refuses an unknown key: a misspelt `kd` would give the default material
+/// without a word, and a file that is no MTL at all (`mtllib /etc/passwd`) would read as empty.
+const MTL_STATEMENTS: &[&str] = &[
+    "newmtl",
+    "Ka",
+    "Kd",
+    "Ks",
+    "Ke",
+    "Tf",
+    "Ns",
+    "Ni",
+    "d",
+    "Tr",
+    "illum",
+    "bump",
+    "disp",
+    "decal",
+    "refl",
+    "sharpness",
+    "Pr",
+    "Pm",
+    "Ps",
+    "Pc",
+    "Pcr",
+    "aniso",
+    "anisor",
+    "norm",
+];
+
+fn is_mtl_statement(tag: &str) -> bool {
+    MTL_STATEMENTS.contains(&tag) || tag.starts_with("map_")
+}
+
+fn unknown_statement(tag: &str) -> String {
+    let shown: String = tag.chars().take(40).collect();
+    match MTL_STATEMENTS.iter().find(|s| s.eq_ignore_ascii_case(tag)) {
+        Some(known) => {
+            format!("unknown statement '{shown}' (statements are case-sensitive: '{known}'?)")
+        }
+        None => format!("unknown statement '{shown}' (is this an MTL file?)"),
+    }
 }
 
 #[cfg(test)]
@@ -289,6 +336,28 @@ mod tests {
             .ok()
             .map(|c| c.text);
         assert_eq!(c.as_deref(), Some("vt 0.5 0\n"));
+    }
+
+    #[test]
+    fn unknown_mtl_statements_are_refused_with_their_line() {
+        let err = |text: &str| {
+            check_mtl(Path::new("m.mtl"), text)
+                .err()
+                .map(|e| e.to_string())
+                .unwrap_or_default()
+        };
+        let e = err("newmtl a\nkd 0.5 0.5 0.5\n");
+        assert!(
+            e.contains("m.mtl:2") && e.contains("'kd'") && e.contains("'Kd'?"),
+            "{e}"
+        );
+        let e = err("newmtl a\nKd 0.5 0.5 0.5\nKx 1\n");
+        assert!(e.contains("m.mtl:3") && e.contains("'Kx'"), "{e}");
+        let e = err("root:x:0:0:root:/root:/bin/bash\n");
+        assert!(e.contains("m.mtl:1") && e.contains("MTL file"), "{e}");
+        let ok = "newmtl a\nNs 10\nKa 0 0 0\nKd 0.5\nKs 0\nKe 0 0 0\nNi 1.5\nd 1\nTr 0\nTf 1 1 1\n\
+                  illum 2\nmap_Kd a.png\nmap_bump b.png\nbump b.png\nPr 0.5\nnorm n.png\n";
+        assert_eq!(err(ok), "");
     }
 
     #[test]
