@@ -232,3 +232,40 @@ fn a_cache_with_pass_b_records_reproduces_the_render() {
         }
     }
 }
+
+/// A cache saved with one texture does not load once the texture has changed: the scene's fingerprint
+/// holds the texels (it held only geometry, materials and lights, and such a cache loaded with its
+/// indirect light 65 % off).
+#[test]
+fn a_cache_does_not_load_after_its_texture_changed() {
+    let d = room();
+    let dir = d.path();
+    let texture = |v: u8| {
+        let mut ppm = b"P6\n2 2\n255\n".to_vec();
+        ppm.extend(std::iter::repeat_n(v, 12));
+        std::fs::write(dir.join("wall.ppm"), ppm).unwrap();
+    };
+    texture(200);
+    let mtl = ROOM_MTL.replace("Kd 0.6 0.6 0.6", "Kd 0.6 0.6 0.6\nmap_Kd wall.ppm");
+    std::fs::write(dir.join("room.mtl"), mtl).unwrap();
+    let (scene, cache) = (p(dir, "scene.toml"), p(dir, "cache.ic"));
+    let render = |out: &str, extra: &[&str]| {
+        let o = p(dir, out);
+        let mut args = vec!["render", &scene, "-o", &o, "--quiet"];
+        args.extend_from_slice(extra);
+        run(&args)
+    };
+    let r = render("a.exr", &["--save-cache", &cache]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let r = render("b.exr", &["--load-cache", &cache]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    texture(40);
+    let r = render("c.exr", &["--load-cache", &cache]);
+    assert_eq!(
+        r.status.code(),
+        Some(2),
+        "{}",
+        String::from_utf8_lossy(&r.stderr)
+    );
+    assert!(!dir.join("c.exr").exists());
+}

@@ -67,7 +67,7 @@ pub fn load(path: &Path) -> Result<Scene> {
     } else {
         Some(Bvh::build(&geometry.positions, &specular).map_err(runtime)?)
     };
-    let fingerprint = fingerprint(&geometry, &materials, &lights, media.as_ref());
+    let fingerprint = fingerprint(&geometry, &materials, &textures, &lights, media.as_ref());
     Ok(Scene {
         path: path.to_path_buf(),
         camera,
@@ -395,10 +395,12 @@ fn mean_glossy_texel(t: &Texture, texel_scale: f32, specular: Vec3) -> Vec3 {
     (sum / t.texels.len().max(1) as f64).as_vec3()
 }
 
-/// FNV-1a (the cache file's checksum function) over positions, triangles, materials and lights.
+/// FNV-1a (the cache file's checksum function) over positions, triangles, materials, the textures'
+/// texels and lights: a saved cache or photon file loads only into the scene it was made of.
 fn fingerprint(
     geo: &Geometry,
     materials: &[Material],
+    textures: &[Texture],
     lights: &Lights,
     media: Option<&super::Media>,
 ) -> u64 {
@@ -416,6 +418,23 @@ fn fingerprint(
     }
     for m in materials {
         bytes.extend(format!("{:?}{:?}", m.bsdf, m.emission).bytes());
+    }
+    // Each texture as the hash of its texels (not copied: they can be hundreds of MB).
+    for t in textures {
+        let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+        let texel_bytes = t
+            .texels
+            .iter()
+            .flat_map(|c| c.to_array())
+            .flat_map(|x| x.to_le_bytes());
+        for b in [t.width, t.height]
+            .iter()
+            .flat_map(|d| d.to_le_bytes())
+            .chain(texel_bytes)
+        {
+            h = (h ^ b as u64).wrapping_mul(0x0100_0000_01b3);
+        }
+        bytes.extend(h.to_le_bytes());
     }
     for l in &lights.lights {
         bytes.extend(format!("{l:?}").bytes());
