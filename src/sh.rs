@@ -30,8 +30,8 @@ pub fn eval(order: usize, d: Vec3, out: &mut [f32]) {
     eval_recurrence(order, d, out);
 }
 
-/// [`eval`] for up to 4 bands in closed form (the glossy texels' every read: the recurrence in f64 was
-/// a tenth of an all-glossy render).
+/// [`eval`] for up to 4 bands in closed form, in f32: the glossy texels evaluate it at every read, where
+/// the f64 recurrence is costly.
 fn eval_low(order: usize, d: Vec3, out: &mut [f32]) {
     let (x, y, z) = (d.x, d.y, d.z);
     let mut all = [0.0f32; 16];

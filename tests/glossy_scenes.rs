@@ -116,8 +116,7 @@ fn sibenik_polished_path() {
 
 #[test]
 fn sponza_blender_pm() {
-    // Measured: mean -0.701 %, block relMSE 0.000593 (15.3 s; 503 s and -1.16 % before the glossy
-    // texels and the radiance cache).
+    // Measured: mean -0.701 %, block relMSE 0.000593 (15.3 s).
     check("sponza-blender", "pm", None, 1e-3);
 }
 

@@ -171,21 +171,9 @@ impl IrradianceCache {
         n_records: usize,
         visible: impl Fn(&Record) -> bool,
     ) -> Option<Lookup> {
-        if !(p.is_finite() && n.is_finite()) {
-            return None;
-        }
-        self.with_candidates(p, pass, n_records, |ids| {
-            let mut acc = Accum::default();
-            for &id in ids {
-                let rec = &self.records[id as usize];
-                if let Some((w, e)) = self.weighted(rec, p, n, pass) {
-                    if visible(rec) {
-                        acc.add(w, e);
-                    }
-                }
-            }
-            self.finish(acc)
-        })
+        let mut acc = Accum::default();
+        self.each_used(p, n, pass, n_records, visible, |_, w, e| acc.add(w, e));
+        self.finish(acc)
     }
 
     /// The records [`lookup_first_visible`](Self::lookup_first_visible) would interpolate at (p, n), each

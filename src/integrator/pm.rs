@@ -206,13 +206,12 @@ impl PmContext<'_> {
         }
         if let Via::Glossy { .. } = via {
             // After a glossy reflection the point is not shaded again in full: no further lobe
-            // sample (a chain of them, each with shadow rays to every light, made glossy scenes many
-            // times slower than diffuse ones). Direct light is sampled; the rest is read: the atlas
+            // sample (a chain of them, each with shadow rays to every light, is what made glossy
+            // scenes many times slower than diffuse ones). Direct light is sampled, since the few
+            // bands of the texels would spread a light's highlight; the rest is read: the atlas
             // texel's indirect irradiance, the caustic estimate, and on a glossy surface its lobe
-            // from the texel's harmonics of the photons that are not direct. (With the direct
-            // photons in them a mirror-like floor was +10 % over its reference: the point light's
-            // highlight spread; Jensen's k-NN estimate per sample instead was 75 % of the render of
-            // an all-glossy Sponza.)
+            // from the texel's harmonics of the photons that are not direct (a k-NN estimate per
+            // sample would cost as much as the shading it replaces; see docs/algorithms.md).
             t.direct = self.direct(&v, kd, bsdf, true, rng, c);
             let rho_d = bsdf.diffuse_albedo(kd) / PI;
             if rho_d != Vec3::ZERO {

@@ -9,10 +9,8 @@
 //! The coefficients are in world space (no rotation between a record's frame and the lookup's). The
 //! lobes the cache serves are those whose kernel falls below [`TOLERANCE`] of its first band within
 //! [`sh::MAX_ORDER`] bands (exponents up to about 65); it keeps all [`sh::MAX_ORDER`] bands for them.
-//! Measured on a glossy floor in McGuire's box against path tracing at 4096 spp (floor mean error,
-//! sampling's in brackets): 10 bands +1.6 % at exponent 10 (+1.2 %), +1.1 % at 25 (+1.4 %), +1.3 % at
-//! 40 (+1.3 %), +1.6 % at 60 (+1.2 %), +2.3 % at 100 (+1.4 %); fewer bands ring at the horizon
-//! (6 bands: +1.0 %, +2.6 %, +4.1 %, +5.3 %). Sharper lobes keep importance sampling.
+//! Both limits are measured (docs/algorithms.md, "Glossy surfaces"): past them the cache's error grows
+//! beyond sampling's, and fewer bands ring at the horizon. Sharper lobes keep importance sampling.
 
 use std::collections::HashMap;
 use std::sync::atomic::{AtomicU64, Ordering};

@@ -2,11 +2,10 @@
 //! harmonics: what a final-gather ray ending on a glossy surface reads for the lobe's reflection.
 //!
 //! A gather ray that ends on a glossy surface needs the light the lobe reflects back along the ray. A
-//! k-NN estimate with the lobe as BRDF per ray (Jensen's) was 59 % of the render of Sibenik with a
-//! polished floor. Here the first ray to reach a texel projects the photons around the texel's middle
-//! (`L·cos θ` of every global photon, and apart of those that are not direct) on [`ORDER`] bands of
-//! spherical harmonics;
-//! every ray reads the texel and turns it into the lobe's radiance toward it with one dot product
+//! k-NN estimate with the lobe as BRDF per ray (Jensen's) costs more than the rest of the gather
+//! (docs/algorithms.md). Here the first ray to reach a texel projects the photons around the texel's
+//! middle (`L·cos θ` of every global photon, and apart of those that are not direct) on [`ORDER`]
+//! bands of spherical harmonics; every ray reads the texel and turns it into the lobe's radiance toward it with one dot product
 //! (`sh::reflect`). Few bands blur the lobe — what a gather ray needs, since hundreds of them are
 //! averaged — while keeping its total reflected power. A texel's value is a function of its position
 //! alone: which thread estimates it first changes nothing.
@@ -34,7 +33,7 @@ type Coefficients = [Vec3; 2 * LEN + 3];
 
 /// Direct light whose photons' mean direction is at least this long (nearly one direction: one small
 /// light) is reflected as arriving from that direction rather than through the bands, which spread a
-/// highlight (a glossy box's highlight lit the ceiling above it 7 % too bright, beside 5 % too dark).
+/// highlight over what it lights.
 const COHERENT_DIRECT: f32 = 0.95;
 
 /// Bytes a glossy texel's harmonics take once estimated.
@@ -138,8 +137,8 @@ impl GlossyTexels {
             Box::new(sums)
         });
         let r = crate::warp::reflect(wo, n);
-        // Truncated harmonics ring, below zero in some directions: the caller clamps the point's sum
-        // (clamping here alone put a mirror-like floor +3 % over its reference).
+        // Truncated harmonics ring, below zero in some directions: the caller clamps the point's sum,
+        // where the other terms offset the ringing (clamping here alone biases the lobe up).
         if not_direct {
             return ks * sh::reflect(&g[..LEN], ORDER, &kernel, r);
         }

@@ -847,7 +847,7 @@ fn glossy_rows(r: &mut Report, g: &GlossyStats) {
     );
     r.count(
         c,
-        "Texel harmonics estimated (gather rays)",
+        "Glossy texels estimated (gather rays, lobe samples)",
         "glossy.texels",
         g.texels.0,
     );
