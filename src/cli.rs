@@ -18,6 +18,8 @@ use pmrender::render::{self, tiles::Window, Options, Progress};
 use pmrender::scene::{self, Method, Scene, MAX_PHOTONS, METHODS};
 use pmrender::signal;
 
+mod sequence;
+
 #[derive(Parser)]
 #[command(
     name = "pmrender",
@@ -136,6 +138,9 @@ struct RenderArgs {
     /// Memory budget, e.g. 8G or 512M (default: PMRENDER_MAX_MEMORY, else 75 % of the RAM).
     #[arg(long, allow_hyphen_values = true)]
     max_memory: Option<String>,
+    /// An animated scene's frames to render, A..B inclusive (default: all).
+    #[arg(long, value_name = "A..B")]
+    frames: Option<String>,
 }
 
 /// The bar on stderr, hidden with --quiet or when stderr is not a terminal.
@@ -222,6 +227,8 @@ fn options(a: &RenderArgs) -> Result<Options> {
         max_memory,
         seed: a.seed,
         crop,
+        camera: None,
+        frame: None,
         files: FileOptions {
             save_photons: a.save_photons.clone(),
             load_photons: a.load_photons.clone(),
@@ -313,6 +320,13 @@ fn render_command(a: RenderArgs, cancel: &AtomicBool) -> Result<()> {
     check_outputs(&a)?;
     // No file of ours exists until the outputs are written: a signal may end the process at any time.
     signal::arm(true);
+    if let Some(anim) = scene::load_animation(&a.scene)? {
+        let pool = pool(a.threads)?;
+        return sequence::render_animation(&a, &opts, &anim, &pool, cancel);
+    }
+    if a.frames.is_some() {
+        return Err(option("--frames", "the scene has no [animation]"));
+    }
     let scene = scene::load(&a.scene)?;
     let mut inputs = scene_inputs(&a.scene);
     inputs.extend(cli_inputs(&a));
@@ -334,7 +348,7 @@ fn render_command(a: RenderArgs, cancel: &AtomicBool) -> Result<()> {
         save_cache: a.save_cache.clone(),
         cache_image: a.cache_image.clone(),
     };
-    let report = write_outputs(&paths, &scene, out, stats, cancel)?;
+    let report = write_outputs(&paths, &scene, &out, stats, cancel)?;
     if a.stats.is_some() {
         eprint!("{}", report.table());
     }

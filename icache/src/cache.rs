@@ -486,6 +486,27 @@ impl IrradianceCache {
             && usable_weight(&self.params, Pass::A, now, p, n).is_none()
     }
 
+    /// The records `keep` accepts, in order, as a new cache over `bounds` (the next frame of a sequence:
+    /// records reused where they are still valid). They are frozen, as records read from a file are,
+    /// and no stage is recorded yet. Returns the cache and how many records were dropped.
+    pub fn rebuilt(
+        self,
+        bounds: (Vec3, Vec3),
+        keep: impl Fn(&Record) -> bool,
+    ) -> Result<(Self, usize)> {
+        let mut cache = IrradianceCache::new(bounds.0, bounds.1, self.params)?;
+        let mut dropped = 0;
+        for rec in self.records {
+            if keep(&rec) {
+                cache.push_raw(rec);
+            } else {
+                dropped += 1;
+            }
+        }
+        cache.frozen = cache.len();
+        Ok((cache, dropped))
+    }
+
     /// Put a finished record back (file loading): no gradient limit, clamping or neighbor clamping.
     pub(crate) fn push_raw(&mut self, rec: Record) {
         let id = self.records.len() as u32;

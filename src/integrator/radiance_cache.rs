@@ -102,6 +102,12 @@ impl RadianceCache {
             .insert(key, coefficients.into());
     }
 
+    /// Before the next frame of a sequence fills the irradiance cache: the coefficients made so far stay,
+    /// to be attached again to the records that remain.
+    pub fn next_frame(&mut self) {
+        self.by_record = OnceLock::new();
+    }
+
     /// Once the fill is done: each record of `cache` with the coefficients made at its position.
     pub fn attach(&self, cache: &IrradianceCache) {
         let made = self.made.lock().unwrap_or_else(|e| e.into_inner());

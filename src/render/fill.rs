@@ -31,19 +31,30 @@ pub struct CacheFill {
     pub chosen_rays: Option<usize>,
 }
 
+/// What the fill's gathers read: the photon maps, the media cache, and the radiance cache they add to.
+pub struct FillLight<'a> {
+    pub photons: &'a PhotonData<'a>,
+    pub media_cache: Option<&'a MediaCache>,
+    pub radiance: Option<&'a RadianceCache>,
+}
+
 /// Each pixel's shading points are traced once, with their hits, and a gather starts from the hit it is
-/// given. `cancel` is read before every chunk of pixels (two-pass) or row (one-pass), and by every
-/// gather ray.
+/// given. `earlier`: the records of earlier frames of a sequence, frozen. `cancel` is read before every
+/// chunk of pixels (two-pass) or row (one-pass), and by every gather ray.
 pub fn fill_cache(
     scene: &Scene,
     plan: &Plan,
-    photons: &PhotonData,
-    media_cache: Option<&MediaCache>,
-    radiance: Option<&RadianceCache>,
+    light: FillLight,
+    earlier: Option<IrradianceCache>,
     progress: &dyn Progress,
     cancel: &AtomicBool,
 ) -> Result<(CacheFill, CacheFillStats)> {
     let t = Instant::now();
+    let FillLight {
+        photons,
+        media_cache,
+        radiance,
+    } = light;
     let ctx = PmContext {
         radiance,
         ..plan.pm_context(
@@ -55,7 +66,11 @@ pub fn fill_cache(
         )
     };
     let (lo, hi) = scene.bounds;
-    let mut cache = IrradianceCache::new(lo, hi, plan.cache).map_err(runtime)?;
+    // Records of earlier frames cover what they cover; pass A adds records only where they do not.
+    let mut cache = match earlier {
+        Some(c) => c,
+        None => IrradianceCache::new(lo, hi, plan.cache).map_err(runtime)?,
+    };
     let points = |x, y| shading_hits(&ctx, &plan.camera, x, y);
     let gather = |x, y, i, sp: &ShadingPoint, hit: &Hit| gather_record(&ctx, x, y, i, sp, hit);
     let report_progress = |done, _| progress.set(done);

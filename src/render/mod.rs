@@ -10,6 +10,7 @@ pub mod gather_rays;
 pub mod outputs;
 pub mod photons;
 pub mod plan;
+pub mod sequence;
 pub mod shade;
 pub mod stats;
 pub mod tiles;
@@ -21,16 +22,18 @@ use std::time::Instant;
 use gather::GatherParams;
 use icache::media::MediaCache;
 
+use crate::camera::Camera;
 use crate::error::{Error, Result};
 use crate::integrator::radiance_cache::RadianceCache;
 use crate::io::output::Image;
+use crate::photons::PhotonData;
 pub use crate::progress::{NoProgress, Progress};
 use crate::scene::{Method, Scene};
-use fill::{fill_cache, load_cache, CacheFill};
+use fill::{fill_cache, load_cache, FillLight};
 use photons::{build_maps, load_photons, trace_photons};
 pub use plan::{plan, Plan, DEFAULT_NOISE};
 use shade::{beauty, sampler, shade, Lighting};
-pub use stats::RenderStats;
+pub use stats::{FrameStats, RenderStats};
 use tiles::Window;
 
 /// Command-line overrides of the scene's `[render]` and `[camera]` values.
@@ -49,6 +52,10 @@ pub struct Options {
     pub files: files::FileOptions,
     /// Memory budget in bytes (`--max-memory`); see [`budget`].
     pub max_memory: Option<u64>,
+    /// The camera of this frame of a sequence, instead of the scene's.
+    pub camera: Option<Camera>,
+    /// The frame number, in a sequence (for its statistics).
+    pub frame: Option<u32>,
 }
 
 /// What a render produced: beauty and the per-term layers of Jensen's split (empty for `path`).
@@ -63,6 +70,20 @@ pub struct RenderOutput {
     pub media_records: Vec<glam::Vec3>,
     /// Where the glossy radiance cache's records are (for `--cache-image`); empty without it.
     pub radiance_records: Vec<glam::Vec3>,
+    /// The camera the image was rendered with (at its size).
+    pub camera: Camera,
+}
+
+/// What a frame of a sequence leaves to the next frame of the same scene (geometry and lights
+/// unchanged): its photon maps and its caches. Empty before the first frame.
+#[derive(Default)]
+pub struct Carry<'a> {
+    photons: Option<PhotonData<'a>>,
+    photon_info: Option<photon::MapsInfo>,
+    precomputed: Option<photon::PrecomputedIrradiance>,
+    cache: Option<icache::IrradianceCache>,
+    chosen_rays: Option<usize>,
+    radiance: Option<RadianceCache>,
 }
 
 /// Renders `scene` without writing anything; `Interrupted` soon after `cancel` is set, in any phase.
@@ -72,28 +93,54 @@ pub fn render(
     progress: &dyn Progress,
     cancel: &AtomicBool,
 ) -> Result<(RenderOutput, RenderStats)> {
+    let mut carry = Carry::default();
+    let (mut out, stats) = render_frame(scene, opts, &mut carry, progress, cancel)?;
+    out.photons = carry
+        .photons
+        .zip(carry.photon_info)
+        .map(|(p, info)| files::PhotonOutput {
+            info,
+            maps: p.into_maps(),
+            precomputed: carry.precomputed,
+        });
+    Ok((out, stats))
+}
+
+/// Renders `scene` (with `opts.camera`, a frame of a sequence) reusing what `carry` holds from the
+/// frame before — photon maps, the irradiance cache's records still fine enough for this view, the
+/// glossy radiance cache — and leaves them there for the next. Records are made in pass A and between
+/// pass B's rounds only, as in a still.
+pub fn render_frame<'a>(
+    scene: &'a Scene,
+    opts: &Options,
+    carry: &mut Carry<'a>,
+    progress: &dyn Progress,
+    cancel: &AtomicBool,
+) -> Result<(RenderOutput, RenderStats)> {
     let start = Instant::now();
-    let plan = plan(scene, opts)?;
+    let mut plan = plan(scene, opts)?;
     budget::check(scene, &plan, opts)?;
     let mut stats = RenderStats::new(scene, &plan);
+    let reused = carry.photons.is_some();
+    if let Some(rays) = carry.chosen_rays {
+        plan.choose_rays = false;
+        plan.gather = GatherParams { rays };
+    }
 
-    let (photons, photon_info, precomputed) = if plan.method.uses_photon_maps() {
+    if plan.method.uses_photon_maps() && carry.photons.is_none() {
         let (traced, s) = match &opts.files.load_photons {
             Some(file) => load_photons(scene, &plan, file)?,
             None => trace_photons(scene, &plan, &opts.files, progress, cancel)?,
         };
         stats.photons = Some(s);
-        (
-            Some(build_maps(scene, &plan, traced.maps)),
-            traced.info,
-            traced.precomputed,
-        )
-    } else {
-        (None, None, None)
-    };
+        carry.photons = Some(build_maps(scene, &plan, traced.maps));
+        carry.photon_info = traced.info;
+        carry.precomputed = traced.precomputed;
+    }
+    let photons = carry.photons.as_ref();
     interrupted(cancel)?;
 
-    let media_cache = match (plan.method, &photons) {
+    let media_cache = match (plan.method, photons) {
         (Method::Pm, Some(photons)) if photons.maps().volume.is_some() => {
             let (cache, s) = fill::fill_media_cache(scene, &plan, photons, progress, cancel);
             stats.media_fill = Some(s);
@@ -104,20 +151,41 @@ pub fn render(
     };
 
     // Records read from a cache file have no harmonics: their glossy lobes are sampled.
-    let radiance = match (plan.method, &opts.files.load_cache) {
-        (Method::Pm, None) => RadianceCache::new(scene),
+    let radiance = match (plan.method, &opts.files.load_cache, carry.radiance.take()) {
+        (Method::Pm, None, Some(mut r)) => {
+            r.next_frame();
+            Some(r)
+        }
+        (Method::Pm, None, None) => RadianceCache::new(scene),
         _ => None,
     };
-    let mut cache = match (plan.method, &photons) {
+    let mut frame = opts.frame.map(|f| FrameStats {
+        frame: f,
+        photons_reused: reused,
+        ..Default::default()
+    });
+    let earlier = match carry.cache.take() {
+        Some(c) => Some(fine_enough(
+            c,
+            scene,
+            &plan,
+            frame.get_or_insert_with(Default::default),
+        )?),
+        None => None,
+    };
+    let mut cache = match (plan.method, photons) {
         (Method::Pm, Some(photons)) => {
             let (cache, s) = match &opts.files.load_cache {
                 Some(file) => load_cache(scene, file)?,
                 None => fill_cache(
                     scene,
                     &plan,
-                    photons,
-                    media_cache.as_ref(),
-                    radiance.as_ref(),
+                    FillLight {
+                        photons,
+                        media_cache: media_cache.as_ref(),
+                        radiance: radiance.as_ref(),
+                    },
+                    earlier,
                     progress,
                     cancel,
                 )?,
@@ -130,7 +198,7 @@ pub fn render(
     interrupted(cancel)?;
 
     let lighting = Lighting {
-        photons: photons.as_ref(),
+        photons,
         media_cache: media_cache.as_ref(),
         // Pass B's gathers take as many rays as pass A's records chose.
         gather: cache
@@ -147,30 +215,62 @@ pub fn render(
     let images = beauty(&plan, crate::integrator::terms::Layout::of(scene), layers);
     stats.finish(
         start,
-        photons.as_ref(),
+        photons,
         media_cache.as_ref(),
         cache.as_ref().map(|c| &c.cache),
         radiance.as_ref(),
     );
-    let kept = photons
-        .zip(photon_info)
-        .map(|(p, info)| files::PhotonOutput {
-            info,
-            maps: p.into_maps(),
-            precomputed,
-        });
-    let mut out = output(images, kept, media_cache, cache);
-    out.radiance_records = radiance.map_or(Vec::new(), |r| r.positions());
+    if let (Some(f), Some(c)) = (&mut frame, &cache) {
+        f.n_records_after = c.cache.len() as u64;
+    }
+    stats.frame = frame;
+    let mut out = output(images, media_cache, plan.camera.clone());
+    out.radiance_records = radiance.as_ref().map_or(Vec::new(), |r| r.positions());
+    carry.chosen_rays = cache.as_ref().and_then(|c| c.chosen_rays);
+    out.cache = cache.map(|c| c.cache);
+    carry.radiance = radiance;
     Ok((out, stats))
 }
 
-/// The images, with what the render made that the binary may save: the irradiance cache, the photon
-/// maps it was asked to keep, and the media cache's record positions.
+/// Most times its pixel-spacing limit a record of an earlier frame may span in this frame's view
+/// before it is dropped (and its surface gets finer records): the limit is in pixels, so a record
+/// made far from the camera is too coarse once the camera comes close.
+const VIEW_SLACK: f32 = 2.0;
+
+/// The records of earlier frames still fine enough for this frame's view: R' within [`VIEW_SLACK`]
+/// times the largest spacing at the record's footprint in this camera.
+fn fine_enough(
+    cache: icache::IrradianceCache,
+    scene: &Scene,
+    plan: &Plan,
+    frame: &mut FrameStats,
+) -> Result<icache::IrradianceCache> {
+    let cam = &plan.camera;
+    let params = *cache.params();
+    let limit =
+        VIEW_SLACK * params.max_spacing_px * if params.adaptive.is_some() { 2.0 } else { 1.0 };
+    let n = cache.len();
+    let (cache, dropped) = cache
+        .rebuilt(scene.bounds, |r| {
+            let to = r.pos - cam.eye;
+            let dist = to.length();
+            if !(dist > 0.0) || to.dot(cam.forward()) <= 0.0 {
+                return true;
+            }
+            let dir = to / dist;
+            r.r_clamped <= limit * cam.pixel_world(dir, dist, r.normal.dot(dir))
+        })
+        .map_err(crate::error::runtime)?;
+    frame.n_records_reused = (n - dropped) as u64;
+    frame.n_records_dropped = dropped as u64;
+    Ok(cache)
+}
+
+/// The images, with the media cache's record positions; the caller adds the caches and photons.
 fn output(
     (beauty, layers): (Image, Vec<(&'static str, Image)>),
-    photons: Option<files::PhotonOutput>,
     media_cache: Option<MediaCache>,
-    cache: Option<CacheFill>,
+    camera: Camera,
 ) -> RenderOutput {
     let media_records = media_cache
         .as_ref()
@@ -178,10 +278,11 @@ fn output(
     RenderOutput {
         beauty,
         layers,
-        cache: cache.map(|c| c.cache),
-        photons,
+        cache: None,
+        photons: None,
         media_records,
         radiance_records: Vec::new(),
+        camera,
     }
 }
 

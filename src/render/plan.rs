@@ -138,7 +138,11 @@ pub fn plan(scene: &Scene, opts: &Options) -> Result<Plan> {
         width,
         height,
         window,
-        camera: scene.camera.with_resolution(width, height),
+        camera: opts
+            .camera
+            .as_ref()
+            .unwrap_or(&scene.camera)
+            .with_resolution(width, height),
         photons: PhotonSettings::resolve(scene),
         cache: icache.for_image(width, height),
         pass_a_stride: icache.pass_a_stride(width, height),

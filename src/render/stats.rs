@@ -17,6 +17,7 @@ use crate::scene::{Method, Scene};
 use crate::stats::{peak_rss_bytes, Report};
 
 /// What a render did, phase by phase.
+#[derive(Clone)]
 pub struct RenderStats {
     pub setup: Setup,
     /// `trace_photons` (or `load_photons`); `None` for `path`.
@@ -36,6 +37,8 @@ pub struct RenderStats {
     pub cache: Option<CacheStats>,
     /// Glossy surfaces: the radiance cache and the gather rays' texel harmonics.
     pub glossy: Option<GlossyStats>,
+    /// A frame of a sequence: what it reused from the frames before.
+    pub frame: Option<FrameStats>,
     /// Seconds from the plan to the end of shading.
     pub total_s: f64,
     /// Set by `write_outputs`.
@@ -43,7 +46,60 @@ pub struct RenderStats {
     pub peak_rss_bytes: u64,
 }
 
+fn frame_rows(r: &mut Report, f: &FrameStats) {
+    r.count("Sequence", "Frame", "frame.index", f.frame as u64);
+    r.text(
+        "Sequence",
+        "Photon maps",
+        "frame.photons",
+        if f.photons_reused { "reused" } else { "traced" },
+    );
+    if f.image_reused {
+        r.text(
+            "Sequence",
+            "Image",
+            "frame.image",
+            "the frame before's (nothing changed)",
+        );
+    }
+    r.count(
+        "Sequence",
+        "Cache records reused from earlier frames",
+        "frame.records_reused",
+        f.n_records_reused,
+    );
+    r.count(
+        "Sequence",
+        "Cache records dropped (too coarse for the view)",
+        "frame.records_dropped",
+        f.n_records_dropped,
+    );
+    r.count(
+        "Sequence",
+        "Cache records after the frame",
+        "frame.records_after",
+        f.n_records_after,
+    );
+}
+
+/// What a frame of a sequence reused.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct FrameStats {
+    pub frame: u32,
+    /// The photon maps were traced for an earlier frame (nothing that emits or reflects light moved).
+    pub photons_reused: bool,
+    /// Irradiance-cache records of earlier frames kept for this one.
+    pub n_records_reused: u64,
+    /// Records of earlier frames dropped as too coarse for this frame's view.
+    pub n_records_dropped: u64,
+    /// Records after this frame (reused and made).
+    pub n_records_after: u64,
+    /// Nothing changed since the frame before: its image is this frame's.
+    pub image_reused: bool,
+}
+
 /// The plan and the scene, as reported.
+#[derive(Clone)]
 pub struct Setup {
     pub method: Method,
     pub width: u32,
@@ -57,6 +113,7 @@ pub struct Setup {
 }
 
 /// The photon maps, traced or loaded, and the settings they are read with.
+#[derive(Clone)]
 pub struct PhotonStats {
     /// Seconds to trace the maps, or to load them (`loaded`).
     pub time_s: f64,
@@ -72,7 +129,7 @@ pub struct PhotonStats {
 }
 
 /// Pass A, or the cache loaded instead.
-#[derive(Default)]
+#[derive(Clone, Default)]
 pub struct CacheFillStats {
     /// Seconds to fill; `None` when the cache was loaded.
     pub time_s: Option<f64>,
@@ -87,7 +144,7 @@ pub struct CacheFillStats {
 }
 
 /// Every pixel's samples.
-#[derive(Default)]
+#[derive(Clone, Default)]
 pub struct ShadeStats {
     pub time_s: f64,
     pub counters: SampleCounters,
@@ -120,6 +177,7 @@ impl RenderStats {
             media_cache: None,
             cache: None,
             glossy: None,
+            frame: None,
             total_s: 0.0,
             write_outputs_s: None,
             peak_rss_bytes: 0,
@@ -181,6 +239,9 @@ impl RenderStats {
             "render.method",
             self.setup.method.name(),
         );
+        if let Some(f) = &self.frame {
+            frame_rows(&mut r, f);
+        }
         if let Some(p) = &self.photons {
             photon_rows(&mut r, p);
         }

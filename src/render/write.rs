@@ -31,7 +31,7 @@ pub struct OutputPaths {
 pub fn write_outputs(
     paths: &OutputPaths,
     scene: &Scene,
-    out: RenderOutput,
+    out: &RenderOutput,
     mut stats: RenderStats,
     cancel: &AtomicBool,
 ) -> Result<Report> {
@@ -66,15 +66,12 @@ pub fn write_outputs(
                 interrupted()?;
             }
             if let Some(p) = &paths.cache_image {
-                let cam = scene
-                    .camera
-                    .with_resolution(out.beauty.width, out.beauty.height);
                 cache_image(
                     &mut set,
                     p,
                     &out.beauty,
                     c,
-                    &cam,
+                    &out.camera,
                     (&out.media_records, &out.radiance_records),
                 )?;
                 interrupted()?;
@@ -101,4 +98,29 @@ pub fn write_outputs(
     interrupted()?;
     set.commit()?;
     Ok(report)
+}
+
+/// Writes the summary of a sequence (`frames`: one object per frame written) atomically, with the
+/// totals: frames written, photon traces, render and wall-clock seconds, peak memory.
+pub fn write_sequence_summary(
+    path: &std::path::Path,
+    frames: &[serde_json::Value],
+    wall_s: f64,
+    complete: bool,
+) -> Result<()> {
+    let render_s: f64 = frames.iter().filter_map(|r| r["time_s"].as_f64()).sum();
+    let traced = frames.iter().filter(|r| r["photons"] == "traced").count();
+    let json = serde_json::json!({
+        "frames": frames,
+        "frames_written": frames.len(),
+        "complete": complete,
+        "photon_traces": traced,
+        "render_s": render_s,
+        "wall_s": wall_s,
+        "peak_rss_bytes": crate::stats::peak_rss_bytes(),
+    });
+    let text = serde_json::to_string_pretty(&json).map_err(|e| Error::Runtime(e.to_string()))?;
+    let mut set = OutputSet::new();
+    set.stage_bytes(path, text.as_bytes())?;
+    set.commit()
 }

@@ -5,14 +5,16 @@ use std::path::{Path, PathBuf};
 
 use glam::{Mat3, Mat4, Vec3};
 
+use super::animation::{at_frame, Animation};
 use super::context::Ctx;
 use super::file::{self, line_of, line_of_key, SceneFile};
 use super::input::{self, read_text, MAX_SCENE_BYTES, MAX_TEXTURE_BYTES};
-use super::lights::{lights, Origin};
+use super::lights::{check_lights, lights, Origin};
 use super::media::media;
 use super::settings::{camera, settings};
 use super::{limits, mtl, obj, Scene};
 use crate::accel::embree::Bvh;
+use crate::camera::Camera;
 use crate::error::{at_line, in_file, relative_to, runtime, Result};
 use crate::geometry::{Geometry, Triangle};
 use crate::light::Lights;
@@ -23,10 +25,51 @@ fn finite3(v: [f32; 3]) -> bool {
     v.iter().all(|x| x.is_finite())
 }
 
+/// Loads a scene file; of an animated one, frame 0.
 pub fn load(path: &Path) -> Result<Scene> {
     let text = read_text(path, "scene file", MAX_SCENE_BYTES, None)?;
     let desc = file::parse(path, &text)?;
-    let cx = Ctx { path, text: &text };
+    match Animation::new(path, &text, &desc)? {
+        None => build(path, &text, &desc),
+        Some(a) => load_frame(&a, 0),
+    }
+}
+
+/// The keys of a scene file with `[animation]`, every frame's camera, mesh placements and light values
+/// checked; `None` for a still scene.
+pub fn load_animation(path: &Path) -> Result<Option<Animation>> {
+    let text = read_text(path, "scene file", MAX_SCENE_BYTES, None)?;
+    let desc = file::parse(path, &text)?;
+    let Some(anim) = Animation::new(path, &text, &desc)? else {
+        return Ok(None);
+    };
+    anim.check_every_frame(|cx, d| {
+        camera(cx, d)?;
+        for (i, m) in d.mesh.iter().enumerate() {
+            transform(cx, i, m)?;
+        }
+        check_lights(cx, d)
+    })?;
+    Ok(Some(anim))
+}
+
+/// Frame `f` of an animated scene.
+pub fn load_frame(anim: &Animation, f: u32) -> Result<Scene> {
+    build(anim.path(), anim.text(), &anim.frame_desc(f)).map_err(|e| at_frame(e, f))
+}
+
+/// The camera of frame `f` (checked by [`load_animation`]).
+pub fn frame_camera(anim: &Animation, f: u32) -> Result<Camera> {
+    let cx = Ctx {
+        path: anim.path(),
+        text: anim.text(),
+    };
+    camera(&cx, &anim.frame_desc(f)).map_err(|e| at_frame(e, f))
+}
+
+/// A scene from its parsed file.
+fn build(path: &Path, text: &str, desc: &SceneFile) -> Result<Scene> {
+    let cx = Ctx { path, text };
     if let Some(v) = desc.version {
         if v != 1 {
             return Err(cx.err(
@@ -37,20 +80,13 @@ pub fn load(path: &Path) -> Result<Scene> {
             ));
         }
     }
-    let camera = camera(&cx, &desc)?;
-    let settings = settings(&cx, &desc)?;
-    let (geometry, mut materials, tex_paths, emission_at, mesh_tris) = meshes(&cx, &desc)?;
+    let camera = camera(&cx, desc)?;
+    let settings = settings(&cx, desc)?;
+    let (geometry, mut materials, tex_paths, emission_at, mesh_tris) = meshes(&cx, desc)?;
     let textures = textures(&cx, &mut materials, tex_paths)?;
     let bounds = geometry.bounds();
-    let lights = lights(&cx, &desc, &geometry, &materials, &emission_at)?;
-    let media = media(
-        &cx,
-        &desc,
-        &geometry,
-        &materials,
-        &mesh_tris,
-        &lights.lights,
-    )?;
+    let lights = lights(&cx, desc, &geometry, &materials, &emission_at)?;
+    let media = media(&cx, desc, &geometry, &materials, &mesh_tris, &lights.lights)?;
     let bvh = Bvh::build(
         &geometry.positions,
         &geometry.triangles.iter().map(|t| t.v).collect::<Vec<_>>(),

@@ -7,7 +7,7 @@ use serde::Deserialize;
 
 use crate::error::{at_line, Result};
 
-#[derive(Debug, Deserialize)]
+#[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SceneFile {
     pub version: Option<i64>,
@@ -22,10 +22,51 @@ pub struct SceneFile {
     pub render: RenderDesc,
     #[serde(default)]
     pub medium: Vec<MediumDesc>,
+    pub animation: Option<AnimationDesc>,
+}
+
+/// `[animation]`: the scene is a sequence of `frames` frames; `key` tables set values per frame.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AnimationDesc {
+    pub frames: i64,
+}
+
+/// `[[camera.key]]`: camera values at one frame.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CameraKey {
+    pub frame: i64,
+    pub eye: Option<[f32; 3]>,
+    pub target: Option<[f32; 3]>,
+    pub up: Option<[f32; 3]>,
+    pub fov: Option<f32>,
+}
+
+/// `[[mesh.key]]`: a mesh's placement at one frame.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MeshKey {
+    pub frame: i64,
+    pub scale: Option<Scale>,
+    pub rotate: Option<[f32; 3]>,
+    pub translate: Option<[f32; 3]>,
+}
+
+/// `[[light.key]]`: a light's values at one frame (those its type has).
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LightKey {
+    pub frame: i64,
+    pub position: Option<[f32; 3]>,
+    pub target: Option<[f32; 3]>,
+    pub direction: Option<[f32; 3]>,
+    pub intensity: Option<[f32; 3]>,
+    pub irradiance: Option<[f32; 3]>,
 }
 
 /// `[[medium]]`: a homogeneous participating medium, bounded by the meshes that name it as `interior`.
-#[derive(Debug, Deserialize)]
+#[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct MediumDesc {
     pub name: String,
@@ -34,7 +75,7 @@ pub struct MediumDesc {
     pub g: Option<f32>,
 }
 
-#[derive(Debug, Deserialize)]
+#[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct CameraDesc {
     pub eye: [f32; 3],
@@ -44,16 +85,18 @@ pub struct CameraDesc {
     pub width: i64,
     pub height: i64,
     pub medium: Option<String>,
+    #[serde(default)]
+    pub key: Vec<CameraKey>,
 }
 
-#[derive(Debug, Deserialize)]
+#[derive(Clone, Copy, Debug, Deserialize)]
 #[serde(untagged)]
 pub enum Scale {
     Uniform(f32),
     PerAxis([f32; 3]),
 }
 
-#[derive(Debug, Deserialize)]
+#[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct MeshDesc {
     pub obj: String,
@@ -62,9 +105,11 @@ pub struct MeshDesc {
     pub translate: Option<[f32; 3]>,
     /// The medium this closed mesh bounds.
     pub interior: Option<String>,
+    #[serde(default)]
+    pub key: Vec<MeshKey>,
 }
 
-#[derive(Debug, Default, Deserialize)]
+#[derive(Clone, Debug, Default, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct MaterialDesc {
     #[serde(rename = "type")]
@@ -79,7 +124,7 @@ pub struct MaterialDesc {
     pub emission: Option<[f32; 3]>,
 }
 
-#[derive(Debug, Deserialize)]
+#[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct LightDesc {
     #[serde(rename = "type")]
@@ -91,9 +136,11 @@ pub struct LightDesc {
     pub falloff_start: Option<f32>,
     pub direction: Option<[f32; 3]>,
     pub irradiance: Option<[f32; 3]>,
+    #[serde(default)]
+    pub key: Vec<LightKey>,
 }
 
-#[derive(Debug, Default, Deserialize)]
+#[derive(Clone, Debug, Default, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RenderDesc {
     pub method: Option<String>,
@@ -170,6 +217,12 @@ pub fn line_of_key(text: &str, table: &str, index: usize, key: &str) -> usize {
 /// whatever TOML spelling set it: `[table]` sections, dotted keys, inline tables. An array met on the
 /// way (`[[mesh]]`, or `mesh = [{ … }]`) is entered at `index`.
 pub fn line_of(text: &str, keys: &[&str], index: usize) -> usize {
+    line_of_path(text, keys, &[index])
+}
+
+/// [`line_of`] with an entry per array met on the way: the n-th array is entered at `indices[n]`
+/// (the last index for any deeper one), e.g. `mesh.key.frame` at mesh 2, key 1.
+pub fn line_of_path(text: &str, keys: &[&str], indices: &[usize]) -> usize {
     use toml_edit::{Item, TableLike, Value};
     enum Node<'a> {
         Table(&'a dyn TableLike),
@@ -197,17 +250,23 @@ pub fn line_of(text: &str, keys: &[&str], index: usize) -> usize {
     };
     let mut node = Node::Table(doc.as_table());
     let mut offset = None;
+    let mut arrays = 0;
+    let mut next_index = || {
+        let i = indices.get(arrays).or(indices.last()).copied().unwrap_or(0);
+        arrays += 1;
+        i
+    };
     for key in keys {
         // Enter an array of tables at the requested entry first.
         node = match node {
-            Node::Tables(a) => match a.get(index) {
+            Node::Tables(a) => match a.get(next_index()) {
                 Some(t) => {
                     offset = t.span().map(|s| s.start).or(offset);
                     Node::Table(t)
                 }
                 None => break,
             },
-            Node::Array(a) => match a.get(index) {
+            Node::Array(a) => match a.get(next_index()) {
                 Some(v) => {
                     offset = v.span().map(|s| s.start).or(offset);
                     of_value(v)

@@ -72,6 +72,14 @@ pub(super) fn lights(
         .ok_or_else(|| at_line(cx.path, 1, "every light has zero power"))
 }
 
+/// Every `[[light]]` entry's values (the checks [`lights`] makes per entry).
+pub(super) fn check_lights(cx: &Ctx, desc: &SceneFile) -> Result<()> {
+    for (i, l) in desc.light.iter().enumerate() {
+        light(cx, i, l, Vec3::ZERO, 1.0)?;
+    }
+    Ok(())
+}
+
 /// Emitted power in f64, where the f32 product could overflow.
 fn power_f64(l: &Light) -> f64 {
     let pi = std::f64::consts::PI;

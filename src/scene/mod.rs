@@ -1,5 +1,6 @@
 //! A loaded scene: camera, triangles in an Embree BVH, materials, textures, lights and render settings.
 
+pub mod animation;
 mod build;
 mod context;
 pub(crate) mod file;
@@ -17,7 +18,8 @@ use std::path::PathBuf;
 
 use glam::Vec3;
 
-pub use build::load;
+pub use animation::{Animation, Change};
+pub use build::{frame_camera, load, load_animation, load_frame};
 pub use media::{Media, MAX_SIGMA};
 pub use settings::{FillMode, IcacheSettings, PhotonConfig, MAX_PHOTONS, SPACING_REFERENCE_SIDE};
 

@@ -1,0 +1,282 @@
+//! `render` of an animated scene: output patterns (`walk-####.exr`), `--frames A..B`, one progress
+//! bar over the frames, each frame written as soon as it is done, and a sequence summary.
+
+use std::path::{Path, PathBuf};
+use std::sync::atomic::AtomicBool;
+use std::time::Instant;
+
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use serde_json::json;
+
+use super::{cli_inputs, RenderArgs};
+use pmrender::error::{option, Result};
+use pmrender::render::outputs::{check_distinct, check_output, scene_inputs};
+use pmrender::render::sequence::render_sequence;
+use pmrender::render::write::{write_outputs, write_sequence_summary, OutputPaths};
+use pmrender::render::{Options, Progress};
+use pmrender::scene::Animation;
+use pmrender::signal;
+
+/// An output path with one run of `#`, replaced by the frame number.
+struct Pattern {
+    opt: &'static str,
+    /// The text before and after the run, and the run's length.
+    head: String,
+    tail: String,
+    digits: usize,
+}
+
+impl Pattern {
+    fn new(opt: &'static str, path: &Path) -> Result<Pattern> {
+        let text = path
+            .to_str()
+            .ok_or_else(|| option(opt, format!("'{}' is not valid UTF-8", path.display())))?;
+        let runs = text
+            .as_bytes()
+            .chunk_by(|a, b| (*a == b'#') == (*b == b'#'))
+            .filter(|r| r[0] == b'#')
+            .count();
+        if runs != 1 {
+            return Err(option(
+                opt,
+                format!(
+                    "'{text}' must hold one run of # for the frame number (e.g. walk-####.exr): the scene is animated"
+                ),
+            ));
+        }
+        let start = text.find('#').unwrap_or(0);
+        let digits = text[start..].bytes().take_while(|&b| b == b'#').count();
+        Ok(Pattern {
+            opt,
+            head: text[..start].to_string(),
+            tail: text[start + digits..].to_string(),
+            digits,
+        })
+    }
+
+    fn at(&self, frame: u32) -> PathBuf {
+        PathBuf::from(format!(
+            "{}{:0width$}{}",
+            self.head,
+            frame,
+            self.tail,
+            width = self.digits
+        ))
+    }
+
+    /// The run replaced by a word (the sequence summary's name).
+    fn named(&self, word: &str) -> PathBuf {
+        PathBuf::from(format!("{}{word}{}", self.head, self.tail))
+    }
+}
+
+/// The frames `--frames A..B` asks for (inclusive; `N` alone is one frame), all by default.
+fn frame_range(arg: Option<&str>, frames: u32) -> Result<std::ops::RangeInclusive<u32>> {
+    let Some(s) = arg else {
+        return Ok(0..=frames - 1);
+    };
+    let bad = || {
+        option(
+            "--frames",
+            format!(
+                "'{s}' is not a range A..B of frames within 0..{} (inclusive)",
+                frames - 1
+            ),
+        )
+    };
+    let parse = |t: &str| t.trim().parse::<u32>().map_err(|_| bad());
+    let (a, b) = match s.split_once("..") {
+        Some((a, b)) => (parse(a)?, parse(b.trim_start_matches('='))?),
+        None => {
+            let n = parse(s)?;
+            (n, n)
+        }
+    };
+    if a > b || b >= frames {
+        return Err(bad());
+    }
+    Ok(a..=b)
+}
+
+/// The outputs' patterns, in the order of [`outputs`].
+struct Patterns {
+    exr: Pattern,
+    png: Option<Pattern>,
+    stats: Option<Pattern>,
+    cache_image: Option<Pattern>,
+}
+
+impl Patterns {
+    fn new(a: &RenderArgs) -> Result<Patterns> {
+        for (opt, given) in [
+            ("--save-photons", a.save_photons.is_some()),
+            ("--load-photons", a.load_photons.is_some()),
+            ("--dump-photons", a.dump_photons.is_some()),
+            ("--save-cache", a.save_cache.is_some()),
+            ("--load-cache", a.load_cache.is_some()),
+        ] {
+            if given {
+                return Err(option(
+                    opt,
+                    "is for still scenes: a sequence traces its photon maps and fills its cache as its frames need",
+                ));
+            }
+        }
+        let opt =
+            |name, p: &Option<PathBuf>| p.as_deref().map(|p| Pattern::new(name, p)).transpose();
+        Ok(Patterns {
+            exr: Pattern::new("-o", &a.output)?,
+            png: opt("--png", &a.png)?,
+            stats: opt("--stats", &a.stats)?,
+            cache_image: opt("--cache-image", &a.cache_image)?,
+        })
+    }
+
+    fn at(&self, f: u32) -> OutputPaths {
+        OutputPaths {
+            exr: self.exr.at(f),
+            png: self.png.as_ref().map(|p| p.at(f)),
+            stats: self.stats.as_ref().map(|p| p.at(f)),
+            cache_image: self.cache_image.as_ref().map(|p| p.at(f)),
+            ..Default::default()
+        }
+    }
+
+    /// Every frame's outputs can be written and none names an input.
+    fn check(&self, a: &RenderArgs, frames: &std::ops::RangeInclusive<u32>) -> Result<()> {
+        let mut inputs = scene_inputs(&a.scene);
+        inputs.extend(cli_inputs(a));
+        let summary = self.stats.as_ref().map(|p| p.named("sequence"));
+        for f in frames.clone() {
+            let paths = self.at(f);
+            let named: Vec<(&'static str, &Path)> = [
+                (self.exr.opt, Some(paths.exr.as_path())),
+                ("--png", paths.png.as_deref()),
+                ("--stats", paths.stats.as_deref()),
+                ("--cache-image", paths.cache_image.as_deref()),
+                ("--stats", summary.as_deref()),
+            ]
+            .into_iter()
+            .filter_map(|(o, p)| p.map(|p| (o, p)))
+            .collect();
+            for (opt, p) in &named {
+                check_output(opt, p)?;
+            }
+            check_distinct(&named, &inputs)?;
+        }
+        Ok(())
+    }
+}
+
+/// One bar over the frames, its message naming the frame and phase.
+struct FramesBar {
+    bar: ProgressBar,
+    frame: std::sync::atomic::AtomicU32,
+}
+
+impl FramesBar {
+    fn new(quiet: bool, n: u64) -> FramesBar {
+        let bar = ProgressBar::with_draw_target(Some(n), ProgressDrawTarget::stderr());
+        if quiet || !std::io::IsTerminal::is_terminal(&std::io::stderr()) {
+            bar.set_draw_target(ProgressDrawTarget::hidden());
+        }
+        bar.set_style(
+            ProgressStyle::with_template(
+                "{msg:>20} [{bar:40}] {pos}/{len} frames {elapsed_precise} eta {eta}",
+            )
+            .unwrap_or_else(|_| ProgressStyle::default_bar())
+            .progress_chars("=> "),
+        );
+        FramesBar {
+            bar,
+            frame: Default::default(),
+        }
+    }
+}
+
+impl Progress for FramesBar {
+    fn start(&self, phase: &str, _: u64) {
+        let f = self.frame.load(std::sync::atomic::Ordering::Relaxed);
+        self.bar.set_message(format!("frame {f} {phase}"));
+    }
+    fn set(&self, _: u64) {}
+    fn finish(&self) {}
+}
+
+/// Renders the frames the command asks for, writing each one (all its outputs or none) when done.
+pub(super) fn render_animation(
+    a: &RenderArgs,
+    opts: &Options,
+    anim: &Animation,
+    pool: &rayon::ThreadPool,
+    cancel: &AtomicBool,
+) -> Result<()> {
+    let frames = frame_range(a.frames.as_deref(), anim.frames())?;
+    let patterns = Patterns::new(a)?;
+    patterns.check(a, &frames)?;
+    let bar = FramesBar::new(a.quiet, (frames.end() - frames.start() + 1) as u64);
+    bar.frame
+        .store(*frames.start(), std::sync::atomic::Ordering::Relaxed);
+    let start = Instant::now();
+    let mut summary = Vec::new();
+    let mut on_frame = |f: u32, scene: &_, out: &_, stats: &pmrender::render::RenderStats| {
+        signal::arm(false);
+        let written = write_outputs(&patterns.at(f), scene, out, stats.clone(), cancel);
+        signal::arm(true);
+        written?;
+        summary.push(frame_summary(f, stats));
+        bar.bar.inc(1);
+        bar.frame.store(f + 1, std::sync::atomic::Ordering::Relaxed);
+        Ok(())
+    };
+    signal::arm(true);
+    let result =
+        pool.install(|| render_sequence(anim, frames.clone(), opts, &bar, cancel, &mut on_frame));
+    signal::arm(false);
+    bar.bar.finish_and_clear();
+    if let (Some(p), false) = (&patterns.stats, summary.is_empty()) {
+        write_sequence_summary(
+            &p.named("sequence"),
+            &summary,
+            start.elapsed().as_secs_f64(),
+            result.is_ok(),
+        )?;
+        for row in &summary {
+            eprintln!("{}", summary_line(row));
+        }
+    }
+    result
+}
+
+/// One frame's line of the sequence summary.
+fn frame_summary(f: u32, stats: &pmrender::render::RenderStats) -> serde_json::Value {
+    let report = stats.report().to_json();
+    let get = |k: &str| {
+        k.split('.')
+            .try_fold(&report, |v, part| v.get(part))
+            .cloned()
+            .unwrap_or(serde_json::Value::Null)
+    };
+    json!({
+        "frame": f,
+        "time_s": stats.total_s,
+        "photons": get("frame.photons"),
+        "image_reused": stats.frame.is_some_and(|f| f.image_reused),
+        "records_reused": get("frame.records_reused"),
+        "records_dropped": get("frame.records_dropped"),
+        "records_after": get("frame.records_after"),
+        "fill_cache_s": get("time.fill_cache_s"),
+        "trace_photons_s": get("time.trace_photons_s"),
+    })
+}
+
+fn summary_line(row: &serde_json::Value) -> String {
+    format!(
+        "frame {:>5}  {:>8.2} s  photons {:<7}  records reused {:>8}  after {:>8}",
+        row["frame"],
+        row["time_s"].as_f64().unwrap_or(0.0),
+        row["photons"].as_str().unwrap_or("-"),
+        row["records_reused"],
+        row["records_after"],
+    )
+}

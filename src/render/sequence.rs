@@ -1,0 +1,68 @@
+//! An animated scene rendered frame by frame. Frames between which no mesh and no light changes share
+//! one scene: its photon maps are traced once, and its irradiance cache grows over the frames — each
+//! frame's pass A makes records only where no record of an earlier frame reaches (Radiance's shared
+//! ambient file), after dropping those too coarse for the new view. A frame where nothing changed at
+//! all shows the frame before's image. Where something moves, the scene is loaded again and traced
+//! with the same seed, so that the photons of unchanged regions follow the same paths.
+
+use std::ops::RangeInclusive;
+use std::sync::atomic::AtomicBool;
+
+use super::{render_frame, Carry, Options, RenderOutput, RenderStats};
+use crate::error::Result;
+use crate::progress::Progress;
+use crate::scene::{self, Animation, Scene};
+
+/// Renders `frames` of `anim`, handing each frame to `on_frame` as soon as it is done (the caller
+/// writes it). Stops with `Interrupted` soon after `cancel` is set; frames handed over stay handed over.
+pub fn render_sequence(
+    anim: &Animation,
+    frames: RangeInclusive<u32>,
+    opts: &Options,
+    progress: &dyn Progress,
+    cancel: &AtomicBool,
+    on_frame: &mut dyn FnMut(u32, &Scene, &RenderOutput, &RenderStats) -> Result<()>,
+) -> Result<()> {
+    let (first, last) = (*frames.start(), *frames.end());
+    let mut f = first;
+    while f <= last {
+        let scene = scene::load_frame(anim, f)?;
+        let mut carry = Carry::default();
+        let mut prev: Option<(RenderOutput, RenderStats)> = None;
+        loop {
+            let unchanged = prev.is_some() && !anim.change(f - 1, f).camera;
+            match &mut prev {
+                Some((out, stats)) if unchanged => {
+                    let frame = stats.frame.get_or_insert_with(Default::default);
+                    frame.frame = f;
+                    frame.image_reused = true;
+                    frame.photons_reused = true;
+                    frame.n_records_reused = frame.n_records_after;
+                    frame.n_records_dropped = 0;
+                    stats.total_s = 0.0;
+                    stats.write_outputs_s = None;
+                    on_frame(f, &scene, out, stats)?;
+                }
+                _ => {
+                    if let Some((mut out, _)) = prev.take() {
+                        carry.cache = out.cache.take();
+                    }
+                    let frame_opts = Options {
+                        camera: Some(scene::frame_camera(anim, f)?),
+                        frame: Some(f),
+                        ..opts.clone()
+                    };
+                    let (out, stats) =
+                        render_frame(&scene, &frame_opts, &mut carry, progress, cancel)?;
+                    on_frame(f, &scene, &out, &stats)?;
+                    prev = Some((out, stats));
+                }
+            }
+            f += 1;
+            if f > last || anim.change(f - 1, f).scene {
+                break;
+            }
+        }
+    }
+    Ok(())
+}

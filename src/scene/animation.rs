@@ -1,0 +1,351 @@
+//! Keyframed scenes: `[animation]` and the `key` tables of the camera, meshes and lights, checked when
+//! the scene is loaded, and each frame's scene file made from them by linear interpolation.
+//!
+//! Each keyable value is a track of its own: between two keys that set it, it is interpolated per
+//! component; before its first key and after its last it holds that key's value; a value no key sets
+//! keeps the base value. `rotate` is interpolated in degrees per axis and applied, as in a still, in the
+//! order scale → rotate → translate.
+
+use std::path::{Path, PathBuf};
+
+use super::context::Ctx;
+use super::file::{self, line_of_path, Scale, SceneFile};
+use crate::error::{at_line, Error, Result};
+
+/// Most frames of a sequence.
+pub const MAX_FRAMES: i64 = 1_000_000;
+
+/// A scene file with `[animation]`: its base values, keys, and the number of frames.
+#[derive(Clone, Debug)]
+pub struct Animation {
+    path: PathBuf,
+    text: String,
+    desc: SceneFile,
+    frames: u32,
+}
+
+/// What moves between frames, for deciding what a frame may reuse from the one before.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Change {
+    /// The camera moved or changed its field of view.
+    pub camera: bool,
+    /// A mesh moved or a light changed: light transport differs.
+    pub scene: bool,
+}
+
+impl Animation {
+    /// Checks `[animation]` and every key (`None` for a still scene: no `[animation]`, no keys).
+    pub(super) fn new(path: &Path, text: &str, desc: &SceneFile) -> Result<Option<Animation>> {
+        let cx = Ctx { path, text };
+        let Some(anim) = &desc.animation else {
+            return match first_key(desc) {
+                Some(keys) => Err(at_line(
+                    path,
+                    line_of_path(text, &keys.0, &keys.1),
+                    "a key needs an [animation] table giving the number of frames",
+                )),
+                None => Ok(None),
+            };
+        };
+        if !(1..=MAX_FRAMES).contains(&anim.frames) {
+            return Err(cx.err(
+                "animation",
+                0,
+                "frames",
+                format!("{} must be in 1..={MAX_FRAMES}", anim.frames),
+            ));
+        }
+        let frames = anim.frames as u32;
+        check_frames(
+            &cx,
+            "camera",
+            0,
+            desc.camera.key.iter().map(|k| k.frame),
+            frames,
+        )?;
+        for (i, m) in desc.mesh.iter().enumerate() {
+            check_frames(&cx, "mesh", i, m.key.iter().map(|k| k.frame), frames)?;
+        }
+        for (i, l) in desc.light.iter().enumerate() {
+            check_frames(&cx, "light", i, l.key.iter().map(|k| k.frame), frames)?;
+            check_light_keys(&cx, i, l)?;
+        }
+        Ok(Some(Animation {
+            path: path.to_path_buf(),
+            text: text.to_string(),
+            desc: desc.clone(),
+            frames,
+        }))
+    }
+
+    pub fn frames(&self) -> u32 {
+        self.frames
+    }
+
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    pub(super) fn text(&self) -> &str {
+        &self.text
+    }
+
+    /// The scene file of frame `f`: every keyed value at that frame, no keys left.
+    pub(super) fn frame_desc(&self, f: u32) -> SceneFile {
+        let mut d = self.desc.clone();
+        let c = &mut d.camera;
+        let keys = std::mem::take(&mut c.key);
+        c.eye = track(Some(c.eye), keys.iter().map(|k| (k.frame, k.eye)), f).unwrap_or(c.eye);
+        c.target =
+            track(Some(c.target), keys.iter().map(|k| (k.frame, k.target)), f).unwrap_or(c.target);
+        c.up = track(c.up, keys.iter().map(|k| (k.frame, k.up)), f);
+        c.fov = track(Some(c.fov), keys.iter().map(|k| (k.frame, k.fov)), f).unwrap_or(c.fov);
+        for m in &mut d.mesh {
+            let keys = std::mem::take(&mut m.key);
+            let scale = keys.iter().map(|k| (k.frame, k.scale.map(per_axis)));
+            m.scale = track(m.scale.map(per_axis), scale, f).map(Scale::PerAxis);
+            m.rotate = track(m.rotate, keys.iter().map(|k| (k.frame, k.rotate)), f);
+            m.translate = track(m.translate, keys.iter().map(|k| (k.frame, k.translate)), f);
+        }
+        for l in &mut d.light {
+            let keys = std::mem::take(&mut l.key);
+            l.position = track(l.position, keys.iter().map(|k| (k.frame, k.position)), f);
+            l.target = track(l.target, keys.iter().map(|k| (k.frame, k.target)), f);
+            l.direction = track(l.direction, keys.iter().map(|k| (k.frame, k.direction)), f);
+            l.intensity = track(l.intensity, keys.iter().map(|k| (k.frame, k.intensity)), f);
+            l.irradiance = track(
+                l.irradiance,
+                keys.iter().map(|k| (k.frame, k.irradiance)),
+                f,
+            );
+        }
+        d.animation = None;
+        d
+    }
+
+    /// What differs between frames `a` and `b`.
+    pub fn change(&self, a: u32, b: u32) -> Change {
+        let (da, db) = (self.frame_desc(a), self.frame_desc(b));
+        let cam = |d: &SceneFile| {
+            let c = &d.camera;
+            (c.eye, c.target, c.up, c.fov.to_bits())
+        };
+        Change {
+            camera: cam(&da) != cam(&db),
+            scene: moving_values(&da) != moving_values(&db),
+        }
+    }
+
+    /// Checks the camera, mesh placements and lights of every frame (interpolation between valid keys
+    /// may still pass through an invalid value: a scale through zero, an eye through its target).
+    pub(super) fn check_every_frame(
+        &self,
+        check: impl Fn(&Ctx, &SceneFile) -> Result<()>,
+    ) -> Result<()> {
+        let cx = Ctx {
+            path: &self.path,
+            text: &self.text,
+        };
+        for f in 0..self.frames {
+            check(&cx, &self.frame_desc(f)).map_err(|e| at_frame(e, f))?;
+        }
+        Ok(())
+    }
+}
+
+/// The values keys can change that affect light transport (mesh placements and light values), as bits.
+fn moving_values(d: &SceneFile) -> Vec<u32> {
+    let mut v = Vec::new();
+    let mut put = |x: Option<[f32; 3]>| match x {
+        Some(a) => v.extend(a.iter().map(|c| c.to_bits())),
+        None => v.push(u32::MAX),
+    };
+    for m in &d.mesh {
+        put(m.scale.map(per_axis));
+        put(m.rotate);
+        put(m.translate);
+    }
+    for l in &d.light {
+        put(l.position);
+        put(l.target);
+        put(l.direction);
+        put(l.intensity);
+        put(l.irradiance);
+    }
+    v
+}
+
+/// An error of one frame's values, saying which frame.
+pub(super) fn at_frame(e: Error, f: u32) -> Error {
+    match e {
+        Error::Input(msg) => {
+            // "file:line: what" → "file:line: frame f: what".
+            let mut parts = msg.splitn(3, ": ");
+            match (parts.next(), parts.next(), parts.next()) {
+                (Some(a), Some(b), Some(c)) => Error::Input(format!("{a}: {b}: frame {f}: {c}")),
+                _ => Error::Input(format!("frame {f}: {msg}")),
+            }
+        }
+        other => other,
+    }
+}
+
+fn per_axis(s: Scale) -> [f32; 3] {
+    match s {
+        Scale::Uniform(s) => [s; 3],
+        Scale::PerAxis(a) => a,
+    }
+}
+
+/// A value that can be interpolated linearly.
+trait Lerp: Copy {
+    fn lerp(a: Self, b: Self, t: f32) -> Self;
+}
+
+impl Lerp for f32 {
+    fn lerp(a: f32, b: f32, t: f32) -> f32 {
+        // Exact at both ends, so a key's frame shows the key's value.
+        if t <= 0.0 {
+            a
+        } else if t >= 1.0 {
+            b
+        } else {
+            a + (b - a) * t
+        }
+    }
+}
+
+impl Lerp for [f32; 3] {
+    fn lerp(a: [f32; 3], b: [f32; 3], t: f32) -> [f32; 3] {
+        std::array::from_fn(|i| f32::lerp(a[i], b[i], t))
+    }
+}
+
+/// A value's track at frame `f`: the base value where no key sets it, else held before the first key
+/// and after the last, linear between neighbours.
+fn track<T: Lerp>(
+    base: Option<T>,
+    keys: impl Iterator<Item = (i64, Option<T>)>,
+    f: u32,
+) -> Option<T> {
+    let mut set: Vec<(i64, T)> = keys.filter_map(|(k, v)| Some((k, v?))).collect();
+    set.sort_by_key(|(k, _)| *k);
+    let f = f as i64;
+    let (first, last) = match (set.first(), set.last()) {
+        (Some(a), Some(b)) => (*a, *b),
+        _ => return base,
+    };
+    if f <= first.0 {
+        return Some(first.1);
+    }
+    if f >= last.0 {
+        return Some(last.1);
+    }
+    let i = set.partition_point(|(k, _)| *k <= f);
+    let ((k0, v0), (k1, v1)) = (set[i - 1], set[i]);
+    Some(T::lerp(v0, v1, (f - k0) as f32 / (k1 - k0) as f32))
+}
+
+/// Every key's frame lies in the sequence, and no two keys of one object share a frame.
+fn check_frames(
+    cx: &Ctx,
+    table: &str,
+    index: usize,
+    frames_of_keys: impl Iterator<Item = i64>,
+    frames: u32,
+) -> Result<()> {
+    let mut seen = std::collections::HashSet::new();
+    for (k, f) in frames_of_keys.enumerate() {
+        let line = line_of_path(cx.text, &[table, "key", "frame"], &[index, k]);
+        if !(0..frames as i64).contains(&f) {
+            return Err(at_line(
+                cx.path,
+                line,
+                format!(
+                    "{table}.key.frame: {f} is outside the sequence 0..={}",
+                    frames - 1
+                ),
+            ));
+        }
+        if !seen.insert(f) {
+            return Err(at_line(
+                cx.path,
+                line,
+                format!("{table}.key.frame: a second key of this {table} at frame {f}"),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// A light's keys set only values its type has.
+fn check_light_keys(cx: &Ctx, i: usize, l: &file::LightDesc) -> Result<()> {
+    let allowed: &[&str] = match l.kind.as_str() {
+        "point" => &["position", "intensity"],
+        "spot" => &["position", "target", "intensity"],
+        "directional" => &["direction", "irradiance"],
+        // An unknown type is reported by the light loader.
+        _ => return Ok(()),
+    };
+    for (k, key) in l.key.iter().enumerate() {
+        let given = [
+            ("position", key.position.is_some()),
+            ("target", key.target.is_some()),
+            ("direction", key.direction.is_some()),
+            ("intensity", key.intensity.is_some()),
+            ("irradiance", key.irradiance.is_some()),
+        ];
+        if let Some((name, _)) = given.iter().find(|(n, g)| *g && !allowed.contains(n)) {
+            return Err(at_line(
+                cx.path,
+                line_of_path(cx.text, &["light", "key", name], &[i, k]),
+                format!("light.key.{name}: a {} light has no {name}", l.kind),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// The path and indices of the first key in the file, for the error when `[animation]` is missing.
+type KeyPath = (Vec<&'static str>, Vec<usize>);
+
+fn first_key(desc: &SceneFile) -> Option<KeyPath> {
+    if !desc.camera.key.is_empty() {
+        return Some((vec!["camera", "key"], vec![0]));
+    }
+    if let Some(i) = desc.mesh.iter().position(|m| !m.key.is_empty()) {
+        return Some((vec!["mesh", "key"], vec![i, 0]));
+    }
+    desc.light
+        .iter()
+        .position(|l| !l.key.is_empty())
+        .map(|i| (vec!["light", "key"], vec![i, 0]))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_track_holds_before_and_after_its_keys_and_is_linear_between() {
+        let keys = [(10, Some(1.0f32)), (20, Some(3.0)), (15, None)];
+        let at = |f| track(Some(0.0), keys.iter().copied(), f).unwrap();
+        assert_eq!(at(0), 1.0);
+        assert_eq!(at(10), 1.0);
+        assert_eq!(at(15), 2.0);
+        assert_eq!(at(20), 3.0);
+        assert_eq!(at(99), 3.0);
+        assert_eq!(track(Some(5.0f32), [(3, None)].into_iter(), 7), Some(5.0));
+        assert_eq!(track::<f32>(None, std::iter::empty(), 7), None);
+    }
+
+    #[test]
+    fn keys_in_any_order_give_the_same_track() {
+        let a = [(0, Some([0.0f32, 0.0, 0.0])), (4, Some([4.0, 8.0, -4.0]))];
+        let b = [a[1], a[0]];
+        for f in 0..6 {
+            assert_eq!(track(None, a.into_iter(), f), track(None, b.into_iter(), f));
+        }
+        assert_eq!(track(None, a.into_iter(), 1), Some([1.0, 2.0, -1.0]));
+    }
+}
