@@ -486,21 +486,21 @@ impl IrradianceCache {
             && usable_weight(&self.params, Pass::A, now, p, n).is_none()
     }
 
-    /// The records `keep` accepts, in order, as a new cache over `bounds` (the next frame of a sequence:
-    /// records reused where they are still valid). They are frozen, as records read from a file are,
-    /// and no stage is recorded yet. Returns the cache and how many records were dropped.
+    /// The records `keep` returns (each given with its index; `None` drops it), in order, as a new cache
+    /// over `bounds` (the next frame of a sequence: records reused where they are still valid, their
+    /// irradiance possibly updated). They are frozen, as records read from a file are, and no stage is
+    /// recorded yet. Returns the cache and how many records were dropped.
     pub fn rebuilt(
         self,
         bounds: (Vec3, Vec3),
-        keep: impl Fn(&Record) -> bool,
+        mut keep: impl FnMut(usize, Record) -> Option<Record>,
     ) -> Result<(Self, usize)> {
         let mut cache = IrradianceCache::new(bounds.0, bounds.1, self.params)?;
         let mut dropped = 0;
-        for rec in self.records {
-            if keep(&rec) {
-                cache.push_raw(rec);
-            } else {
-                dropped += 1;
+        for (i, rec) in self.records.into_iter().enumerate() {
+            match keep(i, rec) {
+                Some(r) => cache.push_raw(r),
+                None => dropped += 1,
             }
         }
         cache.frozen = cache.len();

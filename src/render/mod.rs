@@ -13,6 +13,7 @@ pub mod plan;
 pub mod sequence;
 pub mod shade;
 pub mod stats;
+pub mod temporal;
 pub mod tiles;
 pub mod write;
 
@@ -24,6 +25,7 @@ use icache::media::MediaCache;
 
 use crate::camera::Camera;
 use crate::error::{Error, Result};
+use crate::integrator::pm::{IndirectSource, PmContext};
 use crate::integrator::radiance_cache::RadianceCache;
 use crate::io::output::Image;
 use crate::photons::PhotonData;
@@ -84,6 +86,9 @@ pub struct Carry<'a> {
     cache: Option<icache::IrradianceCache>,
     chosen_rays: Option<usize>,
     radiance: Option<RadianceCache>,
+    /// The sequence's record lives, and what changed since the frame before (a new scene).
+    lifespans: temporal::Lifespans,
+    change: Option<temporal::SceneChange>,
 }
 
 /// Renders `scene` without writing anything; `Interrupted` soon after `cancel` is set, in any phase.
@@ -164,14 +169,30 @@ pub fn render_frame<'a>(
         photons_reused: reused,
         ..Default::default()
     });
-    let earlier = match carry.cache.take() {
-        Some(c) => Some(fine_enough(
-            c,
-            scene,
-            &plan,
-            frame.get_or_insert_with(Default::default),
-        )?),
-        None => None,
+    let earlier = match (carry.cache.take(), photons) {
+        (Some(c), Some(photons)) => {
+            let f = frame.get_or_insert_with(Default::default);
+            let c = match carry.change.take() {
+                Some(change) => {
+                    let ctx = PmContext {
+                        radiance: radiance.as_ref(),
+                        ..plan.pm_context(
+                            scene,
+                            photons,
+                            media_cache.as_ref(),
+                            IndirectSource::PhotonMap,
+                            cancel,
+                        )
+                    };
+                    let (c, t) = carry.lifespans.update(&ctx, c, &change, f.frame)?;
+                    f.temporal = Some(t);
+                    c
+                }
+                None => c,
+            };
+            Some(fine_enough(c, scene, &plan, f)?)
+        }
+        _ => None,
     };
     let mut cache = match (plan.method, photons) {
         (Method::Pm, Some(photons)) => {
@@ -222,6 +243,7 @@ pub fn render_frame<'a>(
     );
     if let (Some(f), Some(c)) = (&mut frame, &cache) {
         f.n_records_after = c.cache.len() as u64;
+        carry.lifespans.note_new(&c.cache, f.frame);
     }
     stats.frame = frame;
     let mut out = output(images, media_cache, plan.camera.clone());
@@ -251,14 +273,14 @@ fn fine_enough(
         VIEW_SLACK * params.max_spacing_px * if params.adaptive.is_some() { 2.0 } else { 1.0 };
     let n = cache.len();
     let (cache, dropped) = cache
-        .rebuilt(scene.bounds, |r| {
+        .rebuilt(scene.bounds, |_, r| {
             let to = r.pos - cam.eye;
             let dist = to.length();
             if !(dist > 0.0) || to.dot(cam.forward()) <= 0.0 {
-                return true;
+                return Some(r);
             }
             let dir = to / dist;
-            r.r_clamped <= limit * cam.pixel_world(dir, dist, r.normal.dot(dir))
+            (r.r_clamped <= limit * cam.pixel_world(dir, dist, r.normal.dot(dir))).then_some(r)
         })
         .map_err(crate::error::runtime)?;
     frame.n_records_reused = (n - dropped) as u64;

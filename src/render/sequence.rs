@@ -25,9 +25,14 @@ pub fn render_sequence(
 ) -> Result<()> {
     let (first, last) = (*frames.start(), *frames.end());
     let mut f = first;
+    let mut handoff: Option<Handoff> = None;
     while f <= last {
         let scene = scene::load_frame(anim, f)?;
-        let mut carry = Carry::default();
+        let temporal = scene.settings.icache.temporal;
+        let mut carry = match handoff.take() {
+            Some(h) if temporal => h.into_carry(anim, &scene, f),
+            _ => Carry::default(),
+        };
         let mut prev: Option<(RenderOutput, RenderStats)> = None;
         loop {
             let unchanged = prev.is_some() && !anim.change(f - 1, f).camera;
@@ -59,10 +64,62 @@ pub fn render_sequence(
                 }
             }
             f += 1;
-            if f > last || anim.change(f - 1, f).scene {
+            if f > last || !temporal || anim.change(f - 1, f).scene {
                 break;
             }
         }
+        if let Some((mut out, _)) = prev.take() {
+            carry.cache = out.cache.take();
+        }
+        handoff = Some(Handoff::of(carry, &scene));
     }
     Ok(())
+}
+
+/// What the frames of one scene leave to the next scene of the sequence (after a mesh or a light
+/// changed): the caches, and where each mesh was.
+struct Handoff {
+    cache: Option<icache::IrradianceCache>,
+    radiance: Option<crate::integrator::radiance_cache::RadianceCache>,
+    lifespans: super::temporal::Lifespans,
+    chosen_rays: Option<usize>,
+    mesh_bounds: Vec<Option<(glam::Vec3, glam::Vec3)>>,
+}
+
+impl Handoff {
+    fn of(carry: Carry, scene: &Scene) -> Handoff {
+        Handoff {
+            cache: carry.cache,
+            radiance: carry.radiance,
+            lifespans: carry.lifespans,
+            chosen_rays: carry.chosen_rays,
+            mesh_bounds: (0..scene.mesh_ranges.len())
+                .map(|m| scene.mesh_bounds(m))
+                .collect(),
+        }
+    }
+
+    /// The carry of frame `f`, the first of `scene`, with what changed since frame `f − 1`.
+    fn into_carry<'a>(self, anim: &Animation, scene: &Scene, f: u32) -> Carry<'a> {
+        let mut moved = Vec::new();
+        for m in anim.moved_meshes(f - 1, f) {
+            if let (Some(before), Some(after)) = (
+                self.mesh_bounds.get(m).copied().flatten(),
+                scene.mesh_bounds(m),
+            ) {
+                moved.push([before, after]);
+            }
+        }
+        Carry {
+            cache: self.cache,
+            radiance: self.radiance,
+            lifespans: self.lifespans,
+            chosen_rays: self.chosen_rays,
+            change: Some(super::temporal::SceneChange {
+                moved,
+                lights: anim.lights_changed(f - 1, f),
+            }),
+            ..Carry::default()
+        }
+    }
 }

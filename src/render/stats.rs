@@ -74,6 +74,26 @@ fn frame_rows(r: &mut Report, f: &FrameStats) {
         "frame.records_dropped",
         f.n_records_dropped,
     );
+    if let Some(t) = &f.temporal {
+        r.count(
+            "Sequence",
+            "Records kept as they were (temporal gradient)",
+            "frame.records_kept",
+            t.n_kept,
+        );
+        r.count(
+            "Sequence",
+            "Records gathered again in place (expired or near a change)",
+            "frame.records_regathered",
+            t.n_regathered,
+        );
+        r.count(
+            "Sequence",
+            "Records dropped (their surface moved)",
+            "frame.records_gone",
+            t.n_gone,
+        );
+    }
     r.count(
         "Sequence",
         "Cache records after the frame",
@@ -96,6 +116,8 @@ pub struct FrameStats {
     pub n_records_after: u64,
     /// Nothing changed since the frame before: its image is this frame's.
     pub image_reused: bool,
+    /// After a mesh or light changed: what the temporal update did to the records.
+    pub temporal: Option<super::temporal::TemporalStats>,
 }
 
 /// The plan and the scene, as reported.

@@ -136,6 +136,26 @@ impl Animation {
         }
     }
 
+    /// The `[[mesh]]` entries placed differently at frames `a` and `b`.
+    pub fn moved_meshes(&self, a: u32, b: u32) -> Vec<usize> {
+        let (da, db) = (self.frame_desc(a), self.frame_desc(b));
+        let place = |m: &file::MeshDesc| (m.scale.map(per_axis), m.rotate, m.translate);
+        (0..da.mesh.len())
+            .filter(|&i| place(&da.mesh[i]) != place(&db.mesh[i]))
+            .collect()
+    }
+
+    /// Whether a light differs between frames `a` and `b`.
+    pub fn lights_changed(&self, a: u32, b: u32) -> bool {
+        let (da, db) = (self.frame_desc(a), self.frame_desc(b));
+        let values =
+            |l: &file::LightDesc| (l.position, l.target, l.direction, l.intensity, l.irradiance);
+        da.light
+            .iter()
+            .zip(&db.light)
+            .any(|(x, y)| values(x) != values(y))
+    }
+
     /// Checks the camera, mesh placements and lights of every frame (interpolation between valid keys
     /// may still pass through an invalid value: a scale through zero, an eye through its target).
     pub(super) fn check_every_frame(

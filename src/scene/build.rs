@@ -117,6 +117,7 @@ fn build(path: &Path, text: &str, desc: &SceneFile) -> Result<Scene> {
         bounds,
         fingerprint,
         media,
+        mesh_ranges: mesh_tris,
     })
 }
 

@@ -186,6 +186,7 @@ pub struct IcacheDesc {
     pub visibility: Option<bool>,
     pub radiance_cache: Option<bool>,
     pub radiance_bands: Option<i64>,
+    pub temporal: Option<bool>,
 }
 
 /// Parses the scene file text; errors name the file and line.

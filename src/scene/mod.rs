@@ -121,9 +121,24 @@ pub struct Scene {
     pub fingerprint: u64,
     /// Participating media; `None` for a scene without `[[medium]]` (no media code runs).
     pub media: Option<Media>,
+    /// Each `[[mesh]]` entry's triangles.
+    pub mesh_ranges: Vec<std::ops::Range<usize>>,
 }
 
 impl Scene {
+    /// The bounding box of `[[mesh]]` entry `mesh`'s triangles (`None` for a mesh without any).
+    pub fn mesh_bounds(&self, mesh: usize) -> Option<(Vec3, Vec3)> {
+        let tris = &self.geometry.triangles[self.mesh_ranges.get(mesh)?.clone()];
+        let points = tris
+            .iter()
+            .flat_map(|t| t.v)
+            .map(|k| self.geometry.positions[k as usize]);
+        points.fold(None, |b, p| match b {
+            None => Some((p, p)),
+            Some((lo, hi)) => Some((p.min(lo), p.max(hi))),
+        })
+    }
+
     pub fn intersect(&self, origin: Vec3, dir: Vec3) -> Option<Hit> {
         self.bvh
             .intersect(origin, dir, f32::INFINITY)

@@ -76,6 +76,9 @@ pub struct IcacheSettings {
     visibility: bool,
     /// The radiance cache on glossy surfaces (`radiance_cache`, default true).
     pub radiance_cache: bool,
+    /// An animated scene's frames share one cache (`temporal`, default true); `false` renders each
+    /// frame as a still of its own.
+    pub temporal: bool,
     /// Harmonic bands every cached lobe keeps (`radiance_bands`); `None`: all ten (see
     /// `integrator::radiance_cache`).
     pub radiance_bands: Option<usize>,
@@ -347,6 +350,7 @@ fn icache(cx: &Ctx, d: &IcacheDesc) -> Result<IcacheSettings> {
     let visibility = d.visibility.unwrap_or(false);
     Ok(IcacheSettings {
         radiance_cache: d.radiance_cache.unwrap_or(true),
+        temporal: d.temporal.unwrap_or(true),
         radiance_bands: d.radiance_bands.map(|b| b as usize),
         params,
         min_spacing_given: d.min_spacing_px.is_some(),
@@ -473,6 +477,7 @@ mod tests {
             pass_a_stride: None,
             visibility: false,
             radiance_cache: true,
+            temporal: true,
             radiance_bands: None,
         }
     }

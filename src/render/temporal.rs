@@ -1,0 +1,207 @@
+//! Temporal irradiance caching (after Gautron, Bouatouch & Pattanaik 2007) for the frames of a
+//! sequence where a mesh or a light changed: the records of the frame before stay where they are, so
+//! that the image does not pop, and each one is re-gathered only when it must be.
+//!
+//! - A record whose surface is gone (it lay on a mesh that moved) is dropped; pass A makes new records
+//!   where the frame needs them.
+//! - A record is re-gathered at its own place, with its own jitter, when its lifespan is over, when a
+//!   light changed, or when geometry that moved comes near enough to take a noticeable part of its
+//!   hemisphere. Its temporal gradient ∂E/∂t is the change since its last gather per frame, and its
+//!   next lifespan the frames that change takes to reach [`TOLERANCE`] of its irradiance (at most
+//!   [`MAX_LIFESPAN`]; one frame for a new record, whose rate is not known yet).
+//! - Between gathers a record's irradiance follows its temporal gradient.
+//!
+//! Re-gathering with the record's own jitter rather than by reprojection: our gathers read photon
+//! maps traced with the same photon sequence every frame, so the same gather differs between frames
+//! only where the light did, and the rate measured is the light's, not noise.
+
+use std::collections::HashMap;
+
+use glam::Vec3;
+use icache::{IrradianceCache, Record, ShadingPoint};
+use rayon::prelude::*;
+
+use crate::error::{runtime, Result};
+use crate::integrator::cache_fill::gather_record;
+use crate::integrator::pm::PmContext;
+use crate::scene::Scene;
+
+/// Relative change of its irradiance a record may build up before it is gathered again.
+const TOLERANCE: f32 = 0.02;
+/// Most frames between two gathers of a record (Gautron's δt_max).
+const MAX_LIFESPAN: u32 = 8;
+/// What changed since the frame before: the bounds of every moved mesh (before, after) and whether a
+/// light changed.
+#[derive(Clone, Debug, Default)]
+pub struct SceneChange {
+    pub moved: Vec<[(Vec3, Vec3); 2]>,
+    pub lights: bool,
+}
+
+/// A moved mesh as a bounding sphere: where it is, how large, how far it moved.
+#[derive(Clone, Copy)]
+struct Mover {
+    center: Vec3,
+    radius: f32,
+    step: f32,
+}
+
+/// A record's life: when it was last gathered, to what, how fast it changes, when it is due again.
+#[derive(Clone, Copy, Debug)]
+struct Life {
+    made: u32,
+    due: u32,
+    e: Vec3,
+    de_dt: Vec3,
+}
+
+/// The lives of the records of a sequence's cache, by their position's bits.
+#[derive(Default)]
+pub struct Lifespans {
+    by_pos: HashMap<[u32; 3], Life>,
+}
+
+/// What the update did, for the frame's statistics.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct TemporalStats {
+    pub n_kept: u64,
+    pub n_regathered: u64,
+    pub n_gone: u64,
+}
+
+fn key(p: Vec3) -> [u32; 3] {
+    p.to_array().map(f32::to_bits)
+}
+
+fn luminance(e: Vec3) -> f32 {
+    e.dot(Vec3::new(0.2126, 0.7152, 0.0722))
+}
+
+impl Lifespans {
+    /// Records made in `frame` (none known before) start their life: due again the next frame.
+    pub fn note_new(&mut self, cache: &IrradianceCache, frame: u32) {
+        for r in cache.records() {
+            self.by_pos.entry(key(r.pos)).or_insert(Life {
+                made: frame,
+                due: frame + 1,
+                e: r.e,
+                de_dt: Vec3::ZERO,
+            });
+        }
+    }
+
+    /// The cache of the frame before, made valid for `frame` of `ctx.scene` (see the module header).
+    pub fn update(
+        &mut self,
+        ctx: &PmContext,
+        cache: IrradianceCache,
+        change: &SceneChange,
+        frame: u32,
+    ) -> Result<(IrradianceCache, TemporalStats)> {
+        let scene = ctx.scene;
+        let spheres: Vec<Mover> = change
+            .moved
+            .iter()
+            .flat_map(|[(lo0, hi0), (lo1, hi1)]| {
+                let (c0, c1) = ((*lo0 + *hi0) * 0.5, (*lo1 + *hi1) * 0.5);
+                let (r0, r1) = ((*hi0 - *lo0).length() * 0.5, (*hi1 - *lo1).length() * 0.5);
+                let step = c0.distance(c1) + (r0 - r1).abs();
+                [(c0, r0), (c1, r1)].map(|(center, radius)| Mover {
+                    center,
+                    radius,
+                    step,
+                })
+            })
+            .collect();
+        let mut due = Vec::new();
+        let mut stats = TemporalStats::default();
+        let mut lives = HashMap::with_capacity(self.by_pos.len());
+        let (cache, _) = cache
+            .rebuilt(scene.bounds, |i, mut r| {
+                let Some(hit) = surface_at(scene, &r) else {
+                    stats.n_gone += 1;
+                    return None;
+                };
+                let life = self.by_pos.get(&key(r.pos)).copied().unwrap_or(Life {
+                    made: frame.saturating_sub(1),
+                    due: frame,
+                    e: r.e,
+                    de_dt: Vec3::ZERO,
+                });
+                if frame >= life.due || change.lights || near(&r, &spheres) {
+                    due.push((i, r, hit));
+                    // Re-gathered below and inserted then; the record is not kept as it is.
+                    lives.insert(key(r.pos), life);
+                    None
+                } else {
+                    let age = (frame - life.made) as f32;
+                    r.e = (life.e + life.de_dt * age).max(Vec3::ZERO);
+                    lives.insert(key(r.pos), life);
+                    stats.n_kept += 1;
+                    Some(r)
+                }
+            })
+            .map_err(runtime)?;
+        let mut cache = cache;
+        let gathered: Vec<_> = due
+            .par_iter()
+            .map(|(_, r, hit)| {
+                let sp = ShadingPoint {
+                    pos: r.pos,
+                    normal: r.normal,
+                    pixel_world: r.pixel_world,
+                };
+                gather_record(ctx, r.at[0], r.at[1], r.at[2] as usize, &sp, hit).0
+            })
+            .collect();
+        for new in gathered {
+            let k = key(new.pos);
+            let Some(old) = lives.get(&k).copied() else {
+                continue;
+            };
+            let age = frame.saturating_sub(old.made).max(1);
+            let de_dt = (new.e - old.e) / age as f32;
+            let scale = luminance(new.e).max(luminance(old.e)).max(1e-12);
+            let rate = luminance(de_dt).abs() / scale;
+            let lifespan = if rate > 0.0 {
+                ((TOLERANCE / rate) as u32).clamp(1, MAX_LIFESPAN)
+            } else {
+                MAX_LIFESPAN
+            };
+            lives.insert(
+                k,
+                Life {
+                    made: frame,
+                    due: frame + lifespan,
+                    e: new.e,
+                    de_dt,
+                },
+            );
+            cache.insert(new);
+            stats.n_regathered += 1;
+        }
+        self.by_pos = lives;
+        Ok((cache, stats))
+    }
+}
+
+/// The surface a record was made on, hit again from just above it along its normal; `None` when it
+/// is no longer there (a mesh moved away).
+fn surface_at(scene: &Scene, r: &Record) -> Option<crate::geometry::Hit> {
+    let lift = (r.pixel_world * 0.1).max((r.pos.abs().max_element() + 1.0) * 1e-5);
+    let hit = scene.intersect(r.pos + r.normal * lift, -r.normal)?;
+    ((hit.t - lift).abs() < 0.5 * lift && hit.ng.dot(r.normal).abs() > 0.99).then_some(hit)
+}
+
+/// Whether a moved mesh is near enough to the record for its step to change the record's irradiance
+/// by more than [`TOLERANCE`]: a sphere of radius r at distance d covers about r²/d² of the sky, and
+/// a step s changes that by about 2r²s/d³.
+fn near(r: &Record, movers: &[Mover]) -> bool {
+    movers.iter().any(|m| {
+        let to = m.center - r.pos;
+        let d = to.length();
+        d <= m.radius
+            || (to.dot(r.normal) > -m.radius
+                && 2.0 * m.radius * m.radius * m.step > TOLERANCE * d * d * d)
+    })
+}
