@@ -52,6 +52,7 @@ bench: build
 	$(CARGO) bench --bench render
 	$(CARGO) bench --bench passes
 	$(CARGO) bench --bench glossy
+	$(CARGO) bench --bench animation
 
 clean:
 	$(CARGO) clean

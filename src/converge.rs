@@ -28,6 +28,40 @@ pub fn rel_mse(img: &Image, reference: &Image) -> f64 {
     s / (3.0 * img.pixels.len().max(1) as f64)
 }
 
+/// Flicker of one pair of frames (s before t): the change between them against the reference's
+/// change, relative to the reference's brightness there (`tools/flicker.py`: a static region has no
+/// reference change, so its own value would be a meaningless denominator).
+pub fn rel_mse_change(i_t: &Image, i_s: &Image, r_t: &Image, r_s: &Image) -> f64 {
+    let mut s = 0.0f64;
+    let pixels = i_t
+        .pixels
+        .iter()
+        .zip(&i_s.pixels)
+        .zip(r_t.pixels.iter().zip(&r_s.pixels));
+    for ((a_t, a_s), (b_t, b_s)) in pixels {
+        for c in 0..3 {
+            let d_i = a_t[c] as f64 - a_s[c] as f64;
+            let d_r = b_t[c] as f64 - b_s[c] as f64;
+            let level = 0.5 * (b_t[c] as f64 + b_s[c] as f64);
+            s += (d_i - d_r).powi(2) / (level * level + 0.01);
+        }
+    }
+    s / (3.0 * i_t.pixels.len().max(1) as f64)
+}
+
+/// The temporal relMSE of a sequence against a reference sequence (frame for frame): the mean of
+/// [`rel_mse_change`] over consecutive pairs (0 for fewer than two frames).
+pub fn temporal_rel_mse(frames: &[Image], reference: &[Image]) -> f64 {
+    let n = frames.len().min(reference.len());
+    if n < 2 {
+        return 0.0;
+    }
+    (1..n)
+        .map(|t| rel_mse_change(&frames[t], &frames[t - 1], &reference[t], &reference[t - 1]))
+        .sum::<f64>()
+        / (n - 1) as f64
+}
+
 pub struct ConvergeRow {
     pub photons: usize,
     pub time_s: f64,

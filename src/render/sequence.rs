@@ -83,7 +83,7 @@ struct Handoff {
     radiance: Option<crate::integrator::radiance_cache::RadianceCache>,
     lifespans: super::temporal::Lifespans,
     chosen_rays: Option<usize>,
-    mesh_bounds: Vec<Option<(glam::Vec3, glam::Vec3)>>,
+    mesh_spheres: Vec<Option<(glam::Vec3, f32)>>,
 }
 
 impl Handoff {
@@ -93,8 +93,8 @@ impl Handoff {
             radiance: carry.radiance,
             lifespans: carry.lifespans,
             chosen_rays: carry.chosen_rays,
-            mesh_bounds: (0..scene.mesh_ranges.len())
-                .map(|m| scene.mesh_bounds(m))
+            mesh_spheres: (0..scene.mesh_ranges.len())
+                .map(|m| scene.mesh_sphere(m))
                 .collect(),
         }
     }
@@ -104,8 +104,8 @@ impl Handoff {
         let mut moved = Vec::new();
         for m in anim.moved_meshes(f - 1, f) {
             if let (Some(before), Some(after)) = (
-                self.mesh_bounds.get(m).copied().flatten(),
-                scene.mesh_bounds(m),
+                self.mesh_spheres.get(m).copied().flatten(),
+                scene.mesh_sphere(m),
             ) {
                 moved.push([before, after]);
             }

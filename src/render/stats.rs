@@ -89,6 +89,12 @@ fn frame_rows(r: &mut Report, f: &FrameStats) {
         );
         r.count(
             "Sequence",
+            "Records replaced (changed beyond their noise)",
+            "frame.records_replaced",
+            t.n_replaced,
+        );
+        r.count(
+            "Sequence",
             "Records dropped (their surface moved)",
             "frame.records_gone",
             t.n_gone,

@@ -9,6 +9,9 @@
 //!   hemisphere. Its temporal gradient ∂E/∂t is the change since its last gather per frame, and its
 //!   next lifespan the frames that change takes to reach [`TOLERANCE`] of its irradiance (at most
 //!   [`MAX_LIFESPAN`]; one frame for a new record, whose rate is not known yet).
+//! - A gather that differs from the record's by no more than twice the gathers' own noise (or a
+//!   quarter of [`TOLERANCE`]) leaves the record as it was, due again after [`MAX_LIFESPAN`]: where
+//!   nothing happened the image stays the same.
 //! - Between gathers a record's irradiance follows its temporal gradient.
 //!
 //! Re-gathering with the record's own jitter rather than by reprojection: our gathers read photon
@@ -18,10 +21,11 @@
 use std::collections::HashMap;
 
 use glam::Vec3;
-use icache::{IrradianceCache, Record, ShadingPoint};
+use icache::{IrradianceCache, NewRecord, Record, ShadingPoint};
 use rayon::prelude::*;
 
 use crate::error::{runtime, Result};
+use crate::geometry::Hit;
 use crate::integrator::cache_fill::gather_record;
 use crate::integrator::pm::PmContext;
 use crate::scene::Scene;
@@ -30,11 +34,11 @@ use crate::scene::Scene;
 const TOLERANCE: f32 = 0.02;
 /// Most frames between two gathers of a record (Gautron's δt_max).
 const MAX_LIFESPAN: u32 = 8;
-/// What changed since the frame before: the bounds of every moved mesh (before, after) and whether a
-/// light changed.
+/// What changed since the frame before: the bounding sphere (centre, radius) of every moved mesh
+/// before and after, and whether a light changed.
 #[derive(Clone, Debug, Default)]
 pub struct SceneChange {
-    pub moved: Vec<[(Vec3, Vec3); 2]>,
+    pub moved: Vec<[(Vec3, f32); 2]>,
     pub lights: bool,
 }
 
@@ -64,8 +68,13 @@ pub struct Lifespans {
 /// What the update did, for the frame's statistics.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct TemporalStats {
+    /// Records whose irradiance stayed (or followed its temporal gradient).
     pub n_kept: u64,
+    /// Records gathered again in place.
     pub n_regathered: u64,
+    /// Of those, the ones whose change was beyond their noise: replaced by the new gather.
+    pub n_replaced: u64,
+    /// Records whose surface moved away.
     pub n_gone: u64,
 }
 
@@ -75,6 +84,18 @@ fn key(p: Vec3) -> [u32; 3] {
 
 fn luminance(e: Vec3) -> f32 {
     e.dot(Vec3::new(0.2126, 0.7152, 0.0722))
+}
+
+impl Mover {
+    /// A mesh's bounding spheres before and after its step, each moving by that step.
+    fn pair(&[(c0, r0), (c1, r1)]: &[(Vec3, f32); 2]) -> [Mover; 2] {
+        let step = c0.distance(c1) + (r0 - r1).abs();
+        [(c0, r0), (c1, r1)].map(|(center, radius)| Mover {
+            center,
+            radius,
+            step,
+        })
+    }
 }
 
 impl Lifespans {
@@ -99,53 +120,34 @@ impl Lifespans {
         frame: u32,
     ) -> Result<(IrradianceCache, TemporalStats)> {
         let scene = ctx.scene;
-        let spheres: Vec<Mover> = change
-            .moved
-            .iter()
-            .flat_map(|[(lo0, hi0), (lo1, hi1)]| {
-                let (c0, c1) = ((*lo0 + *hi0) * 0.5, (*lo1 + *hi1) * 0.5);
-                let (r0, r1) = ((*hi0 - *lo0).length() * 0.5, (*hi1 - *lo1).length() * 0.5);
-                let step = c0.distance(c1) + (r0 - r1).abs();
-                [(c0, r0), (c1, r1)].map(|(center, radius)| Mover {
-                    center,
-                    radius,
-                    step,
-                })
-            })
-            .collect();
-        let mut due = Vec::new();
+        let movers: Vec<Mover> = change.moved.iter().flat_map(Mover::pair).collect();
         let mut stats = TemporalStats::default();
-        let mut lives = HashMap::with_capacity(self.by_pos.len());
-        let (cache, _) = cache
-            .rebuilt(scene.bounds, |i, mut r| {
-                let Some(hit) = surface_at(scene, &r) else {
-                    stats.n_gone += 1;
-                    return None;
-                };
+        // What becomes of each record: gone (None), kept, or due for a gather from its hit.
+        let fate: Vec<Option<(Life, Option<Hit>)>> = cache
+            .records()
+            .iter()
+            .map(|r| {
+                let hit = surface_at(scene, r)?;
                 let life = self.by_pos.get(&key(r.pos)).copied().unwrap_or(Life {
                     made: frame.saturating_sub(1),
                     due: frame,
                     e: r.e,
                     de_dt: Vec3::ZERO,
                 });
-                if frame >= life.due || change.lights || near(&r, &spheres) {
-                    due.push((i, r, hit));
-                    // Re-gathered below and inserted then; the record is not kept as it is.
-                    lives.insert(key(r.pos), life);
-                    None
-                } else {
-                    let age = (frame - life.made) as f32;
-                    r.e = (life.e + life.de_dt * age).max(Vec3::ZERO);
-                    lives.insert(key(r.pos), life);
-                    stats.n_kept += 1;
-                    Some(r)
-                }
+                let due = frame >= life.due || change.lights || near(r, &movers);
+                Some((life, due.then_some(hit)))
             })
-            .map_err(runtime)?;
-        let mut cache = cache;
-        let gathered: Vec<_> = due
+            .collect();
+        let due: Vec<usize> = (0..fate.len())
+            .filter(|&i| matches!(fate[i], Some((_, Some(_)))))
+            .collect();
+        let gathered: Vec<NewRecord> = due
             .par_iter()
-            .map(|(_, r, hit)| {
+            .map(|&i| {
+                let r = &cache.records()[i];
+                let Some((_, Some(hit))) = &fate[i] else {
+                    unreachable!("only due records are gathered")
+                };
                 let sp = ShadingPoint {
                     pos: r.pos,
                     normal: r.normal,
@@ -154,32 +156,54 @@ impl Lifespans {
                 gather_record(ctx, r.at[0], r.at[1], r.at[2] as usize, &sp, hit).0
             })
             .collect();
-        for new in gathered {
-            let k = key(new.pos);
-            let Some(old) = lives.get(&k).copied() else {
-                continue;
-            };
+        let mut replaced = vec![None; fate.len()];
+        let mut lives = HashMap::with_capacity(fate.len());
+        for (&i, new) in due.iter().zip(gathered) {
+            let (old, _) = fate[i].expect("due records have a fate");
             let age = frame.saturating_sub(old.made).max(1);
             let de_dt = (new.e - old.e) / age as f32;
-            let scale = luminance(new.e).max(luminance(old.e)).max(1e-12);
-            let rate = luminance(de_dt).abs() / scale;
-            let lifespan = if rate > 0.0 {
-                ((TOLERANCE / rate) as u32).clamp(1, MAX_LIFESPAN)
+            let level = luminance(new.e).max(luminance(old.e)).max(1e-12);
+            let change = luminance(new.e - old.e).abs() / level;
+            // A change within the gather's own noise is no change: the record stays as it was,
+            // and the image does not flicker where nothing happened.
+            let noise = 2.0 * new.rel_err.max(cache.records()[i].rel_err);
+            let life = if change <= noise.max(0.25 * TOLERANCE) {
+                Life {
+                    due: frame + MAX_LIFESPAN,
+                    de_dt: Vec3::ZERO,
+                    ..old
+                }
             } else {
-                MAX_LIFESPAN
-            };
-            lives.insert(
-                k,
+                let rate = luminance(de_dt).abs() / level;
+                let lifespan = ((TOLERANCE / rate) as u32).clamp(1, MAX_LIFESPAN);
+                replaced[i] = Some(new);
                 Life {
                     made: frame,
                     due: frame + lifespan,
                     e: new.e,
                     de_dt,
-                },
-            );
-            cache.insert(new);
-            stats.n_regathered += 1;
+                }
+            };
+            lives.insert(key(cache.records()[i].pos), life);
         }
+        let (mut cache, _) = cache
+            .rebuilt(scene.bounds, |i, mut r| {
+                let (life, _) = fate[i]?;
+                let life = *lives.entry(key(r.pos)).or_insert(life);
+                if replaced[i].is_some() {
+                    return None;
+                }
+                r.e = (life.e + life.de_dt * (frame - life.made) as f32).max(Vec3::ZERO);
+                Some(r)
+            })
+            .map_err(runtime)?;
+        stats.n_gone = fate.iter().filter(|f| f.is_none()).count() as u64;
+        stats.n_regathered = due.len() as u64;
+        for new in replaced.into_iter().flatten() {
+            cache.insert(new);
+            stats.n_replaced += 1;
+        }
+        stats.n_kept = cache.len() as u64 - stats.n_replaced;
         self.by_pos = lives;
         Ok((cache, stats))
     }
@@ -187,7 +211,7 @@ impl Lifespans {
 
 /// The surface a record was made on, hit again from just above it along its normal; `None` when it
 /// is no longer there (a mesh moved away).
-fn surface_at(scene: &Scene, r: &Record) -> Option<crate::geometry::Hit> {
+fn surface_at(scene: &Scene, r: &Record) -> Option<Hit> {
     let lift = (r.pixel_world * 0.1).max((r.pos.abs().max_element() + 1.0) * 1e-5);
     let hit = scene.intersect(r.pos + r.normal * lift, -r.normal)?;
     ((hit.t - lift).abs() < 0.5 * lift && hit.ng.dot(r.normal).abs() > 0.99).then_some(hit)

@@ -126,17 +126,24 @@ pub struct Scene {
 }
 
 impl Scene {
-    /// The bounding box of `[[mesh]]` entry `mesh`'s triangles (`None` for a mesh without any).
-    pub fn mesh_bounds(&self, mesh: usize) -> Option<(Vec3, Vec3)> {
+    /// A bounding sphere of `[[mesh]]` entry `mesh`'s triangles: the centre of their box and the
+    /// farthest vertex from it (`None` for a mesh without triangles).
+    pub fn mesh_sphere(&self, mesh: usize) -> Option<(Vec3, f32)> {
         let tris = &self.geometry.triangles[self.mesh_ranges.get(mesh)?.clone()];
-        let points = tris
-            .iter()
-            .flat_map(|t| t.v)
-            .map(|k| self.geometry.positions[k as usize]);
-        points.fold(None, |b, p| match b {
+        let points = || {
+            tris.iter()
+                .flat_map(|t| t.v)
+                .map(|k| self.geometry.positions[k as usize])
+        };
+        let (lo, hi) = points().fold(None, |b, p| match b {
             None => Some((p, p)),
             Some((lo, hi)) => Some((p.min(lo), p.max(hi))),
-        })
+        })?;
+        let center = (lo + hi) * 0.5;
+        Some((
+            center,
+            points().map(|p| p.distance(center)).fold(0.0, f32::max),
+        ))
     }
 
     pub fn intersect(&self, origin: Vec3, dir: Vec3) -> Option<Hit> {

@@ -1,0 +1,179 @@
+//! `make bench`, fourth part: animated scenes. A walk through Sibenik (camera only: photon maps traced
+//! once, one irradiance cache for the sequence) against still renders of its frames, and a ball
+//! crossing a box (temporal caching) against an independent cache per frame: time, per-frame error
+//! against stored references, and flicker (temporal relMSE, `tools/flicker.py`'s definition).
+//! Printed as ratios measured in this run, never asserted.
+
+use std::path::Path;
+use std::sync::atomic::AtomicBool;
+use std::time::Instant;
+
+use pmrender::converge::{rel_mse, temporal_rel_mse};
+use pmrender::io::output::{read_layer, Image};
+use pmrender::render::sequence::render_sequence;
+use pmrender::render::{render, NoProgress, Options};
+use pmrender::scene::{self, Animation};
+
+/// The sequence's beauty images over `frames` and its seconds (`temporal = false` in `opts` is not
+/// settable here: the scene decides; see [`independent`]).
+fn sequence(anim: &Animation, frames: &[u32], opts: &Options) -> (Vec<Image>, f64) {
+    let range = frames[0]..=*frames.last().expect("frames");
+    let mut images = Vec::new();
+    let t = Instant::now();
+    render_sequence(
+        anim,
+        range,
+        opts,
+        &NoProgress,
+        &AtomicBool::new(false),
+        &mut |f, _, out, _| {
+            if frames.contains(&f) {
+                images.push(out.beauty.clone());
+            }
+            Ok(())
+        },
+    )
+    .expect("sequence");
+    (images, t.elapsed().as_secs_f64())
+}
+
+/// Each frame rendered as a still of its own: its scene loaded (or, with `shared`, the scene of frame
+/// 0, for a camera-only sequence), its photons traced, its cache filled. Time includes loading.
+fn independent(
+    anim: &Animation,
+    frames: &[u32],
+    opts: &Options,
+    shared: bool,
+) -> (Vec<Image>, f64) {
+    let t = Instant::now();
+    let first = shared.then(|| scene::load_frame(anim, frames[0]).expect("frame"));
+    let images = frames
+        .iter()
+        .map(|&f| {
+            let own;
+            let scene = match &first {
+                Some(s) => s,
+                None => {
+                    own = scene::load_frame(anim, f).expect("frame");
+                    &own
+                }
+            };
+            let o = Options {
+                camera: Some(scene::frame_camera(anim, f).expect("camera")),
+                ..opts.clone()
+            };
+            render(scene, &o, &NoProgress, &AtomicBool::new(false))
+                .expect("render")
+                .0
+                .beauty
+        })
+        .collect();
+    (images, t.elapsed().as_secs_f64())
+}
+
+fn sized(w: u32, h: u32) -> Options {
+    Options {
+        width: Some(w),
+        height: Some(h),
+        ..Default::default()
+    }
+}
+
+fn reference(dir: &Path, name: &str) -> Option<Image> {
+    read_layer(&dir.join(name), None).ok()
+}
+
+/// The walk: the whole sequence against stills of its frames (time at the scene's size), and the
+/// error of frames 0, 24, 47 against path references at 160×120, sequence and stills.
+fn walk(root: &Path) {
+    let Ok(Some(anim)) = scene::load_animation(&root.join("tests/scenes/sibenik-walk.toml")) else {
+        return println!("sibenik-walk: skipped (scene missing)");
+    };
+    let all: Vec<u32> = (0..anim.frames()).collect();
+    let (_, t_seq) = sequence(&anim, &all, &Options::default());
+    let (_, t_still) = independent(&anim, &all, &Options::default(), true);
+    println!(
+        "sibenik-walk {} frames 640×480: sequence {t_seq:.1} s, stills {t_still:.1} s, sequence/stills {:.3}",
+        all.len(),
+        t_seq / t_still
+    );
+    let dir = root.join("tests/reference/sibenik-walk");
+    let picks = [0u32, 24, 47];
+    let refs: Vec<Option<Image>> = picks
+        .iter()
+        .map(|f| reference(&dir, &format!("path-{f:04}.exr")))
+        .collect();
+    if refs.iter().any(Option::is_none) {
+        return println!("sibenik-walk errors: skipped (references missing)");
+    }
+    let small = sized(160, 120);
+    let (seq, _) = sequence(&anim, &all, &small);
+    let (stills, _) = independent(&anim, &all, &small, true);
+    for (i, f) in picks.iter().enumerate() {
+        let r = refs[i].as_ref().expect("reference");
+        let (e_seq, e_still) = (
+            rel_mse(&seq[*f as usize], r),
+            rel_mse(&stills[*f as usize], r),
+        );
+        println!(
+            "sibenik-walk frame {f} 160×120: relMSE sequence {e_seq:.5}, still {e_still:.5}, ratio {:.3}",
+            e_seq / e_still
+        );
+    }
+}
+
+/// The ball: temporal caching against an independent cache per frame, at the reference's size.
+fn ball(root: &Path) {
+    let dir = root.join("tests/reference/anim-ball");
+    let Ok(Some(anim)) = scene::load_animation(&root.join("scenes/anim-ball.toml")) else {
+        return println!("anim-ball: skipped (scene missing)");
+    };
+    let refs: Vec<(u32, Image)> = (0..anim.frames())
+        .filter_map(|f| Some((f, reference(&dir, &format!("frame-{f:04}.exr"))?)))
+        .collect();
+    let frames: Vec<u32> = refs.iter().map(|(f, _)| *f).collect();
+    let Some(first) = refs.first() else {
+        return println!("anim-ball: skipped (references missing)");
+    };
+    let opts = sized(first.1.width, first.1.height);
+    let all: Vec<u32> = (frames[0]..=*frames.last().expect("frames")).collect();
+    let (seq_all, t_seq) = sequence(&anim, &all, &opts);
+    let (ind_all, t_ind) = independent(&anim, &all, &opts, false);
+    let pick = |images: &[Image]| -> Vec<Image> {
+        frames
+            .iter()
+            .map(|f| images[(*f - frames[0]) as usize].clone())
+            .collect()
+    };
+    let (seq, ind) = (pick(&seq_all), pick(&ind_all));
+    let reference: Vec<Image> = refs.into_iter().map(|(_, r)| r).collect();
+    let mean_err = |images: &[Image]| {
+        images
+            .iter()
+            .zip(&reference)
+            .map(|(i, r)| rel_mse(i, r))
+            .sum::<f64>()
+            / images.len() as f64
+    };
+    let (f_seq, f_ind) = (
+        temporal_rel_mse(&seq, &reference),
+        temporal_rel_mse(&ind, &reference),
+    );
+    println!(
+        "anim-ball {} frames {}×{}: temporal {t_seq:.2} s, independent {t_ind:.2} s, speed-up {:.2}; \
+         flicker {f_seq:.2e} vs {f_ind:.2e} (ratio {:.3}); mean relMSE {:.5} vs {:.5}",
+        all.len(),
+        opts.width.unwrap_or(0),
+        opts.height.unwrap_or(0),
+        t_ind / t_seq,
+        f_seq / f_ind,
+        mean_err(&seq),
+        mean_err(&ind)
+    );
+}
+
+fn main() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    ball(root);
+    walk(root);
+}
