@@ -36,6 +36,15 @@ impl Camera {
         }
     }
 
+    /// Whether `other` sees exactly what this camera sees.
+    pub fn same_view(&self, other: &Camera) -> bool {
+        self.eye == other.eye
+            && self.forward == other.forward
+            && self.up == other.up
+            && self.tan_half == other.tan_half
+            && (self.width, self.height) == (other.width, other.height)
+    }
+
     /// Unit viewing direction.
     pub fn forward(&self) -> Vec3 {
         self.forward

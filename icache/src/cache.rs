@@ -161,15 +161,16 @@ impl IrradianceCache {
         self.lookup_first(p, n, pass, usize::MAX)
     }
 
-    /// [`lookup_first`](Self::lookup_first) over the usable records that `visible` also accepts (the
-    /// caller's occlusion test between the point and the record), called only for those usable.
+    /// [`lookup_first`](Self::lookup_first) over the usable records that `visible(id, record)` also
+    /// accepts (the caller's occlusion test between the point and the record), called only for those
+    /// usable.
     pub fn lookup_first_visible(
         &self,
         p: Vec3,
         n: Vec3,
         pass: Pass,
         n_records: usize,
-        visible: impl Fn(&Record) -> bool,
+        visible: impl Fn(u32, &Record) -> bool,
     ) -> Option<Lookup> {
         let mut acc = Accum::default();
         self.each_used(p, n, pass, n_records, visible, |_, w, e| acc.add(w, e));
@@ -185,7 +186,7 @@ impl IrradianceCache {
         n: Vec3,
         pass: Pass,
         n_records: usize,
-        visible: impl Fn(&Record) -> bool,
+        visible: impl Fn(u32, &Record) -> bool,
         mut each: impl FnMut(u32, f32, Vec3),
     ) {
         if !(p.is_finite() && n.is_finite()) {
@@ -195,7 +196,7 @@ impl IrradianceCache {
             for &id in ids {
                 let rec = &self.records[id as usize];
                 if let Some((w, e)) = self.weighted(rec, p, n, pass) {
-                    if visible(rec) {
+                    if visible(id, rec) {
                         each(id, w, e);
                     }
                 }
@@ -206,7 +207,7 @@ impl IrradianceCache {
     /// [`lookup`](Self::lookup) over the first `n_records` records only (in insertion order): what the
     /// cache held at that moment of a one-pass fill.
     pub fn lookup_first(&self, p: Vec3, n: Vec3, pass: Pass, n_records: usize) -> Option<Lookup> {
-        self.lookup_first_visible(p, n, pass, n_records, |_| true)
+        self.lookup_first_visible(p, n, pass, n_records, |_, _| true)
     }
 
     /// [`lookup`](Self::lookup) over the records from id `since` on, scanned without the index: the
@@ -505,6 +506,13 @@ impl IrradianceCache {
         }
         cache.frozen = cache.len();
         Ok((cache, dropped))
+    }
+
+    /// Lets later insertions shrink every record again (neighbor clamping, adaptive caching): the
+    /// next frame of a sequence fills its pass A over the records of earlier frames, whose repair
+    /// sweeps restore the cover of this frame's points that a shrink takes away.
+    pub fn thaw(&mut self) {
+        self.frozen = 0;
     }
 
     /// Put a finished record back (file loading): no gradient limit, clamping or neighbor clamping.

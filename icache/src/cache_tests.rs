@@ -421,7 +421,7 @@ fn a_lookup_leaves_out_the_records_its_visibility_test_rejects() {
     let p = Vec3::new(5.0, 5.0, 5.0);
     let all = c.lookup(p, Vec3::Z, Pass::B).unwrap();
     assert_eq!(
-        c.lookup_first_visible(p, Vec3::Z, Pass::B, usize::MAX, |_| true),
+        c.lookup_first_visible(p, Vec3::Z, Pass::B, usize::MAX, |_, _| true),
         Some(all)
     );
     assert!(
@@ -431,7 +431,7 @@ fn a_lookup_leaves_out_the_records_its_visibility_test_rejects() {
     );
     // The bright record hidden: the dark one alone.
     let dark = c
-        .lookup_first_visible(p, Vec3::Z, Pass::B, usize::MAX, |r| r.e.x < 1.5)
+        .lookup_first_visible(p, Vec3::Z, Pass::B, usize::MAX, |_, r| r.e.x < 1.5)
         .unwrap();
     assert!(
         (dark.e - Vec3::ONE).abs().max_element() < 1e-6,
@@ -441,7 +441,7 @@ fn a_lookup_leaves_out_the_records_its_visibility_test_rejects() {
     assert_eq!(dark.n_used, 1);
     // Both hidden: a miss.
     assert_eq!(
-        c.lookup_first_visible(p, Vec3::Z, Pass::B, usize::MAX, |_| false),
+        c.lookup_first_visible(p, Vec3::Z, Pass::B, usize::MAX, |_, _| false),
         None
     );
 }

@@ -57,6 +57,9 @@ pub struct PmContext<'a> {
     /// The glossy lobes' radiance cache (`pm`): filled beside the irradiance cache's records, read at
     /// glossy points instead of sampling their lobe.
     pub radiance: Option<&'a RadianceCache>,
+    /// The first `foreign` records of the cache were made for other views of a sequence: pass B
+    /// interpolates them only where they are in sight (see `record_in_sight`).
+    pub foreign: usize,
 }
 
 /// A caustic irradiance at most this fraction of the soft indirect one is reused within a pixel (see
@@ -250,6 +253,20 @@ impl PmContext<'_> {
         t
     }
 
+    /// Whether pass B may interpolate record `id` at `hit`: with `visibility`, or for a record made for
+    /// another view of a sequence ([`PmContext::foreign`]), a shadow ray to it (just off its surface)
+    /// must reach it. A still's records lie on surfaces its camera sees; another view's may lie behind
+    /// an occluder of this one and lend its light across it.
+    fn record_in_sight(&self, hit: &Hit, frame: &Frame, id: u32, rec: &icache::Record) -> bool {
+        if !self.scene.settings.icache.visibility() && id as usize >= self.foreign {
+            return true;
+        }
+        let o = spawn(hit, frame.n);
+        let d = rec.pos + rec.normal * (1e-3 * rec.r_clamped) - o;
+        let len = d.length();
+        !(len > 0.0) || !self.scene.bvh.occluded(o, d / len, len)
+    }
+
     /// The glossy lobe's light at a visible point from the radiance cache, where it serves the lobe and
     /// has records there (else `None`: the lobe is sampled).
     fn cached_glossy(&self, hit: &Hit, frame: &Frame, wo: Vec3, bsdf: &Bsdf) -> Option<Vec3> {
@@ -261,7 +278,7 @@ impl PmContext<'_> {
         radiance.reflected(
             cache,
             n,
-            |_| true,
+            |id, rec| self.record_in_sight(hit, frame, id, rec),
             (hit.material, *specular),
             hit.p,
             frame.n,
@@ -518,15 +535,10 @@ impl PmContext<'_> {
                 c.photon_estimates += 1;
                 self.photons.global_indirect_irradiance(hit.p, frame.n)
             }
-            IndirectSource::CacheUpTo(cache, n) if self.scene.settings.icache.visibility() => {
-                // A shadow ray to each usable record (just off its surface): those an occluder hides
-                // from the point are left out.
-                let o = spawn(hit, frame.n);
-                let visible = |rec: &icache::Record| {
-                    let d = rec.pos + rec.normal * (1e-3 * rec.r_clamped) - o;
-                    let len = d.length();
-                    !(len > 0.0) || !self.scene.bvh.occluded(o, d / len, len)
-                };
+            IndirectSource::CacheUpTo(cache, n)
+                if self.scene.settings.icache.visibility() || self.foreign > 0 =>
+            {
+                let visible = |id, rec: &icache::Record| self.record_in_sight(hit, frame, id, rec);
                 self.cached(
                     |pass| cache.lookup_first_visible(hit.p, frame.n, pass, n, visible),
                     hit,

@@ -128,7 +128,7 @@ impl RadianceCache {
         &self,
         cache: &IrradianceCache,
         n_records: usize,
-        visible: impl Fn(&icache::Record) -> bool,
+        visible: impl Fn(u32, &icache::Record) -> bool,
         (material, ks): (u32, Vec3),
         p: Vec3,
         n: Vec3,

@@ -89,6 +89,8 @@ pub struct Carry<'a> {
     /// The sequence's record lives, and what changed since the frame before (a new scene).
     lifespans: temporal::Lifespans,
     change: Option<temporal::SceneChange>,
+    /// The camera of the frame before.
+    camera: Option<Camera>,
 }
 
 /// Renders `scene` without writing anything; `Interrupted` soon after `cancel` is set, in any phase.
@@ -169,6 +171,7 @@ pub fn render_frame<'a>(
         photons_reused: reused,
         ..Default::default()
     });
+    let mut foreign = 0;
     let earlier = match (carry.cache.take(), photons) {
         (Some(c), Some(photons)) => {
             let f = frame.get_or_insert_with(Default::default);
@@ -190,7 +193,24 @@ pub fn render_frame<'a>(
                 }
                 None => c,
             };
-            Some(fine_enough(c, scene, &plan, f)?)
+            // Records made for another view: those too coarse for this one are dropped, new ones may
+            // shrink the rest (neighbour clamping), and pass B reads them only where they are in
+            // sight. From the same view they stay as they are, so that where nothing moved the image
+            // does not change.
+            let moved = carry
+                .camera
+                .as_ref()
+                .is_some_and(|cam| !cam.same_view(&plan.camera));
+            let c = if moved {
+                let mut c = carry.lifespans.for_view(c, scene, &plan.camera, f)?;
+                c.thaw();
+                foreign = c.len();
+                c
+            } else {
+                f.n_records_reused = c.len() as u64;
+                c
+            };
+            Some(c)
         }
         _ => None,
     };
@@ -228,6 +248,7 @@ pub fn render_frame<'a>(
             .map_or(plan.gather, |rays| GatherParams { rays }),
         cache: cache.as_mut(),
         radiance: radiance.as_ref(),
+        foreign,
     };
     let (mut sample, n_layers) = sampler(scene, &plan, lighting, cancel);
     let (layers, s) = shade(&plan, n_layers, &mut *sample, progress, cancel)?;
@@ -251,41 +272,8 @@ pub fn render_frame<'a>(
     carry.chosen_rays = cache.as_ref().and_then(|c| c.chosen_rays);
     out.cache = cache.map(|c| c.cache);
     carry.radiance = radiance;
+    carry.camera = Some(plan.camera);
     Ok((out, stats))
-}
-
-/// Most times its pixel-spacing limit a record of an earlier frame may span in this frame's view
-/// before it is dropped (and its surface gets finer records): the limit is in pixels, so a record
-/// made far from the camera is too coarse once the camera comes close.
-const VIEW_SLACK: f32 = 2.0;
-
-/// The records of earlier frames still fine enough for this frame's view: R' within [`VIEW_SLACK`]
-/// times the largest spacing at the record's footprint in this camera.
-fn fine_enough(
-    cache: icache::IrradianceCache,
-    scene: &Scene,
-    plan: &Plan,
-    frame: &mut FrameStats,
-) -> Result<icache::IrradianceCache> {
-    let cam = &plan.camera;
-    let params = *cache.params();
-    let limit =
-        VIEW_SLACK * params.max_spacing_px * if params.adaptive.is_some() { 2.0 } else { 1.0 };
-    let n = cache.len();
-    let (cache, dropped) = cache
-        .rebuilt(scene.bounds, |_, r| {
-            let to = r.pos - cam.eye;
-            let dist = to.length();
-            if !(dist > 0.0) || to.dot(cam.forward()) <= 0.0 {
-                return Some(r);
-            }
-            let dir = to / dist;
-            (r.r_clamped <= limit * cam.pixel_world(dir, dist, r.normal.dot(dir))).then_some(r)
-        })
-        .map_err(crate::error::runtime)?;
-    frame.n_records_reused = (n - dropped) as u64;
-    frame.n_records_dropped = dropped as u64;
-    Ok(cache)
 }
 
 /// The images, with the media cache's record positions; the caller adds the caches and photons.

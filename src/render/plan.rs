@@ -81,6 +81,7 @@ impl Plan {
             cancel,
             defer_misses: false,
             radiance: None,
+            foreign: 0,
         }
     }
 }

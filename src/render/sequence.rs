@@ -83,6 +83,7 @@ struct Handoff {
     radiance: Option<crate::integrator::radiance_cache::RadianceCache>,
     lifespans: super::temporal::Lifespans,
     chosen_rays: Option<usize>,
+    camera: Option<crate::camera::Camera>,
     mesh_spheres: Vec<Option<(glam::Vec3, f32)>>,
 }
 
@@ -93,6 +94,7 @@ impl Handoff {
             radiance: carry.radiance,
             lifespans: carry.lifespans,
             chosen_rays: carry.chosen_rays,
+            camera: carry.camera,
             mesh_spheres: (0..scene.mesh_ranges.len())
                 .map(|m| scene.mesh_sphere(m))
                 .collect(),
@@ -115,6 +117,7 @@ impl Handoff {
             radiance: self.radiance,
             lifespans: self.lifespans,
             chosen_rays: self.chosen_rays,
+            camera: self.camera,
             change: Some(super::temporal::SceneChange {
                 moved,
                 lights: anim.lights_changed(f - 1, f),

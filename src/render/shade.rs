@@ -75,6 +75,8 @@ pub struct Lighting<'a> {
     pub gather: GatherParams,
     /// `pm`'s radiance cache on glossy surfaces.
     pub radiance: Option<&'a RadianceCache>,
+    /// The cache's first records made for other views of a sequence (see [`PmContext::foreign`]).
+    pub foreign: usize,
 }
 
 /// The method's sampler and its number of layers: `path`'s radiance without photon maps; with them,
@@ -93,6 +95,7 @@ pub fn sampler<'a>(
     let ctx = PmContext {
         gather: lighting.gather,
         radiance: lighting.radiance,
+        foreign: lighting.foreign,
         ..plan.pm_context(
             scene,
             photons,

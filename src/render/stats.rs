@@ -70,7 +70,7 @@ fn frame_rows(r: &mut Report, f: &FrameStats) {
     );
     r.count(
         "Sequence",
-        "Cache records dropped (too coarse for the view)",
+        "Cache records dropped (too coarse for the view, or long out of it)",
         "frame.records_dropped",
         f.n_records_dropped,
     );
@@ -116,7 +116,7 @@ pub struct FrameStats {
     pub photons_reused: bool,
     /// Irradiance-cache records of earlier frames kept for this one.
     pub n_records_reused: u64,
-    /// Records of earlier frames dropped as too coarse for this frame's view.
+    /// Records of earlier frames dropped as too coarse for this frame's view, or out of view for long.
     pub n_records_dropped: u64,
     /// Records after this frame (reused and made).
     pub n_records_after: u64,
@@ -292,7 +292,7 @@ impl RenderStats {
             );
         }
         r.seconds("Time", "Shade", "time.shade_s", self.shade.time_s);
-        if self.photons.is_some() {
+        if self.setup.method.uses_photon_maps() {
             self.photon_method_rows(&mut r);
         }
         r.seconds("Time", "Total", "time.total_s", self.total_s);

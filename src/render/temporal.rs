@@ -14,6 +14,9 @@
 //!   nothing happened the image stays the same.
 //! - Between gathers a record's irradiance follows its temporal gradient.
 //!
+//! Frames where only the camera moves keep every record of earlier frames that is fine enough for the
+//! new view ([`Lifespans::for_view`]); records out of view for [`UNSEEN_FRAMES`] frames are deleted.
+//!
 //! Re-gathering with the record's own jitter rather than by reprojection: our gathers read photon
 //! maps traced with the same photon sequence every frame, so the same gather differs between frames
 //! only where the light did, and the rate measured is the light's, not noise.
@@ -24,6 +27,8 @@ use glam::Vec3;
 use icache::{IrradianceCache, NewRecord, Record, ShadingPoint};
 use rayon::prelude::*;
 
+use super::FrameStats;
+use crate::camera::Camera;
 use crate::error::{runtime, Result};
 use crate::geometry::Hit;
 use crate::integrator::cache_fill::gather_record;
@@ -59,11 +64,21 @@ struct Life {
     de_dt: Vec3,
 }
 
-/// The lives of the records of a sequence's cache, by their position's bits.
+/// The lives of the records of a sequence's cache, by their position's bits: when each is due for a
+/// gather, and since which frame it has been out of view.
 #[derive(Default)]
 pub struct Lifespans {
     by_pos: HashMap<[u32; 3], Life>,
+    unseen_since: HashMap<[u32; 3], u32>,
 }
+
+/// Most times its pixel-spacing limit a record of an earlier frame may span in this frame's view
+/// before it is dropped (and its surface gets finer records): the limit is in pixels, so a record
+/// made far from the camera is too coarse once the camera comes close.
+const VIEW_SLACK: f32 = 0.5;
+/// Frames a record may stay out of view (beyond a margin of a quarter of the image around it) before
+/// it is deleted: no pixel has used it, and a walk's cache should not grow with all it has passed.
+const UNSEEN_FRAMES: u32 = 16;
 
 /// What the update did, for the frame's statistics.
 #[derive(Clone, Copy, Debug, Default)]
@@ -99,6 +114,52 @@ impl Mover {
 }
 
 impl Lifespans {
+    /// The records of earlier frames for frame `frame.frame`'s view: those fine enough for it (R'
+    /// within [`VIEW_SLACK`] times the largest spacing at the record's footprint in `cam`) and not out
+    /// of view for [`UNSEEN_FRAMES`] frames.
+    pub fn for_view(
+        &mut self,
+        cache: IrradianceCache,
+        scene: &Scene,
+        cam: &Camera,
+        frame: &mut FrameStats,
+    ) -> Result<IrradianceCache> {
+        let params = *cache.params();
+        let limit =
+            VIEW_SLACK * params.max_spacing_px * if params.adaptive.is_some() { 2.0 } else { 1.0 };
+        let n = cache.len();
+        let now = frame.frame;
+        let (w, h) = (cam.width as f32, cam.height as f32);
+        let (mx, my) = (0.25 * w, 0.25 * h);
+        let mut unseen = HashMap::new();
+        let (cache, dropped) = cache
+            .rebuilt(scene.bounds, |_, r| {
+                let to = r.pos - cam.eye;
+                let dist = to.length();
+                let in_view = cam
+                    .project(r.pos)
+                    .is_some_and(|(x, y)| x > -mx && x < w + mx && y > -my && y < h + my);
+                if !in_view {
+                    let since = self.unseen_since.get(&key(r.pos)).copied().unwrap_or(now);
+                    if now - since >= UNSEEN_FRAMES {
+                        return None;
+                    }
+                    unseen.insert(key(r.pos), since);
+                    return Some(r);
+                }
+                if !(dist > 0.0) {
+                    return Some(r);
+                }
+                let dir = to / dist;
+                (r.r_clamped <= limit * cam.pixel_world(dir, dist, r.normal.dot(dir))).then_some(r)
+            })
+            .map_err(runtime)?;
+        self.unseen_since = unseen;
+        frame.n_records_reused = (n - dropped) as u64;
+        frame.n_records_dropped = dropped as u64;
+        Ok(cache)
+    }
+
     /// Records made in `frame` (none known before) start their life: due again the next frame.
     pub fn note_new(&mut self, cache: &IrradianceCache, frame: u32) {
         for r in cache.records() {
