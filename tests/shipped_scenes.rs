@@ -22,25 +22,31 @@ fn rare_events_stay_rare_on_every_shipped_scene() {
             continue;
         }
         n_scenes += 1;
-        let out = d.path().join("o.exr");
-        let stats = d.path().join("s.json");
+        // An animated scene renders its frame 0, written through the output patterns it needs.
+        let animated = std::fs::read_to_string(&path)
+            .unwrap()
+            .contains("[animation]");
+        let (out, stats) = (d.path().join("o-0.exr"), d.path().join("s-0.json"));
+        let (out_arg, stats_arg) = match animated {
+            true => (p(d.path(), "o-#.exr"), p(d.path(), "s-#.json")),
+            false => (p(d.path(), "o-0.exr"), p(d.path(), "s-0.json")),
+        };
+        let frames: &[&str] = if animated { &["--frames", "0"] } else { &[] };
         let r = run(&[
-            "render",
-            path.to_str().unwrap(),
-            "-o",
-            out.to_str().unwrap(),
-            "--stats",
-            stats.to_str().unwrap(),
-            "--method",
-            "pm",
-            "--width",
-            "96",
-            "--height",
-            "72",
-            "--spp",
-            "2",
-            "--quiet",
-        ]);
+            &[
+                "render",
+                path.to_str().unwrap(),
+                "-o",
+                &out_arg,
+                "--stats",
+                &stats_arg,
+            ][..],
+            frames,
+            &[
+                "--method", "pm", "--width", "96", "--height", "72", "--spp", "2", "--quiet",
+            ],
+        ]
+        .concat());
         assert!(
             r.status.success(),
             "{}: {}",
@@ -111,22 +117,20 @@ fn rare_events_stay_rare_on_every_shipped_scene() {
         );
 
         let r = run(&[
-            "render",
-            path.to_str().unwrap(),
-            "-o",
-            out.to_str().unwrap(),
-            "--stats",
-            stats.to_str().unwrap(),
-            "--method",
-            "path",
-            "--width",
-            "96",
-            "--height",
-            "72",
-            "--spp",
-            "4",
-            "--quiet",
-        ]);
+            &[
+                "render",
+                path.to_str().unwrap(),
+                "-o",
+                &out_arg,
+                "--stats",
+                &stats_arg,
+            ][..],
+            frames,
+            &[
+                "--method", "path", "--width", "96", "--height", "72", "--spp", "4", "--quiet",
+            ],
+        ]
+        .concat());
         assert!(
             r.status.success(),
             "{name} path: {}",

@@ -428,8 +428,25 @@ Ke 600 555 480
     fog_box("fog-spot-fog", (-w + 0.001, 0.001, -w + 0.001), (w - 0.001, h - 0.001, w - 0.001))
 
 
+def anim_ball():
+    """The animated ball scene (scenes/anim-ball.toml): a diffuse box (the Cornell walls, open toward the
+    camera, with its ceiling light) and, as a separate mesh so that the scene's keys can move it, a
+    diffuse ball of radius 1 centred at the origin (placed by `scale` and `translate`)."""
+    o = Obj()
+    cornell_walls(o)
+    o.box("block", "white", (0.35, 0, -0.85), (0.8, 0.6, -0.4))
+    o.write("anim-ball-box", WALLS)
+    b = Obj()
+    b.sphere("ball", "ball", (0, 0, 0), 1.0, nu=64, nv=32)
+    b.write("ball", """
+newmtl ball
+Kd 0.2 0.35 0.7
+""")
+
+
 def main():
     os.makedirs(OUT, exist_ok=True)
+    anim_ball()
     fog_cornell()
     fog_spot()
     cornell_caustics()
