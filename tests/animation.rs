@@ -304,7 +304,13 @@ fn sequence(d: &Path, n: u32, extra: &[&str]) -> Vec<String> {
 
 #[test]
 fn nothing_moves_every_frame_is_the_still_render() {
-    let (_still_dir, still) = still_render(&Keys::default(), &[]);
+    for method in ["pm", "path"] {
+        nothing_moves_with(method);
+    }
+}
+
+fn nothing_moves_with(method: &str) {
+    let (_still_dir, still) = still_render(&Keys::default(), &["--method", method]);
     let still = bytes(&still);
     // Keys that set the base values again, at frames of their own.
     let mut same = Keys::frames(3);
@@ -325,11 +331,11 @@ fn nothing_moves_every_frame_is_the_still_render() {
         ("no keys", Keys::frames(3)),
     ] {
         let d = scene(&keys);
-        let frames = sequence(d.path(), 3, &[]);
+        let frames = sequence(d.path(), 3, &["--method", method]);
         for (f, path) in frames.iter().enumerate() {
             assert!(
                 bytes(path) == still,
-                "{what}: frame {f} differs from the still render"
+                "{method}, {what}: frame {f} differs from the still render"
             );
         }
     }
