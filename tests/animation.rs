@@ -2,12 +2,12 @@
 //! sequence where nothing moves is the still render frame after frame, a walk-through frame agrees
 //! with a still render of its camera, a moving object's frame with a still render of its placement,
 //! the same frames at 1 and 2 threads, Ctrl-C mid-sequence, per-frame and sequence statistics,
-//! and `export-mitsuba --frame`.
+//! `export-mitsuba --frame`, and (slow) the ball scene's flicker against its Mitsuba reference sequence.
 
 mod common;
 use common::*;
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::{Duration, Instant};
 
@@ -803,4 +803,125 @@ fn export_mitsuba_writes_the_frame_asked_for() {
         );
         assert!(!dir.exists());
     }
+}
+
+// ---------------------------------------------------------------------------------------------------
+// Slow: the ball crossing the box against its Mitsuba reference sequence.
+
+/// Flicker of one pair of frames, as tools/flicker.py defines it: the mean over pixels and channels of
+/// ((I_t − I_s) − (R_t − R_s))² / (((R_t + R_s)/2)² + 0.01).
+fn rel_mse_diff(i_t: &Image, i_s: &Image, r_t: &Image, r_s: &Image) -> f64 {
+    let n = i_t.pixels.len();
+    assert!([i_s, r_t, r_s].iter().all(|x| x.pixels.len() == n));
+    let mut sum = 0.0f64;
+    for k in 0..n {
+        for c in 0..3 {
+            let d = (i_t.pixels[k][c] - i_s.pixels[k][c]) as f64
+                - (r_t.pixels[k][c] - r_s.pixels[k][c]) as f64;
+            let r = (r_t.pixels[k][c] as f64 + r_s.pixels[k][c] as f64) / 2.0;
+            sum += d * d / (r * r + 0.01);
+        }
+    }
+    sum / (3 * n) as f64
+}
+
+/// Per-frame relMSE and the temporal relMSE (mean over consecutive pairs) of `frames` against `refs`.
+fn flicker(frames: &[Image], refs: &[Image]) -> (Vec<f64>, f64) {
+    let per_frame: Vec<f64> = frames
+        .iter()
+        .zip(refs)
+        .map(|(i, r)| rel_mse(i, r))
+        .collect();
+    let pairs: Vec<f64> = (1..frames.len())
+        .map(|t| rel_mse_diff(&frames[t], &frames[t - 1], &refs[t], &refs[t - 1]))
+        .collect();
+    let temporal = pairs.iter().sum::<f64>() / pairs.len() as f64;
+    (per_frame, temporal)
+}
+
+fn reference_frames() -> (PathBuf, serde_json::Value) {
+    let dir = repo().join("tests/reference/anim-ball");
+    let info = json(&p(&dir, "sequence.json"));
+    (dir, info)
+}
+
+#[test]
+#[ignore]
+fn anim_ball_flicker_against_the_mitsuba_sequence() {
+    let (ref_dir, info) = reference_frames();
+    let (w, h) = (
+        info["width"].as_u64().unwrap(),
+        info["height"].as_u64().unwrap(),
+    );
+    let n = info["frames"].as_array().unwrap().len();
+    assert_eq!(n, 48, "the reference holds every frame");
+    let refs: Vec<Image> = (0..n)
+        .map(|f| read(&ref_dir.join(format!("frame-{f:04}.exr"))))
+        .collect();
+    let d = tempfile::tempdir().unwrap();
+    let scene = repo().join("scenes/anim-ball.toml");
+    let (ws, hs) = (w.to_string(), h.to_string());
+    // The sequence, one command.
+    let t = Instant::now();
+    render_ok(&[
+        scene.to_str().unwrap(),
+        "-o",
+        &p(d.path(), "seq-####.exr"),
+        "--width",
+        &ws,
+        "--height",
+        &hs,
+    ]);
+    let seq_s = t.elapsed().as_secs_f64();
+    // Independent stills: each frame its own process, its own photon maps and cache.
+    let t = Instant::now();
+    for f in 0..n {
+        let fs = f.to_string();
+        render_ok(&[
+            scene.to_str().unwrap(),
+            "-o",
+            &p(d.path(), "ind-####.exr"),
+            "--width",
+            &ws,
+            "--height",
+            &hs,
+            "--frames",
+            &fs,
+        ]);
+    }
+    let ind_s = t.elapsed().as_secs_f64();
+    let load = |prefix: &str| -> Vec<Image> {
+        (0..n)
+            .map(|f| read(&d.path().join(format!("{prefix}-{f:04}.exr"))))
+            .collect()
+    };
+    let (seq_err, seq_flicker) = flicker(&load("seq"), &refs);
+    let (ind_err, ind_flicker) = flicker(&load("ind"), &refs);
+    let max = |v: &[f64]| v.iter().copied().fold(0.0, f64::max);
+    let avg = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
+    let noise = info["noise_relmse_mean"].as_f64().unwrap();
+    eprintln!(
+        "[anim-ball {w}x{h}, {n} frames] sequence: {seq_s:.1} s, relMSE mean {:.3e} max {:.3e}, \
+         temporal relMSE {seq_flicker:.3e}; independent stills: {ind_s:.1} s, relMSE mean {:.3e} max \
+         {:.3e}, temporal {ind_flicker:.3e}; flicker ratio {:.2}; reference noise relMSE {noise:.1e}",
+        avg(&seq_err),
+        max(&seq_err),
+        avg(&ind_err),
+        max(&ind_err),
+        seq_flicker / ind_flicker,
+    );
+    // Measured (2 cores, at the commit adding this test): every frame 0.99e-3 to 1.09e-3 (the cache's
+    // bias, the same in every frame; the reference's own noise is 2.3e-5), temporal relMSE 6.7e-5, the
+    // sequence and the independent stills alike (each frame where the ball moved is traced and filled
+    // as a still). Bounds: 2x. The issue's target, flicker at most 1/4 of the independent stills', is
+    // printed as the ratio above; it is for the temporal cache to meet.
+    assert!(
+        max(&seq_err) <= 2e-3,
+        "a frame's relMSE {:.3e} > 2e-3",
+        max(&seq_err)
+    );
+    assert!(
+        seq_flicker <= 1.5e-4,
+        "temporal relMSE {seq_flicker:.3e} > 1.5e-4"
+    );
 }
