@@ -1,4 +1,4 @@
-//! Animated scenes (issue 32): bad keys and output patterns refused before anything is written, a
+//! Animated scenes: bad keys and output patterns refused before anything is written, a
 //! sequence where nothing moves is the still render frame after frame, a walk-through frame agrees
 //! with a still render of its camera, a moving object's frame with a still render of its placement,
 //! the same frames at 1 and 2 threads, Ctrl-C mid-sequence, per-frame and sequence statistics,
