@@ -432,13 +432,15 @@ fn a_walk_through_frame_agrees_with_a_still_render_of_its_camera() {
         dmean * 100.0,
         noise_dmean * 100.0
     );
+    // Within its noise: no further from the still than 3x a still of another seed is (measured 4.7e-5
+    // against another seed's 5.1e-5, a bound of ~1.5e-4; means 0.05 % apart).
     assert!(
         dmean <= 0.02,
         "image mean differs by {:.2} %",
         dmean * 100.0
     );
     assert!(
-        block <= 2e-3_f64.max(3.0 * noise_block),
+        block <= 3.0 * noise_block,
         "block relMSE {block:.3e} (another seed: {noise_block:.3e})"
     );
 }
@@ -484,13 +486,16 @@ fn a_moving_object_frame_agrees_with_a_still_render_of_its_placement() {
         "[moving] frame 2 vs still: 8x8-block relMSE {block:.3e}, mean {:.2} %; another seed: {noise_block:.3e}",
         dmean * 100.0
     );
+    // Measured 0 when each frame where the cube moved is traced and filled as a still, 1.9e-4 (means
+    // 0.21 % apart) with the temporal cache carrying records over, against another seed's 2.8e-4: no
+    // more than 3x the still's noise (~8e-4).
     assert!(
         dmean <= 0.02,
         "image mean differs by {:.2} %",
         dmean * 100.0
     );
     assert!(
-        block <= 2e-3_f64.max(3.0 * noise_block),
+        block <= 3.0 * noise_block,
         "block relMSE {block:.3e} (another seed: {noise_block:.3e})"
     );
 }
@@ -910,11 +915,10 @@ fn anim_ball_flicker_against_the_mitsuba_sequence() {
         max(&ind_err),
         seq_flicker / ind_flicker,
     );
-    // Measured (2 cores, at the commit adding this test): every frame 0.99e-3 to 1.09e-3 (the cache's
-    // bias, the same in every frame; the reference's own noise is 2.3e-5), temporal relMSE 6.7e-5, the
-    // sequence and the independent stills alike (each frame where the ball moved is traced and filled
-    // as a still). Bounds: 2x. The target, flicker at most 1/4 of the independent stills', is
-    // printed as the ratio above; it is for the temporal cache to meet.
+    // Measured: independent stills, every frame 0.99e-3 to 1.09e-3 (the cache's bias; the reference's
+    // own noise is 2.3e-5), temporal relMSE 6.7e-5; the sequence with the temporal cache, frames up to
+    // 1.08e-3, temporal relMSE 2.45e-5 (ratio 0.37). Bounds: 2x the stills'. The target, flicker at
+    // most 1/4 of the independent stills', is printed as the ratio, not asserted.
     assert!(
         max(&seq_err) <= 2e-3,
         "a frame's relMSE {:.3e} > 2e-3",
