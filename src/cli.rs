@@ -49,6 +49,9 @@ struct ExportArgs {
     /// Samples per pixel written into the sensor.
     #[arg(long, default_value_t = 1024)]
     spp: u32,
+    /// Of an animated scene, the frame to export (default 0).
+    #[arg(long)]
+    frame: Option<u32>,
 }
 
 #[derive(Args)]
@@ -364,6 +367,27 @@ fn load_interruptible(path: &Path) -> Result<Scene> {
     scene
 }
 
+/// The scene `export-mitsuba` writes: a still scene, or the frame `--frame` names of an animated one.
+fn export_scene(a: &ExportArgs) -> Result<Scene> {
+    signal::arm(true);
+    let scene = scene::load_animation(&a.scene).and_then(|anim| match (anim, a.frame) {
+        (None, None) => scene::load(&a.scene),
+        (None, Some(_)) => Err(option("--frame", "the scene has no [animation]")),
+        (Some(anim), f) => {
+            let f = f.unwrap_or(0);
+            if f >= anim.frames() {
+                return Err(option(
+                    "--frame",
+                    format!("{f} is outside the sequence 0..={}", anim.frames() - 1),
+                ));
+            }
+            scene::load_frame(&anim, f)
+        }
+    });
+    signal::arm(false);
+    scene
+}
+
 fn pool(threads: Option<i64>) -> Result<rayon::ThreadPool> {
     let n = match threads {
         Some(t) if !(1..=1024).contains(&t) => {
@@ -482,7 +506,7 @@ pub fn run() -> i32 {
     let result = match cli.command {
         Command::Render(a) => render_command(*a, &signal::CANCEL),
         Command::Converge(a) => converge_command(a),
-        Command::ExportMitsuba(a) => load_interruptible(&a.scene)
+        Command::ExportMitsuba(a) => export_scene(&a)
             .and_then(|s| pmrender::export::export_mitsuba(&s, &a.dir, a.spp.max(1))),
     };
     match result {
