@@ -200,10 +200,9 @@ pub(super) fn at_frame(e: Error, f: u32) -> Error {
     match e {
         Error::Input(msg) => {
             // "file:line: what" → "file:line: frame f: what".
-            let mut parts = msg.splitn(3, ": ");
-            match (parts.next(), parts.next(), parts.next()) {
-                (Some(a), Some(b), Some(c)) => Error::Input(format!("{a}: {b}: frame {f}: {c}")),
-                _ => Error::Input(format!("frame {f}: {msg}")),
+            match msg.split_once(": ") {
+                Some((at, what)) => Error::Input(format!("{at}: frame {f}: {what}")),
+                None => Error::Input(format!("frame {f}: {msg}")),
             }
         }
         other => other,
