@@ -39,13 +39,15 @@ pub struct FillLight<'a> {
 }
 
 /// Each pixel's shading points are traced once, with their hits, and a gather starts from the hit it is
-/// given. `earlier`: the records of earlier frames of a sequence, frozen. `cancel` is read before every
+/// given. `earlier`: the records of earlier frames of a sequence, frozen; `only`: the pixels pass A
+/// visits (a sequence's frame where the camera stayed and a mesh moved there). `cancel` is read before every
 /// chunk of pixels (two-pass) or row (one-pass), and by every gather ray.
 pub fn fill_cache(
     scene: &Scene,
     plan: &Plan,
     light: FillLight,
     earlier: Option<IrradianceCache>,
+    only: Option<super::tiles::Window>,
     progress: &dyn Progress,
     cancel: &AtomicBool,
 ) -> Result<(CacheFill, CacheFillStats)> {
@@ -71,7 +73,11 @@ pub fn fill_cache(
         Some(c) => c,
         None => IrradianceCache::new(lo, hi, plan.cache).map_err(runtime)?,
     };
-    let points = |x, y| shading_hits(&ctx, &plan.camera, x, y);
+    // Outside `only` the earlier records already cover what the camera sees, which has not changed.
+    let points = |x: u32, y: u32| match only {
+        Some(w) if !(x >= w.x0 && x < w.x1 && y >= w.y0 && y < w.y1) => Vec::new(),
+        _ => shading_hits(&ctx, &plan.camera, x, y),
+    };
     let gather = |x, y, i, sp: &ShadingPoint, hit: &Hit| gather_record(&ctx, x, y, i, sp, hit);
     let report_progress = |done, _| progress.set(done);
     let (w, h) = (plan.width, plan.height);

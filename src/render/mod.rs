@@ -172,6 +172,7 @@ pub fn render_frame<'a>(
         ..Default::default()
     });
     let mut foreign = 0;
+    let mut only = None;
     let earlier = match (carry.cache.take(), photons) {
         (Some(c), Some(photons)) => {
             let f = frame.get_or_insert_with(Default::default);
@@ -189,6 +190,13 @@ pub fn render_frame<'a>(
                     };
                     let (c, t) = carry.lifespans.update(&ctx, c, &change, f.frame)?;
                     f.temporal = Some(t);
+                    if carry
+                        .camera
+                        .as_ref()
+                        .is_some_and(|cam| cam.same_view(&plan.camera))
+                    {
+                        only = temporal::screen_window(&change, &plan.camera);
+                    }
                     c
                 }
                 None => c,
@@ -227,6 +235,7 @@ pub fn render_frame<'a>(
                         radiance: radiance.as_ref(),
                     },
                     earlier,
+                    only,
                     progress,
                     cancel,
                 )?,

@@ -27,6 +27,7 @@ use glam::Vec3;
 use icache::{IrradianceCache, NewRecord, Record, ShadingPoint};
 use rayon::prelude::*;
 
+use super::tiles::Window;
 use super::FrameStats;
 use crate::camera::Camera;
 use crate::error::{runtime, Result};
@@ -268,6 +269,43 @@ impl Lifespans {
         self.by_pos = lives;
         Ok((cache, stats))
     }
+}
+
+/// The pixels whose camera rays may meet a moved mesh, before or after its step (its bounding
+/// spheres' projections, with a margin); `None` when that may be anywhere (a sphere around or behind
+/// the eye).
+pub fn screen_window(change: &SceneChange, cam: &Camera) -> Option<Window> {
+    let (w, h) = (cam.width as f32, cam.height as f32);
+    let px_per_unit_at = |d: f32| h / (2.0 * (cam.fov_deg().to_radians() * 0.5).tan() * d);
+    let mut lo = Vec3::splat(f32::INFINITY);
+    let mut hi = Vec3::splat(f32::NEG_INFINITY);
+    for &(c, r) in change.moved.iter().flatten() {
+        let to = c - cam.eye;
+        let depth = to.dot(cam.forward());
+        if depth <= 2.0 * r {
+            return None;
+        }
+        let (x, y) = cam.project(c)?;
+        // The sphere's projection: its radius at its nearest depth, widened for the off-axis stretch.
+        let reach = 2.0 * r * px_per_unit_at(depth - r) + 2.0;
+        lo = lo.min(Vec3::new(x - reach, y - reach, 0.0));
+        hi = hi.max(Vec3::new(x + reach, y + reach, 0.0));
+    }
+    if lo.x > hi.x {
+        return Some(Window {
+            x0: 0,
+            y0: 0,
+            x1: 0,
+            y1: 0,
+        });
+    }
+    let clamp = |v: f32, max: f32| v.clamp(0.0, max) as u32;
+    Some(Window {
+        x0: clamp(lo.x.floor(), w),
+        y0: clamp(lo.y.floor(), h),
+        x1: clamp(hi.x.ceil() + 1.0, w),
+        y1: clamp(hi.y.ceil() + 1.0, h),
+    })
 }
 
 /// The surface a record was made on, hit again from just above it along its normal; `None` when it
