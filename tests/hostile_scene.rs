@@ -864,3 +864,36 @@ fn unknown_mtl_statements_are_refused() {
         );
     }
 }
+
+/// `usemtl` of a name no library defines gave the default grey without a word (a misspelt name, a
+/// missing `newmtl`): refused at the OBJ's line, unless the scene defines it as `[materials.NAME]` (an
+/// MTL that lacks the light its OBJ uses, as McGuire's CornellBox-Glossy).
+#[test]
+fn usemtl_of_an_undefined_material_is_refused() {
+    let lacking_light = ROOM_MTL.replace("newmtl light\nKd 0 0 0\nKe 10 10 10\n", "");
+    refused_room(
+        &lacking_light,
+        ROOM_TOML,
+        &["room.obj:20:", "usemtl 'light'", "[materials.light]"],
+    );
+    let d = room();
+    std::fs::write(
+        d.path().join("room.obj"),
+        ROOM_OBJ.replace("usemtl wall", "usemtl wal"),
+    )
+    .unwrap();
+    refused(
+        d.path(),
+        &p(d.path(), "scene.toml"),
+        &[],
+        &["room.obj:14:", "usemtl 'wal'"],
+    );
+    let defined = format!(
+        "{ROOM_TOML}\n[materials.light]\ntype = \"diffuse\"\nalbedo = [0, 0, 0]\nemission = [10, 10, 10]\n"
+    );
+    let (a, b) = (
+        renders(room_with(&lacking_light, &defined).path(), &[]),
+        renders(room().path(), &[]),
+    );
+    assert_eq!(a.pixels, b.pixels);
+}
