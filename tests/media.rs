@@ -963,3 +963,78 @@ fn boundaries_enclosing_the_same_space_are_refused() {
     // Half the box, inside it and sharing three of its faces: nested, legal.
     render(dir(&half, "ink").path(), &[]);
 }
+
+/// Boundaries of two media that overlap in part leave the space inside both to whichever face a ray
+/// entered it through: refused on the second's line, whether the faces cross or lie flush with each
+/// other. Touching, nesting (also with shared faces), disjoint boxes and overlapping boundaries of
+/// one medium (their union is that medium) stay legal.
+#[test]
+fn boundaries_overlapping_in_part_are_refused() {
+    let lamp_obj = String::from("mtllib scene.mtl\n") + &quad_facing_z(-3.0, 4.0, "lamp", 0);
+    let load = |b: ([f32; 3], [f32; 3]), second: &str| {
+        let toml = format!(
+            "version = 1\n[camera]\neye = [0.0, 0.0, 5.0]\ntarget = [0.0, 0.0, 0.0]\nfov = 40.0\nwidth = 8\nheight = 8\n\n[[medium]]\nname = \"fog\"\nsigma_a = [0.1, 0.1, 0.1]\nsigma_s = [0.5, 0.5, 0.5]\n\n[[medium]]\nname = \"ink\"\nsigma_a = [1.0, 1.0, 1.0]\nsigma_s = [0.0, 0.0, 0.0]\n\n[materials.boundary]\ntype = \"null\"\n\n[render]\nmethod = \"path\"\nspp = 1\n\n[[mesh]]\nobj = \"lamp.obj\"\n\n[[mesh]]\nobj = \"a.obj\"\ninterior = \"fog\"\n\n[[mesh]]\nobj = \"b.obj\"\ninterior = \"{second}\"\n"
+        );
+        let a = box_obj([-1.0; 3], [1.0; 3], "boundary", 0, false);
+        let d = scene_dir(&[
+            ("scene.mtl", SLAB_MTL),
+            ("lamp.obj", &lamp_obj),
+            ("a.obj", &(String::from("mtllib scene.mtl\n") + &a)),
+            (
+                "b.obj",
+                &(String::from("mtllib scene.mtl\n") + &box_obj(b.0, b.1, "boundary", 0, true)),
+            ),
+            ("scene.toml", &toml),
+        ]);
+        let r = pmrender::scene::load(&d.path().join("scene.toml"));
+        (d, r.err().map(|e| e.to_string()))
+    };
+    let overlapping = [
+        ([0.0, -1.0, -1.0], [2.0, 1.0, 1.0]), // half of each, faces flush
+        ([-0.5, -2.0, -0.5], [0.5, 2.0, 0.5]), // a bar through the box
+        ([0.5, 0.5, 0.5], [1.5, 1.5, 1.5]),   // an eighth at a corner
+        ([0.8, -0.3, -0.3], [1.8, 0.3, 0.3]), // a fifth of the second box
+        ([-1.0, -1.0, -0.5], [1.0, 1.0, 1.5]), // the box moved along z, four faces flush
+    ];
+    for b in overlapping {
+        let (_, err) = load(b, "ink");
+        let err = err.unwrap_or_else(|| panic!("{b:?} accepted"));
+        for e in [
+            "scene.toml:35:",
+            "mesh.interior",
+            "'b.obj'",
+            "overlap in part",
+            "'a.obj'",
+        ] {
+            assert!(err.contains(e), "'{e}' not in: {err}");
+        }
+    }
+    let legal = [
+        ([1.0, -1.0, -1.0], [3.0, 1.0, 1.0]), // touching: one face shared
+        ([1.0, -0.5, -0.5], [2.0, 0.5, 0.5]), // touching part of a face
+        ([-1.0, -1.0, -1.0], [0.0, 0.0, 0.0]), // an eighth of it, three faces shared
+        ([-0.5, -0.5, -0.5], [0.5, 0.5, 0.5]), // strictly inside
+        ([-3.0, -3.0, -3.0], [3.0, 3.0, 3.0]), // around it
+        ([-1.0, -1.0, -1.0], [1.0, 1.0, 1.5]), // around it, four faces shared
+        ([2.0, 2.0, 2.0], [3.0, 3.0, 3.0]),   // apart
+    ];
+    for b in legal {
+        let (_, err) = load(b, "ink");
+        assert_eq!(err, None, "{b:?}");
+    }
+    assert_eq!(load(overlapping[0], "fog").1, None);
+    // The command line: one line, exit status 2, no output.
+    let (d, _) = load(overlapping[1], "ink");
+    let out = d.path().join("out.exr");
+    let r = run(&[
+        "render",
+        &p(d.path(), "scene.toml"),
+        "-o",
+        out.to_str().unwrap(),
+        "--quiet",
+    ]);
+    let stderr = String::from_utf8_lossy(&r.stderr);
+    assert_eq!(r.status.code(), Some(2), "{stderr}");
+    assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
+    assert!(!out.exists());
+}
