@@ -325,6 +325,9 @@ fn render_command(a: RenderArgs, cancel: &AtomicBool) -> Result<()> {
     let result = pool.install(|| render::render(&scene, &opts, &bar, cancel));
     signal::arm(false);
     let (out, stats) = result?;
+    for w in stats.warnings() {
+        eprintln!("pmrender: warning: {w}");
+    }
     let paths = OutputPaths {
         exr: a.output.clone(),
         png: a.png.clone(),

@@ -1038,3 +1038,38 @@ fn boundaries_overlapping_in_part_are_refused() {
     assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
     assert!(!out.exists());
 }
+
+/// A fog so dense that no photon is stored is legal input: it renders, but says so on stderr (it
+/// rendered black without a word).
+#[test]
+fn a_fog_that_stores_no_photon_is_reported() {
+    let scene = std::fs::read_to_string(repo().join("scenes/fog-cornell.toml")).unwrap();
+    let scene = scene
+        .replace("sigma_s = [0.25, 0.25, 0.25]", "sigma_s = [1e9, 1e9, 1e9]")
+        .replace("g = 0.3", "g = 0.99999")
+        .replace("models/", &format!("{}/scenes/models/", repo().display()));
+    let dir = scene_dir(&[("scene.toml", &scene)]);
+    let out = dir.path().join("out.exr");
+    let r = run_bounded(
+        &[
+            "render",
+            &p(dir.path(), "scene.toml"),
+            "-o",
+            out.to_str().unwrap(),
+            "--method",
+            "photons",
+            "--width",
+            "16",
+            "--height",
+            "16",
+            "--spp",
+            "2",
+            "--quiet",
+        ],
+        std::time::Duration::from_secs(120),
+    );
+    let stderr = String::from_utf8_lossy(&r.stderr);
+    assert!(r.status.success(), "{stderr}");
+    assert!(stderr.contains("warning: no photon was stored"), "{stderr}");
+    assert!(out.exists());
+}
