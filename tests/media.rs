@@ -363,6 +363,8 @@ obj = "lamp.obj"
         (base.replace("sigma_a = [0.1, 0.1, 0.1]", "sigma_a = [0.1, -1.0, 0.1]"), base_obj.clone(), &["scene.toml:11:", "medium.sigma_a", "-1"]),
         (base.replace("sigma_s = [0.5, 0.5, 0.5]", "sigma_s = [0.5, 1e30, 0.5]"), base_obj.clone(), &["scene.toml:12:", "medium.sigma_s"]),
         (base.replace("g = 0.0", "g = 1.0"), base_obj.clone(), &["scene.toml:13:", "medium.g", "(-1, 1)"]),
+        // Below 1, but 1 in single precision: named as given, not as "1 is outside".
+        (base.replace("g = 0.0", "g = 0.99999999"), base_obj.clone(), &["scene.toml:13:", "medium.g", "0.99999999 rounds to 1 in single precision"]),
         (base.replace("interior = \"fog\"", "interior = \"smoke\""), base_obj.clone(), &["scene.toml:17:", "mesh.interior", "'smoke'"]),
         (base.replace("fov = 40.0", "fov = 40.0\nmedium = \"fog\""), base_obj.clone(), &["scene.toml:6:", "camera.medium", "not 'fog'"]),
         (base.replace("fov = 40.0", "fov = 40.0\nmedium = \"haze\""), base_obj.clone(), &["scene.toml:6:", "camera.medium", "'haze'"]),

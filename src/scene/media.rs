@@ -279,9 +279,18 @@ fn medium_list(cx: &Ctx, desc: &SceneFile) -> Result<Vec<Medium>> {
                 ));
             }
         }
-        let g = m.g.unwrap_or(0.0);
+        let given = m.g.unwrap_or(0.0);
+        let g = given as f32;
+        if !(given > -1.0 && given < 1.0) {
+            return Err(cx.err("medium", i, "g", format!("{given} is outside (-1, 1)")));
+        }
         if !(g > -1.0 && g < 1.0) {
-            return Err(cx.err("medium", i, "g", format!("{g} is outside (-1, 1)")));
+            return Err(cx.err(
+                "medium",
+                i,
+                "g",
+                format!("must be within (-1, 1); {given} rounds to {g} in single precision"),
+            ));
         }
         list.push(Medium::new(
             m.name.clone(),
