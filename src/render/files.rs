@@ -40,13 +40,17 @@ pub struct PhotonOutput {
 /// orders of magnitude.
 const PATH_POWER_MARGIN: f64 = 1e4;
 
-pub fn load_photons(path: &Path, scene: &Scene) -> Result<photon::LoadedMaps> {
-    let plausible = Plausible {
+/// What `scene` allows the photons of a file loaded for it to be.
+pub fn plausible(scene: &Scene) -> Plausible {
+    Plausible {
         max_path_power: PATH_POWER_MARGIN * scene.lights.total_power().max_element() as f64,
         // A point computed on a triangle at the limit may round a little past it.
         max_coord: 2.0 * MAX_COORD,
-    };
-    photon::file::load(path, scene.fingerprint, &plausible)
+    }
+}
+
+pub fn load_photons(path: &Path, scene: &Scene) -> Result<photon::LoadedMaps> {
+    photon::file::load(path, scene.fingerprint, &plausible(scene))
         .map_err(|e| option("--load-photons", format!("{}: {e}", path.display())))
 }
 
