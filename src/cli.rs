@@ -10,7 +10,7 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
 use pmrender::converge::{converge, Study};
 use pmrender::error::{option, Error, Result};
-use pmrender::render::budget::{parse_size, MAX_SIDE, MAX_SPP};
+use pmrender::render::budget::{env_max_memory, parse_size, MAX_SIDE, MAX_SPP};
 use pmrender::render::files::FileOptions;
 use pmrender::render::outputs::{check_distinct, check_output, scene_inputs, Output};
 use pmrender::render::write::{write_outputs, OutputPaths};
@@ -47,8 +47,8 @@ struct ExportArgs {
     scene: PathBuf,
     dir: PathBuf,
     /// Samples per pixel written into the sensor.
-    #[arg(long, default_value_t = 1024)]
-    spp: u32,
+    #[arg(long, default_value_t = 1024, allow_negative_numbers = true)]
+    spp: i64,
     /// Of an animated scene, the frame to export (default 0).
     #[arg(long)]
     frame: Option<u32>,
@@ -215,6 +215,7 @@ fn options(a: &RenderArgs) -> Result<Options> {
         })?),
         None => None,
     };
+    env_max_memory()?;
     Ok(Options {
         method,
         spp: in_range("--spp", a.spp, MAX_SPP)?,
@@ -302,29 +303,35 @@ fn check_outputs(a: &RenderArgs) -> Result<()> {
         ("--load-cache", &a.load_cache),
     ] {
         if let Some(p) = p {
-            if !p.is_file() {
-                return Err(option(opt, format!("'{}' not found", p.display())));
-            }
+            input_file(opt, p)?;
         }
     }
     check_distinct(&outputs(a), &cli_inputs(a))
+}
+
+/// An input file an option names: a missing one, a directory and anything else that is no regular
+/// file are each called what they are.
+fn input_file(opt: &str, p: &Path) -> Result<()> {
+    let why = match std::fs::metadata(p) {
+        Ok(m) if m.is_file() => return Ok(()),
+        Ok(m) if m.is_dir() => "is a directory, not a file".to_string(),
+        Ok(_) => "is not a regular file".to_string(),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => "not found".to_string(),
+        Err(e) => format!("cannot be read: {e}"),
+    };
+    Err(option(opt, format!("'{}' {why}", p.display())))
 }
 
 /// The `render` command's phases: check the outputs, load the scene, check the outputs against every
 /// file the scene reads, render, write all outputs or none.
 fn render_command(a: RenderArgs, cancel: &AtomicBool) -> Result<()> {
     let opts = options(&a)?;
-    let threads = match a.threads {
-        Some(t) if !(1..=1024).contains(&t) => {
-            return Err(option("--threads", format!("{t} must be in 1..=1024")))
-        }
-        t => t.map(|t| t as usize).unwrap_or(0),
-    };
+    let threads = thread_count(a.threads)?;
     check_outputs(&a)?;
     // No file of ours exists until the outputs are written: a signal may end the process at any time.
     signal::arm(true);
     if let Some(anim) = scene::load_animation(&a.scene)? {
-        let pool = pool(a.threads)?;
+        let pool = pool(threads)?;
         return sequence::render_animation(&a, &opts, &anim, &pool, cancel);
     }
     if a.frames.is_some() {
@@ -334,14 +341,14 @@ fn render_command(a: RenderArgs, cancel: &AtomicBool) -> Result<()> {
     let mut inputs = scene_inputs(&a.scene);
     inputs.extend(cli_inputs(&a));
     check_distinct(&outputs(&a), &inputs)?;
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .map_err(|e| Error::Runtime(e.to_string()))?;
+    let pool = pool(threads)?;
     let bar = Bar::new(a.quiet);
     let result = pool.install(|| render::render(&scene, &opts, &bar, cancel));
     signal::arm(false);
     let (out, stats) = result?;
+    for w in stats.warnings() {
+        eprintln!("pmrender: warning: {w}");
+    }
     let paths = OutputPaths {
         exr: a.output.clone(),
         png: a.png.clone(),
@@ -388,17 +395,33 @@ fn export_scene(a: &ExportArgs) -> Result<Scene> {
     scene
 }
 
-fn pool(threads: Option<i64>) -> Result<rayon::ThreadPool> {
-    let n = match threads {
-        Some(t) if !(1..=1024).contains(&t) => {
-            return Err(option("--threads", format!("{t} must be in 1..=1024")))
-        }
-        t => t.map(|t| t as usize).unwrap_or(0),
-    };
+/// `--threads` checked: at most 4 per core (at least 16). More only add stacks; 1024 of them did not
+/// fit under a 3 GB address-space limit, and the pool failed with "os error 11".
+fn thread_count(threads: Option<i64>) -> Result<Option<usize>> {
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let max = (4 * cores).max(16);
+    match threads {
+        Some(t) if !(1..=max as i64).contains(&t) => Err(option(
+            "--threads",
+            format!("{t} must be in 1..={max} (4 per core of this machine's {cores})"),
+        )),
+        t => Ok(t.map(|t| t as usize)),
+    }
+}
+
+/// The worker pool: `threads`, or one per core. A system that cannot start them (a limit on processes
+/// or address space) is named, with the option when it was given.
+fn pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
     rayon::ThreadPoolBuilder::new()
-        .num_threads(n)
+        .num_threads(threads.unwrap_or(0))
         .build()
-        .map_err(|e| Error::Runtime(e.to_string()))
+        .map_err(|e| {
+            let why = format!("cannot start the worker threads: {e}");
+            match threads {
+                Some(n) => option("--threads", format!("{n}: {why}; try fewer")),
+                None => Error::Runtime(why),
+            }
+        })
 }
 
 fn converge_command(a: ConvergeArgs) -> Result<()> {
@@ -406,10 +429,11 @@ fn converge_command(a: ConvergeArgs) -> Result<()> {
         .photons
         .iter()
         .map(|s| match s.trim().parse::<f64>() {
-            Ok(x) if (1.0..=MAX_PHOTONS as f64).contains(&x) => Ok(x.round() as usize),
+            // Whole numbers only (1e4 is one): 1.5 ran 2 photons without a word.
+            Ok(x) if (1.0..=MAX_PHOTONS as f64).contains(&x) && x.fract() == 0.0 => Ok(x as usize),
             _ => Err(option(
                 "--photons",
-                format!("'{s}' is not a photon count in 1..={MAX_PHOTONS}"),
+                format!("'{s}' is not a whole photon count in 1..={MAX_PHOTONS}"),
             )),
         })
         .collect::<Result<Vec<_>>>()?;
@@ -422,24 +446,18 @@ fn converge_command(a: ConvergeArgs) -> Result<()> {
             ))
         }
     };
-    if !a.reference.is_file() {
-        return Err(option(
-            "--reference",
-            format!("'{}' not found", a.reference.display()),
-        ));
-    }
-    if !a.output.is_dir() {
-        std::fs::create_dir_all(&a.output)
-            .map_err(|e| option("-o", format!("cannot create '{}': {e}", a.output.display())))?;
-    }
-    let mut scene = load_interruptible(&a.scene)?;
+    input_file("--reference", &a.reference)?;
     let opts = Options {
         spp: in_range("--spp", a.spp, MAX_SPP)?,
         seed: a.seed,
         ..Default::default()
     };
+    let threads = thread_count(a.threads)?;
+    env_max_memory()?;
+    check_output_dir(&a.output)?;
+    let mut scene = load_interruptible(&a.scene)?;
     let bar = Bar::new(a.quiet);
-    let rows = pool(a.threads)?.install(|| {
+    let rows = pool(threads)?.install(|| {
         let study = Study {
             counts: &counts,
             reference: &a.reference,
@@ -470,6 +488,38 @@ fn converge_command(a: ConvergeArgs) -> Result<()> {
         "wrote {}/converge.md, converge.json, converge.png",
         a.output.display()
     );
+    Ok(())
+}
+
+fn export_command(a: ExportArgs) -> Result<()> {
+    let spp = in_range("--spp", Some(a.spp), MAX_SPP)?.unwrap_or(1);
+    let scene = export_scene(&a)?;
+    pmrender::export::export_mitsuba(&scene, &a.dir, spp, &signal::CANCEL)
+}
+
+/// `converge -o`: an existing directory, or one that can be made below the nearest existing one
+/// (made only when the outputs are written).
+fn check_output_dir(dir: &Path) -> Result<()> {
+    let existing = dir
+        .ancestors()
+        .find(|d| d.as_os_str().is_empty() || d.exists())
+        .unwrap_or(Path::new("."));
+    let existing = if existing.as_os_str().is_empty() {
+        Path::new(".")
+    } else {
+        existing
+    };
+    if !existing.is_dir() {
+        return Err(option(
+            "-o",
+            format!("'{}' is not a directory", existing.display()),
+        ));
+    }
+    if existing == dir {
+        for name in ["converge.md", "converge.json", "converge.png"] {
+            check_output("-o", &dir.join(name))?;
+        }
+    }
     Ok(())
 }
 
@@ -506,8 +556,7 @@ pub fn run() -> i32 {
     let result = match cli.command {
         Command::Render(a) => render_command(*a, &signal::CANCEL),
         Command::Converge(a) => converge_command(a),
-        Command::ExportMitsuba(a) => export_scene(&a)
-            .and_then(|s| pmrender::export::export_mitsuba(&s, &a.dir, a.spp.max(1))),
+        Command::ExportMitsuba(a) => export_command(a),
     };
     match result {
         Ok(()) => 0,

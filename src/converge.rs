@@ -6,12 +6,12 @@
 //! of the render at the largest count (self-convergence).
 
 use std::path::Path;
-use std::sync::atomic::AtomicBool;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
-use crate::chart::{log_log_png, Level, LogLogChart, Series, PALETTE};
-use crate::error::{in_file, option, Result};
-use crate::io::atomic::write_bytes;
+use crate::chart::{stage_log_log_png, Level, LogLogChart, Series, PALETTE};
+use crate::error::{in_file, option, Error, Result};
+use crate::io::atomic::{CreatedDirs, OutputSet};
 use crate::io::output::{read_layer, Image};
 use crate::render::{render, Options, Progress};
 use crate::scene::{Method, Scene};
@@ -223,6 +223,7 @@ pub fn converge(
         ref_terms.iter().any(Option::is_some),
         &setting,
         out_dir,
+        cancel,
     )?;
     Ok(rows)
 }
@@ -263,11 +264,14 @@ fn read_reference(reference: &Path) -> Result<Image> {
     Ok(img)
 }
 
+/// Writes the three outputs into `out_dir` (made now if missing): all of them or none, and no folder
+/// made for them either when one fails or `cancel` is set.
 fn write_outputs(
     rows: &[ConvergeRow],
     terms_from_reference: bool,
     setting: &Setting,
     out_dir: &Path,
+    cancel: &AtomicBool,
 ) -> Result<()> {
     let basis = if terms_from_reference {
         "the reference's layers"
@@ -299,9 +303,12 @@ fn write_outputs(
         md += &format!("\n{note}\n");
     }
     md += &format!("\nChart `converge.png`: x = photons, y = relMSE; {} = beauty, {} = caustic, {} = indirect.\n", PALETTE[0].0, PALETTE[1].0, PALETTE[2].0);
-    write_bytes(&out_dir.join("converge.md"), md.as_bytes())?;
+    let dirs = CreatedDirs::create(out_dir)
+        .map_err(|e| option("-o", format!("cannot create '{}': {e}", out_dir.display())))?;
+    let mut set = OutputSet::new();
+    set.stage_bytes(&out_dir.join("converge.md"), md.as_bytes())?;
     let json = serde_json::json!(rows.iter().map(|r| serde_json::json!({"photons": r.photons, "time_s": r.time_s, "beauty": r.beauty, "caustic": r.caustic, "indirect": r.indirect})).collect::<Vec<_>>());
-    write_bytes(
+    set.stage_bytes(
         &out_dir.join("converge.json"),
         serde_json::to_string_pretty(&json)
             .unwrap_or_default()
@@ -311,10 +318,23 @@ fn write_outputs(
         .into_iter()
         .chain(noise_note)
         .collect();
-    write_chart(rows, setting, &notes, &out_dir.join("converge.png"))
+    stage_chart(
+        &mut set,
+        rows,
+        setting,
+        &notes,
+        &out_dir.join("converge.png"),
+    )?;
+    if cancel.load(Ordering::SeqCst) {
+        return Err(Error::Interrupted);
+    }
+    set.commit()?;
+    dirs.keep();
+    Ok(())
 }
 
-fn write_chart(
+fn stage_chart(
+    set: &mut OutputSet,
     rows: &[ConvergeRow],
     setting: &Setting,
     notes: &[String],
@@ -350,5 +370,5 @@ fn write_chart(
         levels: &levels,
         notes,
     };
-    log_log_png(path, &chart)
+    stage_log_log_png(set, path, &chart)
 }

@@ -8,11 +8,12 @@
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
 
 use glam::Vec3;
 
-use crate::error::{option, Result};
-use crate::io::atomic::OutputSet;
+use crate::error::{option, Error, Result};
+use crate::io::atomic::{CreatedDirs, OutputSet};
 use crate::light::Light;
 use crate::material::Bsdf;
 use crate::medium::{MediumId, VACUUM};
@@ -92,27 +93,31 @@ const FLAT: u8 = 2;
 
 /// Writes DIR/scene.xml and DIR/mesh_<material>_<kind>.obj: all of them or none. A file that would
 /// overwrite one the scene reads (the scene itself, an OBJ, MTL or texture: `export-mitsuba scene.xml .`
-/// or an input named `mesh_0_2.obj` in DIR) is refused before anything is written, and a DIR this
-/// command created is removed again when it fails.
-pub fn export_mitsuba(scene: &Scene, dir: &Path, spp: u32) -> Result<()> {
+/// or an input named `mesh_0_2.obj` in DIR) is refused before anything is written, and the folders
+/// this command made are removed again when it fails or `cancel` is set (a signal).
+pub fn export_mitsuba(scene: &Scene, dir: &Path, spp: u32, cancel: &AtomicBool) -> Result<()> {
     let files = mitsuba_files(scene, spp);
     let paths: Vec<PathBuf> = files.iter().map(|(name, _)| dir.join(name)).collect();
     let outputs: Vec<Output> = paths.iter().map(|p| ("DIR", p.as_path())).collect();
     check_distinct(&outputs, &scene_inputs(&scene.path))?;
-    let created = !dir.exists();
-    std::fs::create_dir_all(dir)
-        .map_err(|e| option("DIR", format!("cannot create '{}': {e}", dir.display())))?;
-    let written = (|| {
-        let mut set = OutputSet::new();
-        for ((_, bytes), path) in files.iter().zip(&paths) {
-            set.stage_bytes(path, bytes.as_bytes())?;
+    let interrupted = || {
+        if cancel.load(Ordering::SeqCst) {
+            Err(Error::Interrupted)
+        } else {
+            Ok(())
         }
-        set.commit()
-    })();
-    if written.is_err() && created {
-        let _ = std::fs::remove_dir(dir);
+    };
+    interrupted()?;
+    let dirs = CreatedDirs::create(dir)
+        .map_err(|e| option("DIR", format!("cannot create '{}': {e}", dir.display())))?;
+    let mut set = OutputSet::new();
+    for ((_, bytes), path) in files.iter().zip(&paths) {
+        set.stage_bytes(path, bytes.as_bytes())?;
+        interrupted()?;
     }
-    written
+    set.commit()?;
+    dirs.keep();
+    Ok(())
 }
 
 /// The files of the export, by name: one OBJ per triangle group, then scene.xml.

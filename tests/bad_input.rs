@@ -451,3 +451,30 @@ fn adaptive_caching_keys_checked() {
         &["scene.toml:16:", "expected a boolean"],
     );
 }
+
+#[test]
+fn adaptive_caching_with_the_one_pass_fill_is_refused() {
+    // Adaptive caching lives in the two-pass fill: with `fill = "one-pass"` it did nothing silently.
+    for key in ["adaptive = true", "adaptive_threshold = 0.05"] {
+        let toml = format!("{ROOM_TOML}\n[render.icache]\nfill = \"one-pass\"\n{key}\n");
+        let d = with_toml(&toml);
+        let name = key.split(' ').next().unwrap();
+        let line = toml.lines().position(|l| l == key).unwrap() + 1;
+        fails(
+            &d,
+            &p(d.path(), "scene.toml"),
+            &["--method", "pm"],
+            &[
+                &format!("scene.toml:{line}:"),
+                &format!("render.icache.{name}"),
+                "one-pass",
+            ],
+        );
+    }
+    let d = with_toml(&format!(
+        "{ROOM_TOML}\n[render.icache]\nfill = \"one-pass\"\nadaptive = false\n"
+    ));
+    let out = p(d.path(), "out.exr");
+    let r = run(&["render", &p(d.path(), "scene.toml"), "-o", &out, "--quiet"]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+}

@@ -301,3 +301,41 @@ fn nan_in_binary_files_with_a_valid_checksum_is_refused() {
         assert!(catch_unwind(AssertUnwindSafe(|| photon::file::read_maps(&m, fp).is_ok())).is_ok());
     }
 }
+
+/// Photon powers far beyond what the scene's lights give (1e30 W, 3e38 W), put in random photons behind
+/// a recomputed checksum, are refused against the scene's bounds; the file as saved is accepted.
+#[test]
+fn photon_powers_beyond_the_scene_are_refused() {
+    let d = scene_dir(&[
+        ("room.obj", ROOM_OBJ),
+        ("room.mtl", ROOM_MTL),
+        (
+            "scene.toml",
+            &format!("{ROOM_TOML}\n[render.photons]\nglobal = 2000\n"),
+        ),
+    ]);
+    let scene_path = d.path().join("scene.toml");
+    let (ph, _, fp) = saved_files(&scene_path);
+    let scene = pmrender::scene::load(&scene_path).unwrap();
+    let bounds = pmrender::render::files::plausible(&scene);
+    assert!(photon::file::read_maps_within(&ph, fp, &bounds).is_ok());
+    // Version 5: a 160-byte header, the global photon count at byte 80, then 13 f32 per photon with
+    // the power 24 bytes in.
+    let n_global = u64::from_le_bytes(ph[80..88].try_into().unwrap()) as usize;
+    let mut rng = Rng::new(5);
+    for _ in 0..iters(200) {
+        let photon = rng.next_u32() as usize % n_global;
+        let channel = rng.next_u32() as usize % 3;
+        let at = 160 + 52 * photon + 24 + 4 * channel;
+        let value = [1e30, 3e38, 1e25][rng.next_u32() as usize % 3];
+        let m = with_float(&ph, at, value, 8);
+        let refused = catch_unwind(AssertUnwindSafe(|| {
+            photon::file::read_maps_within(&m, fp, &bounds).is_err()
+        }));
+        assert_eq!(
+            refused.ok(),
+            Some(true),
+            "power {value} in photon {photon} accepted (or panicked)"
+        );
+    }
+}

@@ -491,14 +491,14 @@ fn sigint_and_sigterm_stop_every_phase_and_leave_nothing() {
                 &png,
                 "--stats",
                 &stats,
-                "--save-photons",
-                &maps,
-                "--dump-photons",
-                &ply,
                 "--save-cache",
                 &cache,
                 "--quiet",
             ];
+            // `path` traces no photon maps: saving them is refused.
+            if !extra.contains(&"path") {
+                args.extend(["--save-photons", &maps, "--dump-photons", &ply]);
+            }
             args.extend(extra);
             let (status, seconds, stderr) = interrupt(&args, signal, Duration::from_millis(700));
             assert_eq!(status, Some(code), "{phase}, SIG{signal}: {stderr}");
@@ -550,4 +550,158 @@ fn a_scene_read_blocked_on_a_fifo_is_interrupted() {
         assert!(seconds < 3.0, "stopped after {seconds:.2} s");
         assert!(listing(&out).is_empty());
     }
+}
+
+/// Photon-map files that would do nothing — saved or dumped maps that are loaded, not traced, or any of
+/// them under `path`, which traces none — are refused instead of left unwritten without a word.
+#[test]
+fn photon_files_that_would_do_nothing_are_refused() {
+    let (d, out) = room_with_out(ROOM_TOML);
+    let (scene, o) = (p(d.path(), "scene.toml"), p(&out, "o.exr"));
+    let maps = p(d.path(), "maps.phot");
+    let r = run(&[
+        "render",
+        &scene,
+        "-o",
+        &o,
+        "--quiet",
+        "--save-photons",
+        &maps,
+    ]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    std::fs::remove_file(&o).unwrap();
+    let (saved, dumped) = (p(&out, "again.phot"), p(&out, "maps.ply"));
+    for (extra, expect) in [
+        (
+            vec!["--method", "path", "--save-photons", &saved],
+            "--save-photons",
+        ),
+        (
+            vec!["--method", "path", "--dump-photons", &dumped],
+            "--dump-photons",
+        ),
+        (
+            vec!["--method", "path", "--load-photons", &maps],
+            "--load-photons",
+        ),
+        (
+            vec!["--load-photons", &maps, "--save-photons", &saved],
+            "--save-photons",
+        ),
+        (
+            vec!["--load-photons", &maps, "--dump-photons", &dumped],
+            "--dump-photons",
+        ),
+    ] {
+        let mut args = vec!["render", &scene, "-o", &o, "--quiet"];
+        args.extend(&extra);
+        assert_fails(&run(&args), 2, &[expect]);
+        assert!(listing(&out).is_empty(), "{extra:?}");
+    }
+}
+
+/// Options that fail late or vaguely: an unparsable PMRENDER_MAX_MEMORY (ignored before), a thread
+/// count the system cannot start ("os error 11", exit 1), a directory where a file is expected
+/// ("not found"), an output name longer than the file system holds (it rendered fully, then failed at
+/// the rename): each one line naming the option or variable, exit 2, nothing written.
+#[test]
+fn bad_options_name_themselves_before_rendering() {
+    let (d, out) = room_with_out(ROOM_TOML);
+    let (scene, o) = (p(d.path(), "scene.toml"), p(&out, "o.exr"));
+    for value in ["lots", "-1G", "5Q"] {
+        let r = run_env(
+            &["render", &scene, "-o", &o, "--quiet"],
+            &[("PMRENDER_MAX_MEMORY", value)],
+        );
+        assert_fails(&r, 2, &["PMRENDER_MAX_MEMORY", value]);
+    }
+    let r = run(&["render", &scene, "-o", &o, "--quiet", "--threads", "1024"]);
+    assert_fails(&r, 2, &["--threads", "1024", "per core"]);
+    std::fs::create_dir(d.path().join("maps.phot")).unwrap();
+    let r = run(&[
+        "render",
+        &scene,
+        "-o",
+        &o,
+        "--quiet",
+        "--load-photons",
+        &p(d.path(), "maps.phot"),
+    ]);
+    assert_fails(&r, 2, &["--load-photons", "is a directory"]);
+    let r = run(&["render", &p(d.path(), "maps.phot"), "-o", &o, "--quiet"]);
+    assert_fails(&r, 2, &["maps.phot", "is a directory"]);
+    let long = p(&out, &format!("{}.exr", "n".repeat(252)));
+    let r = run(&["render", &scene, "-o", &long, "--quiet"]);
+    assert_fails(&r, 2, &["-o", "256 bytes"]);
+    assert!(listing(&out).is_empty());
+}
+
+/// `converge` and `export-mitsuba` coerced values (`--photons 1.5` ran 2 photons, `--spp 0` wrote 1)
+/// and left an empty `-o` folder or partial outputs behind on failure or signal: now refused, and
+/// the folders they made are removed again.
+#[test]
+fn converge_and_export_refuse_coercions_and_leave_nothing() {
+    let (d, out) = room_with_out(ROOM_TOML);
+    let scene = p(d.path(), "scene.toml");
+    let reference = p(d.path(), "ref.exr");
+    let r = run(&[
+        "render", &scene, "-o", &reference, "--quiet", "--method", "path",
+    ]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let dir = out.join("made/here");
+    let dir_s = dir.to_str().unwrap();
+    for counts in ["1.5", "1e3,2.5e3,1e4.5"] {
+        let r = run(&[
+            "converge",
+            &scene,
+            "--photons",
+            counts,
+            "--reference",
+            &reference,
+            "-o",
+            dir_s,
+            "--quiet",
+        ]);
+        assert_fails(&r, 2, &["--photons"]);
+    }
+    let r = run(&["export-mitsuba", &scene, dir_s, "--spp", "0"]);
+    assert_fails(&r, 2, &["--spp", "0"]);
+    // A reference that is no HDR image fails after the -o folder would have been made.
+    let r = run(&[
+        "converge",
+        &scene,
+        "--photons",
+        "1e3",
+        "--reference",
+        &scene,
+        "-o",
+        dir_s,
+        "--quiet",
+    ]);
+    assert_eq!(
+        r.status.code(),
+        Some(2),
+        "{}",
+        String::from_utf8_lossy(&r.stderr)
+    );
+    assert!(listing(&out).is_empty(), "{:?}", listing(&out));
+    // Interrupted while rendering: nothing, not even the folder.
+    let photons = ["1e6", "3e6", "1e7", "3e7"].join(",");
+    let (code, _, stderr) = interrupt(
+        &[
+            "converge",
+            &scene,
+            "--photons",
+            &photons,
+            "--reference",
+            &reference,
+            "-o",
+            dir_s,
+            "--quiet",
+        ],
+        "TERM",
+        Duration::from_millis(1500),
+    );
+    assert_eq!(code, Some(143), "{stderr}");
+    assert!(listing(&out).is_empty(), "{:?}", listing(&out));
 }

@@ -732,6 +732,29 @@ fn photon_and_cache_files_with_bad_values_are_refused() {
         );
         std::fs::remove_file(d.path().join("bad.phot")).unwrap();
     }
+    // Every photon's power 1e30 W: finite and non-negative, but more than the room's lights give any
+    // photon (it rendered a mean of 3.8e30).
+    let n_photons = n_global + n_caustic;
+    let edits: Vec<(usize, f32)> = (0..n_photons)
+        .flat_map(|i| (0..3).map(move |c| (h + 52 * i + 24 + 4 * c, 1e30)))
+        .collect();
+    std::fs::write(d.path().join("bright.phot"), patched(&photons, &edits, 8)).unwrap();
+    refused(
+        d.path(),
+        &p(d.path(), "scene.toml"),
+        &[
+            "--method",
+            "pm",
+            "--load-photons",
+            &p(d.path(), "bright.phot"),
+        ],
+        &[
+            "--load-photons",
+            "bright.phot",
+            "more than the scene's lights",
+        ],
+    );
+    std::fs::remove_file(d.path().join("bright.phot")).unwrap();
     // Cache layout (version 3): 44-byte prefix, bounds min and max (6 f32) at 44, stage count u32 at 68,
     // record count, the stages (u32 each) from 80, then records of 33 f32.
     let n_stages = u32::from_le_bytes(cache[68..72].try_into().unwrap()) as usize;
@@ -840,4 +863,37 @@ fn unknown_mtl_statements_are_refused() {
             &["room.mtl:2:", expect],
         );
     }
+}
+
+/// `usemtl` of a name no library defines gave the default grey without a word (a misspelt name, a
+/// missing `newmtl`): refused at the OBJ's line, unless the scene defines it as `[materials.NAME]` (an
+/// MTL that lacks the light its OBJ uses, as McGuire's CornellBox-Glossy).
+#[test]
+fn usemtl_of_an_undefined_material_is_refused() {
+    let lacking_light = ROOM_MTL.replace("newmtl light\nKd 0 0 0\nKe 10 10 10\n", "");
+    refused_room(
+        &lacking_light,
+        ROOM_TOML,
+        &["room.obj:20:", "usemtl 'light'", "[materials.light]"],
+    );
+    let d = room();
+    std::fs::write(
+        d.path().join("room.obj"),
+        ROOM_OBJ.replace("usemtl wall", "usemtl wal"),
+    )
+    .unwrap();
+    refused(
+        d.path(),
+        &p(d.path(), "scene.toml"),
+        &[],
+        &["room.obj:14:", "usemtl 'wal'"],
+    );
+    let defined = format!(
+        "{ROOM_TOML}\n[materials.light]\ntype = \"diffuse\"\nalbedo = [0, 0, 0]\nemission = [10, 10, 10]\n"
+    );
+    let (a, b) = (
+        renders(room_with(&lacking_light, &defined).path(), &[]),
+        renders(room().path(), &[]),
+    );
+    assert_eq!(a.pixels, b.pixels);
 }

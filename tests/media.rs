@@ -363,6 +363,8 @@ obj = "lamp.obj"
         (base.replace("sigma_a = [0.1, 0.1, 0.1]", "sigma_a = [0.1, -1.0, 0.1]"), base_obj.clone(), &["scene.toml:11:", "medium.sigma_a", "-1"]),
         (base.replace("sigma_s = [0.5, 0.5, 0.5]", "sigma_s = [0.5, 1e30, 0.5]"), base_obj.clone(), &["scene.toml:12:", "medium.sigma_s"]),
         (base.replace("g = 0.0", "g = 1.0"), base_obj.clone(), &["scene.toml:13:", "medium.g", "(-1, 1)"]),
+        // Below 1, but 1 in single precision: named as given, not as "1 is outside".
+        (base.replace("g = 0.0", "g = 0.99999999"), base_obj.clone(), &["scene.toml:13:", "medium.g", "0.99999999 rounds to 1 in single precision"]),
         (base.replace("interior = \"fog\"", "interior = \"smoke\""), base_obj.clone(), &["scene.toml:17:", "mesh.interior", "'smoke'"]),
         (base.replace("fov = 40.0", "fov = 40.0\nmedium = \"fog\""), base_obj.clone(), &["scene.toml:6:", "camera.medium", "not 'fog'"]),
         (base.replace("fov = 40.0", "fov = 40.0\nmedium = \"haze\""), base_obj.clone(), &["scene.toml:6:", "camera.medium", "'haze'"]),
@@ -962,4 +964,114 @@ fn boundaries_enclosing_the_same_space_are_refused() {
     }
     // Half the box, inside it and sharing three of its faces: nested, legal.
     render(dir(&half, "ink").path(), &[]);
+}
+
+/// Boundaries of two media that overlap in part leave the space inside both to whichever face a ray
+/// entered it through: refused on the second's line, whether the faces cross or lie flush with each
+/// other. Touching, nesting (also with shared faces), disjoint boxes and overlapping boundaries of
+/// one medium (their union is that medium) stay legal.
+#[test]
+fn boundaries_overlapping_in_part_are_refused() {
+    let lamp_obj = String::from("mtllib scene.mtl\n") + &quad_facing_z(-3.0, 4.0, "lamp", 0);
+    let load = |b: ([f32; 3], [f32; 3]), second: &str| {
+        let toml = format!(
+            "version = 1\n[camera]\neye = [0.0, 0.0, 5.0]\ntarget = [0.0, 0.0, 0.0]\nfov = 40.0\nwidth = 8\nheight = 8\n\n[[medium]]\nname = \"fog\"\nsigma_a = [0.1, 0.1, 0.1]\nsigma_s = [0.5, 0.5, 0.5]\n\n[[medium]]\nname = \"ink\"\nsigma_a = [1.0, 1.0, 1.0]\nsigma_s = [0.0, 0.0, 0.0]\n\n[materials.boundary]\ntype = \"null\"\n\n[render]\nmethod = \"path\"\nspp = 1\n\n[[mesh]]\nobj = \"lamp.obj\"\n\n[[mesh]]\nobj = \"a.obj\"\ninterior = \"fog\"\n\n[[mesh]]\nobj = \"b.obj\"\ninterior = \"{second}\"\n"
+        );
+        let a = box_obj([-1.0; 3], [1.0; 3], "boundary", 0, false);
+        let d = scene_dir(&[
+            ("scene.mtl", SLAB_MTL),
+            ("lamp.obj", &lamp_obj),
+            ("a.obj", &(String::from("mtllib scene.mtl\n") + &a)),
+            (
+                "b.obj",
+                &(String::from("mtllib scene.mtl\n") + &box_obj(b.0, b.1, "boundary", 0, true)),
+            ),
+            ("scene.toml", &toml),
+        ]);
+        let r = pmrender::scene::load(&d.path().join("scene.toml"));
+        (d, r.err().map(|e| e.to_string()))
+    };
+    let overlapping = [
+        ([0.0, -1.0, -1.0], [2.0, 1.0, 1.0]), // half of each, faces flush
+        ([-0.5, -2.0, -0.5], [0.5, 2.0, 0.5]), // a bar through the box
+        ([0.5, 0.5, 0.5], [1.5, 1.5, 1.5]),   // an eighth at a corner
+        ([0.8, -0.3, -0.3], [1.8, 0.3, 0.3]), // a fifth of the second box
+        ([-1.0, -1.0, -0.5], [1.0, 1.0, 1.5]), // the box moved along z, four faces flush
+    ];
+    for b in overlapping {
+        let (_, err) = load(b, "ink");
+        let err = err.unwrap_or_else(|| panic!("{b:?} accepted"));
+        for e in [
+            "scene.toml:35:",
+            "mesh.interior",
+            "'b.obj'",
+            "overlap in part",
+            "'a.obj'",
+        ] {
+            assert!(err.contains(e), "'{e}' not in: {err}");
+        }
+    }
+    let legal = [
+        ([1.0, -1.0, -1.0], [3.0, 1.0, 1.0]), // touching: one face shared
+        ([1.0, -0.5, -0.5], [2.0, 0.5, 0.5]), // touching part of a face
+        ([-1.0, -1.0, -1.0], [0.0, 0.0, 0.0]), // an eighth of it, three faces shared
+        ([-0.5, -0.5, -0.5], [0.5, 0.5, 0.5]), // strictly inside
+        ([-3.0, -3.0, -3.0], [3.0, 3.0, 3.0]), // around it
+        ([-1.0, -1.0, -1.0], [1.0, 1.0, 1.5]), // around it, four faces shared
+        ([2.0, 2.0, 2.0], [3.0, 3.0, 3.0]),   // apart
+    ];
+    for b in legal {
+        let (_, err) = load(b, "ink");
+        assert_eq!(err, None, "{b:?}");
+    }
+    assert_eq!(load(overlapping[0], "fog").1, None);
+    // The command line: one line, exit status 2, no output.
+    let (d, _) = load(overlapping[1], "ink");
+    let out = d.path().join("out.exr");
+    let r = run(&[
+        "render",
+        &p(d.path(), "scene.toml"),
+        "-o",
+        out.to_str().unwrap(),
+        "--quiet",
+    ]);
+    let stderr = String::from_utf8_lossy(&r.stderr);
+    assert_eq!(r.status.code(), Some(2), "{stderr}");
+    assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
+    assert!(!out.exists());
+}
+
+/// A fog so dense that no photon is stored is legal input: it renders, but says so on stderr (it
+/// rendered black without a word).
+#[test]
+fn a_fog_that_stores_no_photon_is_reported() {
+    let scene = std::fs::read_to_string(repo().join("scenes/fog-cornell.toml")).unwrap();
+    let scene = scene
+        .replace("sigma_s = [0.25, 0.25, 0.25]", "sigma_s = [1e9, 1e9, 1e9]")
+        .replace("g = 0.3", "g = 0.99999")
+        .replace("models/", &format!("{}/scenes/models/", repo().display()));
+    let dir = scene_dir(&[("scene.toml", &scene)]);
+    let out = dir.path().join("out.exr");
+    let r = run_bounded(
+        &[
+            "render",
+            &p(dir.path(), "scene.toml"),
+            "-o",
+            out.to_str().unwrap(),
+            "--method",
+            "photons",
+            "--width",
+            "16",
+            "--height",
+            "16",
+            "--spp",
+            "2",
+            "--quiet",
+        ],
+        std::time::Duration::from_secs(120),
+    );
+    let stderr = String::from_utf8_lossy(&r.stderr);
+    assert!(r.status.success(), "{stderr}");
+    assert!(stderr.contains("warning: no photon was stored"), "{stderr}");
+    assert!(out.exists());
 }

@@ -14,7 +14,8 @@
 //! Loading checks magic, version, that the counts match the file length, the checksum (streamed from
 //! the disk: all three before allocating; allocations that fail are errors, not aborts), then the scene fingerprint, then every value: positions finite, directions and normals unit
 //! length, power and irradiance finite and non-negative, the max radius positive (a file edited with its
-//! checksum recomputed is still refused). Only regular files up to [`MAX_FILE_BYTES`] are opened.
+//! checksum recomputed is still refused), and — against what the loading scene allows ([`Plausible`]) —
+//! no photon beyond the scene's coordinate limit or carrying more power than its lights can give it. Only regular files up to [`MAX_FILE_BYTES`] are opened.
 //! Kd-trees are rebuilt on load. Magic, version, checksum and the bounded read are
 //! [`pmbase::container`]'s, shared with cache files.
 #![forbid(unsafe_code)]
@@ -87,6 +88,25 @@ impl MapsInfo {
             n_volume_caustic_paths: stats.n_volume_caustic_paths,
         }
     }
+}
+
+/// What the scene loading a file allows its photons to be. The checksum only proves that the file is
+/// what was written; these bounds refuse values no trace of the scene writes (a photon of 1e30 W).
+#[derive(Clone, Copy, Debug)]
+pub struct Plausible {
+    /// The most power (W, in any channel) one photon path may carry. A photon holds its path's power
+    /// over the paths its map was normalised by, so its power times those paths must stay below.
+    pub max_path_power: f64,
+    /// The largest |coordinate| of a photon's position.
+    pub max_coord: f32,
+}
+
+impl Plausible {
+    /// No bound beyond the values being finite.
+    pub const ANY: Plausible = Plausible {
+        max_path_power: f64::INFINITY,
+        max_coord: f32::INFINITY,
+    };
 }
 
 /// The contents of a photon-map file.
@@ -198,8 +218,9 @@ pub fn save(
     std::fs::rename(&tmp, path).map_err(io)
 }
 
-/// Loads from `path`; the file must have been made for `expected_fingerprint`.
-pub fn load(path: &Path, expected_fingerprint: u64) -> Result<LoadedMaps> {
+/// Loads from `path`; the file must have been made for `expected_fingerprint`, its photons within
+/// `plausible`.
+pub fn load(path: &Path, expected_fingerprint: u64, plausible: &Plausible) -> Result<LoadedMaps> {
     let io = |source| Error::Io {
         path: path.to_path_buf(),
         source,
@@ -227,7 +248,7 @@ pub fn load(path: &Path, expected_fingerprint: u64) -> Result<LoadedMaps> {
     // The counts agree with the length; a damaged file is still refused before they are allocated.
     FORMAT.verify_file(&mut file, actual).map_err(open_error)?;
     let bytes = FORMAT.read_open(file, actual).map_err(open_error)?;
-    read_maps(&bytes, expected_fingerprint)
+    read_maps_within(&bytes, expected_fingerprint, plausible)
 }
 
 struct Header {
@@ -313,31 +334,46 @@ fn is_unit(v: Vec3) -> bool {
     v.is_finite() && (v.length() - 1.0).abs() < 1e-3
 }
 
-/// Why a photon read from a file cannot be used (the checksum only proves it is what was written). A
-/// volume photon (`in_medium`) has a zero normal, a surface photon a unit one.
-fn photon_problem(
-    pos: Vec3,
-    wi: Vec3,
-    power: Vec3,
-    normal: Vec3,
-    flag: f32,
+/// The map a photon is read into: whether its photons are in a medium (a zero normal, not a unit one)
+/// and the paths its powers were normalised by.
+#[derive(Clone, Copy)]
+struct MapKind {
     in_medium: bool,
-) -> Option<&'static str> {
-    if !pos.is_finite() {
-        Some("position is not finite")
-    } else if !is_unit(wi) {
-        Some("direction is not a unit vector")
-    } else if !(power.is_finite() && power.min_element() >= 0.0) {
-        Some("power is not finite and non-negative")
-    } else if !in_medium && !is_unit(normal) {
-        Some("normal is not a unit vector")
-    } else if in_medium && normal != Vec3::ZERO {
-        Some("a volume photon's normal is not zero")
+    n_paths: u64,
+}
+
+/// Why a photon read from a file cannot be used (the checksum only proves it is what was written).
+fn photon_problem(ph: &Photon, flag: f32, map: MapKind, plausible: &Plausible) -> Option<String> {
+    let path_power = ph.power.max_element() as f64 * map.n_paths.max(1) as f64;
+    let why = if !ph.pos.is_finite() {
+        "position is not finite"
+    } else if !is_unit(ph.wi) {
+        "direction is not a unit vector"
+    } else if !(ph.power.is_finite() && ph.power.min_element() >= 0.0) {
+        "power is not finite and non-negative"
+    } else if !map.in_medium && !is_unit(ph.normal) {
+        "normal is not a unit vector"
+    } else if map.in_medium && ph.normal != Vec3::ZERO {
+        "a volume photon's normal is not zero"
     } else if flag != 0.0 && flag != 1.0 && flag != 2.0 {
-        Some("kind is not 0 (caustic), 1 (indirect) or 2 (direct)")
+        "kind is not 0 (caustic), 1 (indirect) or 2 (direct)"
+    } else if ph.pos.abs().max_element() > plausible.max_coord {
+        return Some(format!(
+            "position {} is beyond the scene's coordinate limit ±{:e}",
+            ph.pos, plausible.max_coord
+        ));
+    } else if path_power > plausible.max_path_power {
+        return Some(format!(
+            "power {:e} W over the map's {} paths is {path_power:e} W for one path, more than the \
+             scene's lights can give it ({:e} W)",
+            ph.power.max_element(),
+            map.n_paths,
+            plausible.max_path_power
+        ));
     } else {
-        None
-    }
+        return None;
+    };
+    Some(why.to_string())
 }
 
 /// Why a precomputed irradiance point read from a file cannot be used.
@@ -357,8 +393,17 @@ fn point_problem(p: &IrradiancePoint) -> Option<&'static str> {
     }
 }
 
-/// Parses a whole file held in memory.
+/// Parses a whole file held in memory, with no bound on its photons but their values being finite.
 pub fn read_maps(bytes: &[u8], expected_fingerprint: u64) -> Result<LoadedMaps> {
+    read_maps_within(bytes, expected_fingerprint, &Plausible::ANY)
+}
+
+/// Parses a whole file held in memory; its photons must be within `plausible`.
+pub fn read_maps_within(
+    bytes: &[u8],
+    expected_fingerprint: u64,
+    plausible: &Plausible,
+) -> Result<LoadedMaps> {
     let header = Header::parse(bytes)?;
     let expected = header.file_len()?;
     if expected != bytes.len() as u64 {
@@ -405,7 +450,7 @@ pub fn read_maps(bytes: &[u8], expected_fingerprint: u64) -> Result<LoadedMaps> 
     };
     let mut floats = Reader::new(bytes, header.len);
     let mut next = || floats.f32();
-    let mut read_photons = |map: &str, n: u64, in_medium: bool| -> Result<Vec<Photon>> {
+    let mut read_photons = |name: &str, n: u64, map: MapKind| -> Result<Vec<Photon>> {
         let mut photons = Vec::new();
         photons
             .try_reserve_exact(n as usize)
@@ -417,25 +462,31 @@ pub fn read_maps(bytes: &[u8], expected_fingerprint: u64) -> Result<LoadedMaps> 
                 let mut v = || Vec3::new(next(), next(), next());
                 let (pos, wi, power, normal) = (v(), v(), v(), v());
                 let flag = next();
-                match photon_problem(pos, wi, power, normal, flag, in_medium) {
-                    Some(why) => Err(Error::Corrupt(format!("{map} photon {index}: {why}"))),
-                    None => Ok(Photon {
-                        pos,
-                        wi,
-                        power,
-                        normal,
-                        indirect: flag == 1.0,
-                        direct: flag == 2.0,
-                    }),
+                let photon = Photon {
+                    pos,
+                    wi,
+                    power,
+                    normal,
+                    indirect: flag == 1.0,
+                    direct: flag == 2.0,
+                };
+                match photon_problem(&photon, flag, map, plausible) {
+                    Some(why) => Err(Error::Corrupt(format!("{name} photon {index}: {why}"))),
+                    None => Ok(photon),
                 }
             })
             .try_for_each(|photon| photon.map(|p| photons.push(p)))?;
         Ok(photons)
     };
-    let global = read_photons("global", n_global, false)?;
-    let caustic = read_photons("caustic", n_caustic, false)?;
-    let volume = read_photons("volume", n_volume, true)?;
-    let volume_caustic = read_photons("volume caustic", n_volume_caustic, true)?;
+    let kind = |in_medium: bool, n_paths: u64| MapKind { in_medium, n_paths };
+    let global = read_photons("global", n_global, kind(false, info.n_global_paths))?;
+    let caustic = read_photons("caustic", n_caustic, kind(false, info.n_caustic_paths))?;
+    let volume = read_photons("volume", n_volume, kind(true, info.n_volume_paths))?;
+    let volume_caustic = read_photons(
+        "volume caustic",
+        n_volume_caustic,
+        kind(true, info.n_volume_caustic_paths),
+    )?;
     let mut points: Vec<IrradiancePoint> = Vec::new();
     points
         .try_reserve_exact(n_points as usize)

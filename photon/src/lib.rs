@@ -17,7 +17,7 @@ pub mod sampling;
 pub mod trace;
 
 pub use error::{Error, Result};
-pub use file::{LoadedMaps, MapsInfo};
+pub use file::{LoadedMaps, MapsInfo, Plausible};
 pub use flann::{KdTree, Neighbor};
 pub use map::{Coverage, Estimate, Filter, FullDisc, Photon, PhotonMap};
 pub use precomputed::{IrradiancePoint, PrecomputeStats, PrecomputedIrradiance};

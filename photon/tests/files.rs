@@ -5,7 +5,7 @@ mod common;
 use std::sync::atomic::AtomicBool;
 
 use common::*;
-use photon::file::{load, read_maps, save, write_maps};
+use photon::file::{load, read_maps, read_maps_within, save, write_maps, Plausible};
 use photon::{trace_photons_cancellable, Error, MapsInfo, PhotonTargets, PrecomputedIrradiance};
 
 const FINGERPRINT: u64 = 0xFEED_F00D_1234_5678;
@@ -50,21 +50,24 @@ fn round_trip_through_a_file() {
     let path = std::env::temp_dir().join(format!("photon-files-test-{}.pmap", std::process::id()));
     save(&path, &info, &loaded.maps, loaded.precomputed.as_ref()).unwrap();
     assert_eq!(std::fs::read(&path).unwrap(), bytes);
-    let again = load(&path, FINGERPRINT).unwrap();
+    let again = load(&path, FINGERPRINT, &Plausible::ANY).unwrap();
     assert_eq!(again.info, info);
     // A truncated file on disk is refused before its payload is read.
     std::fs::write(&path, &bytes[..bytes.len() - 100]).unwrap();
     assert!(matches!(
-        load(&path, FINGERPRINT),
+        load(&path, FINGERPRINT, &Plausible::ANY),
         Err(Error::BadLength { .. })
     ));
     std::fs::write(&path, &bytes[..50]).unwrap();
     assert!(matches!(
-        load(&path, FINGERPRINT),
+        load(&path, FINGERPRINT, &Plausible::ANY),
         Err(Error::BadLength { .. })
     ));
     std::fs::remove_file(&path).unwrap();
-    assert!(matches!(load(&path, FINGERPRINT), Err(Error::Io { .. })));
+    assert!(matches!(
+        load(&path, FINGERPRINT, &Plausible::ANY),
+        Err(Error::Io { .. })
+    ));
 }
 
 #[test]
@@ -237,4 +240,34 @@ fn a_version_4_file_is_still_read() {
         b.precomputed.unwrap().points()
     );
     assert!(a.maps.volume.is_none() && a.maps.volume_caustic.is_none());
+}
+
+/// A file edited with its checksum recomputed: a photon of 1e30 W, or one beyond the coordinate limit,
+/// is refused against what the scene allows (its light emits 4π W; no path carries more).
+#[test]
+fn photons_beyond_what_the_scene_allows_are_refused() {
+    let (bytes, _) = encoded();
+    let scene = Plausible {
+        max_path_power: 4.0 * std::f64::consts::PI * 1.0001,
+        max_coord: 1e15,
+    };
+    assert!(read_maps_within(&bytes, FINGERPRINT, &scene).is_ok());
+    // The first global photon: pos at 160, power 24 bytes in.
+    for (at, value, expect) in [
+        (160 + 24, 1e30f32, "more than the scene's lights"),
+        (160 + 28, 1e30, "more than the scene's lights"),
+        (160, 1e20, "coordinate limit"),
+    ] {
+        let mut bad = bytes.clone();
+        bad[at..at + 4].copy_from_slice(&value.to_le_bytes());
+        let end = bad.len() - 8;
+        let sum = fnv(&bad[8..end]);
+        bad[end..].copy_from_slice(&sum.to_le_bytes());
+        assert!(read_maps(&bad, FINGERPRINT).is_ok());
+        assert!(
+            matches!(read_maps_within(&bad, FINGERPRINT, &scene), Err(Error::Corrupt(m))
+                if m.contains("global photon 0") && m.contains(expect)),
+            "{value} at {at}"
+        );
+    }
 }

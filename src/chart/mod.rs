@@ -20,7 +20,7 @@ use plotters::style::text_anchor::{HPos, VPos};
 use self::text::Style;
 
 use crate::error::{runtime, Result};
-use crate::io::atomic::write_atomically;
+use crate::io::atomic::OutputSet;
 use crate::io::oiio::{self, Pixels};
 
 /// One series of the chart.
@@ -81,6 +81,13 @@ fn drawing<E: std::fmt::Display>(e: E) -> crate::error::Error {
 
 /// Draws `chart` into a PNG of [`SIZE`] at `path`, written atomically.
 pub fn log_log_png(path: &Path, chart: &LogLogChart) -> Result<()> {
+    let mut set = OutputSet::new();
+    stage_log_log_png(&mut set, path, chart)?;
+    set.commit()
+}
+
+/// [`log_log_png`] staged in `set`, to appear with the set's other outputs.
+pub fn stage_log_log_png(set: &mut OutputSet, path: &Path, chart: &LogLogChart) -> Result<()> {
     let font = text::font()?;
     let (w, h) = SIZE;
     let mut rgb = vec![255u8; w as usize * h as usize * 3];
@@ -89,7 +96,7 @@ pub fn log_log_png(path: &Path, chart: &LogLogChart) -> Result<()> {
         draw(&root, &font, chart)?;
         root.present().map_err(drawing)?;
     }
-    write_atomically(path, |tmp| {
+    set.stage(path, |tmp| {
         oiio::write(tmp, w, h, &["R", "G", "B"], Pixels::U8(&rgb))
     })
 }

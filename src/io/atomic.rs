@@ -89,20 +89,39 @@ impl Drop for OutputSet {
     }
 }
 
-/// One file written atomically (a set of one).
-pub fn write_atomically(
-    target: &Path,
-    write: impl FnOnce(&Path) -> std::result::Result<(), String>,
-) -> Result<()> {
-    let mut set = OutputSet::new();
-    set.stage(target, write)?;
-    set.commit()
+/// The directories made for a set of outputs: removed again (deepest first, each only if empty) when
+/// dropped, unless [`keep`](Self::keep) is called once the outputs are in place — a command that fails
+/// or is interrupted leaves no empty folder behind.
+pub struct CreatedDirs {
+    dirs: Vec<PathBuf>,
 }
 
-pub fn write_bytes(target: &Path, bytes: &[u8]) -> Result<()> {
-    write_atomically(target, |tmp| {
-        std::fs::write(tmp, bytes).map_err(|e| e.to_string())
-    })
+impl CreatedDirs {
+    /// Makes `dir` and whichever of its ancestors are missing.
+    pub fn create(dir: &Path) -> std::io::Result<CreatedDirs> {
+        let missing: Vec<&Path> = dir
+            .ancestors()
+            .take_while(|d| !d.as_os_str().is_empty() && !d.exists())
+            .collect();
+        let mut created = CreatedDirs { dirs: Vec::new() };
+        for d in missing.into_iter().rev() {
+            std::fs::create_dir(d)?;
+            created.dirs.push(d.to_path_buf());
+        }
+        Ok(created)
+    }
+
+    pub fn keep(mut self) {
+        self.dirs.clear();
+    }
+}
+
+impl Drop for CreatedDirs {
+    fn drop(&mut self) {
+        for d in self.dirs.iter().rev() {
+            let _ = std::fs::remove_dir(d);
+        }
+    }
 }
 
 #[cfg(test)]
@@ -140,6 +159,16 @@ mod tests {
         set.commit().unwrap();
         assert_eq!(std::fs::read(&long).unwrap(), b"1");
         assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 2);
+    }
+
+    #[test]
+    fn directories_made_for_outputs_go_unless_kept() {
+        let dir = tempfile::tempdir().unwrap();
+        let deep = dir.path().join("a/b/c");
+        drop(CreatedDirs::create(&deep).unwrap());
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+        CreatedDirs::create(&deep).unwrap().keep();
+        assert!(deep.is_dir());
     }
 
     #[test]

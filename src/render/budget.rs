@@ -59,24 +59,39 @@ pub fn parse_size(text: &str) -> Option<u64> {
     (x.is_finite() && x > 0.0 && x * (scale as f64) < 1.8e19).then_some((x * scale as f64) as u64)
 }
 
+/// The `PMRENDER_MAX_MEMORY` environment variable: `None` when unset or empty, an error naming it
+/// when it is not a size (a budget the user meant to set is not silently replaced by the default).
+pub fn env_max_memory() -> Result<Option<u64>> {
+    const VAR: &str = "PMRENDER_MAX_MEMORY";
+    match std::env::var_os(VAR) {
+        None => Ok(None),
+        Some(v) if v.is_empty() => Ok(None),
+        Some(v) => {
+            let text = v.to_string_lossy();
+            parse_size(&text).map(Some).ok_or_else(|| {
+                Error::Input(format!(
+                    "environment variable {VAR}: '{text}' is not a size (e.g. 8G, 512M)"
+                ))
+            })
+        }
+    }
+}
+
 /// The budget and where it came from (for the message).
-pub fn budget(opts: &Options) -> (u64, String) {
+pub fn budget(opts: &Options) -> Result<(u64, String)> {
     if let Some(b) = opts.max_memory {
-        return (b, "--max-memory".into());
+        return Ok((b, "--max-memory".into()));
     }
-    if let Some(b) = std::env::var("PMRENDER_MAX_MEMORY")
-        .ok()
-        .and_then(|v| parse_size(&v))
-    {
-        return (b, "PMRENDER_MAX_MEMORY".into());
+    if let Some(b) = env_max_memory()? {
+        return Ok((b, "PMRENDER_MAX_MEMORY".into()));
     }
-    match memory::physical_memory() {
+    Ok(match memory::physical_memory() {
         Some(ram) => (
             (ram as f64 * DEFAULT_FRACTION) as u64,
             format!("75 % of {} RAM; raise it with --max-memory", human(ram)),
         ),
         None => (8 << 30, "RAM unknown; raise it with --max-memory".into()),
-    }
+    })
 }
 
 pub use crate::memory::human;
@@ -195,7 +210,7 @@ pub fn check(scene: &Scene, plan: &Plan, opts: &Options) -> Result<()> {
     let items = estimate(scene, plan, opts);
     let need = items.iter().fold(0u64, |a, (_, b)| a.saturating_add(*b));
     let held = memory::resident();
-    let (limit, source) = budget(opts);
+    let (limit, source) = budget(opts)?;
     let over = match memory::address_space_left() {
         Some(left) if need > left => format!(
             "more than the {} of address space left under the process's limit of {} (ulimit -v)",

@@ -7,12 +7,14 @@ use std::path::{Path, PathBuf};
 
 use glam::Vec3;
 use icache::IrradianceCache;
-use photon::{MapsInfo, PhotonMaps, PrecomputedIrradiance};
+use photon::{MapsInfo, PhotonMaps, Plausible, PrecomputedIrradiance};
 
 use crate::camera::Camera;
 use crate::error::{option, Result};
 use crate::io::atomic::OutputSet;
 use crate::io::output::{stage_png, Image};
+use crate::scene::limits::MAX_COORD;
+use crate::scene::Scene;
 
 /// Files a render reads or writes besides its images.
 #[derive(Clone, Debug, Default)]
@@ -32,8 +34,23 @@ pub struct PhotonOutput {
     pub precomputed: Option<PrecomputedIrradiance>,
 }
 
-pub fn load_photons(path: &Path, fingerprint: u64) -> Result<photon::LoadedMaps> {
-    photon::file::load(path, fingerprint)
+/// How far above the lights' total power (its largest channel) one photon path's power may be. The
+/// sampling weights raise it a few times — a light chosen by its mean over the channels, a spot's
+/// falloff, the hero channel's weight in media (at most ×7 in the shipped and test scenes) — never by
+/// orders of magnitude.
+const PATH_POWER_MARGIN: f64 = 1e4;
+
+/// What `scene` allows the photons of a file loaded for it to be.
+pub fn plausible(scene: &Scene) -> Plausible {
+    Plausible {
+        max_path_power: PATH_POWER_MARGIN * scene.lights.total_power().max_element() as f64,
+        // A point computed on a triangle at the limit may round a little past it.
+        max_coord: 2.0 * MAX_COORD,
+    }
+}
+
+pub fn load_photons(path: &Path, scene: &Scene) -> Result<photon::LoadedMaps> {
+    photon::file::load(path, scene.fingerprint, &plausible(scene))
         .map_err(|e| option("--load-photons", format!("{}: {e}", path.display())))
 }
 

@@ -45,7 +45,7 @@ pub fn check_output(opt: &str, path: &Path) -> Result<()> {
             ));
         }
     }
-    let probe = temp_path(path);
+    let probe = probe_path(path);
     match std::fs::OpenOptions::new()
         .write(true)
         .create_new(true)
@@ -55,11 +55,34 @@ pub fn check_output(opt: &str, path: &Path) -> Result<()> {
             let _ = std::fs::remove_file(&probe);
             Ok(())
         }
+        Err(e) if e.raw_os_error() == Some(libc::ENAMETOOLONG) => Err(option(
+            opt,
+            format!(
+                "the file name is {} bytes, longer than the file system of '{}' allows",
+                name.map_or(0, |n| n.len()),
+                dir.display()
+            ),
+        )),
         Err(e) => Err(option(
             opt,
             format!("cannot write in '{}': {e}", dir.display()),
         )),
     }
+}
+
+/// A file beside `path` to create and remove at once: a temporary name, padded to the length of the
+/// output's own name when that is longer, so that a name the file system cannot hold (over NAME_MAX) is
+/// refused now and not at the final rename, after the render.
+fn probe_path(path: &Path) -> PathBuf {
+    let tmp = temp_path(path);
+    let len = |p: &Path| p.file_name().map_or(0, |n| n.len());
+    let short = len(path).saturating_sub(len(&tmp));
+    if short == 0 {
+        return tmp;
+    }
+    let mut name = tmp.file_name().unwrap_or_default().to_os_string();
+    name.push("x".repeat(short));
+    tmp.with_file_name(name)
 }
 
 /// Where a path points: its canonical form (the parent's, plus the name, when it does not exist yet)

@@ -71,7 +71,7 @@ pub fn trace_photons(
 /// The maps of a `--save-photons` file of the same scene, instead of `trace_photons`.
 pub fn load_photons(scene: &Scene, plan: &Plan, path: &Path) -> Result<(Maps, PhotonStats)> {
     let t = Instant::now();
-    let loaded = files::load_photons(path, scene.fingerprint)?;
+    let loaded = files::load_photons(path, scene)?;
     let time_s = t.elapsed().as_secs_f64();
     let m = &loaded.maps;
     let (global, caustic, volume, volume_caustic) = (

@@ -8,6 +8,7 @@ use gather::GatherParams;
 use icache::media::MediaCache;
 use icache::CacheParams;
 
+use super::files::FileOptions;
 use super::tiles::{Sampling, Window};
 use super::Options;
 use crate::camera::Camera;
@@ -88,6 +89,7 @@ impl Plan {
 
 pub fn plan(scene: &Scene, opts: &Options) -> Result<Plan> {
     let method = opts.method.or(scene.settings.method).unwrap_or(Method::Pm);
+    check_photon_files(method, &opts.files)?;
     let spp = opts.spp.or(scene.settings.spp).unwrap_or(match method {
         // Chosen from measurements against the Mitsuba reference of the caustic scene (README); for
         // the photon-map methods the most a pixel with Monte Carlo estimates (area lights, glass,
@@ -156,4 +158,35 @@ pub fn plan(scene: &Scene, opts: &Options) -> Result<Plan> {
         },
         choose_rays,
     })
+}
+
+/// Photon-map files that would do nothing are refused rather than left unwritten or unread without a
+/// word: `path` traces no photon maps, and maps loaded from a file are not traced again (save or dump
+/// them from the render that traced them).
+fn check_photon_files(method: Method, files: &FileOptions) -> Result<()> {
+    let given = [
+        ("--save-photons", files.save_photons.is_some()),
+        ("--dump-photons", files.dump_photons.is_some()),
+        ("--load-photons", files.load_photons.is_some()),
+    ];
+    if let Some((opt, _)) = given
+        .iter()
+        .find(|(_, g)| *g)
+        .filter(|_| !method.uses_photon_maps())
+    {
+        return Err(option(
+            opt,
+            "method path traces no photon maps (choose pm, pm-fg or photons)",
+        ));
+    }
+    if files.load_photons.is_some() {
+        if let Some((opt, _)) = given[..2].iter().find(|(_, g)| *g) {
+            return Err(option(
+                opt,
+                "the maps come from --load-photons and are not traced again: save or dump them \
+                 from the render that traced them",
+            ));
+        }
+    }
+    Ok(())
 }

@@ -182,6 +182,29 @@ pub struct ShadeStats {
 }
 
 impl RenderStats {
+    /// What a user should hear about a render that succeeded on legal input but is likely not what
+    /// they meant; the binary prints each on stderr.
+    pub fn warnings(&self) -> Vec<String> {
+        let mut out = Vec::new();
+        if let Some(p) = self.photons.as_ref().filter(|p| !p.loaded) {
+            let t = &p.trace;
+            let stored = t.n_global_stored
+                + t.n_caustic_stored
+                + t.n_volume_stored
+                + t.n_volume_caustic_stored;
+            if stored == 0 {
+                out.push(format!(
+                    "no photon was stored after {} paths (no light reaches a surface or medium \
+                     where photons are kept: a fog too dense to cross?): what method {} reads from \
+                     the photon maps — indirect light, caustics, light scattered in media — is black",
+                    t.n_paths_emitted,
+                    self.setup.method.name()
+                ));
+            }
+        }
+        out
+    }
+
     pub fn new(scene: &Scene, plan: &Plan) -> RenderStats {
         let setup = Setup {
             method: plan.method,

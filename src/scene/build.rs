@@ -164,7 +164,22 @@ fn meshes(cx: &Ctx, desc: &SceneFile) -> Result<Meshes> {
         let first_tri = geo.triangles.len();
         let xf = transform(cx, mi, m)?;
         let nxf = Mat3::from_mat4(xf).inverse().transpose();
-        let data = obj::load(&obj_path(cx, mi, m)?)?;
+        let path = obj_path(cx, mi, m)?;
+        let data = obj::load(&path)?;
+        if let Some((name, line)) = data
+            .undefined
+            .iter()
+            .find(|(name, _)| !desc.materials.contains_key(name))
+        {
+            return Err(at_line(
+                &path,
+                *line,
+                format!(
+                    "usemtl '{name}': no material library of this OBJ defines it (add it to the \
+                     MTL, or a [materials.{name}] table to the scene)"
+                ),
+            ));
+        }
         let base = loaded.materials.len();
         loaded.add_mtl(cx, &data, line_of_key(cx.text, "mesh", mi, "obj"));
         let first_vertex = geo.positions.len();

@@ -72,7 +72,8 @@ pub struct MediumDesc {
     pub name: String,
     pub sigma_a: [f32; 3],
     pub sigma_s: [f32; 3],
-    pub g: Option<f32>,
+    /// Read in double precision, so that a value that rounds to ±1 in single precision is named as given.
+    pub g: Option<f64>,
 }
 
 #[derive(Clone, Debug, Deserialize)]

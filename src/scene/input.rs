@@ -29,6 +29,9 @@ pub fn bytes_text(n: u64) -> String {
 pub fn check_regular(path: &Path, what: &str, cap: u64) -> Result<()> {
     let meta =
         std::fs::metadata(path).map_err(|e| in_file(path, format!("cannot read {what}: {e}")))?;
+    if meta.is_dir() {
+        return Err(in_file(path, format!("{what} is a directory, not a file")));
+    }
     if !meta.is_file() {
         return Err(in_file(path, format!("{what} is not a regular file")));
     }

@@ -6,6 +6,8 @@
 //! its volume, so either winding works. The medium outside a boundary mesh is that of the smallest other
 //! boundary mesh containing it (a glass of liquid standing in fog), vacuum if none.
 
+mod overlap;
+
 use std::collections::HashMap;
 use std::ops::Range;
 
@@ -199,6 +201,7 @@ pub(super) fn media(
         innermost_by_bvh(&boundaries, &boundary_bvh, &boundary_of, p, skip)
     };
     check_nesting(cx, desc, geo, &boundaries, &boundary_bvh, &boundary_of)?;
+    overlap::check_overlaps(cx, desc, geo, &boundaries)?;
     // Each boundary mesh's outside: the innermost other boundary containing a point just inside it;
     // face by face where other boundaries could meet it (two media sharing a face).
     let mut sides = vec![None; geo.triangles.len()];
@@ -276,9 +279,18 @@ fn medium_list(cx: &Ctx, desc: &SceneFile) -> Result<Vec<Medium>> {
                 ));
             }
         }
-        let g = m.g.unwrap_or(0.0);
+        let given = m.g.unwrap_or(0.0);
+        let g = given as f32;
+        if !(given > -1.0 && given < 1.0) {
+            return Err(cx.err("medium", i, "g", format!("{given} is outside (-1, 1)")));
+        }
         if !(g > -1.0 && g < 1.0) {
-            return Err(cx.err("medium", i, "g", format!("{g} is outside (-1, 1)")));
+            return Err(cx.err(
+                "medium",
+                i,
+                "g",
+                format!("must be within (-1, 1); {given} rounds to {g} in single precision"),
+            ));
         }
         list.push(Medium::new(
             m.name.clone(),

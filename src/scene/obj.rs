@@ -18,6 +18,8 @@ pub struct ObjData {
     pub mtl_dir: PathBuf,
     /// Where each material's `Ke` was given (MTL file and line).
     pub ke_at: HashMap<String, (PathBuf, usize)>,
+    /// The `usemtl` names no library defines, with the OBJ line of each one's first use.
+    pub undefined: Vec<(String, usize)>,
 }
 
 pub struct ObjModel {
@@ -86,6 +88,7 @@ pub fn load(path: &Path) -> Result<ObjData> {
         materials,
         mtl_dir: path.parent().unwrap_or(Path::new(".")).to_path_buf(),
         ke_at: checked.ke_at,
+        undefined: checked.undefined,
     })
 }
 

@@ -18,6 +18,9 @@ pub struct CheckedObj {
     pub libraries: Vec<(PathBuf, String)>,
     /// Where each material's `Ke` was given (MTL file and line), for messages about light power.
     pub ke_at: HashMap<String, (PathBuf, usize)>,
+    /// The `usemtl` names no library defines, with the OBJ line of each one's first use: the default
+    /// material stands in for them, and the scene file must define each (see [`define_missing`]).
+    pub undefined: Vec<(String, usize)>,
 }
 
 /// The statement without its comment: `#` at the start or after white space begins one.
@@ -54,9 +57,10 @@ pub fn check_obj(path: &Path, text: &str) -> Result<CheckedObj> {
         text: String::with_capacity(text.len()),
         libraries: Vec::new(),
         ke_at: HashMap::new(),
+        undefined: Vec::new(),
     };
     let mut counts = [0i64; 3];
-    let mut used: Vec<String> = Vec::new();
+    let mut used: Vec<(String, usize)> = Vec::new();
     for (i, raw) in text.lines().enumerate() {
         let line_no = i + 1;
         let line = strip_comment(raw);
@@ -106,8 +110,8 @@ pub fn check_obj(path: &Path, text: &str) -> Result<CheckedObj> {
             }
             "usemtl" => {
                 let name = line.trim()["usemtl".len()..].trim();
-                if !used.iter().any(|u| u == name) {
-                    used.push(name.to_string());
+                if !used.iter().any(|(u, _)| u == name) {
+                    used.push((name.to_string(), line_no));
                 }
             }
             "mtllib" => {
@@ -131,9 +135,11 @@ pub fn check_obj(path: &Path, text: &str) -> Result<CheckedObj> {
 }
 
 /// Gives each `usemtl` name that no library defines the default material (diffuse 0.8) under its own
-/// name, in a library of its own read first, so that a scene's `[materials.NAME]` can override it:
-/// McGuire's CornellBox-Glossy.mtl lacks the `light` its OBJ uses.
-fn define_missing(path: &Path, out: &mut CheckedObj, used: &[String]) {
+/// name, in a library of its own read first, so that a scene's `[materials.NAME]` can define it:
+/// McGuire's CornellBox-Glossy.mtl lacks the `light` its OBJ uses. The names are kept in
+/// `out.undefined`: without such a table the scene is refused (a misspelt name would silently render
+/// grey).
+fn define_missing(path: &Path, out: &mut CheckedObj, used: &[(String, usize)]) {
     let defined: std::collections::HashSet<&str> = out
         .libraries
         .iter()
@@ -141,14 +147,19 @@ fn define_missing(path: &Path, out: &mut CheckedObj, used: &[String]) {
         .filter_map(|l| l.trim().strip_prefix("newmtl"))
         .map(str::trim)
         .collect();
-    let missing: String = used
+    out.undefined = used
         .iter()
-        .filter(|u| !defined.contains(u.as_str()))
-        .map(|u| format!("newmtl {u}\nKd 0.8 0.8 0.8\n"))
+        .filter(|(u, _)| !defined.contains(u.as_str()))
+        .cloned()
         .collect();
-    if missing.is_empty() {
+    if out.undefined.is_empty() {
         return;
     }
+    let missing: String = out
+        .undefined
+        .iter()
+        .map(|(u, _)| format!("newmtl {u}\nKd 0.8 0.8 0.8\n"))
+        .collect();
     out.text = format!("mtllib {}\n{}", out.libraries.len(), out.text);
     out.libraries.push((path.to_path_buf(), missing));
 }
@@ -355,10 +366,11 @@ mod tests {
 
     #[test]
     fn a_usemtl_name_no_library_defines_gets_the_default_material() {
-        let c = check_obj(Path::new("m.obj"), "usemtl light\nv 0 0 0\nusemtl light\n").unwrap();
+        let c = check_obj(Path::new("m.obj"), "v 0 0 0\nusemtl light\nusemtl light\n").unwrap();
         assert!(c.text.starts_with("mtllib 0\n"), "{}", c.text);
         assert_eq!(c.libraries.len(), 1);
         assert_eq!(c.libraries[0].1, "newmtl light\nKd 0.8 0.8 0.8\n");
+        assert_eq!(c.undefined, [("light".to_string(), 2)]);
         let c = check_obj(Path::new("m.obj"), "v 0 0 0\n").unwrap();
         assert!(c.libraries.is_empty());
     }

@@ -318,6 +318,21 @@ fn icache(cx: &Ctx, d: &IcacheDesc) -> Result<IcacheSettings> {
             ))
         }
     };
+    // Adaptive caching lives in the two-pass fill: asked for with the one-pass fill it would do nothing.
+    if fill == FillMode::OnePass {
+        let asked = [
+            ("adaptive", d.adaptive == Some(true)),
+            ("adaptive_threshold", d.adaptive_threshold.is_some()),
+        ];
+        if let Some((key, _)) = asked.iter().find(|(_, a)| *a) {
+            return Err(err(
+                key,
+                "adaptive caching needs fill = \"two-pass\"; with fill = \"one-pass\" it would do \
+                 nothing"
+                    .into(),
+            ));
+        }
+    }
     let accuracy = d.accuracy.unwrap_or(defaults.accuracy);
     let params = CacheParams {
         accuracy,
