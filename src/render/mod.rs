@@ -196,6 +196,7 @@ pub fn render_frame<'a>(
                         .is_some_and(|cam| cam.same_view(&plan.camera))
                     {
                         only = temporal::screen_window(&change, &plan.camera);
+                        plan.finer = only.map(|w| (w, plan.noise * temporal::MOVING_NOISE));
                     }
                     c
                 }

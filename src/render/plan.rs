@@ -42,6 +42,8 @@ pub struct Plan {
     /// `pm` chooses its gathers' rays after pass A (the file gives no `rays`; a two-pass fill, not a
     /// loaded cache): pass A gathers with `gather`'s [`crate::render::gather_rays::BASE_RAYS`].
     pub choose_rays: bool,
+    /// A window held to a lower noise target ([`Sampling::finer`]); `None` in a still.
+    pub finer: Option<(Window, f32)>,
 }
 
 /// Default noise target of the photon-map methods (chosen from the speed×accuracy chart; README).
@@ -58,6 +60,7 @@ impl Plan {
             spp: self.spp,
             noise: self.noise,
             aa_spp: self.aa_spp,
+            finer: self.finer,
         }
     }
 
@@ -157,6 +160,7 @@ pub fn plan(scene: &Scene, opts: &Options) -> Result<Plan> {
             },
         },
         choose_rays,
+        finer: None,
     })
 }
 

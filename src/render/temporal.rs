@@ -40,6 +40,10 @@ use crate::scene::Scene;
 const TOLERANCE: f32 = 0.02;
 /// Most frames between two gathers of a record (Gautron's δt_max).
 const MAX_LIFESPAN: u32 = 8;
+/// The noise target where something moved, as a fraction of the frame's: a pixel's Monte Carlo noise
+/// there differs from frame to frame (its samples meet other things), and is seen as flicker.
+pub const MOVING_NOISE: f32 = 0.5;
+
 /// What changed since the frame before: the bounding sphere (centre, radius) of every moved mesh
 /// before and after, and whether a light changed.
 #[derive(Clone, Debug, Default)]

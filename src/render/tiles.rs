@@ -152,6 +152,19 @@ pub struct Sampling {
     /// ([`SampleCounters::monte_carlo`]): they differ only by where they fall in the pixel (a texture's
     /// mortar lines, an edge), which more samples resolve slowly and nobody sees as noise. At most `spp`.
     pub aa_spp: u32,
+    /// A window of pixels held to a lower noise target than `noise` (a sequence's frame: where
+    /// something moved, a pixel's noise changes from frame to frame and is seen as flicker).
+    pub finer: Option<(Window, f32)>,
+}
+
+impl Sampling {
+    /// The noise target of pixel (x, y).
+    fn noise_at(&self, x: u32, y: u32) -> f32 {
+        match self.finer {
+            Some((w, noise)) if x >= w.x0 && x < w.x1 && y >= w.y0 && y < w.y1 => noise,
+            _ => self.noise,
+        }
+    }
 }
 
 /// The fewest samples a pixel takes under a noise target (one group of strata).
@@ -405,7 +418,7 @@ pub fn render_tiles(
         }
         // Past `aa_spp`, only pixels whose samples made Monte Carlo estimates go on.
         let past_aa = rounds[round + 1] > aa_spp;
-        active = next_round(&tiles, window, past_aa, sampling.noise);
+        active = next_round(&tiles, window, past_aa, &sampling);
         // A pixel that stops sampling needs its memo no more.
         for t in &mut tiles {
             let w = t.window;
@@ -477,9 +490,9 @@ impl Active {
     }
 }
 
-/// The pixels that take the next round's samples: those not converged (at `noise`) and their
-/// neighbours; `past_aa`, only among those whose samples made Monte Carlo estimates.
-fn next_round(tiles: &[TileState], window: Window, past_aa: bool, noise: f32) -> Active {
+/// The pixels that take the next round's samples: those not converged (at their noise target) and
+/// their neighbours; `past_aa`, only among those whose samples made Monte Carlo estimates.
+fn next_round(tiles: &[TileState], window: Window, past_aa: bool, sampling: &Sampling) -> Active {
     let (ww, wh) = (
         (window.x1 - window.x0) as usize,
         (window.y1 - window.y0) as usize,
@@ -495,7 +508,7 @@ fn next_round(tiles: &[TileState], window: Window, past_aa: bool, noise: f32) ->
                 let mean = t.layers.iter().map(|l| l[k]).sum::<Vec3>() / px.n as f32;
                 let at = (y - window.y0) as usize * ww + (x - window.x0) as usize;
                 allowed[at] = !past_aa || px.monte_carlo;
-                open[at] = allowed[at] && !converged(px, mean, noise);
+                open[at] = allowed[at] && !converged(px, mean, sampling.noise_at(x, y));
             }
         }
     }
@@ -737,6 +750,7 @@ mod tests {
         let run = |spp, aa_spp| {
             let mut s = sampler;
             let sampling = Sampling {
+                finer: None,
                 spp,
                 noise: 0.01,
                 aa_spp,
@@ -755,6 +769,7 @@ mod tests {
         let mut s = sampler;
         let fixed = render_tiles(
             &canvas(Sampling {
+                finer: None,
                 spp: 16,
                 noise: 0.0,
                 aa_spp: 4,
