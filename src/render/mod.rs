@@ -89,8 +89,9 @@ pub struct Carry<'a> {
     /// The sequence's record lives, and what changed since the frame before (a new scene).
     lifespans: temporal::Lifespans,
     change: Option<temporal::SceneChange>,
-    /// The camera of the frame before.
+    /// The camera of the frame before, and its layers (before they are summed into the beauty).
     camera: Option<Camera>,
+    layers: Option<Vec<Image>>,
 }
 
 /// Renders `scene` without writing anything; `Interrupted` soon after `cancel` is set, in any phase.
@@ -173,6 +174,8 @@ pub fn render_frame<'a>(
     });
     let mut foreign = 0;
     let mut only = None;
+    // A still camera after a mesh moved: what changed, the records it changed, the records carried.
+    let mut still_view = None;
     let earlier = match (carry.cache.take(), photons) {
         (Some(c), Some(photons)) => {
             let f = frame.get_or_insert_with(Default::default);
@@ -188,7 +191,11 @@ pub fn render_frame<'a>(
                             cancel,
                         )
                     };
-                    let (c, t) = carry.lifespans.update(&ctx, c, &change, f.frame)?;
+                    let temporal::Updated {
+                        cache: c,
+                        stats: t,
+                        changed,
+                    } = carry.lifespans.update(&ctx, c, &change, f.frame)?;
                     f.temporal = Some(t);
                     if carry
                         .camera
@@ -197,6 +204,11 @@ pub fn render_frame<'a>(
                     {
                         only = temporal::screen_window(&change, &plan.camera);
                         plan.finer = only.map(|w| (w, plan.noise * temporal::MOVING_NOISE));
+                        if carry.layers.is_some()
+                            && plan.window == tiles::Window::full(plan.width, plan.height)
+                        {
+                            still_view = Some((change, changed, c.len()));
+                        }
                     }
                     c
                 }
@@ -247,6 +259,15 @@ pub fn render_frame<'a>(
         _ => None,
     };
     interrupted(cancel)?;
+    if let (Some((change, mut changed, n_carried)), Some(w), Some(c)) = (still_view, only, &cache) {
+        // Pass A's new records reach past its window too.
+        changed.extend(
+            c.cache.records()[n_carried..]
+                .iter()
+                .map(|r| (r.pos, r.r_clamped)),
+        );
+        plan.kept = temporal::unchanged_pixels(scene, &plan.camera, &change, &changed, w);
+    }
 
     let lighting = Lighting {
         photons,
@@ -261,9 +282,22 @@ pub fn render_frame<'a>(
         foreign,
     };
     let (mut sample, n_layers) = sampler(scene, &plan, lighting, cancel);
-    let (layers, s) = shade(&plan, n_layers, &mut *sample, progress, cancel)?;
+    let (mut layers, s) = shade(&plan, n_layers, &mut *sample, progress, cancel)?;
     drop(sample);
     stats.shade = s;
+    if let (Some(kept), Some(before)) = (&plan.kept, &carry.layers) {
+        for (now, then) in layers.iter_mut().zip(before) {
+            for (i, _) in kept.iter().enumerate().filter(|(_, k)| **k) {
+                now.pixels[i] = then.pixels[i];
+            }
+        }
+        if let Some(f) = &mut frame {
+            f.n_pixels_kept = kept.iter().filter(|k| **k).count() as u64;
+        }
+    }
+    if opts.frame.is_some() {
+        carry.layers = Some(layers.clone());
+    }
     let images = beauty(&plan, crate::integrator::terms::Layout::of(scene), layers);
     stats.finish(
         start,

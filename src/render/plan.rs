@@ -44,6 +44,8 @@ pub struct Plan {
     pub choose_rays: bool,
     /// A window held to a lower noise target ([`Sampling::finer`]); `None` in a still.
     pub finer: Option<(Window, f32)>,
+    /// Pixels (row-major) whose value a sequence's frame takes from the frame before, unsampled.
+    pub kept: Option<Vec<bool>>,
 }
 
 /// Default noise target of the photon-map methods (chosen from the speed×accuracy chart; README).
@@ -161,6 +163,7 @@ pub fn plan(scene: &Scene, opts: &Options) -> Result<Plan> {
         },
         choose_rays,
         finer: None,
+        kept: None,
     })
 }
 

@@ -84,6 +84,7 @@ struct Handoff {
     lifespans: super::temporal::Lifespans,
     chosen_rays: Option<usize>,
     camera: Option<crate::camera::Camera>,
+    layers: Option<Vec<crate::io::output::Image>>,
     mesh_spheres: Vec<Option<(glam::Vec3, f32)>>,
 }
 
@@ -95,6 +96,7 @@ impl Handoff {
             lifespans: carry.lifespans,
             chosen_rays: carry.chosen_rays,
             camera: carry.camera,
+            layers: carry.layers,
             mesh_spheres: (0..scene.mesh_ranges.len())
                 .map(|m| scene.mesh_sphere(m))
                 .collect(),
@@ -118,6 +120,7 @@ impl Handoff {
             lifespans: self.lifespans,
             chosen_rays: self.chosen_rays,
             camera: self.camera,
+            layers: self.layers,
             change: Some(super::temporal::SceneChange {
                 moved,
                 lights: anim.lights_changed(f - 1, f),

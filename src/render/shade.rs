@@ -45,6 +45,7 @@ pub fn shade(
         sampling: plan.sampling(),
         seed: plan.seed,
         n_layers,
+        kept: plan.kept.as_deref(),
     };
     let (layers, mut counters, samples) =
         render_tiles(&canvas, sampler, &|n| progress.set(n), cancel)?;

@@ -74,6 +74,14 @@ fn frame_rows(r: &mut Report, f: &FrameStats) {
         "frame.records_dropped",
         f.n_records_dropped,
     );
+    if f.n_pixels_kept > 0 {
+        r.count(
+            "Sequence",
+            "Pixels kept from the frame before (nothing they show changed)",
+            "frame.pixels_kept",
+            f.n_pixels_kept,
+        );
+    }
     if let Some(t) = &f.temporal {
         r.count(
             "Sequence",
@@ -122,6 +130,8 @@ pub struct FrameStats {
     pub n_records_after: u64,
     /// Nothing changed since the frame before: its image is this frame's.
     pub image_reused: bool,
+    /// Pixels taken from the frame before, unsampled (nothing they show changed).
+    pub n_pixels_kept: u64,
     /// After a mesh or light changed: what the temporal update did to the records.
     pub temporal: Option<super::temporal::TemporalStats>,
 }

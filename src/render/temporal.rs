@@ -85,6 +85,14 @@ const VIEW_SLACK: f32 = 0.5;
 /// it is deleted: no pixel has used it, and a walk's cache should not grow with all it has passed.
 const UNSEEN_FRAMES: u32 = 16;
 
+/// The cache [`Lifespans::update`] made valid for a frame, what it did, and where the cached light
+/// changed (spheres: centre, reach).
+pub struct Updated {
+    pub cache: IrradianceCache,
+    pub stats: TemporalStats,
+    pub changed: Vec<(Vec3, f32)>,
+}
+
 /// What the update did, for the frame's statistics.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct TemporalStats {
@@ -184,7 +192,7 @@ impl Lifespans {
         cache: IrradianceCache,
         change: &SceneChange,
         frame: u32,
-    ) -> Result<(IrradianceCache, TemporalStats)> {
+    ) -> Result<Updated> {
         let scene = ctx.scene;
         let movers: Vec<Mover> = change.moved.iter().flat_map(Mover::pair).collect();
         let mut stats = TemporalStats::default();
@@ -252,10 +260,27 @@ impl Lifespans {
             };
             lives.insert(key(cache.records()[i].pos), life);
         }
+        // Where the cached light changed: records gone, replaced, or following their gradient.
+        let mut changed = Vec::new();
+        let max_spacing_px = cache.params().max_spacing_px
+            * if cache.params().adaptive.is_some() {
+                2.0
+            } else {
+                1.0
+            };
         let (mut cache, _) = cache
             .rebuilt(scene.bounds, |i, mut r| {
-                let (life, _) = fate[i]?;
+                let Some((life, _)) = fate[i] else {
+                    changed.push((r.pos, r.r_clamped));
+                    return None;
+                };
                 let life = *lives.entry(key(r.pos)).or_insert(life);
+                if replaced[i].is_some() {
+                    // Its new gather may reach as far as any record there.
+                    changed.push((r.pos, r.pixel_world * max_spacing_px));
+                } else if life.de_dt != Vec3::ZERO {
+                    changed.push((r.pos, r.r_clamped));
+                }
                 if replaced[i].is_some() {
                     return None;
                 }
@@ -271,7 +296,11 @@ impl Lifespans {
         }
         stats.n_kept = cache.len() as u64 - stats.n_replaced;
         self.by_pos = lives;
-        Ok((cache, stats))
+        Ok(Updated {
+            cache,
+            stats,
+            changed,
+        })
     }
 }
 
@@ -331,4 +360,165 @@ fn near(r: &Record, movers: &[Mover]) -> bool {
             || (to.dot(r.normal) > -m.radius
                 && 2.0 * m.radius * m.radius * m.step > TOLERANCE * d * d * d)
     })
+}
+
+/// The pixels a frame may take from the frame before (the camera stayed, a mesh moved, no light
+/// changed): outside the moved meshes' window, their centre's camera ray ends on a diffuse surface
+/// (or nothing) whose shadow rays pass no moved mesh and whose cached light no changed record reaches.
+/// `None` where the scene has more than diffuse surfaces without media (caustic and glossy terms read
+/// photon maps traced again; media scatter along every ray), or when a light changed.
+pub fn unchanged_pixels(
+    scene: &Scene,
+    cam: &Camera,
+    change: &SceneChange,
+    changed: &[(Vec3, f32)],
+    window: Window,
+) -> Option<Vec<bool>> {
+    let plain = scene.specular_bvh.is_none()
+        && scene.media.is_none()
+        && scene
+            .materials
+            .iter()
+            .all(|m| matches!(m.bsdf, crate::material::Bsdf::Diffuse { .. }));
+    if change.lights || !plain {
+        return None;
+    }
+    let (w, h) = (cam.width, cam.height);
+    let movers: Vec<(Vec3, f32)> = change.moved.iter().flatten().copied().collect();
+    let sources = light_spheres(scene);
+    let hits: Vec<Option<(Vec3, f32)>> = (0..w * h)
+        .into_par_iter()
+        .map(|i| {
+            let (x, y) = (i % w, i / w);
+            let d = cam.ray(x as f32 + 0.5, y as f32 + 0.5);
+            scene
+                .intersect(cam.eye, d)
+                .map(|hit| (hit.p, cam.pixel_world(d, hit.t, hit.ns.dot(d))))
+        })
+        .collect();
+    let mut keep: Vec<bool> = (0..w * h)
+        .into_par_iter()
+        .map(|i| {
+            let (x, y) = (i % w, i / w);
+            if x >= window.x0 && x < window.x1 && y >= window.y0 && y < window.y1 {
+                return false;
+            }
+            let Some((p, _)) = hits[i as usize] else {
+                return true;
+            };
+            !sources.iter().any(|&(c_l, r_l)| {
+                movers
+                    .iter()
+                    .any(|&(c, r)| segment_distance(c, p, c_l) < r + r_l)
+            })
+        })
+        .collect();
+    for &(c, reach) in changed {
+        let Some(rect) = projected(cam, c, reach) else {
+            // Around or behind the eye: it may reach anywhere.
+            return None;
+        };
+        for y in rect.y0..rect.y1 {
+            for x in rect.x0..rect.x1 {
+                let i = (y * w + x) as usize;
+                if let Some((p, pixel)) = hits[i] {
+                    if p.distance(c) < reach + pixel {
+                        keep[i] = false;
+                    }
+                }
+            }
+        }
+    }
+    Some(keep)
+}
+
+/// Bounding spheres of where the lights' shadow rays end: all emissive triangles as one, each point or
+/// spot light, and each directional light far along its reverse direction.
+fn light_spheres(scene: &Scene) -> Vec<(Vec3, f32)> {
+    let mut out = Vec::new();
+    let (lo, hi) = scene.bounds;
+    let far = (hi - lo).length() * 4.0 + 1.0;
+    let mut area: Option<(Vec3, Vec3)> = None;
+    for l in &scene.lights.lights {
+        match *l {
+            crate::light::Light::Area { tri, .. } => {
+                for k in scene.geometry.triangles[tri as usize].v {
+                    let p = scene.geometry.positions[k as usize];
+                    area = Some(area.map_or((p, p), |(a, b)| (a.min(p), b.max(p))));
+                }
+            }
+            crate::light::Light::Point { pos, .. } | crate::light::Light::Spot { pos, .. } => {
+                out.push((pos, 0.0))
+            }
+            crate::light::Light::Directional { dir, center, .. } => {
+                out.push((center - dir * far, 0.0))
+            }
+        }
+    }
+    if let Some((a, b)) = area {
+        out.push(((a + b) * 0.5, (b - a).length() * 0.5));
+    }
+    out
+}
+
+/// Distance from `c` to the segment from `a` to `b`.
+fn segment_distance(c: Vec3, a: Vec3, b: Vec3) -> f32 {
+    let ab = b - a;
+    let t = ((c - a).dot(ab) / ab.length_squared().max(1e-30)).clamp(0.0, 1.0);
+    c.distance(a + ab * t)
+}
+
+/// The pixels a sphere may cover on screen (`None` when it surrounds or lies behind the eye).
+fn projected(cam: &Camera, c: Vec3, r: f32) -> Option<Window> {
+    let change = SceneChange {
+        moved: vec![[(c, r), (c, r)]],
+        lights: false,
+    };
+    screen_window(&change, cam)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn segment_distance_is_to_the_nearest_point_of_the_segment() {
+        let (a, b) = (Vec3::ZERO, Vec3::new(2.0, 0.0, 0.0));
+        assert_eq!(segment_distance(Vec3::new(1.0, 3.0, 0.0), a, b), 3.0);
+        assert_eq!(segment_distance(Vec3::new(-4.0, 0.0, 0.0), a, b), 4.0);
+        assert_eq!(segment_distance(Vec3::new(5.0, 4.0, 0.0), a, b), 5.0);
+    }
+
+    #[test]
+    fn a_record_is_near_a_mover_whose_step_changes_its_sky_by_more_than_the_tolerance() {
+        let rec = |z: f32| Record {
+            pos: Vec3::new(0.0, 0.0, z),
+            normal: Vec3::Z,
+            e: Vec3::ONE,
+            grad_r: [Vec3::ZERO; 3],
+            grad_t: [Vec3::ZERO; 3],
+            r_harmonic: 1.0,
+            r_clamped: 1.0,
+            dir: Vec3::Z,
+            pixel_world: 0.01,
+            rel_err: 0.0,
+            at: [0; 3],
+        };
+        let ball = Mover {
+            center: Vec3::new(0.0, 0.0, 1.0),
+            radius: 0.25,
+            step: 0.025,
+        };
+        // 2 r² s / d³ = 0.003125 / d³ against 0.02: near within d ≈ 0.54.
+        assert!(near(&rec(0.6), &[ball]));
+        assert!(!near(&rec(0.0), &[ball]));
+        // Below its tangent plane the mover is not in the record's sky.
+        assert!(!near(
+            &Record {
+                pos: Vec3::new(0.0, 0.0, 1.5),
+                ..rec(0.0)
+            },
+            &[ball]
+        ));
+    }
 }

@@ -312,15 +312,18 @@ fn rounds(spp: u32, aa_spp: u32, adaptive: bool) -> Vec<u32> {
 }
 
 /// What [`render_tiles`] renders: `n_layers` images of `width` × `height`, of which the samples fill
-/// `window`, with `sampling` and the pixels' random numbers drawn from `seed`.
+/// `window`, with `sampling` and the pixels' random numbers drawn from `seed`; the pixels `kept` marks
+/// (row-major over the image) take no sample and stay 0 (a sequence's frame fills them from the frame
+/// before).
 #[derive(Clone, Copy, Debug)]
-pub struct Canvas {
+pub struct Canvas<'a> {
     pub width: u32,
     pub height: u32,
     pub window: Window,
     pub sampling: Sampling,
     pub seed: u64,
     pub n_layers: usize,
+    pub kept: Option<&'a [bool]>,
 }
 
 /// Renders the canvas's images (box filter: the mean of each pixel's samples).
@@ -346,6 +349,7 @@ pub fn render_tiles(
         sampling,
         seed,
         n_layers,
+        kept,
         ..
     } = *canvas;
     let spp = sampling.spp.max(1);
@@ -354,7 +358,7 @@ pub fn render_tiles(
     let keep_redo = sampler.adds_records() && n_layers <= MAX_LAYERS;
     let mut tiles = tile_states(window, n_layers);
     // Pixels that take the next round's samples.
-    let mut active = Active::all(window);
+    let mut active = Active::all(window, kept, width);
     let rounds = rounds(spp, aa_spp, adaptive);
     let done = AtomicU64::new(0);
     let mut total = SampleCounters::default();
@@ -418,7 +422,7 @@ pub fn render_tiles(
         }
         // Past `aa_spp`, only pixels whose samples made Monte Carlo estimates go on.
         let past_aa = rounds[round + 1] > aa_spp;
-        active = next_round(&tiles, window, past_aa, &sampling);
+        active = next_round(&tiles, window, past_aa, &sampling, kept.map(|k| (k, width)));
         // A pixel that stops sampling needs its memo no more.
         for t in &mut tiles {
             let w = t.window;
@@ -473,11 +477,17 @@ struct Active {
 }
 
 impl Active {
-    fn all(window: Window) -> Active {
-        Active {
-            window,
-            flags: vec![true; window.n_pixels() as usize],
+    /// Every pixel of the window but those `kept` marks (row-major over an image `width` wide).
+    fn all(window: Window, kept: Option<&[bool]>, width: u32) -> Active {
+        let mut flags = vec![true; window.n_pixels() as usize];
+        if let Some(kept) = kept {
+            let ww = window.x1 - window.x0;
+            for (i, f) in flags.iter_mut().enumerate() {
+                let (x, y) = (window.x0 + i as u32 % ww, window.y0 + i as u32 / ww);
+                *f = !kept[(y * width + x) as usize];
+            }
         }
+        Active { window, flags }
     }
 
     fn is(&self, x: u32, y: u32) -> bool {
@@ -492,7 +502,13 @@ impl Active {
 
 /// The pixels that take the next round's samples: those not converged (at their noise target) and
 /// their neighbours; `past_aa`, only among those whose samples made Monte Carlo estimates.
-fn next_round(tiles: &[TileState], window: Window, past_aa: bool, sampling: &Sampling) -> Active {
+fn next_round(
+    tiles: &[TileState],
+    window: Window,
+    past_aa: bool,
+    sampling: &Sampling,
+    kept: Option<(&[bool], u32)>,
+) -> Active {
     let (ww, wh) = (
         (window.x1 - window.x0) as usize,
         (window.y1 - window.y0) as usize,
@@ -507,7 +523,8 @@ fn next_round(tiles: &[TileState], window: Window, past_aa: bool, sampling: &Sam
                 let px = &t.pixels[k];
                 let mean = t.layers.iter().map(|l| l[k]).sum::<Vec3>() / px.n as f32;
                 let at = (y - window.y0) as usize * ww + (x - window.x0) as usize;
-                allowed[at] = !past_aa || px.monte_carlo;
+                allowed[at] = (!past_aa || px.monte_carlo)
+                    && !kept.is_some_and(|(k, width)| k[(y * width + x) as usize]);
                 open[at] = allowed[at] && !converged(px, mean, sampling.noise_at(x, y));
             }
         }
@@ -740,6 +757,7 @@ mod tests {
             LayerValues::one(Vec3::splat((rng.uniform() < 0.5) as u32 as f32))
         };
         let canvas = |sampling| Canvas {
+            kept: None,
             width: 8,
             height: 1,
             window: Window::full(8, 1),
