@@ -265,6 +265,11 @@ fn frame_summary(f: u32, stats: &pmrender::render::RenderStats) -> serde_json::V
         "records_reused": get("frame.records_reused"),
         "records_dropped": get("frame.records_dropped"),
         "records_after": get("frame.records_after"),
+        "records_regathered": get("frame.records_regathered"),
+        "records_replaced": get("frame.records_replaced"),
+        "records_gone": get("frame.records_gone"),
+        "pixels_kept": get("frame.pixels_kept"),
+        "memory_peak_rss_bytes": get("memory.peak_rss_bytes"),
         "fill_cache_s": get("time.fill_cache_s"),
         "trace_photons_s": get("time.trace_photons_s"),
     })

@@ -110,11 +110,17 @@ pub fn write_sequence_summary(
 ) -> Result<()> {
     let render_s: f64 = frames.iter().filter_map(|r| r["time_s"].as_f64()).sum();
     let traced = frames.iter().filter(|r| r["photons"] == "traced").count();
+    let total = |k: &str| frames.iter().filter_map(|r| r[k].as_u64()).sum::<u64>();
     let json = serde_json::json!({
         "frames": frames,
         "frames_written": frames.len(),
         "complete": complete,
         "photon_traces": traced,
+        "records_regathered": total("records_regathered"),
+        "records_replaced": total("records_replaced"),
+        "records_dropped": total("records_dropped") + total("records_gone"),
+        "records_at_end": frames.last().map_or(serde_json::Value::Null, |r| r["records_after"].clone()),
+        "pixels_kept": total("pixels_kept"),
         "render_s": render_s,
         "wall_s": wall_s,
         "peak_rss_bytes": crate::stats::peak_rss_bytes(),
