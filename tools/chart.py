@@ -22,6 +22,11 @@ Writes into --out: speed_accuracy_<scene>.png (relMSE against time, log-log, one
 Pareto front marked), convergence_<scene>.png (`pmrender converge --method pm`: beauty against the
 reference, caustic and indirect terms against the high-quality render's layers) and speed_accuracy.md (all
 numbers, the equal-time comparison of pm and path, the machine).
+
+Animated scenes with a reference sequence (tests/reference/NAME/sequence.json: anim-ball) get the sequence
+view of tools/chart_sequence.py (time per frame against per-frame error and against flicker): by default
+after the stills, or when --scenes names them; `--sequence` runs only the sequence view, `--no-sequence`
+only the stills.
 """
 import argparse
 import json
@@ -442,15 +447,36 @@ def main():
     ap.add_argument("--scenes", help="comma-separated scene names (default: every scene with a reference)")
     ap.add_argument("--out", default=os.path.join(ROOT, "charts"))
     ap.add_argument("--bin", default=os.path.join(ROOT, "target", "release", "pmrender"))
+    seq_opt = ap.add_mutually_exclusive_group()
+    seq_opt.add_argument("--sequence", action="store_true", help="only the sequence view of the animated scenes")
+    seq_opt.add_argument("--no-sequence", action="store_true", help="only the stills (no sequence view)")
     args = ap.parse_args()
     if not os.path.isfile(args.bin):
         raise SystemExit(f"{args.bin} not found: run `cargo build --release` first")
-    names = args.scenes.split(",") if args.scenes else shipped_scenes() + [n for n in LARGE_DEFAULT if chartable(n)]
+    import chart_sequence
+    if args.scenes:
+        asked = args.scenes.split(",")
+        sequences = [n for n in asked if chart_sequence.has_sequence_reference(n) and not chartable(n)]
+        names = [n for n in asked if n not in sequences]
+    else:
+        sequences = chart_sequence.sequence_scenes()
+        names = shipped_scenes() + [n for n in LARGE_DEFAULT if chartable(n)]
+    if args.sequence:
+        names = []
+    if args.no_sequence:
+        sequences = []
     missing = [n for n in names if not chartable(n)]
     if missing:
         raise SystemExit(f"no scene with a reference: {', '.join(missing)}")
     os.makedirs(args.out, exist_ok=True)
     log = lambda s: print(s, file=sys.stderr, flush=True)  # noqa: E731
+    if names:
+        stills(args, names, log)
+    for name in sequences:
+        print(chart_sequence.run(args.bin, args.out, name, args.quick, log=log))
+
+
+def stills(args, names, log):
     t0, results = time.perf_counter(), {}
     with tempfile.TemporaryDirectory(prefix="pm-chart-") as tmp:
         for name in names:
