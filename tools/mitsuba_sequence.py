@@ -4,7 +4,7 @@
 Usage (from the repo root, after `cargo build --release`; Mitsuba from `pip install -r tools/requirements.txt`):
     python3 tools/mitsuba_sequence.py SCENE.toml OUTDIR [--frames A..B] [--step K] [--spp N]
                                       [--width W --height H] [--passes P] [--variant V]
-                                      [--bin target/release/pmrender]
+                                      [--seed-offset N] [--bin target/release/pmrender]
 
 Each frame f is exported by `pmrender export-mitsuba SCENE DIR --frame f` (so the frame's camera,
 mesh placements and lights are pmrender's own interpolation of the keys), its film resized to
@@ -84,6 +84,8 @@ def main():
     ap.add_argument("--passes", type=int, default=4, help="independent passes per frame, for its noise")
     ap.add_argument("--variant", help="Mitsuba variant (default: llvm_ad_rgb if usable, else scalar_rgb)")
     ap.add_argument("--half", action="store_true", help="write half-float EXRs")
+    ap.add_argument("--seed-offset", type=int, default=0,
+                    help="seed of every frame (default 0); another value gives an independent sequence")
     ap.add_argument("--bin", default=os.path.join(os.path.dirname(TOOLS), "target", "release", "pmrender"))
     args = ap.parse_args()
 
@@ -106,9 +108,9 @@ def main():
         xml = export_frame(args.bin, args.scene, f, args.spp, args.width, args.height)
         scene = mi.load_file(xml)
         tf, cf = time.time(), time.process_time()
-        # seed 0 for every frame: render_passes seeds pass k's calls from `seed`, the same in each frame.
-        mean, se, spp_done = render_passes(mi, scene, args.spp, max(1, args.passes), 0, args.width,
-                                           args.height, variant)
+        # the same seed for every frame (0 unless --seed-offset): render_passes seeds pass k's calls from it.
+        mean, se, spp_done = render_passes(mi, scene, args.spp, max(1, args.passes), args.seed_offset,
+                                           args.width, args.height, variant)
         write_rgb(os.path.join(args.outdir, f"frame-{f:04d}.exr"), mean)
         rows.append({"frame": f, "mean_value": float(np.mean(mean)),
                      "stderr_mean": float(np.mean(se)),
@@ -123,6 +125,7 @@ def main():
         "renderer": f"mitsuba {mi.__version__}", "variant": variant, "integrator": "path",
         "width": args.width, "height": args.height, "spp": spp_done, "passes": max(1, args.passes),
         "seeds": "the same in every frame (pass k: seed k), so unchanged paths give unchanged values",
+        **({"seed_offset": args.seed_offset} if args.seed_offset else {}),
         "files": "frame-NNNN.exr" + (" (half floats)" if args.half else ""),
         "time_wall_s": round(time.time() - t0, 2), "time_cpu_s": round(time.process_time() - c0, 2),
         "noise_relmse_mean": float(np.mean([r["noise_relmse"] for r in rows])),
