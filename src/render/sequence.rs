@@ -106,12 +106,19 @@ impl Handoff {
     /// The carry of frame `f`, the first of `scene`, with what changed since frame `f − 1`.
     fn into_carry<'a>(self, anim: &Animation, scene: &Scene, f: u32) -> Carry<'a> {
         let mut moved = Vec::new();
+        let mut rigid = Vec::new();
         for m in anim.moved_meshes(f - 1, f) {
             if let (Some(before), Some(after)) = (
                 self.mesh_spheres.get(m).copied().flatten(),
                 scene.mesh_sphere(m),
             ) {
                 moved.push([before, after]);
+                if let (Some(t0), Some(t1)) = (
+                    scene::mesh_transform(anim, f - 1, m),
+                    scene::mesh_transform(anim, f, m),
+                ) {
+                    rigid.push((before, t1 * t0.inverse()));
+                }
             }
         }
         Carry {
@@ -123,6 +130,7 @@ impl Handoff {
             layers: self.layers,
             change: Some(super::temporal::SceneChange {
                 moved,
+                rigid,
                 lights: anim.lights_changed(f - 1, f),
             }),
             ..Carry::default()

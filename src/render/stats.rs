@@ -103,6 +103,12 @@ fn frame_rows(r: &mut Report, f: &FrameStats) {
         );
         r.count(
             "Sequence",
+            "Records moved with their mesh (and gathered there)",
+            "frame.records_moved",
+            t.n_moved,
+        );
+        r.count(
+            "Sequence",
             "Records dropped (their surface moved)",
             "frame.records_gone",
             t.n_gone,

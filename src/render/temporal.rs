@@ -23,7 +23,7 @@
 
 use std::collections::HashMap;
 
-use glam::Vec3;
+use glam::{Mat3, Mat4, Vec3};
 use icache::{IrradianceCache, NewRecord, Record, ShadingPoint};
 use rayon::prelude::*;
 
@@ -49,6 +49,9 @@ pub const MOVING_NOISE: f32 = 0.5;
 #[derive(Clone, Debug, Default)]
 pub struct SceneChange {
     pub moved: Vec<[(Vec3, f32); 2]>,
+    /// Each moved mesh's bounding sphere before its step, and the step (new placement × old⁻¹): the
+    /// records on it move with it.
+    pub rigid: Vec<((Vec3, f32), Mat4)>,
     pub lights: bool,
 }
 
@@ -104,6 +107,40 @@ pub struct TemporalStats {
     pub n_replaced: u64,
     /// Records whose surface moved away.
     pub n_gone: u64,
+    /// Of the replaced, those that moved with their mesh.
+    pub n_moved: u64,
+}
+
+/// What becomes of a record: its life, the hit to gather from (when due) and its new place (when it
+/// moved with its mesh).
+type Fate = (Life, Option<Hit>, Option<Record>);
+
+fn new_pos(r: &Record, moved: Option<Record>) -> Vec3 {
+    moved.map_or(r.pos, |m| m.pos)
+}
+
+/// A record whose surface is gone, carried along by the step of the moved mesh it lay on: its new
+/// place and the surface hit there (`None` when it lay on no moved mesh, or lands on no surface).
+fn carried_along(
+    scene: &Scene,
+    r: &Record,
+    rigid: &[((Vec3, f32), Mat4)],
+) -> Option<(Record, Hit)> {
+    rigid.iter().find_map(|&((c, radius), step)| {
+        if r.pos.distance(c) > radius * 1.01 + r.pixel_world {
+            return None;
+        }
+        let normal = (Mat3::from_mat4(step).inverse().transpose() * r.normal).normalize();
+        let moved = Record {
+            pos: step.transform_point3(r.pos),
+            normal,
+            ..*r
+        };
+        if !(moved.pos.is_finite() && moved.normal.is_finite()) {
+            return None;
+        }
+        surface_at(scene, &moved).map(|hit| (moved, hit))
+    })
 }
 
 fn key(p: Vec3) -> [u32; 3] {
@@ -197,31 +234,36 @@ impl Lifespans {
         let movers: Vec<Mover> = change.moved.iter().flat_map(Mover::pair).collect();
         let mut stats = TemporalStats::default();
         // What becomes of each record: gone (None), kept, or due for a gather from its hit.
-        let fate: Vec<Option<(Life, Option<Hit>)>> = cache
+        // Each record's life, the hit to gather from where it is due, and its new place when it moved
+        // with its mesh (`None`: its surface is gone).
+        let fate: Vec<Option<Fate>> = cache
             .records()
             .iter()
             .map(|r| {
-                let hit = surface_at(scene, r)?;
                 let life = self.by_pos.get(&key(r.pos)).copied().unwrap_or(Life {
                     made: frame.saturating_sub(1),
                     due: frame,
                     e: r.e,
                     de_dt: Vec3::ZERO,
                 });
+                let Some(hit) = surface_at(scene, r) else {
+                    let (moved, hit) = carried_along(scene, r, &change.rigid)?;
+                    return Some((life, Some(hit), Some(moved)));
+                };
                 let due = frame >= life.due || change.lights || near(r, &movers);
-                Some((life, due.then_some(hit)))
+                Some((life, due.then_some(hit), None))
             })
             .collect();
         let due: Vec<usize> = (0..fate.len())
-            .filter(|&i| matches!(fate[i], Some((_, Some(_)))))
+            .filter(|&i| matches!(fate[i], Some((_, Some(_), _))))
             .collect();
         let gathered: Vec<NewRecord> = due
             .par_iter()
             .map(|&i| {
-                let r = &cache.records()[i];
-                let Some((_, Some(hit))) = &fate[i] else {
+                let Some((_, Some(hit), moved)) = &fate[i] else {
                     unreachable!("only due records are gathered")
                 };
+                let r = moved.as_ref().unwrap_or(&cache.records()[i]);
                 let sp = ShadingPoint {
                     pos: r.pos,
                     normal: r.normal,
@@ -233,7 +275,7 @@ impl Lifespans {
         let mut replaced = vec![None; fate.len()];
         let mut lives = HashMap::with_capacity(fate.len());
         for (&i, new) in due.iter().zip(gathered) {
-            let (old, _) = fate[i].expect("due records have a fate");
+            let (old, _, moved) = fate[i].expect("due records have a fate");
             let age = frame.saturating_sub(old.made).max(1);
             let de_dt = (new.e - old.e) / age as f32;
             let level = luminance(new.e).max(luminance(old.e)).max(1e-12);
@@ -241,7 +283,7 @@ impl Lifespans {
             // A change within the gather's own noise is no change: the record stays as it was,
             // and the image does not flicker where nothing happened.
             let noise = 2.0 * new.rel_err.max(cache.records()[i].rel_err);
-            let life = if change <= noise.max(0.25 * TOLERANCE) {
+            let life = if moved.is_none() && change <= noise.max(0.25 * TOLERANCE) {
                 Life {
                     due: frame + MAX_LIFESPAN,
                     de_dt: Vec3::ZERO,
@@ -251,6 +293,9 @@ impl Lifespans {
                 let rate = luminance(de_dt).abs() / level;
                 let lifespan = ((TOLERANCE / rate) as u32).clamp(1, MAX_LIFESPAN);
                 replaced[i] = Some(new);
+                if moved.is_some() {
+                    stats.n_moved += 1;
+                }
                 Life {
                     made: frame,
                     due: frame + lifespan,
@@ -258,7 +303,7 @@ impl Lifespans {
                     de_dt,
                 }
             };
-            lives.insert(key(cache.records()[i].pos), life);
+            lives.insert(key(new_pos(&cache.records()[i], moved)), life);
         }
         // Where the cached light changed: records gone, replaced, or following their gradient.
         let mut changed = Vec::new();
@@ -270,10 +315,15 @@ impl Lifespans {
             };
         let (mut cache, _) = cache
             .rebuilt(scene.bounds, |i, mut r| {
-                let Some((life, _)) = fate[i] else {
+                let Some((life, _, moved)) = fate[i] else {
                     changed.push((r.pos, r.r_clamped));
                     return None;
                 };
+                if let Some(m) = moved {
+                    changed.push((r.pos, r.r_clamped));
+                    changed.push((m.pos, r.pixel_world * max_spacing_px));
+                    return None;
+                }
                 let life = *lives.entry(key(r.pos)).or_insert(life);
                 if replaced[i].is_some() {
                     // Its new gather may reach as far as any record there.
@@ -472,7 +522,7 @@ fn segment_distance(c: Vec3, a: Vec3, b: Vec3) -> f32 {
 fn projected(cam: &Camera, c: Vec3, r: f32) -> Option<Window> {
     let change = SceneChange {
         moved: vec![[(c, r), (c, r)]],
-        lights: false,
+        ..Default::default()
     };
     screen_window(&change, cam)
 }

@@ -67,6 +67,17 @@ pub fn frame_camera(anim: &Animation, f: u32) -> Result<Camera> {
     camera(&cx, &anim.frame_desc(f)).map_err(|e| at_frame(e, f))
 }
 
+/// Where `[[mesh]]` entry `mesh` is placed at frame `f` (scale → rotate → translate), `None` for no
+/// such mesh.
+pub fn mesh_transform(anim: &Animation, f: u32, mesh: usize) -> Option<Mat4> {
+    let cx = Ctx {
+        path: anim.path(),
+        text: anim.text(),
+    };
+    let desc = anim.frame_desc(f);
+    transform(&cx, mesh, desc.mesh.get(mesh)?).ok()
+}
+
 /// A scene from its parsed file.
 fn build(path: &Path, text: &str, desc: &SceneFile) -> Result<Scene> {
     let cx = Ctx { path, text };

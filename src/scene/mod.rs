@@ -19,7 +19,7 @@ use std::path::PathBuf;
 use glam::Vec3;
 
 pub use animation::{Animation, Change};
-pub use build::{frame_camera, load, load_animation, load_frame};
+pub use build::{frame_camera, load, load_animation, load_frame, mesh_transform};
 pub use media::{Media, MAX_SIGMA};
 pub use settings::{FillMode, IcacheSettings, PhotonConfig, MAX_PHOTONS, SPACING_REFERENCE_SIDE};
 
