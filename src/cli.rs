@@ -153,19 +153,29 @@ struct Bar {
 
 impl Bar {
     fn new(quiet: bool) -> Bar {
-        let bar = ProgressBar::with_draw_target(Some(0), ProgressDrawTarget::stderr());
-        if quiet || !std::io::stderr().is_terminal() {
-            bar.set_draw_target(ProgressDrawTarget::hidden());
-        }
-        bar.set_style(
-            ProgressStyle::with_template(
+        Bar {
+            bar: styled_bar(
+                quiet,
+                0,
                 "{msg:>12} [{bar:40}] {percent:>3}% {elapsed_precise} eta {eta}",
-            )
+            ),
+        }
+    }
+}
+
+/// A bar of `len` steps on stderr drawn with `template`, hidden with --quiet or when stderr is not a
+/// terminal.
+fn styled_bar(quiet: bool, len: u64, template: &str) -> ProgressBar {
+    let bar = ProgressBar::with_draw_target(Some(len), ProgressDrawTarget::stderr());
+    if quiet || !std::io::stderr().is_terminal() {
+        bar.set_draw_target(ProgressDrawTarget::hidden());
+    }
+    bar.set_style(
+        ProgressStyle::with_template(template)
             .unwrap_or_else(|_| ProgressStyle::default_bar())
             .progress_chars("=> "),
-        );
-        Bar { bar }
-    }
+    );
+    bar
 }
 
 impl Progress for Bar {

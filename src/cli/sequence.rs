@@ -5,10 +5,10 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 use std::time::Instant;
 
-use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use indicatif::ProgressBar;
 use serde_json::json;
 
-use super::{cli_inputs, RenderArgs};
+use super::{cli_inputs, styled_bar, RenderArgs};
 use pmrender::error::{option, Result};
 use pmrender::render::outputs::{check_distinct, check_output, scene_inputs};
 use pmrender::render::sequence::render_sequence;
@@ -176,16 +176,10 @@ struct FramesBar {
 
 impl FramesBar {
     fn new(quiet: bool, n: u64) -> FramesBar {
-        let bar = ProgressBar::with_draw_target(Some(n), ProgressDrawTarget::stderr());
-        if quiet || !std::io::IsTerminal::is_terminal(&std::io::stderr()) {
-            bar.set_draw_target(ProgressDrawTarget::hidden());
-        }
-        bar.set_style(
-            ProgressStyle::with_template(
-                "{msg:>20} [{bar:40}] {pos}/{len} frames {elapsed_precise} eta {eta}",
-            )
-            .unwrap_or_else(|_| ProgressStyle::default_bar())
-            .progress_chars("=> "),
+        let bar = styled_bar(
+            quiet,
+            n,
+            "{msg:>20} [{bar:40}] {pos}/{len} frames {elapsed_precise} eta {eta}",
         );
         FramesBar {
             bar,

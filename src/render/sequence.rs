@@ -34,8 +34,10 @@ pub fn render_sequence(
             _ => Carry::default(),
         };
         let mut prev: Option<(RenderOutput, RenderStats)> = None;
+        // What changed from frame f − 1 to f, within this scene.
+        let mut change = None;
         loop {
-            let unchanged = prev.is_some() && !anim.change(f - 1, f).camera;
+            let unchanged = change.is_some_and(|c: scene::Change| !c.camera);
             match &mut prev {
                 Some((out, stats)) if unchanged => {
                     let frame = stats.frame.get_or_insert_with(Default::default);
@@ -64,9 +66,14 @@ pub fn render_sequence(
                 }
             }
             f += 1;
-            if f > last || !temporal || anim.change(f - 1, f).scene {
+            if f > last || !temporal {
                 break;
             }
+            let next = anim.change(f - 1, f);
+            if next.scene {
+                break;
+            }
+            change = Some(next);
         }
         if let Some((mut out, _)) = prev.take() {
             carry.cache = out.cache.take();

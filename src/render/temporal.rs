@@ -23,7 +23,7 @@
 
 use std::collections::HashMap;
 
-use glam::{Mat3, Mat4, Vec3};
+use glam::{Mat3, Mat4, Vec2, Vec3};
 use icache::{IrradianceCache, NewRecord, Record, ShadingPoint};
 use rayon::prelude::*;
 
@@ -358,37 +358,49 @@ impl Lifespans {
 /// spheres' projections, with a margin); `None` when that may be anywhere (a sphere around or behind
 /// the eye).
 pub fn screen_window(change: &SceneChange, cam: &Camera) -> Option<Window> {
-    let (w, h) = (cam.width as f32, cam.height as f32);
-    let px_per_unit_at = |d: f32| h / (2.0 * (cam.fov_deg().to_radians() * 0.5).tan() * d);
-    let mut lo = Vec3::splat(f32::INFINITY);
-    let mut hi = Vec3::splat(f32::NEG_INFINITY);
+    let mut lo = Vec2::splat(f32::INFINITY);
+    let mut hi = Vec2::splat(f32::NEG_INFINITY);
     for &(c, r) in change.moved.iter().flatten() {
-        let to = c - cam.eye;
-        let depth = to.dot(cam.forward());
-        if depth <= 2.0 * r {
-            return None;
-        }
-        let (x, y) = cam.project(c)?;
-        // The sphere's projection: its radius at its nearest depth, widened for the off-axis stretch.
-        let reach = 2.0 * r * px_per_unit_at(depth - r) + 2.0;
-        lo = lo.min(Vec3::new(x - reach, y - reach, 0.0));
-        hi = hi.max(Vec3::new(x + reach, y + reach, 0.0));
+        let (a, b) = sphere_pixels(cam, c, r)?;
+        lo = lo.min(a);
+        hi = hi.max(b);
     }
-    if lo.x > hi.x {
-        return Some(Window {
+    Some(pixel_window(cam, lo, hi))
+}
+
+/// The pixel box a sphere may cover on screen (`None` when it surrounds or lies behind the eye): its
+/// radius at its nearest depth, widened for the off-axis stretch.
+fn sphere_pixels(cam: &Camera, c: Vec3, r: f32) -> Option<(Vec2, Vec2)> {
+    let depth = (c - cam.eye).dot(cam.forward());
+    if depth <= 2.0 * r {
+        return None;
+    }
+    let (x, y) = cam.project(c)?;
+    let px_per_unit = cam.height as f32 / (2.0 * (cam.fov_deg().to_radians() * 0.5).tan());
+    let reach = 2.0 * r * px_per_unit / (depth - r) + 2.0;
+    Some((
+        Vec2::new(x - reach, y - reach),
+        Vec2::new(x + reach, y + reach),
+    ))
+}
+
+/// The image's pixels within [lo, hi] (empty when lo > hi).
+fn pixel_window(cam: &Camera, lo: Vec2, hi: Vec2) -> Window {
+    if lo.x > hi.x || lo.y > hi.y {
+        return Window {
             x0: 0,
             y0: 0,
             x1: 0,
             y1: 0,
-        });
+        };
     }
-    let clamp = |v: f32, max: f32| v.clamp(0.0, max) as u32;
-    Some(Window {
-        x0: clamp(lo.x.floor(), w),
-        y0: clamp(lo.y.floor(), h),
-        x1: clamp(hi.x.ceil() + 1.0, w),
-        y1: clamp(hi.y.ceil() + 1.0, h),
-    })
+    let clamp = |v: f32, max: u32| v.clamp(0.0, max as f32) as u32;
+    Window {
+        x0: clamp(lo.x.floor(), cam.width),
+        y0: clamp(lo.y.floor(), cam.height),
+        x1: clamp(hi.x.ceil() + 1.0, cam.width),
+        y1: clamp(hi.y.ceil() + 1.0, cam.height),
+    }
 }
 
 /// The surface a record was made on, hit again from just above it along its normal; `None` when it
@@ -464,10 +476,11 @@ pub fn unchanged_pixels(
         })
         .collect();
     for &(c, reach) in changed {
-        let Some(rect) = projected(cam, c, reach) else {
+        let Some((lo, hi)) = sphere_pixels(cam, c, reach) else {
             // Around or behind the eye: it may reach anywhere.
             return None;
         };
+        let rect = pixel_window(cam, lo, hi);
         for y in rect.y0..rect.y1 {
             for x in rect.x0..rect.x1 {
                 let i = (y * w + x) as usize;
@@ -516,15 +529,6 @@ fn segment_distance(c: Vec3, a: Vec3, b: Vec3) -> f32 {
     let ab = b - a;
     let t = ((c - a).dot(ab) / ab.length_squared().max(1e-30)).clamp(0.0, 1.0);
     c.distance(a + ab * t)
-}
-
-/// The pixels a sphere may cover on screen (`None` when it surrounds or lies behind the eye).
-fn projected(cam: &Camera, c: Vec3, r: f32) -> Option<Window> {
-    let change = SceneChange {
-        moved: vec![[(c, r), (c, r)]],
-        ..Default::default()
-    };
-    screen_window(&change, cam)
 }
 
 #[cfg(test)]
