@@ -170,6 +170,15 @@ pub fn spawn(hit: &Hit, dir: Vec3) -> Vec3 {
     offset_origin(hit.p, n)
 }
 
+/// [`spawn`], then a step along `dir` of 10⁻⁵ of the point's magnitude: an origin off the planes of
+/// the triangles that meet the hit's triangle at an edge. A point on an edge (the pixel-corner rays
+/// of a centred camera meet a box's edges exactly) lies on its neighbour's plane, and a ray leaving
+/// it into the room met that neighbour at t = 0 from behind, reading the light of its other side.
+pub fn spawn_clear(hit: &Hit, dir: Vec3) -> Vec3 {
+    let o = spawn(hit, dir);
+    o + dir * (1e-5 * o.abs().max_element())
+}
+
 /// Shading frame at a hit seen from direction `wo`: the shading normal turned toward `wo`, and
 /// whether `wo` is on the side the geometric normal points to.
 #[derive(Clone, Copy, Debug)]

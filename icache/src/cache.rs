@@ -400,6 +400,16 @@ impl IrradianceCache {
                 rec.grad_t[c] = keep * rec.grad_t[c] + share * scale * more.grad_t[c];
             }
         }
+        // The gradient limit of a new record (extrapolation within R' changes no channel by more than
+        // 100 %) also holds after the fold: a further gather's ray may meet a surface almost at the
+        // record's point, where its translational gradient grows without bound.
+        let worst = (0..3)
+            .map(|c| rec.grad_t[c].length() * rec.r_clamped / rec.e[c])
+            .filter(|x| !x.is_nan())
+            .fold(0.0f32, f32::max);
+        if worst > 1.0 {
+            rec.grad_t.iter_mut().for_each(|g| *g /= worst);
+        }
         let l = luminance(rec.e);
         rec.rel_err = if l > 0.0 {
             ((keep * old_sd).powi(2) + (share * new_sd).powi(2)).sqrt() / l

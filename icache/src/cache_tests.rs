@@ -553,3 +553,32 @@ fn refine_folds_a_further_gather_in() {
         assert_eq!(c.records()[0], after);
     }
 }
+
+/// A further gather whose ray met a surface almost at the record's point brings a translational
+/// gradient without bound; the fold keeps the gradient limit (|∇t E_c|·R' ≤ E_c), so no lookup
+/// within R' extrapolates a channel by more than 100 %.
+#[test]
+fn refine_keeps_the_gradient_limit() {
+    let mut c = cache(CacheParams::default());
+    let p = Vec3::new(5.0, 5.0, 5.0);
+    let first = new_rec(p, Vec3::Z, Vec3::splat(1.0), 0.5, 0.01);
+    c.insert(first);
+    let more = NewRecord {
+        grad_t: [Vec3::X * 1e4, Vec3::ZERO, Vec3::ZERO],
+        ..first
+    };
+    c.refine(0, &more, 0.25);
+    let rec = c.records()[0];
+    for ch in 0..3 {
+        assert!(
+            rec.grad_t[ch].length() * rec.r_clamped <= rec.e[ch] * 1.0001,
+            "channel {ch}: |∇t| {} R' {} E {}",
+            rec.grad_t[ch].length(),
+            rec.r_clamped,
+            rec.e[ch]
+        );
+    }
+    let near = p + Vec3::X * 0.3 * rec.r_clamped;
+    let l = c.lookup(near, Vec3::Z, Pass::B).unwrap();
+    assert!(l.e.x <= 2.0 * rec.e.x + 1e-4, "{}", l.e);
+}

@@ -17,7 +17,7 @@ use super::radiance_cache::RadianceCache;
 use super::terms::Terms;
 use crate::counters::SampleCounters;
 use crate::geometry::Frame;
-use crate::geometry::{spawn, Hit};
+use crate::geometry::{spawn, spawn_clear, Hit};
 use crate::material::{glass_lobes, Bsdf, PhongLobe, Transport};
 use crate::medium::MediumId;
 use crate::photons::PhotonData;
@@ -739,16 +739,17 @@ impl PmContext<'_> {
                     * len;
             }
         };
+        let o0 = spawn_clear(from, dir);
         let (first, mut beta, mut medium) = match medium {
             None => (
-                self.scene.intersect_gather(spawn(from, dir), dir),
+                self.scene.intersect_gather(o0, dir),
                 Vec3::ONE,
                 crate::medium::VACUUM,
             ),
             Some(m) => {
                 match self
                     .scene
-                    .intersect_through(spawn(from, dir), dir, m, rays, &mut in_scatter)
+                    .intersect_through(o0, dir, m, rays, &mut in_scatter)
                 {
                     Some((h, tr, m)) => (Some(h), tr, m),
                     None => (None, Vec3::ONE, m),
