@@ -716,8 +716,8 @@ impl PmContext<'_> {
     /// chain) × its texel's diffuse radiance, plus a glossy surface's lobe. Emitters count zero (direct light is its own term) except
     /// for what they reflect; a miss is zero.
     /// In a scene with media (`medium` is then the one the ray starts in), the ray crosses invisible
-    /// boundaries and its throughput holds the transmittance; the light the media scatter into it is not
-    /// counted yet.
+    /// boundaries and its throughput holds the transmittance; the light the media scatter into it, on
+    /// every stretch, is `scattered`.
     fn gather_ray(
         &self,
         from: &Hit,
@@ -727,17 +727,9 @@ impl PmContext<'_> {
         rays: &mut u64,
     ) -> GatherEnd {
         const MAX_SPECULAR: u32 = 4;
-        // The light media scatter into the ray: one point per stretch, uniform along it (a gather
-        // averages hundreds of rays).
         let mut scattered = Vec3::ZERO;
         let mut in_scatter = |o: Vec3, len: f32, m: &crate::medium::Medium, tr: Vec3| {
-            if len.is_finite() && m.sigma_s != Vec3::ZERO {
-                let t = rng.uniform() * len;
-                scattered += tr
-                    * m.transmittance(t)
-                    * self.photons.gather_volume_radiance(o + dir * t, dir, m.g)
-                    * len;
-            }
+            scattered += self.in_scattered(o, dir, len, m, tr, rng);
         };
         let o0 = spawn_clear(from, dir);
         let (first, mut beta, mut medium) = match medium {
@@ -793,8 +785,14 @@ impl PmContext<'_> {
                 None => self.scene.intersect(spawn(&hit, s.wi), s.wi),
                 Some(_) => {
                     medium = self.scene.medium_after(&hit, s.wi, medium);
+                    // After a mirror or glass the ray goes on through the media: their light counts
+                    // there too.
+                    let chain = beta;
+                    let in_scatter = |o: Vec3, len: f32, m: &crate::medium::Medium, tr: Vec3| {
+                        scattered += self.in_scattered(o, s.wi, len, m, chain * tr, rng);
+                    };
                     self.scene
-                        .intersect_through(spawn(&hit, s.wi), s.wi, medium, rays, |_, _, _, _| {})
+                        .intersect_through(spawn(&hit, s.wi), s.wi, medium, rays, in_scatter)
                         .map(|(h, tr, m)| {
                             beta *= tr;
                             medium = m;
@@ -815,6 +813,25 @@ impl PmContext<'_> {
             scattered,
             ..GatherEnd::MISS
         }
+    }
+
+    /// The light medium `m` scatters into a gather ray's stretch of `len` from `o` along `d`, times
+    /// `weight` (the throughput before the stretch): one point uniform along it, from the volume map
+    /// (a gather averages hundreds of rays).
+    fn in_scattered(
+        &self,
+        o: Vec3,
+        d: Vec3,
+        len: f32,
+        m: &crate::medium::Medium,
+        weight: Vec3,
+        rng: &mut Rng,
+    ) -> Vec3 {
+        if !(len.is_finite() && m.sigma_s != Vec3::ZERO) {
+            return Vec3::ZERO;
+        }
+        let t = rng.uniform() * len;
+        weight * m.transmittance(t) * self.photons.gather_volume_radiance(o + d * t, d, m.g) * len
     }
 }
 
