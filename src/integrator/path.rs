@@ -8,7 +8,7 @@ use crate::counters::SampleCounters;
 use crate::geometry::{spawn, Frame, Hit};
 use crate::material::Transport;
 use crate::medium::{phase, sample_phase, Flight, Medium, MediumId};
-use crate::scene::{past, Scene, MAX_NULL_CROSSINGS};
+use crate::scene::{Scene, MAX_NULL_CROSSINGS};
 use crate::warp::power_heuristic;
 
 /// Radiance arriving at `origin` from direction `dir`, the ray starting in `medium`. In a scene with
@@ -143,8 +143,7 @@ impl Path {
             if self.crossings > MAX_NULL_CROSSINGS {
                 return false;
             }
-            self.medium = scene.medium_after(hit, d, self.medium);
-            self.t0 = past(hit.t, self.o);
+            (self.medium, self.t0) = scene.cross(self.o, d, hit.tri, hit.t, self.medium);
             return true;
         }
         let wo = -d;

@@ -21,7 +21,7 @@ use crate::geometry::{spawn, spawn_clear, Hit};
 use crate::material::{glass_lobes, Bsdf, PhongLobe, Transport};
 use crate::medium::MediumId;
 use crate::photons::PhotonData;
-use crate::scene::{past, Scene};
+use crate::scene::Scene;
 use crate::warp::power_heuristic;
 
 /// Area-light samples per non-specular hit in `direct` (chosen from the chart's error/time trade-off).
@@ -178,8 +178,8 @@ impl PmContext<'_> {
         let mut t = Terms::default();
         let Some(hit) = hit else { return t };
         if self.scene.material(&hit).bsdf.is_null() {
-            let next = self.scene.medium_after(&hit, d, medium);
-            return self.shade_ray(o, d, past(hit.t, o), depth, beta, via, memo, next, rng, c);
+            let (next, t0) = self.scene.cross(o, d, hit.tri, hit.t, medium);
+            return self.shade_ray(o, d, t0, depth, beta, via, memo, next, rng, c);
         }
         let wo = -d;
         let le = self.scene.emitted(&hit, wo);

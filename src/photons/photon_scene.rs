@@ -8,7 +8,7 @@ use crate::geometry::Frame;
 use crate::geometry::{offset_origin, spawn, Hit};
 use crate::material::Transport;
 use crate::medium::{sample_phase, Flight, VACUUM};
-use crate::scene::{past, Scene, MAX_NULL_CROSSINGS};
+use crate::scene::{Scene, MAX_NULL_CROSSINGS};
 
 pub struct PhotonView<'a>(pub &'a Scene);
 
@@ -155,8 +155,7 @@ impl PhotonScene for PhotonView<'_> {
                     medium,
                 };
             }
-            medium = scene.medium_after(&hit, dir, medium);
-            t0 = past(hit.t, origin);
+            (medium, t0) = scene.cross(origin, dir, hit.tri, hit.t, medium);
         }
         Propagation::Escaped
     }

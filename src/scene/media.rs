@@ -38,8 +38,9 @@ pub struct Media {
     /// The boundary meshes, and a BVH of their triangles alone, for [`Media::medium_at`].
     boundaries: Vec<Boundary>,
     boundary_bvh: Bvh,
-    /// Per triangle of `boundary_bvh`: its boundary mesh.
+    /// Per triangle of `boundary_bvh`: its boundary mesh, and its index among the scene's triangles.
     boundary_of: Vec<u32>,
+    triangle_of: Vec<u32>,
     bounds: (Vec3, Vec3),
 }
 
@@ -88,6 +89,14 @@ impl Media {
     /// The summed volume of the boundary meshes (nested ones counted again).
     pub(crate) fn volume(&self) -> f64 {
         self.boundaries.iter().map(|b| b.volume).sum()
+    }
+
+    /// The boundary triangle (its index in the scene's triangles) that a ray from `origin` along `dir`
+    /// meets first in (0, `tmax`), if any.
+    pub(crate) fn first_boundary(&self, origin: Vec3, dir: Vec3, tmax: f32) -> Option<u32> {
+        self.boundary_bvh
+            .intersect(origin, dir, tmax)
+            .map(|raw| self.triangle_of[raw.prim as usize])
     }
 
     /// The medium at point `p` (not on a boundary): the innermost boundary mesh around it, found by the
@@ -187,9 +196,13 @@ pub(super) fn media(
         check_no_medium_used(cx, desc, geo, materials, &list)?;
         return Ok(None);
     }
-    let boundary_tris: Vec<[u32; 3]> = boundaries
+    let triangle_of: Vec<u32> = boundaries
         .iter()
-        .flat_map(|b| geo.triangles[b.tris.clone()].iter().map(|t| t.v))
+        .flat_map(|b| b.tris.clone().map(|t| t as u32))
+        .collect();
+    let boundary_tris: Vec<[u32; 3]> = triangle_of
+        .iter()
+        .map(|&t| geo.triangles[t as usize].v)
         .collect();
     let boundary_of: Vec<u32> = boundaries
         .iter()
@@ -252,6 +265,7 @@ pub(super) fn media(
         boundaries,
         boundary_bvh,
         boundary_of,
+        triangle_of,
         bounds,
     }))
 }

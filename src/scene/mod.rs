@@ -196,6 +196,33 @@ impl Scene {
         }
     }
 
+    /// A ray from `origin` along `dir` in `medium` crossing the null boundary triangle `tri` at distance
+    /// `t`: the medium beyond, and where the search for the next surface resumes ([`past`]). That step
+    /// passes over every face within it: a ray entering a box within a micrometre of an edge leaves it
+    /// there through the next face, and missing that face carried the box's medium on outside (photons
+    /// stored in fog across the room). So the medium beyond is the one past the last boundary face in
+    /// the step, found by a ray back from one step further on; a face in that further step is met again
+    /// ahead to the same effect, as the medium past a face depends only on the face and the direction.
+    pub(crate) fn cross(
+        &self,
+        origin: Vec3,
+        dir: Vec3,
+        tri: u32,
+        t: f32,
+        medium: MediumId,
+    ) -> (MediumId, f32) {
+        let t0 = past(t, origin);
+        let Some(media) = &self.media else {
+            return (medium, t0);
+        };
+        let end = past(t0, origin);
+        let last = media
+            .first_boundary(origin + dir * end, -dir, end - t)
+            .unwrap_or(tri);
+        let ng = self.geometry.triangles[last as usize].ng;
+        (media.after(last, ng, dir, medium), t0)
+    }
+
     /// The medium the camera sits in.
     pub(crate) fn camera_medium(&self) -> MediumId {
         self.media.as_ref().map_or(VACUUM, |m| m.camera)
@@ -388,8 +415,7 @@ impl Scene {
             if !self.materials[tri.material as usize].bsdf.is_null() {
                 return (Some(raw), tr, medium);
             }
-            medium = media.after(raw.prim, tri.ng, dir, medium);
-            t0 = past(raw.t, o);
+            (medium, t0) = self.cross(o, dir, raw.prim, raw.t, medium);
             if t0.partial_cmp(&tmax) != Some(Ordering::Less) {
                 return (None, tr, medium);
             }
