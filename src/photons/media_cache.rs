@@ -10,7 +10,9 @@
 //!   walls, at occluders and at the shadows they cast), times [`HARMONIC_SCALE`] — Ward's split
 //!   sphere, each distance cut at the mean free path;
 //! - the distance over which the gradient changes the estimate by [`GRADIENT_CHANGE`] of itself (a
-//!   record's first-order extrapolation is trusted that far);
+//!   record's first-order extrapolation is trusted that far), the estimate taken over the gradient's
+//!   wider kernel: a radius that grows with the record's own noisy value lets the records that came
+//!   out high cover more of the image than those that came out low, and biases the blend upward;
 //! - the medium's mean free path 1/σt and a quarter of the scene's diagonal;
 //! - [`MAX_ANGLE`] times the distance from the camera along the record's path,
 //!
@@ -201,7 +203,7 @@ pub fn media_record(
         photons.settings().lookup,
         photons.settings().max_radius_volume,
     );
-    let (rec, r_kernel) = estimate_within(
+    let est = estimate_within(
         map,
         p.pos,
         k,
@@ -210,6 +212,7 @@ pub fn media_record(
         true,
         scene.settings.icache.media_visibility().then_some(&around),
     );
+    let (rec, r_kernel) = (est.rec, est.radius);
     let mut radius = p
         .max_radius
         .min(HARMONIC_SCALE * around.harmonic_mean(p.max_radius));
@@ -221,7 +224,7 @@ pub fn media_record(
     )
     .length();
     if grad > 0.0 {
-        radius = radius.min(GRADIENT_CHANGE * lum(rec.s[0]) / grad);
+        radius = radius.min(GRADIENT_CHANGE * lum(est.wide_power) / grad);
     }
     radius = radius
         .max(KERNEL_REACH * r_kernel)
