@@ -26,6 +26,8 @@ use crate::stats::RadiusHistogram;
 
 /// Pass A calls a point covered when a record reaches it within this fraction of its radius.
 pub(crate) const PASS_A_REACH: f32 = 0.7;
+/// A record's phase ratio applies to rays within this cosine of its own.
+pub const RATIO_COS: f32 = 0.95;
 /// Points whose coverage is looked up together, then gathered as waves.
 const CHUNK_POINTS: usize = 64;
 /// Uncovered points estimated together (in parallel), then inserted in order.
@@ -43,6 +45,10 @@ pub struct VolumeRecord {
     pub radius: f32,
     pub value: [Vec3; 4],
     pub grad: [[Vec3; 3]; 4],
+    /// The direction of the ray the record was made for, and per channel the light its photons
+    /// scatter toward that ray, each by its own phase, over what the moments' phase gives there.
+    pub dir: Vec3,
+    pub ratio: Vec3,
 }
 
 /// A point along a camera ray where the medium's light will be needed, with the world size of one
@@ -53,6 +59,9 @@ pub struct MediaPoint {
     pub pos: Vec3,
     pub pixel_world: f32,
     pub max_radius: f32,
+    /// The ray's direction there and the medium's asymmetry.
+    pub dir: Vec3,
+    pub g: f32,
 }
 
 /// Records and their index.
@@ -143,7 +152,14 @@ impl MediaCache {
     /// The moments at `p`: the records whose sphere holds it, weighted by (1 − d²/R²)², each extrapolated
     /// by its gradient (its power never below zero); `None` where no record reaches.
     pub fn lookup(&self, p: Vec3) -> Option<[Vec3; 4]> {
+        self.lookup_toward(p, Vec3::ZERO).map(|(s, _)| s)
+    }
+
+    /// [`lookup`](Self::lookup) for a ray along `d`, with the records' blended phase ratios (a record
+    /// made for a ray more than [`RATIO_COS`] away from `d` counts 1).
+    pub fn lookup_toward(&self, p: Vec3, d: Vec3) -> Option<([Vec3; 4], Vec3)> {
         let (mut sum, mut wsum) = ([Vec3::ZERO; 4], 0.0f32);
+        let mut ratio = Vec3::ZERO;
         self.index.for_each_candidate(p, |id| {
             let r = &self.records[id as usize];
             let dx = p - r.pos;
@@ -162,9 +178,14 @@ impl MediaCache {
                 }
                 sum[m] += v * w;
             }
+            ratio += if r.dir.dot(d) > RATIO_COS {
+                r.ratio
+            } else {
+                Vec3::ONE
+            } * w;
             wsum += w;
         });
-        (wsum > 0.0).then(|| sum.map(|s| s / wsum))
+        (wsum > 0.0).then(|| (sum.map(|s| s / wsum), ratio / wsum))
     }
 
     /// Inserts a record with neighbour clamping both ways; returns whether any radius was lowered.
@@ -335,6 +356,8 @@ mod tests {
                     pos: o + d * (k as f32 / 40.0),
                     pixel_world: 0.005,
                     max_radius: 1.0,
+                    dir: d,
+                    g: 0.0,
                 });
             }
         }
@@ -436,5 +459,25 @@ mod tests {
         cache.insert(record(Vec3::splat(0.5), 0.0, 1.0));
         cache.insert(record(Vec3::splat(0.5), 0.1, f32::INFINITY));
         assert!(cache.is_empty());
+    }
+
+    /// A record's phase ratio applies to rays along its own direction, and fades to 1 for others.
+    #[test]
+    fn the_phase_ratio_holds_near_the_records_ray_only() {
+        let mut cache = MediaCache::new(Vec3::ZERO, Vec3::ONE, false);
+        let mut a = record(Vec3::splat(0.5), 0.3, 1.0);
+        (a.dir, a.ratio) = (Vec3::Z, Vec3::new(0.5, 0.6, 0.7));
+        let mut b = record(Vec3::new(0.6, 0.5, 0.5), 0.3, 1.0);
+        (b.dir, b.ratio) = (Vec3::X, Vec3::splat(2.0));
+        cache.insert(a);
+        cache.insert(b);
+        let p = Vec3::new(0.55, 0.5, 0.5);
+        let (_, along_a) = cache.lookup_toward(p, Vec3::Z).unwrap();
+        let (_, along_b) = cache.lookup_toward(p, Vec3::X).unwrap();
+        let (_, elsewhere) = cache.lookup_toward(p, Vec3::Y).unwrap();
+        // Equal weights (both records at the same distance): each ratio blends with the other's 1.
+        assert!((along_a - Vec3::new(0.75, 0.8, 0.85)).abs().max_element() < 1e-5);
+        assert!((along_b - Vec3::splat(1.5)).abs().max_element() < 1e-5);
+        assert_eq!(elsewhere, Vec3::ONE);
     }
 }

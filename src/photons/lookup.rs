@@ -182,11 +182,15 @@ impl<'a> PhotonData<'a> {
         let Some(map) = &self.maps.volume else {
             return Vec3::ZERO;
         };
+        let mut ratio = Vec3::ONE;
         let cached = cache.and_then(|cache| {
             c.media_lookups += 1;
-            let found = cache.lookup(x);
+            let found = cache.lookup_toward(x, d);
             c.media_misses += found.is_none() as u64;
-            found
+            found.map(|(s, r)| {
+                ratio = r;
+                s
+            })
         });
         let s = cached.unwrap_or_else(|| {
             c.photon_estimates += 1;
@@ -195,7 +199,7 @@ impl<'a> PhotonData<'a> {
                 .0
                 .s
         });
-        super::volume_grid::phase_moments(s, d, g)
+        super::volume_grid::phase_moments(s, d, g) * ratio
     }
 
     /// Wraps the maps for the render: the caustic map's reach grid is built here.

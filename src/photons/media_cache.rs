@@ -139,6 +139,8 @@ fn follow(
                 pos: start + d * t,
                 pixel_world: pixel(along + t),
                 max_radius: max_radius(m.sigma_t).min(MAX_ANGLE * (along + t)),
+                dir: d,
+                g: m.g,
             });
         }
     });
@@ -195,10 +197,17 @@ pub fn media_record(
     let Some(map) = &photons.maps().volume else {
         return VolumeRecord::default();
     };
-    let around = Surroundings::measure(|dir| match scene.intersect_after(p.pos, dir, 0.0) {
-        Some(h) => (h.t, !scene.material(&h).bsdf.is_null(), h.ng),
-        None => (f32::INFINITY, false, Vec3::ZERO),
+    // What the estimate sees reaches through faces shared by two media (their photons are in the one
+    // map); the radius still stops at every boundary (the light changes there).
+    let mut first = Vec::new();
+    let around = Surroundings::measure(|dir| {
+        let (wall, reach) = extent(scene, p.pos, dir);
+        first.push(wall);
+        reach
     });
+    let mut first = first.into_iter();
+    let walls =
+        Surroundings::measure(|_| first.next().unwrap_or((f32::INFINITY, false, Vec3::ZERO)));
     let (k, cap) = (
         photons.settings().lookup,
         photons.settings().max_radius_volume,
@@ -211,11 +220,12 @@ pub fn media_record(
         photons.camera_photons(),
         true,
         scene.settings.icache.media_visibility().then_some(&around),
+        Some((p.dir, p.g)),
     );
     let (rec, r_kernel) = (est.rec, est.radius);
     let mut radius = p
         .max_radius
-        .min(HARMONIC_SCALE * around.harmonic_mean(p.max_radius));
+        .min(HARMONIC_SCALE * walls.harmonic_mean(p.max_radius));
     let lum = |v: Vec3| v.dot(Vec3::new(0.2126, 0.7152, 0.0722));
     let grad = Vec3::new(
         lum(rec.grad[0][0]),
@@ -234,5 +244,35 @@ pub fn media_record(
         radius,
         value: rec.s,
         grad: rec.grad,
+        dir: p.dir,
+        ratio: est.phase_ratio,
     }
+}
+
+/// Along `dir` from `x` (in a medium): the first surface, and how far the volume photons reach — to
+/// the first occluder, or to the first invisible boundary with no medium beyond (one between two media
+/// does not stop them). Each as its distance, whether it is an occluder, and its normal.
+type Reach = (f32, bool, Vec3);
+fn extent(scene: &Scene, x: Vec3, dir: Vec3) -> (Reach, Reach) {
+    const MAX_CROSSINGS: u32 = 16;
+    const NOTHING: Reach = (f32::INFINITY, false, Vec3::ZERO);
+    let mut first = None;
+    let mut t0 = 0.0;
+    for _ in 0..MAX_CROSSINGS {
+        let Some(h) = scene.intersect_after(x, dir, t0) else {
+            return (first.unwrap_or(NOTHING), NOTHING);
+        };
+        let solid = !scene.material(&h).bsdf.is_null();
+        let here = (h.t, solid, h.ng);
+        let first = *first.get_or_insert(here);
+        if solid {
+            return (first, here);
+        }
+        let (beyond, next) = scene.cross(x, dir, h.tri, h.t, crate::medium::VACUUM);
+        if scene.medium(beyond).is_none() {
+            return (first, here);
+        }
+        t0 = next;
+    }
+    (first.unwrap_or(NOTHING), (t0, false, Vec3::ZERO))
 }

@@ -167,7 +167,7 @@ pub fn estimate(
     which: Photons,
     gradient: bool,
 ) -> (MediaRecord, f32) {
-    let e = estimate_within(map, p, k, max_radius, which, gradient, None);
+    let e = estimate_within(map, p, k, max_radius, which, gradient, None, None);
     (e.rec, e.radius)
 }
 
@@ -181,6 +181,9 @@ pub struct VolumeEstimate {
     /// The power (moment 0) over the gradient's wider kernel: about eight times the photons, so far
     /// less noisy than `rec.s[0]` (zero without the gradient).
     pub wide_power: Vec3,
+    /// With `toward` = (d, g): per channel, the photons' light scattered toward a ray along d, each by
+    /// its own phase, over what [`phase_moments`] gives from the moments (1 without).
+    pub phase_ratio: Vec3,
 }
 
 /// Faces × cells per face of a [`Surroundings`] cube.
@@ -305,6 +308,54 @@ impl Surroundings {
         (f, g)
     }
 
+    /// The visible kernel's moments at radius `r`, each over the whole kernel's integral: its share
+    /// f0 = ∫_V K / ∫K, first moment f1 = ∫_V K·(y − x) / ∫K and second f2 = ∫_V K·(y − x)(y − x)ᵀ / ∫K
+    /// (for the whole ball: 1, 0 and r²/9·I).
+    pub(crate) fn moments(&self, r: f32) -> (f32, Vec3, glam::Mat3) {
+        let (mut f0, mut f1, mut f2) = (0.0, Vec3::ZERO, glam::Mat3::ZERO);
+        for c in 0..CUBE_CELLS {
+            let (n, h) = self.plane[c];
+            if !(h < r) {
+                // The whole cell within reach: its directions' mean and second moment (tabled) times
+                // the kernel's radial moments over the whole radius, ∫(1 − s²)² s³ ds = 1/24 and
+                // ∫(1 − s²)² s⁴ ds = 8/315, over ∫(1 − s²)² s² ds = 8/105.
+                let (mean, second) = cell_direction_moments()[c];
+                f0 += self.weight[c];
+                f1 += mean * (self.weight[c] * r * 105.0 / (8.0 * 24.0));
+                f2 += second * (self.weight[c] * r * r / 3.0);
+                continue;
+            }
+            let mut wsum = 0.0;
+            let (mut c0, mut c1, mut c2) = (0.0, Vec3::ZERO, glam::Mat3::ZERO);
+            for k in 0..SUB_N * SUB_N {
+                let (d, w) = cell_direction(
+                    c,
+                    ((k / SUB_N) as f32 + 0.5) / SUB_N as f32,
+                    ((k % SUB_N) as f32 + 0.5) / SUB_N as f32,
+                );
+                wsum += w;
+                let cos = d.dot(n);
+                let u = if h < r && cos > 0.0 {
+                    (h / cos / r).min(1.0)
+                } else {
+                    1.0
+                };
+                let (u2, u3) = (u * u, u * u * u);
+                let i2 = u3 / 3.0 - 2.0 * u3 * u2 / 5.0 + u3 * u2 * u2 / 7.0;
+                let i3 = u2 * u2 / 4.0 - u3 * u3 / 3.0 + u2 * u2 * u2 * u2 / 8.0;
+                let i4 = u3 * u2 / 5.0 - 2.0 * u3 * u2 * u2 / 7.0 + u3 * u3 * u3 / 9.0;
+                c0 += w * i2;
+                c1 += d * (w * i3 * r);
+                c2 += glam::Mat3::from_cols(d * d.x, d * d.y, d * d.z) * (w * i4 * r * r);
+            }
+            let cw = self.weight[c] / wsum * (105.0 / 8.0);
+            f0 += c0 * cw;
+            f1 += c1 * cw;
+            f2 += c2 * cw;
+        }
+        (f0, f1, f2)
+    }
+
     /// Harmonic mean of the distances, each cut at `cap`.
     pub fn harmonic_mean(&self, cap: f32) -> f32 {
         let inv: f32 = self
@@ -329,6 +380,29 @@ fn cell_direction(c: usize, fi: f32, fj: f32) -> (Vec3, f32) {
     )
 }
 
+/// Per cube cell, the mean of its [`SUB_N`]² directions and of their outer products, weighted by solid
+/// angle (what [`Surroundings::moments`] integrates over a cell with nothing within reach).
+fn cell_direction_moments() -> &'static [(Vec3, glam::Mat3); CUBE_CELLS] {
+    static TABLE: std::sync::OnceLock<[(Vec3, glam::Mat3); CUBE_CELLS]> =
+        std::sync::OnceLock::new();
+    TABLE.get_or_init(|| {
+        std::array::from_fn(|c| {
+            let (mut wsum, mut mean, mut second) = (0.0, Vec3::ZERO, glam::Mat3::ZERO);
+            for k in 0..SUB_N * SUB_N {
+                let (d, w) = cell_direction(
+                    c,
+                    ((k / SUB_N) as f32 + 0.5) / SUB_N as f32,
+                    ((k % SUB_N) as f32 + 0.5) / SUB_N as f32,
+                );
+                wsum += w;
+                mean += d * w;
+                second += glam::Mat3::from_cols(d * d.x, d * d.y, d * d.z) * w;
+            }
+            (mean / wsum, second * (1.0 / wsum))
+        })
+    })
+}
+
 /// The direction of cube face `face` at face coordinates (a, b) in [−1, 1]².
 fn face_vector(face: usize, a: f32, b: f32) -> Vec3 {
     match face {
@@ -345,6 +419,33 @@ fn face_vector(face: usize, a: f32, b: f32) -> Vec3 {
 /// corner: the correction's noise would grow as 1/share).
 const MIN_SHARE: f32 = 0.25;
 
+/// The power at the kernel's centre from a local-linear fit over its visible part (`around`, radius
+/// r): the sums S0 = Σ K·ΔΦ and S1 = Σ K·ΔΦ·(y − x) estimate a·f0 + f1·∇ and a·f1 + f2·∇ for a density
+/// a + ∇·(y − x), with f the visible kernel's moments; solved for a. Dividing S0 by the share f0 alone
+/// assumes the density flat, and near an absorbing wall, where the light grows away from it, came out
+/// 7 % high. `None` where the fit is ill-conditioned (the point in a tight corner): the caller divides
+/// by the share.
+fn fit_power(around: &Surroundings, r: f32, s0: Vec3, first: [Vec3; 3]) -> Option<Vec3> {
+    let (f0, f1, f2) = around.moments(r);
+    let inv = f2.inverse();
+    let schur = f0 - f1.dot(inv * f1);
+    if !(inv.is_finite() && f0 > FIT_MIN_SHARE && schur > FIT_MIN_SCHUR * f0) {
+        return None;
+    }
+    let t = inv * f1;
+    let channel = |c: usize| {
+        let s1 = Vec3::new(first[0][c], first[1][c], first[2][c]);
+        ((s0[c] - t.dot(s1)) / schur).max(0.0)
+    };
+    Some(Vec3::new(channel(0), channel(1), channel(2)))
+}
+
+/// The fit needs this much of the kernel visible,
+const FIT_MIN_SHARE: f32 = 0.05;
+/// and its power's weight in the solved system at least this share of f0 (near 0 the fitted slope
+/// swamps the value with noise).
+const FIT_MIN_SCHUR: f32 = 0.2;
+
 /// [`estimate`] aware of what the point sees (`around`): photons hidden from it (behind an occluder)
 /// are left out, and the sums are divided by the kernel's visible share — near a medium's boundary a
 /// plain kernel estimate counts the empty space beyond it and comes out low (half at the boundary).
@@ -358,6 +459,7 @@ pub fn estimate_within(
     which: Photons,
     gradient: bool,
     around: Option<&Surroundings>,
+    toward: Option<(Vec3, f32)>,
 ) -> VolumeEstimate {
     let mut nb = Vec::new();
     map.tree().knn(p, k, max_radius, &mut nb);
@@ -372,6 +474,7 @@ pub fn estimate_within(
             rec,
             radius: max_radius,
             wide_power: Vec3::ZERO,
+            phase_ratio: Vec3::ONE,
         };
     }
     let photons = map.photons();
@@ -395,12 +498,25 @@ pub fn estimate_within(
     };
     let norm = |r2: f32| 105.0 / (32.0 * std::f32::consts::PI * r2 * r2.sqrt());
     let (n0, rg2) = (norm(r2), r2 * GRADIENT_WIDTH * GRADIENT_WIDTH);
+    // The power's first moment about p, per axis (for the fit at a boundary).
+    let mut first = [Vec3::ZERO; 3];
+    let mut exact = Vec3::ZERO;
     for n in nb.iter().filter(|n| kept(n.index)) {
         let u2 = n.dist2 / r2;
         if u2 < 1.0 {
             let w = (1.0 - u2) * (1.0 - u2) * n0;
+            let ph = &photons[n.index as usize];
+            if let Some((d, g)) = toward {
+                exact += ph.power * (w * crate::medium::hg(g, ph.wi.dot(d)));
+            }
             for (s, m) in rec.s.iter_mut().zip(moments(n.index)) {
                 *s += m * w;
+            }
+            if around.is_some() {
+                let off = ph.pos - p;
+                for a in 0..3 {
+                    first[a] += ph.power * (w * off[a]);
+                }
             }
         }
     }
@@ -410,13 +526,32 @@ pub fn estimate_within(
             .0
             .max(MIN_SHARE)
     };
+    let phase_ratio = match toward {
+        Some((d, g)) => {
+            let model = phase_moments(rec.s, d, g);
+            Vec3::select(model.cmpgt(Vec3::ZERO), exact / model, Vec3::ONE)
+        }
+        None => Vec3::ONE,
+    };
     let f0 = share(r2.sqrt());
-    rec.s.iter_mut().for_each(|s| *s /= f0);
+    let fitted = around.and_then(|a| fit_power(a, r2.sqrt(), rec.s[0], first));
+    let scale = match fitted {
+        // The fit corrects the power; the direction moments keep their ratio to it (a fit of their
+        // own is noisier and would skew the photons' mean direction).
+        Some(power) => Vec3::select(
+            rec.s[0].cmpgt(Vec3::ZERO),
+            power / rec.s[0],
+            Vec3::splat(1.0 / f0),
+        ),
+        None => Vec3::splat(1.0 / f0),
+    };
+    rec.s.iter_mut().for_each(|s| *s *= scale);
     if !gradient {
         return VolumeEstimate {
             rec,
             radius: r2.sqrt(),
             wide_power: Vec3::ZERO,
+            phase_ratio,
         };
     }
     let (ng, cap) = (norm(rg2), GRADIENT_WIDTH * r2.sqrt());
@@ -456,6 +591,7 @@ pub fn estimate_within(
         rec,
         radius: r2.sqrt(),
         wide_power,
+        phase_ratio,
     }
 }
 
@@ -487,6 +623,82 @@ mod tests {
         PhotonMap::new(photons).unwrap()
     }
 
+    /// Near a wall with the light growing away from it, the fit reads the density where the share
+    /// alone reads high; far from the wall both are the plain estimate.
+    #[test]
+    fn the_fit_at_a_wall_follows_a_sloped_density() {
+        let mut rng = Rng::new(5);
+        let mut photons = Vec::new();
+        while photons.len() < 400_000 {
+            let pos = Vec3::new(rng.uniform(), rng.uniform(), rng.uniform());
+            if rng.uniform() * 6.0 <= 1.0 + 5.0 * pos.x {
+                photons.push(Photon {
+                    pos,
+                    wi: Vec3::Z,
+                    power: Vec3::ONE,
+                    normal: Vec3::ZERO,
+                    indirect: true,
+                    direct: false,
+                });
+            }
+        }
+        let map = PhotonMap::new(photons).unwrap();
+        // Density 400 000 / 3.5 · (1 + 5x) over the cube.
+        for x in [0.005f32, 0.02] {
+            let truth = 400_000.0 / 3.5 * (1.0 + 5.0 * x);
+            let (mut fit, mut share) = (0.0, 0.0);
+            for _ in 0..200 {
+                let p = Vec3::new(x, 0.3 + 0.4 * rng.uniform(), 0.3 + 0.4 * rng.uniform());
+                let around = Surroundings::measure(|d| box_distance(p, d, 1.0));
+                let e =
+                    estimate_within(&map, p, 100, 0.3, Photons::All, false, Some(&around), None);
+                fit += e.rec.s[0].x / 200.0 / truth;
+                let plain = estimate(&map, p, 100, 0.3, Photons::All, false).0.s[0].x;
+                share += plain / around.share(e.radius).0.max(MIN_SHARE) / 200.0 / truth;
+            }
+            assert!((fit - 1.0).abs() < 0.03, "x {x}: fit {fit}, share {share}");
+            if x < 0.01 {
+                assert!(share > 1.04, "x {x}: share {share}");
+            }
+        }
+    }
+
+    /// The phase ratio turns the moments' phase into each photon's own: photons from two opposite
+    /// directions have no mean direction, and the moments scatter their light evenly.
+    #[test]
+    fn the_phase_ratio_gives_each_photons_own_phase() {
+        let photons: Vec<Photon> = (0..2000)
+            .map(|i| Photon {
+                pos: Vec3::new((i % 10) as f32, ((i / 10) % 10) as f32, (i / 100) as f32) * 0.01,
+                wi: if i % 2 == 0 { Vec3::X } else { -Vec3::X },
+                power: Vec3::ONE,
+                normal: Vec3::ZERO,
+                indirect: true,
+                direct: false,
+            })
+            .collect();
+        let map = PhotonMap::new(photons).unwrap();
+        let (p, g) = (Vec3::new(0.045, 0.045, 0.1), 0.8);
+        let e = estimate_within(
+            &map,
+            p,
+            400,
+            1.0,
+            Photons::All,
+            false,
+            None,
+            Some((Vec3::X, g)),
+        );
+        let model = phase_moments(e.rec.s, Vec3::X, g).x;
+        let exact = 0.5 * (crate::medium::hg(g, 1.0) + crate::medium::hg(g, -1.0)) * e.rec.s[0].x;
+        assert!((model - e.rec.s[0].x / (4.0 * std::f32::consts::PI)).abs() < 1e-3 * model);
+        assert!(
+            (model * e.phase_ratio.x / exact - 1.0).abs() < 0.05,
+            "model {model} × ratio {} vs exact {exact}",
+            e.phase_ratio.x
+        );
+    }
+
     /// The wider kernel's power estimates the same density as the value, with a fraction of its noise.
     #[test]
     fn the_wide_power_is_the_density_with_less_noise() {
@@ -505,7 +717,7 @@ mod tests {
         let (mut value, mut wide) = (Vec::new(), Vec::new());
         for _ in 0..200 {
             let p = Vec3::new(rng.uniform(), rng.uniform(), rng.uniform()) * 0.4 + 0.3;
-            let e = estimate_within(&map, p, 100, 0.3, Photons::All, true, None);
+            let e = estimate_within(&map, p, 100, 0.3, Photons::All, true, None, None);
             value.push(e.rec.s[0].x / 200_000.0);
             wide.push(e.wide_power.x / 200_000.0);
         }
@@ -593,20 +805,27 @@ mod tests {
     #[test]
     fn estimates_near_a_boundary_count_only_the_medium_and_what_is_in_view() {
         let (map, left) = two_densities();
-        // Near the cube's face x = 0: a plain kernel counts the empty space beyond it.
-        let p = Vec3::new(0.01, 0.5, 0.5);
-        let plain = estimate(&map, p, 3000, 0.3, Photons::All, true).0;
-        let around = Surroundings::measure(|d| box_distance(p, d, 1.0));
-        let seen = estimate_within(&map, p, 3000, 0.3, Photons::All, true, Some(&around)).rec;
+        // Near the cube's face x = 0: a plain kernel counts the empty space beyond it. The fit's
+        // noise is a few times the plain estimate's there, so the mean over points along the face.
+        let (mut plain, mut seen) = (0.0, 0.0);
+        for i in 0..16 {
+            let p = Vec3::new(
+                0.01,
+                0.35 + 0.1 * (i % 4) as f32,
+                0.35 + 0.1 * (i / 4) as f32,
+            );
+            plain += estimate(&map, p, 3000, 0.3, Photons::All, true).0.s[0].x / 16.0;
+            let around = Surroundings::measure(|d| box_distance(p, d, 1.0));
+            seen += estimate_within(&map, p, 3000, 0.3, Photons::All, true, Some(&around), None)
+                .rec
+                .s[0]
+                .x
+                / 16.0;
+        }
+        assert!(plain < 0.8 * left, "plain {plain} vs {left}");
         assert!(
-            plain.s[0].x < 0.8 * left,
-            "plain {} vs {left}",
-            plain.s[0].x
-        );
-        assert!(
-            (seen.s[0].x / left - 1.0).abs() < 0.05,
-            "boundary-aware {} vs {left}",
-            seen.s[0].x
+            (seen / left - 1.0).abs() < 0.03,
+            "boundary-aware {seen} vs {left}"
         );
         // Along the face the density is flat; across it, the plain gradient points into the medium.
         // (A sixth of the gradient's radius from the face: nearer, the share's slope from 16
@@ -614,7 +833,7 @@ mod tests {
         let p = Vec3::new(0.05, 0.5, 0.5);
         let plain = estimate(&map, p, 3000, 0.3, Photons::All, true).0;
         let around = Surroundings::measure(|d| box_distance(p, d, 1.0));
-        let seen = estimate_within(&map, p, 3000, 0.3, Photons::All, true, Some(&around)).rec;
+        let seen = estimate_within(&map, p, 3000, 0.3, Photons::All, true, Some(&around), None).rec;
         assert!(plain.grad[0][0].x > 0.0);
         assert!(
             seen.grad[0][0].x.abs() < 0.3 * plain.grad[0][0].x,
@@ -626,7 +845,7 @@ mod tests {
         // this side, where a plain kernel mixes both.
         let q = Vec3::new(0.49, 0.5, 0.5);
         let around = Surroundings::measure(|d| box_distance(q, d, 0.5));
-        let seen = estimate_within(&map, q, 3000, 0.3, Photons::All, false, Some(&around))
+        let seen = estimate_within(&map, q, 3000, 0.3, Photons::All, false, Some(&around), None)
             .rec
             .s[0]
             .x;
@@ -640,7 +859,7 @@ mod tests {
         let around = Surroundings::measure(|d| box_distance(c, d, 0.5));
         let (a, b) = (
             estimate(&map, c, 400, 0.3, Photons::All, true).0,
-            estimate_within(&map, c, 400, 0.3, Photons::All, true, Some(&around)).rec,
+            estimate_within(&map, c, 400, 0.3, Photons::All, true, Some(&around), None).rec,
         );
         assert!((a.s[0].x - b.s[0].x).abs() < 1e-3 * a.s[0].x);
     }

@@ -66,7 +66,7 @@ pub struct IcacheSettings {
     pub fill: FillMode,
     /// Media radiance-cache records extrapolated by their gradients (`media_gradients`, default true).
     media_gradients: bool,
-    /// Media records' estimates aware of what their point sees (`media_visibility`, default false):
+    /// Media records' estimates aware of what their point sees (`media_visibility`, default true):
     /// see [`Self::media_visibility`].
     media_visibility: bool,
     /// `pass_a_stride` as given; see [`Self::pass_a_stride`].
@@ -89,10 +89,9 @@ impl IcacheSettings {
         self.media_gradients
     }
 
-    /// Whether the media cache's records leave out photons behind occluders and divide by the
-    /// kernel's visible share, with the gradient of that ratio (`volume_grid::estimate_within`). Off by
-    /// default: walls darken the light near them, which a division by the visible share does not
-    /// know, so it moves images away from the reference as often as toward it.
+    /// Whether the media cache's records leave out photons behind occluders and fit the power over
+    /// the kernel's visible part (`volume_grid::estimate_within`): a plain kernel near a wall or a
+    /// medium's boundary counts the empty side and reads low.
     pub(crate) fn media_visibility(&self) -> bool {
         self.media_visibility
     }
@@ -360,7 +359,7 @@ fn icache(cx: &Ctx, d: &IcacheDesc) -> Result<IcacheSettings> {
         .map_err(|e| err("accuracy", e.to_string()))?;
     let rays = d.rays.map_or(gather::DEFAULT_RAYS, |r| r as usize);
     let media_gradients = d.media_gradients.unwrap_or(true);
-    let media_visibility = d.media_visibility.unwrap_or(false);
+    let media_visibility = d.media_visibility.unwrap_or(true);
     let pass_a_stride = d.pass_a_stride.map(|s| s as u32);
     let visibility = d.visibility.unwrap_or(false);
     Ok(IcacheSettings {
@@ -488,7 +487,7 @@ mod tests {
             rays_given: false,
             fill: FillMode::TwoPass,
             media_gradients: true,
-            media_visibility: false,
+            media_visibility: true,
             pass_a_stride: None,
             visibility: false,
             radiance_cache: true,
