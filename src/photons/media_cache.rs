@@ -215,8 +215,7 @@ pub fn media_record(
     let est = estimate_within(
         map,
         p.pos,
-        k,
-        cap,
+        (k, cap),
         photons.camera_photons(),
         true,
         scene.settings.icache.media_visibility().then_some(&around),

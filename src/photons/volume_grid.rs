@@ -167,7 +167,7 @@ pub fn estimate(
     which: Photons,
     gradient: bool,
 ) -> (MediaRecord, f32) {
-    let e = estimate_within(map, p, k, max_radius, which, gradient, None, None);
+    let e = estimate_within(map, p, (k, max_radius), which, gradient, None, None);
     (e.rec, e.radius)
 }
 
@@ -447,15 +447,15 @@ const FIT_MIN_SHARE: f32 = 0.05;
 const FIT_MIN_SCHUR: f32 = 0.2;
 
 /// [`estimate`] aware of what the point sees (`around`): photons hidden from it (behind an occluder)
-/// are left out, and the sums are divided by the kernel's visible share — near a medium's boundary a
-/// plain kernel estimate counts the empty space beyond it and comes out low (half at the boundary).
-/// The gradient is that of the ratio, the share's own derivative included (the occlusion-aware
-/// gradient of Jarosz, Zwicker & Jensen 2008 in the form a density estimate takes).
+/// are left out, and the power is fitted over the kernel's visible part ([`fit_power`]) — near a
+/// medium's boundary a plain kernel estimate counts the empty space beyond it and comes out low (half
+/// at the boundary). The gradient is that of the estimate over the visible share, the share's own
+/// derivative included (the occlusion-aware gradient of Jarosz, Zwicker & Jensen 2008 in the form a
+/// density estimate takes). `(k, max_radius)` as for [`estimate`].
 pub fn estimate_within(
     map: &PhotonMap,
     p: Vec3,
-    k: usize,
-    max_radius: f32,
+    (k, max_radius): (usize, f32),
     which: Photons,
     gradient: bool,
     around: Option<&Surroundings>,
@@ -650,8 +650,15 @@ mod tests {
             for _ in 0..200 {
                 let p = Vec3::new(x, 0.3 + 0.4 * rng.uniform(), 0.3 + 0.4 * rng.uniform());
                 let around = Surroundings::measure(|d| box_distance(p, d, 1.0));
-                let e =
-                    estimate_within(&map, p, 100, 0.3, Photons::All, false, Some(&around), None);
+                let e = estimate_within(
+                    &map,
+                    p,
+                    (100, 0.3),
+                    Photons::All,
+                    false,
+                    Some(&around),
+                    None,
+                );
                 fit += e.rec.s[0].x / 200.0 / truth;
                 let plain = estimate(&map, p, 100, 0.3, Photons::All, false).0.s[0].x;
                 share += plain / around.share(e.radius).0.max(MIN_SHARE) / 200.0 / truth;
@@ -682,8 +689,7 @@ mod tests {
         let e = estimate_within(
             &map,
             p,
-            400,
-            1.0,
+            (400, 1.0),
             Photons::All,
             false,
             None,
@@ -717,7 +723,7 @@ mod tests {
         let (mut value, mut wide) = (Vec::new(), Vec::new());
         for _ in 0..200 {
             let p = Vec3::new(rng.uniform(), rng.uniform(), rng.uniform()) * 0.4 + 0.3;
-            let e = estimate_within(&map, p, 100, 0.3, Photons::All, true, None, None);
+            let e = estimate_within(&map, p, (100, 0.3), Photons::All, true, None, None);
             value.push(e.rec.s[0].x / 200_000.0);
             wide.push(e.wide_power.x / 200_000.0);
         }
@@ -816,9 +822,17 @@ mod tests {
             );
             plain += estimate(&map, p, 3000, 0.3, Photons::All, true).0.s[0].x / 16.0;
             let around = Surroundings::measure(|d| box_distance(p, d, 1.0));
-            seen += estimate_within(&map, p, 3000, 0.3, Photons::All, true, Some(&around), None)
-                .rec
-                .s[0]
+            seen += estimate_within(
+                &map,
+                p,
+                (3000, 0.3),
+                Photons::All,
+                true,
+                Some(&around),
+                None,
+            )
+            .rec
+            .s[0]
                 .x
                 / 16.0;
         }
@@ -833,7 +847,16 @@ mod tests {
         let p = Vec3::new(0.05, 0.5, 0.5);
         let plain = estimate(&map, p, 3000, 0.3, Photons::All, true).0;
         let around = Surroundings::measure(|d| box_distance(p, d, 1.0));
-        let seen = estimate_within(&map, p, 3000, 0.3, Photons::All, true, Some(&around), None).rec;
+        let seen = estimate_within(
+            &map,
+            p,
+            (3000, 0.3),
+            Photons::All,
+            true,
+            Some(&around),
+            None,
+        )
+        .rec;
         assert!(plain.grad[0][0].x > 0.0);
         assert!(
             seen.grad[0][0].x.abs() < 0.3 * plain.grad[0][0].x,
@@ -845,9 +868,17 @@ mod tests {
         // this side, where a plain kernel mixes both.
         let q = Vec3::new(0.49, 0.5, 0.5);
         let around = Surroundings::measure(|d| box_distance(q, d, 0.5));
-        let seen = estimate_within(&map, q, 3000, 0.3, Photons::All, false, Some(&around), None)
-            .rec
-            .s[0]
+        let seen = estimate_within(
+            &map,
+            q,
+            (3000, 0.3),
+            Photons::All,
+            false,
+            Some(&around),
+            None,
+        )
+        .rec
+        .s[0]
             .x;
         let plain = estimate(&map, q, 3000, 0.3, Photons::All, false).0.s[0].x;
         assert!(
@@ -859,7 +890,7 @@ mod tests {
         let around = Surroundings::measure(|d| box_distance(c, d, 0.5));
         let (a, b) = (
             estimate(&map, c, 400, 0.3, Photons::All, true).0,
-            estimate_within(&map, c, 400, 0.3, Photons::All, true, Some(&around), None).rec,
+            estimate_within(&map, c, (400, 0.3), Photons::All, true, Some(&around), None).rec,
         );
         assert!((a.s[0].x - b.s[0].x).abs() < 1e-3 * a.s[0].x);
     }
