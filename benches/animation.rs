@@ -181,8 +181,18 @@ fn ball(root: &Path) {
     );
 }
 
+/// `cargo bench --bench animation [-- ball|walk]`: both by default, or the one named.
 fn main() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    ball(root);
-    walk(root);
+    let names: Vec<String> = std::env::args()
+        .skip(1)
+        .filter(|a| !a.starts_with('-'))
+        .collect();
+    let wanted = |name: &str| names.is_empty() || names.iter().any(|n| n == name);
+    if wanted("ball") {
+        ball(root);
+    }
+    if wanted("walk") {
+        walk(root);
+    }
 }

@@ -446,6 +446,45 @@ fn a_walk_through_frame_agrees_with_a_still_render_of_its_camera() {
 }
 
 #[test]
+fn a_walk_through_frame_covers_its_points_before_shading() {
+    // Pass B reads the records of earlier views only where a shadow ray reaches them. Pass A must
+    // count a point covered by them only there too, or pass B misses the point, makes a record for it
+    // between its rounds and shades the pixel again: misses stay as rare as in a still (none there).
+    // The camera swings past the ball and the block of the ball's box, so that earlier views' records
+    // lie behind them (without the test in pass A, 2–4 % of pass B's lookups missed).
+    let models = repo().join("scenes/models");
+    let scene = format!(
+        "version = 1\n[animation]\nframes = 6\n[camera]\neye = [-0.8, 0.5, 1.8]\n\
+         target = [0.3, 0.3, -0.5]\nfov = 50.0\nwidth = 160\nheight = 120\n\
+         [[camera.key]]\nframe = 0\neye = [-0.8, 0.5, 1.8]\n\
+         [[camera.key]]\nframe = 5\neye = [0.8, 0.5, 1.8]\ntarget = [-0.3, 0.3, -0.5]\n\
+         [[mesh]]\nobj = \"{}\"\n[[mesh]]\nobj = \"{}\"\nscale = 0.25\n\
+         translate = [-0.2, 0.25, 0.0]\n[render]\nseed = 0\n",
+        models.join("anim-ball-box.obj").display(),
+        models.join("ball.obj").display()
+    );
+    let d = scene_dir(&[("walk.toml", &scene)]);
+    let o = |n: &str| p(d.path(), n);
+    render_ok(&[
+        &o("walk.toml"),
+        "-o",
+        &o("w-#.exr"),
+        "--stats",
+        &o("w-#.json"),
+    ]);
+    for f in 1..6 {
+        let s = json(&o(&format!("w-{f}.json")));
+        let misses = s["icache"]["misses_pass_b"].as_u64().unwrap();
+        let lookups = s["icache"]["lookups_pass_b"].as_u64().unwrap();
+        eprintln!("[walk] frame {f}: pass B misses {misses} of {lookups} lookups");
+        assert!(
+            misses * 10_000 <= lookups,
+            "frame {f}: pass B missed {misses} of {lookups} lookups"
+        );
+    }
+}
+
+#[test]
 fn a_moving_object_frame_agrees_with_a_still_render_of_its_placement() {
     // The cube slides across the room in 4 frames; frame 2 against the still scene with the cube where
     // frame 2 puts it (2/3 of the way: keys at 0 and 3).

@@ -210,22 +210,27 @@ impl IrradianceCache {
         self.lookup_first_visible(p, n, pass, n_records, |_, _| true)
     }
 
-    /// [`lookup`](Self::lookup) over the records from id `since` on, scanned without the index: the
-    /// lookup of a point that no record before `since` could interpolate (records only narrow), which
-    /// gives the same answer as the full one.
-    pub(crate) fn lookup_since(
+    /// [`lookup`](Self::lookup) over the records from id `since` on that `visible(id, record)` also
+    /// accepts, scanned without the index: the lookup of a point that no record before `since` could
+    /// interpolate (records only narrow), which gives the same answer as the full one.
+    pub(crate) fn lookup_since_visible(
         &self,
         p: Vec3,
         n: Vec3,
         pass: Pass,
         since: usize,
+        visible: impl Fn(u32, &Record) -> bool,
     ) -> Option<Lookup> {
         if !(p.is_finite() && n.is_finite()) {
             return None;
         }
         let mut acc = Accum::default();
-        for rec in self.records.get(since..).unwrap_or(&[]) {
-            self.accumulate(rec, p, n, pass, &mut acc);
+        for (k, rec) in self.records.iter().enumerate().skip(since) {
+            if let Some((w, e)) = self.weighted(rec, p, n, pass) {
+                if visible(k as u32, rec) {
+                    acc.add(w, e);
+                }
+            }
         }
         self.finish(acc)
     }
@@ -235,9 +240,18 @@ impl IrradianceCache {
     /// by more than the Weber fraction τ — and the most deviant of them can still shrink. Then no
     /// interpolation (the point is uncovered) and that record's id, to be shrunk by the caller.
     /// Without adaptive caching, [`lookup`](Self::lookup) with `Pass::A`.
-    pub(crate) fn lookup_adaptive(&self, p: Vec3, n: Vec3) -> (Option<Lookup>, Option<u32>) {
+    /// Only the records `visible(id, record)` accepts take part.
+    pub(crate) fn lookup_adaptive(
+        &self,
+        p: Vec3,
+        n: Vec3,
+        visible: impl Fn(u32, &Record) -> bool,
+    ) -> (Option<Lookup>, Option<u32>) {
         let Some(tau) = self.params.adaptive else {
-            return (self.lookup(p, n, Pass::A), None);
+            return (
+                self.lookup_first_visible(p, n, Pass::A, usize::MAX, visible),
+                None,
+            );
         };
         if !(p.is_finite() && n.is_finite()) {
             return (None, None);
@@ -247,9 +261,12 @@ impl IrradianceCache {
             // (id, luminance of its extrapolation) of the usable records, in record order.
             let mut used: Vec<(u32, f32)> = Vec::with_capacity(ids.len());
             for &id in ids {
-                if let Some((w, e)) = self.weighted(&self.records[id as usize], p, n, Pass::A) {
-                    acc.add(w, e);
-                    used.push((id, luminance(e.max(Vec3::ZERO))));
+                let rec = &self.records[id as usize];
+                if let Some((w, e)) = self.weighted(rec, p, n, Pass::A) {
+                    if visible(id, rec) {
+                        acc.add(w, e);
+                        used.push((id, luminance(e.max(Vec3::ZERO))));
+                    }
                 }
             }
             let lookup = self.finish(acc);
@@ -302,7 +319,7 @@ impl IrradianceCache {
     /// The same as [`lookup`](Self::lookup) by scanning every record: the oracle for the index.
     #[cfg(test)]
     pub(crate) fn lookup_brute(&self, p: Vec3, n: Vec3, pass: Pass) -> Option<Lookup> {
-        self.lookup_since(p, n, pass, 0)
+        self.lookup_since_visible(p, n, pass, 0, |_, _| true)
     }
 
     /// Indices of the records usable at (p, n), by brute force, sorted.
@@ -329,12 +346,6 @@ impl IrradianceCache {
     }
 
     #[inline]
-    fn accumulate(&self, rec: &Record, p: Vec3, n: Vec3, pass: Pass, acc: &mut Accum) {
-        if let Some((w, e)) = self.weighted(rec, p, n, pass) {
-            acc.add(w, e);
-        }
-    }
-
     fn finish(&self, acc: Accum) -> Option<Lookup> {
         if acc.n_used == 0 || acc.weight_sum <= 0.0 || acc.weight_sum.is_nan() {
             return None;

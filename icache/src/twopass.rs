@@ -26,7 +26,7 @@ use crate::cache::{IrradianceCache, Shrink};
 use crate::order::HierarchicalOrder;
 use crate::params::Pass;
 use crate::point_grid::PointGrid;
-use crate::record::NewRecord;
+use crate::record::{Lookup, NewRecord, Record};
 use crate::stats::{FillStats, LookupStats};
 
 /// A visible surface point of a pixel.
@@ -49,6 +49,9 @@ const WAVE_GATHERS: usize = 64;
 const MAX_REPAIR_SWEEPS: u64 = 8;
 
 pub(crate) type ProgressFn<'a> = dyn Fn(u64, u64) + Sync + 'a;
+/// Whether a record (id, record) may serve a shading point with its payload: the caller's occlusion
+/// test, for records the weights alone do not settle (a sequence's records made for other views).
+pub type VisibleFn<'a, P> = dyn Fn(&ShadingPoint, &P, u32, &Record) -> bool + Sync + 'a;
 /// The shading points of pixel (x, y), each with the caller's payload for its gather.
 pub(crate) type PointsWithFn<'a, P> = dyn Fn(u32, u32) -> Vec<(ShadingPoint, P)> + Sync + 'a;
 /// The gather at point `i` of pixel (x, y), given its payload: the record and the caller's statistics.
@@ -91,6 +94,9 @@ struct Tally<S> {
 /// Pass A visits the pixels (x, y) with x and y multiples of `stride` (1: every pixel): the first
 /// 1/stride² of the hierarchical order. A point between them that no record reaches is pass B's to
 /// cover (`pm` makes records for the samples that miss, between its rounds).
+///
+/// A point counts as covered only by records that `visible` accepts there, as the shading pass will
+/// read them.
 #[allow(clippy::too_many_arguments)]
 pub fn fill_pass_a_cancellable<P: Clone + Send + Sync, S: Default + AddAssign + Send>(
     cache: &mut IrradianceCache,
@@ -99,6 +105,7 @@ pub fn fill_pass_a_cancellable<P: Clone + Send + Sync, S: Default + AddAssign + 
     stride: u32,
     shading_points: &PointsWithFn<P>,
     gather: &GatherWithFn<P, S>,
+    visible: &VisibleFn<P>,
     progress: &ProgressFn,
     cancel: &AtomicBool,
 ) -> (FillStats, S) {
@@ -114,6 +121,7 @@ pub fn fill_pass_a_cancellable<P: Clone + Send + Sync, S: Default + AddAssign + 
         total,
         shading_points,
         gather,
+        visible,
         progress,
         cancel,
     );
@@ -126,7 +134,8 @@ pub fn fill_pass_a_cancellable<P: Clone + Send + Sync, S: Default + AddAssign + 
 /// looked up, gathered where uncovered, in waves, then repaired — against the cache as it is, whose
 /// records are frozen first (the new ones shrink none of them, so no point
 /// they covered loses its cover). Between rounds of shading (`pm`'s pass B), with the points its samples
-/// missed; deterministic as pass A is.
+/// missed; deterministic as pass A is. `visible` as for [`fill_pass_a_cancellable`].
+#[allow(clippy::too_many_arguments)]
 pub fn fill_pixels_cancellable<P: Clone + Send + Sync, S: Default + AddAssign + Send>(
     cache: &mut IrradianceCache,
     width: u32,
@@ -134,6 +143,7 @@ pub fn fill_pixels_cancellable<P: Clone + Send + Sync, S: Default + AddAssign + 
     pixels: &[(u32, u32)],
     shading_points: &PointsWithFn<P>,
     gather: &GatherWithFn<P, S>,
+    visible: &VisibleFn<P>,
     cancel: &AtomicBool,
 ) -> (FillStats, S) {
     let mut wanted = vec![false; width as usize * height as usize];
@@ -153,6 +163,7 @@ pub fn fill_pixels_cancellable<P: Clone + Send + Sync, S: Default + AddAssign + 
         pixels.len() as u64,
         shading_points,
         gather,
+        visible,
         &|_, _| {},
         cancel,
     )
@@ -168,6 +179,7 @@ fn fill_in_order<P: Clone + Send + Sync, S: Default + AddAssign + Send>(
     total: u64,
     shading_points: &PointsWithFn<P>,
     gather: &GatherWithFn<P, S>,
+    visible: &VisibleFn<P>,
     progress: &ProgressFn,
     cancel: &AtomicBool,
 ) -> (FillStats, S) {
@@ -183,13 +195,14 @@ fn fill_in_order<P: Clone + Send + Sync, S: Default + AddAssign + Send>(
         shading_points,
         &mut store,
         gather,
+        visible,
         &mut tally,
         &|done| progress(done, total),
         cancel,
     );
     tally.fill.n_pixels = total;
     if first > 0 {
-        repair(cache, &mut store, gather, &mut tally, cancel);
+        repair(cache, &mut store, gather, visible, &mut tally, cancel);
     }
     cache.log_shrinks(false);
     progress(total, total);
@@ -253,6 +266,7 @@ fn repair<P: Clone + Send + Sync, S: Default + AddAssign + Send>(
     cache: &mut IrradianceCache,
     store: &mut PointStore<P>,
     gather: &GatherWithFn<P, S>,
+    visible: &VisibleFn<P>,
     tally: &mut Tally<S>,
     cancel: &AtomicBool,
 ) {
@@ -266,15 +280,15 @@ fn repair<P: Clone + Send + Sync, S: Default + AddAssign + Send>(
             return;
         }
         if tally.fill.n_repair_sweeps == MAX_REPAIR_SWEEPS {
-            tally.fill.n_uncovered_after = count_uncovered(cache, store);
+            tally.fill.n_uncovered_after = count_uncovered(cache, store, visible);
             return;
         }
         tally.fill.n_repair_sweeps += 1;
         let grid = grid.get_or_insert_with(|| point_grid(cache, store, &log));
         let lost = lost_records(cache, store, grid, &log);
         let check = points_to_check(store, &lost);
-        let waiting = look_up_again(cache, store, &check, tally);
-        if !gather_in_waves(cache, waiting, gather, tally, cancel) {
+        let waiting = look_up_again(cache, store, &check, visible, tally);
+        if !gather_in_waves(cache, waiting, gather, visible, tally, cancel) {
             return;
         }
     }
@@ -349,6 +363,7 @@ fn look_up_again<P: Clone + Send + Sync, S>(
     cache: &IrradianceCache,
     store: &mut PointStore<P>,
     check: &[u32],
+    visible: &VisibleFn<P>,
     tally: &mut Tally<S>,
 ) -> Vec<Candidate<P>> {
     let found: Vec<(LookupStats, u32, Option<Candidate<P>>)> = check
@@ -357,7 +372,7 @@ fn look_up_again<P: Clone + Send + Sync, S>(
         .map(|&k| {
             let mut lookups = LookupStats::default();
             let (sp, payload) = &store.points[k as usize];
-            let hit = cache.lookup(sp.pos, sp.normal, Pass::A);
+            let hit = covered(cache, sp, payload, visible);
             lookups.record(hit.as_ref());
             (
                 lookups,
@@ -383,6 +398,7 @@ fn gather_in_waves<P: Send + Sync, S: AddAssign + Send>(
     cache: &mut IrradianceCache,
     waiting: Vec<Candidate<P>>,
     gather: &GatherWithFn<P, S>,
+    visible: &VisibleFn<P>,
     tally: &mut Tally<S>,
     cancel: &AtomicBool,
 ) -> bool {
@@ -394,7 +410,7 @@ fn gather_in_waves<P: Send + Sync, S: AddAssign + Send>(
         let cache_ref: &IrradianceCache = cache;
         let mut wave: Vec<Candidate<P>> = Vec::with_capacity(WAVE_GATHERS);
         for c in waiting.by_ref() {
-            let hit = cache_ref.lookup(c.sp.pos, c.sp.normal, Pass::A);
+            let hit = covered(cache_ref, &c.sp, &c.payload, visible);
             tally.fill.lookups.record(hit.as_ref());
             if hit.is_none() {
                 wave.push(c);
@@ -404,7 +420,7 @@ fn gather_in_waves<P: Send + Sync, S: AddAssign + Send>(
             }
         }
         if !wave.is_empty() {
-            run_wave(cache, &mut wave, gather, tally);
+            run_wave(cache, &mut wave, gather, visible, tally);
         }
     }
     true
@@ -429,6 +445,7 @@ fn sweep<P: Clone + Send + Sync, S: Default + AddAssign + Send>(
     shading_points: &PointsWithFn<P>,
     store: &mut PointStore<P>,
     gather: &GatherWithFn<P, S>,
+    visible: &VisibleFn<P>,
     tally: &mut Tally<S>,
     progress: &(dyn Fn(u64) + Sync),
     cancel: &AtomicBool,
@@ -458,7 +475,8 @@ fn sweep<P: Clone + Send + Sync, S: Default + AddAssign + Send>(
                     shrink: Vec::new(),
                 };
                 for (i, (sp, payload)) in f.points.iter().enumerate() {
-                    let (hit, deviant) = cache_ref.lookup_adaptive(sp.pos, sp.normal);
+                    let (hit, deviant) = cache_ref
+                        .lookup_adaptive(sp.pos, sp.normal, |id, r| visible(sp, payload, id, r));
                     f.lookups.record(hit.as_ref());
                     f.used.push(hit.map_or(0, |h| h.n_used));
                     f.shrink.extend(deviant);
@@ -496,16 +514,22 @@ fn sweep<P: Clone + Send + Sync, S: Default + AddAssign + Send>(
             // A point that only the deviant records made uncovered may be covered by the rest now.
             let cache_ref: &IrradianceCache = cache;
             pending.extend(f.misses.into_iter().filter(|c| {
-                !shrunk || cache_ref.lookup_adaptive(c.sp.pos, c.sp.normal).0.is_none()
+                !shrunk
+                    || cache_ref
+                        .lookup_adaptive(c.sp.pos, c.sp.normal, |id, r| {
+                            visible(&c.sp, &c.payload, id, r)
+                        })
+                        .0
+                        .is_none()
             }));
         }
         if pending.len() >= WAVE_GATHERS {
-            run_wave(cache, &mut pending, gather, tally);
+            run_wave(cache, &mut pending, gather, visible, tally);
         }
         progress(done);
     }
     if !pending.is_empty() {
-        run_wave(cache, &mut pending, gather, tally);
+        run_wave(cache, &mut pending, gather, visible, tally);
     }
     tally.fill.insert.n_inserted - before
 }
@@ -516,6 +540,7 @@ fn run_wave<P: Send + Sync, S: AddAssign + Send>(
     cache: &mut IrradianceCache,
     pending: &mut Vec<Candidate<P>>,
     gather: &GatherWithFn<P, S>,
+    visible: &VisibleFn<P>,
     tally: &mut Tally<S>,
 ) {
     tally.fill.n_waves += 1;
@@ -549,10 +574,11 @@ fn run_wave<P: Send + Sync, S: AddAssign + Send>(
         .collect();
     for (c, (rec, s, near)) in pending.drain(..).zip(gathered) {
         tally.gathers += s;
+        let seen = |id, r: &Record| visible(&c.sp, &c.payload, id, r);
         let hit = if within_wave {
-            cache.lookup_since(c.sp.pos, c.sp.normal, Pass::A, since)
+            cache.lookup_since_visible(c.sp.pos, c.sp.normal, Pass::A, since, seen)
         } else {
-            cache.lookup(c.sp.pos, c.sp.normal, Pass::A)
+            cache.lookup_first_visible(c.sp.pos, c.sp.normal, Pass::A, usize::MAX, seen)
         };
         tally.fill.lookups.record(hit.as_ref());
         if hit.is_some() {
@@ -564,11 +590,27 @@ fn run_wave<P: Send + Sync, S: AddAssign + Send>(
 }
 
 /// Shading points with no usable pass-A record.
-fn count_uncovered<P: Clone + Sync>(cache: &IrradianceCache, store: &PointStore<P>) -> u64 {
+fn count_uncovered<P: Clone + Sync>(
+    cache: &IrradianceCache,
+    store: &PointStore<P>,
+    visible: &VisibleFn<P>,
+) -> u64 {
     store
         .points
         .par_iter()
         .with_min_len(1024)
-        .filter(|(sp, _)| cache.lookup(sp.pos, sp.normal, Pass::A).is_none())
+        .filter(|(sp, payload)| covered(cache, sp, payload, visible).is_none())
         .count() as u64
+}
+
+/// Pass A's lookup at a shading point, over the records `visible` accepts there.
+fn covered<P>(
+    cache: &IrradianceCache,
+    sp: &ShadingPoint,
+    payload: &P,
+    visible: &VisibleFn<P>,
+) -> Option<Lookup> {
+    cache.lookup_first_visible(sp.pos, sp.normal, Pass::A, usize::MAX, |id, r| {
+        visible(sp, payload, id, r)
+    })
 }

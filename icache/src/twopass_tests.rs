@@ -48,6 +48,7 @@ fn fill_pass_a(
         1,
         &points,
         &gather,
+        &|_, _, _, _| true,
         progress,
         &AtomicBool::new(false),
     )
@@ -325,6 +326,7 @@ fn records_for_points_pass_a_missed_cover_them() {
                 &block,
                 &points,
                 &gather,
+                &|_, _, _, _| true,
                 &AtomicBool::new(false),
             )
         });
@@ -503,6 +505,7 @@ fn a_pass_a_stride_visits_its_lattice_only_and_covers_it() {
         2,
         &points,
         &gather_with,
+        &|_, _, _, _| true,
         &|_, _| {},
         &AtomicBool::new(false),
     );

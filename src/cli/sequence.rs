@@ -262,10 +262,12 @@ fn frame_summary(f: u32, stats: &pmrender::render::RenderStats) -> serde_json::V
         "records_regathered": get("frame.records_regathered"),
         "records_replaced": get("frame.records_replaced"),
         "records_gone": get("frame.records_gone"),
+        "records_carried": get("frame.records_carried"),
         "pixels_kept": get("frame.pixels_kept"),
         "memory_peak_rss_bytes": get("memory.peak_rss_bytes"),
         "fill_cache_s": get("time.fill_cache_s"),
         "trace_photons_s": get("time.trace_photons_s"),
+        "temporal_update_s": get("time.temporal_update_s"),
     })
 }
 

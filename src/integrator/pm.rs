@@ -261,7 +261,20 @@ impl PmContext<'_> {
         if !self.scene.settings.icache.visibility() && id as usize >= self.foreign {
             return true;
         }
-        let o = spawn(hit, frame.n);
+        self.in_sight(hit, frame.n, rec)
+    }
+
+    /// Whether a fill may count record `id` as covering the point `hit` (shading normal `n`): one made
+    /// for another view of a sequence only where pass B will read it, else pass B misses the point,
+    /// gathers for it between its rounds and shades its pixel again. (`visibility` stays pass B's
+    /// alone, as in a still.)
+    pub fn fill_may_use(&self, hit: &Hit, n: Vec3, id: u32, rec: &icache::Record) -> bool {
+        id as usize >= self.foreign || self.in_sight(hit, n, rec)
+    }
+
+    /// A shadow ray from `hit` (off its side `n`) reaches the record, just off its surface.
+    fn in_sight(&self, hit: &Hit, n: Vec3, rec: &icache::Record) -> bool {
+        let o = spawn(hit, n);
         let d = rec.pos + rec.normal * (1e-3 * rec.r_clamped) - o;
         let len = d.length();
         !(len > 0.0) || !self.scene.bvh.occluded(o, d / len, len)

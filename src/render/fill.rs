@@ -39,14 +39,15 @@ pub struct FillLight<'a> {
 }
 
 /// Each pixel's shading points are traced once, with their hits, and a gather starts from the hit it is
-/// given. `earlier`: the records of earlier frames of a sequence, frozen; `only`: the pixels pass A
+/// given. `earlier`: the records of earlier frames of a sequence, frozen, and how many of them were
+/// made for other views (read only where in sight, see [`PmContext::fill_may_use`]); `only`: the pixels pass A
 /// visits (a sequence's frame where the camera stayed and a mesh moved there). `cancel` is read before every
 /// chunk of pixels (two-pass) or row (one-pass), and by every gather ray.
 pub fn fill_cache(
     scene: &Scene,
     plan: &Plan,
     light: FillLight,
-    earlier: Option<IrradianceCache>,
+    earlier: Option<(IrradianceCache, usize)>,
     only: Option<super::tiles::Window>,
     progress: &dyn Progress,
     cancel: &AtomicBool,
@@ -57,8 +58,10 @@ pub fn fill_cache(
         media_cache,
         radiance,
     } = light;
+    let foreign = earlier.as_ref().map_or(0, |(_, n)| *n);
     let ctx = PmContext {
         radiance,
+        foreign,
         ..plan.pm_context(
             scene,
             photons,
@@ -70,7 +73,7 @@ pub fn fill_cache(
     let (lo, hi) = scene.bounds;
     // Records of earlier frames cover what they cover; pass A adds records only where they do not.
     let mut cache = match earlier {
-        Some(c) => c,
+        Some((c, _)) => c,
         None => IrradianceCache::new(lo, hi, plan.cache).map_err(runtime)?,
     };
     // Outside `only` the earlier records already cover what the camera sees, which has not changed.
@@ -79,6 +82,8 @@ pub fn fill_cache(
         _ => shading_hits(&ctx, &plan.camera, x, y),
     };
     let gather = |x, y, i, sp: &ShadingPoint, hit: &Hit| gather_record(&ctx, x, y, i, sp, hit);
+    let visible =
+        |sp: &ShadingPoint, hit: &Hit, id, rec: &_| ctx.fill_may_use(hit, sp.normal, id, rec);
     let report_progress = |done, _| progress.set(done);
     let (w, h) = (plan.width, plan.height);
     progress.start("cache", w as u64 * h as u64);
@@ -92,6 +97,7 @@ pub fn fill_cache(
                 plan.pass_a_stride,
                 &points,
                 &gather,
+                &visible,
                 &report_progress,
                 cancel,
             );

@@ -231,7 +231,7 @@ pub fn render_frame<'a>(
                 f.n_records_reused = c.len() as u64;
                 c
             };
-            Some(c)
+            Some((c, foreign))
         }
         _ => None,
     };

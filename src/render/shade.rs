@@ -218,6 +218,9 @@ impl Sampler for GrowingCache<'_> {
             let gather = |x, y, i, sp: &ShadingPoint, hit: &Hit| {
                 gather_record(&ctx, x, y, first + i, sp, hit)
             };
+            let visible = |sp: &ShadingPoint, hit: &Hit, id, rec: &icache::Record| {
+                ctx.fill_may_use(hit, sp.normal, id, rec)
+            };
             let (fill, counters) = icache::fill_pixels_cancellable(
                 cache,
                 self.plan.width,
@@ -225,6 +228,7 @@ impl Sampler for GrowingCache<'_> {
                 &pixels,
                 &points,
                 &gather,
+                &visible,
                 ctx.cancel,
             );
             self.grown.rounds += (fill.insert.n_inserted > 0) as u64;

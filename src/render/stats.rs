@@ -103,15 +103,27 @@ fn frame_rows(r: &mut Report, f: &FrameStats) {
         );
         r.count(
             "Sequence",
-            "Records moved with their mesh (and gathered there)",
+            "Records moved with their mesh and replaced by a new gather",
             "frame.records_moved",
             t.n_moved,
+        );
+        r.count(
+            "Sequence",
+            "Records carried along with their mesh, irradiance kept",
+            "frame.records_carried",
+            t.n_carried,
         );
         r.count(
             "Sequence",
             "Records dropped (their surface moved)",
             "frame.records_gone",
             t.n_gone,
+        );
+        r.seconds(
+            "Time",
+            "Temporal update of the records",
+            "time.temporal_update_s",
+            t.update_s,
         );
     }
     r.count(

@@ -2,8 +2,10 @@
 //! sequence where a mesh or a light changed: the records of the frame before stay where they are, so
 //! that the image does not pop, and each one is re-gathered only when it must be.
 //!
-//! - A record whose surface is gone (it lay on a mesh that moved) is dropped; pass A makes new records
-//!   where the frame needs them.
+//! - A record whose surface is gone lay on a mesh that moved: it moves with that mesh's step (its
+//!   gradients and direction turned with it) and is then treated like any other record — the light
+//!   around a moving object changes at the rate its gathers measure, like that of a still one. One
+//!   that lands on no surface is dropped; pass A makes new records where the frame needs them.
 //! - A record is re-gathered at its own place, with its own jitter, when its lifespan is over, when a
 //!   light changed, or when geometry that moved comes near enough to take a noticeable part of its
 //!   hemisphere. Its temporal gradient ∂E/∂t is the change since its last gather per frame, and its
@@ -109,6 +111,11 @@ pub struct TemporalStats {
     pub n_gone: u64,
     /// Of the replaced, those that moved with their mesh.
     pub n_moved: u64,
+    /// Records carried along with their mesh that kept their irradiance (not due, or gathered
+    /// within their noise): it follows their temporal gradient.
+    pub n_carried: u64,
+    /// Seconds the update took (its gathers, mostly).
+    pub update_s: f64,
 }
 
 /// What becomes of a record: its life, the hit to gather from (when due) and its new place (when it
@@ -130,10 +137,14 @@ fn carried_along(
         if r.pos.distance(c) > radius * 1.01 + r.pixel_world {
             return None;
         }
-        let normal = (Mat3::from_mat4(step).inverse().transpose() * r.normal).normalize();
+        let linear = Mat3::from_mat4(step);
+        let cotangent = linear.inverse().transpose();
         let moved = Record {
             pos: step.transform_point3(r.pos),
-            normal,
+            normal: (cotangent * r.normal).normalize(),
+            grad_r: r.grad_r.map(|g| linear * g),
+            grad_t: r.grad_t.map(|g| cotangent * g),
+            dir: (linear * r.dir).normalize_or_zero(),
             ..*r
         };
         if !(moved.pos.is_finite() && moved.normal.is_finite()) {
@@ -230,6 +241,7 @@ impl Lifespans {
         change: &SceneChange,
         frame: u32,
     ) -> Result<Updated> {
+        let start = std::time::Instant::now();
         let scene = ctx.scene;
         let movers: Vec<Mover> = change.moved.iter().flat_map(Mover::pair).collect();
         let mut stats = TemporalStats::default();
@@ -247,8 +259,11 @@ impl Lifespans {
                     de_dt: Vec3::ZERO,
                 });
                 let Some(hit) = surface_at(scene, r) else {
+                    // Carried along with its mesh: what lit it moved relative to it at the rate
+                    // its last gathers measured, so it is due like any other record.
                     let (moved, hit) = carried_along(scene, r, &change.rigid)?;
-                    return Some((life, Some(hit), Some(moved)));
+                    let due = frame >= life.due || change.lights;
+                    return Some((life, due.then_some(hit), Some(moved)));
                 };
                 let due = frame >= life.due || change.lights || near(r, &movers);
                 Some((life, due.then_some(hit), None))
@@ -283,7 +298,7 @@ impl Lifespans {
             // A change within the gather's own noise is no change: the record stays as it was,
             // and the image does not flicker where nothing happened.
             let noise = 2.0 * new.rel_err.max(cache.records()[i].rel_err);
-            let life = if moved.is_none() && change <= noise.max(0.25 * TOLERANCE) {
+            let life = if change <= noise.max(0.25 * TOLERANCE) {
                 Life {
                     due: frame + MAX_LIFESPAN,
                     de_dt: Vec3::ZERO,
@@ -322,7 +337,15 @@ impl Lifespans {
                 if let Some(m) = moved {
                     changed.push((r.pos, r.r_clamped));
                     changed.push((m.pos, r.pixel_world * max_spacing_px));
-                    return None;
+                    if replaced[i].is_some() {
+                        return None;
+                    }
+                    let life = *lives.entry(key(m.pos)).or_insert(life);
+                    stats.n_carried += 1;
+                    return Some(Record {
+                        e: (life.e + life.de_dt * (frame - life.made) as f32).max(Vec3::ZERO),
+                        ..m
+                    });
                 }
                 let life = *lives.entry(key(r.pos)).or_insert(life);
                 if replaced[i].is_some() {
@@ -346,6 +369,7 @@ impl Lifespans {
         }
         stats.n_kept = cache.len() as u64 - stats.n_replaced;
         self.by_pos = lives;
+        stats.update_s = start.elapsed().as_secs_f64();
         Ok(Updated {
             cache,
             stats,

@@ -118,6 +118,7 @@ pub fn write_sequence_summary(
         "photon_traces": traced,
         "records_regathered": total("records_regathered"),
         "records_replaced": total("records_replaced"),
+        "records_carried": total("records_carried"),
         "records_dropped": total("records_dropped") + total("records_gone"),
         "records_at_end": frames.last().map_or(serde_json::Value::Null, |r| r["records_after"].clone()),
         "pixels_kept": total("pixels_kept"),
