@@ -149,6 +149,20 @@ A diffuse block and a mirror box standing half in a low fog: the fog's top face 
           [(lit, None), (mirror_box, None), (boundary("fog-half", ROOM_LO, (0.999, 0.5, 0.999)), "fog")],
           [("fog", (0.03, 0.03, 0.03), (0.6, 0.6, 0.6), 0.3)])
 
+    # Beyond the thin g = 0.3 fog: dense and strongly forward-scattering media, where the volume map's
+    # phase from two moments and its kernel at surfaces err the most.
+    scene("dense-point", "A point light inside dense, forward-scattering fog (mean free path 1 m, g = 0.6).",
+          [(dark, None), (fog_room, "fog")], [("fog", (0.1, 0.1, 0.1), (0.9, 0.9, 0.9), 0.6)],
+          lights=[dict(type="point", position=(0.2, 1.5, 0.1), intensity=(3.0, 3.0, 3.0))])
+    scene("haze-forward", """
+The sun through the window into a haze that scatters strongly forward (g = 0.8).""",
+          [(window, None), (fog_room, "haze")], [("haze", (0.01, 0.01, 0.01), (0.15, 0.15, 0.15), 0.8)],
+          lights=[dict(type="directional", direction=(1.0, -0.55, -0.15), irradiance=(6.0, 6.0, 6.0))])
+    scene("dense-area-outside", """
+The area light 1 cm above a dense, coloured fog filling the room below it.""",
+          [(lit, None), (boundary("fog-under-light", ROOM_LO, (0.999, 1.97, 0.999)), "fog")],
+          [("fog", (0.05, 0.05, 0.05), (1.2, 1.0, 0.8), 0.0)])
+
 
 if __name__ == "__main__":
     main()
