@@ -150,14 +150,10 @@ impl MediaCache {
     }
 
     /// The moments at `p`: the records whose sphere holds it, weighted by (1 − d²/R²)², each extrapolated
-    /// by its gradient (its power never below zero); `None` where no record reaches.
-    pub fn lookup(&self, p: Vec3) -> Option<[Vec3; 4]> {
-        self.lookup_toward(p, Vec3::ZERO).map(|(s, _)| s)
-    }
-
-    /// [`lookup`](Self::lookup) for a ray along `d`, with the records' blended phase ratios (a record
-    /// made for a ray more than [`RATIO_COS`] away from `d` counts 1).
-    pub fn lookup_toward(&self, p: Vec3, d: Vec3) -> Option<([Vec3; 4], Vec3)> {
+    /// by its gradient (its power never below zero); and, for a ray along `d`, the records' blended
+    /// phase ratios (a record made for a ray more than [`RATIO_COS`] away from `d` counts 1). `None`
+    /// where no record reaches.
+    pub fn lookup(&self, p: Vec3, d: Vec3) -> Option<([Vec3; 4], Vec3)> {
         let (mut sum, mut wsum) = ([Vec3::ZERO; 4], 0.0f32);
         let mut ratio = Vec3::ZERO;
         self.index.for_each_candidate(p, |id| {
@@ -441,15 +437,20 @@ mod tests {
             cache.insert(rec);
         }
         let p = Vec3::new(0.52, 0.55, 0.5);
-        let v = cache.lookup(p).unwrap()[0];
+        let v = cache.lookup(p, Vec3::ZERO).unwrap().0[0];
         assert!(
             (v - Vec3::splat(2.0 + 3.0 * p.x)).abs().max_element() < 1e-5,
             "{v}"
         );
-        assert!(cache.lookup(Vec3::new(0.5, 0.5, 0.95)).is_none());
+        assert!(cache
+            .lookup(Vec3::new(0.5, 0.5, 0.95), Vec3::ZERO)
+            .is_none());
         let mut flat = MediaCache::new(Vec3::ZERO, Vec3::ONE, false);
         flat.insert(record(Vec3::splat(0.5), 0.2, 1.0));
-        assert_eq!(flat.lookup(Vec3::splat(0.55)).unwrap()[0], Vec3::ONE);
+        assert_eq!(
+            flat.lookup(Vec3::splat(0.55), Vec3::ZERO).unwrap().0[0],
+            Vec3::ONE
+        );
     }
 
     #[test]
@@ -472,9 +473,9 @@ mod tests {
         cache.insert(a);
         cache.insert(b);
         let p = Vec3::new(0.55, 0.5, 0.5);
-        let (_, along_a) = cache.lookup_toward(p, Vec3::Z).unwrap();
-        let (_, along_b) = cache.lookup_toward(p, Vec3::X).unwrap();
-        let (_, elsewhere) = cache.lookup_toward(p, Vec3::Y).unwrap();
+        let (_, along_a) = cache.lookup(p, Vec3::Z).unwrap();
+        let (_, along_b) = cache.lookup(p, Vec3::X).unwrap();
+        let (_, elsewhere) = cache.lookup(p, Vec3::Y).unwrap();
         // Equal weights (both records at the same distance): each ratio blends with the other's 1.
         assert!((along_a - Vec3::new(0.75, 0.8, 0.85)).abs().max_element() < 1e-5);
         assert!((along_b - Vec3::splat(1.5)).abs().max_element() < 1e-5);

@@ -185,7 +185,7 @@ impl<'a> PhotonData<'a> {
         let mut ratio = Vec3::ONE;
         let cached = cache.and_then(|cache| {
             c.media_lookups += 1;
-            let found = cache.lookup_toward(x, d);
+            let found = cache.lookup(x, d);
             c.media_misses += found.is_none() as u64;
             found.map(|(s, r)| {
                 ratio = r;

@@ -225,6 +225,26 @@ fn kernel_share_slope(u: f32) -> f32 {
     u * u * (1.0 - u * u) * (1.0 - u * u) * (105.0 / 8.0)
 }
 
+/// ∫₀ᵘ (1 − s²)² s³ ds over ∫₀¹ (1 − s²)² s² ds: the kernel's first radial moment along a cone within
+/// u·r, in units of r (105/192 for the whole radius).
+fn kernel_first_moment(u: f32) -> f32 {
+    let u2 = u.clamp(0.0, 1.0).powi(2);
+    (u2 * u2 / 4.0 - u2 * u2 * u2 / 3.0 + u2 * u2 * u2 * u2 / 8.0) * (105.0 / 8.0)
+}
+
+/// ∫₀ᵘ (1 − s²)² s⁴ ds over ∫₀¹ (1 − s²)² s² ds: the second radial moment, in units of r² (1/3 for
+/// the whole radius).
+fn kernel_second_moment(u: f32) -> f32 {
+    let u = u.clamp(0.0, 1.0);
+    let (u2, u5) = (u * u, u.powi(5));
+    (u5 / 5.0 - 2.0 * u5 * u2 / 7.0 + u5 * u2 * u2 / 9.0) * (105.0 / 8.0)
+}
+
+/// d·dᵀ.
+fn outer(d: Vec3) -> glam::Mat3 {
+    glam::Mat3::from_cols(d * d.x, d * d.y, d * d.z)
+}
+
 impl Surroundings {
     /// Measures the distances with `dist(direction)`: the first surface's (infinite where nothing is
     /// hit), whether it is an occluder, and its normal.
@@ -286,12 +306,7 @@ impl Surroundings {
                 continue;
             }
             let (mut fc, mut gc, mut wsum) = (0.0, Vec3::ZERO, 0.0);
-            for k in 0..SUB_N * SUB_N {
-                let (d, w) = cell_direction(
-                    c,
-                    ((k / SUB_N) as f32 + 0.5) / SUB_N as f32,
-                    ((k % SUB_N) as f32 + 0.5) / SUB_N as f32,
-                );
+            for (d, w) in sub_directions(c) {
                 let cos = d.dot(n);
                 wsum += w;
                 if cos <= 0.0 {
@@ -317,38 +332,24 @@ impl Surroundings {
             let (n, h) = self.plane[c];
             if !(h < r) {
                 // The whole cell within reach: its directions' mean and second moment (tabled) times
-                // the kernel's radial moments over the whole radius, ∫(1 − s²)² s³ ds = 1/24 and
-                // ∫(1 − s²)² s⁴ ds = 8/315, over ∫(1 − s²)² s² ds = 8/105.
+                // the kernel's radial moments over the whole radius.
                 let (mean, second) = cell_direction_moments()[c];
                 f0 += self.weight[c];
-                f1 += mean * (self.weight[c] * r * 105.0 / (8.0 * 24.0));
-                f2 += second * (self.weight[c] * r * r / 3.0);
+                f1 += mean * (self.weight[c] * r * kernel_first_moment(1.0));
+                f2 += second * (self.weight[c] * r * r * kernel_second_moment(1.0));
                 continue;
             }
             let mut wsum = 0.0;
             let (mut c0, mut c1, mut c2) = (0.0, Vec3::ZERO, glam::Mat3::ZERO);
-            for k in 0..SUB_N * SUB_N {
-                let (d, w) = cell_direction(
-                    c,
-                    ((k / SUB_N) as f32 + 0.5) / SUB_N as f32,
-                    ((k % SUB_N) as f32 + 0.5) / SUB_N as f32,
-                );
+            for (d, w) in sub_directions(c) {
                 wsum += w;
                 let cos = d.dot(n);
-                let u = if h < r && cos > 0.0 {
-                    (h / cos / r).min(1.0)
-                } else {
-                    1.0
-                };
-                let (u2, u3) = (u * u, u * u * u);
-                let i2 = u3 / 3.0 - 2.0 * u3 * u2 / 5.0 + u3 * u2 * u2 / 7.0;
-                let i3 = u2 * u2 / 4.0 - u3 * u3 / 3.0 + u2 * u2 * u2 * u2 / 8.0;
-                let i4 = u3 * u2 / 5.0 - 2.0 * u3 * u2 * u2 / 7.0 + u3 * u3 * u3 / 9.0;
-                c0 += w * i2;
-                c1 += d * (w * i3 * r);
-                c2 += glam::Mat3::from_cols(d * d.x, d * d.y, d * d.z) * (w * i4 * r * r);
+                let u = if cos > 0.0 { h / cos / r } else { 1.0 };
+                c0 += w * kernel_share(u);
+                c1 += d * (w * kernel_first_moment(u) * r);
+                c2 += outer(d) * (w * kernel_second_moment(u) * r * r);
             }
-            let cw = self.weight[c] / wsum * (105.0 / 8.0);
+            let cw = self.weight[c] / wsum;
             f0 += c0 * cw;
             f1 += c1 * cw;
             f2 += c2 * cw;
@@ -380,6 +381,18 @@ fn cell_direction(c: usize, fi: f32, fj: f32) -> (Vec3, f32) {
     )
 }
 
+/// The [`SUB_N`]² directions over cube cell `c` (their cell's centres), each with its solid angle's
+/// weight.
+fn sub_directions(c: usize) -> impl Iterator<Item = (Vec3, f32)> {
+    (0..SUB_N * SUB_N).map(move |k| {
+        cell_direction(
+            c,
+            ((k / SUB_N) as f32 + 0.5) / SUB_N as f32,
+            ((k % SUB_N) as f32 + 0.5) / SUB_N as f32,
+        )
+    })
+}
+
 /// Per cube cell, the mean of its [`SUB_N`]² directions and of their outer products, weighted by solid
 /// angle (what [`Surroundings::moments`] integrates over a cell with nothing within reach).
 fn cell_direction_moments() -> &'static [(Vec3, glam::Mat3); CUBE_CELLS] {
@@ -388,15 +401,10 @@ fn cell_direction_moments() -> &'static [(Vec3, glam::Mat3); CUBE_CELLS] {
     TABLE.get_or_init(|| {
         std::array::from_fn(|c| {
             let (mut wsum, mut mean, mut second) = (0.0, Vec3::ZERO, glam::Mat3::ZERO);
-            for k in 0..SUB_N * SUB_N {
-                let (d, w) = cell_direction(
-                    c,
-                    ((k / SUB_N) as f32 + 0.5) / SUB_N as f32,
-                    ((k % SUB_N) as f32 + 0.5) / SUB_N as f32,
-                );
+            for (d, w) in sub_directions(c) {
                 wsum += w;
                 mean += d * w;
-                second += glam::Mat3::from_cols(d * d.x, d * d.y, d * d.z) * w;
+                second += outer(d) * w;
             }
             (mean / wsum, second * (1.0 / wsum))
         })
