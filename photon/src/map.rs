@@ -231,8 +231,8 @@ impl PhotonMap {
 
     /// Irradiance resolved in direction: `Σ basis(wi)·Φ / (π r²)` over the same neighbourhood as
     /// [`irradiance`](Self::irradiance), one sum per basis function (a projection of `L(ω)·cos θ`
-    /// on `basis` when it is orthonormal); `basis(wi, direct)` also learns whether the photon came
-    /// straight from a light.
+    /// on `basis` when it is orthonormal); `basis` sees the whole photon (its direction, and whether it
+    /// came straight from a light or after a diffuse bounce).
     pub fn projected<const N: usize>(
         &self,
         p: Vec3,
@@ -240,10 +240,10 @@ impl PhotonMap {
         k: usize,
         max_radius: f32,
         cov: &dyn Coverage,
-        basis: impl Fn(Vec3, bool) -> [f32; N],
+        basis: impl Fn(&Photon) -> [f32; N],
     ) -> (Estimate, [Vec3; N]) {
         self.estimate_sums(p, n, k, max_radius, Filter::None, cov, |ph| {
-            basis(ph.wi, ph.direct).map(|b| b * ph.power)
+            basis(ph).map(|b| b * ph.power)
         })
     }
 

@@ -81,21 +81,23 @@ struct Vertex<'h> {
 /// How the ray being shaded was generated, for MIS of emission.
 #[derive(Clone, Copy)]
 enum Via {
-    /// From the camera or through Dirac lobes only: emission counts fully.
-    Delta,
+    /// From the camera or through Dirac lobes only: emission counts fully. `lobe`: the camera sample's
+    /// stratified point for the first glossy lobe it samples (`None` after a mirror or glass).
+    Delta { lobe: Option<[f32; 2]> },
     /// Sampled from a glossy lobe at `from` with solid-angle pdf `pdf`.
     Glossy { from: Vec3, pdf: f32 },
 }
 
 impl PmContext<'_> {
-    /// Radiance along a camera ray, split into terms.
-    /// Radiance along a camera ray, split into terms. With a `memo`, the caustic and soft indirect
+    /// Radiance along a camera ray, split into terms; a glossy surface it meets first samples its lobe
+    /// at `lobe` (a point of the unit square stratified over the pixel's samples). With a `memo`, the caustic and soft indirect
     /// irradiance of the surface the ray hits first come from the pixel's earlier samples on that
     /// surface when there are some (not for `pm-fg`, whose per-sample gathers are what it averages).
     pub fn shade(
         &self,
         origin: Vec3,
         dir: Vec3,
+        lobe: [f32; 2],
         memo: Option<&mut super::PixelMemo>,
         rng: &mut Rng,
         c: &mut SampleCounters,
@@ -111,7 +113,7 @@ impl PmContext<'_> {
             0.0,
             0,
             1.0,
-            Via::Delta,
+            Via::Delta { lobe: Some(lobe) },
             memo,
             self.scene.camera_medium(),
             rng,
@@ -184,7 +186,7 @@ impl PmContext<'_> {
         let wo = -d;
         let le = self.scene.emitted(&hit, wo);
         t.emission = match via {
-            Via::Delta => le,
+            Via::Delta { .. } => le,
             Via::Glossy { from, pdf } if le != Vec3::ZERO => {
                 le * power_heuristic(pdf, self.scene.lights.pdf_hit_area(hit.tri, from, hit.p))
             }
@@ -247,7 +249,11 @@ impl PmContext<'_> {
         } = *bsdf
         {
             if depth + 1 < self.max_depth && specular.max_element() > 0.0 {
-                t.glossy = self.glossy_lobe(&v, specular, exponent, rng, c);
+                let u = match via {
+                    Via::Delta { lobe: Some(u) } => u,
+                    _ => [rng.uniform(), rng.uniform()],
+                };
+                t.glossy = self.glossy_lobe(&v, specular, exponent, u, rng, c);
             }
         }
         t
@@ -333,7 +339,7 @@ impl PmContext<'_> {
                     0.0,
                     depth + 1,
                     beta * weight.max_element(),
-                    Via::Delta,
+                    Via::Delta { lobe: None },
                     None,
                     next,
                     rng,
@@ -355,7 +361,7 @@ impl PmContext<'_> {
                     0.0,
                     depth + 1,
                     beta * s.weight.max_element(),
-                    Via::Delta,
+                    Via::Delta { lobe: None },
                     None,
                     next,
                     rng,
@@ -484,12 +490,14 @@ impl PmContext<'_> {
         (f_diffuse + f_spec * w) * ls.li * cos / ls.pdf * vis
     }
 
-    /// The glossy lobe of modified Phong, sampled exactly; its light is all of the next hit's radiance.
+    /// The glossy lobe of modified Phong, sampled exactly at `u`; its light is all of the next hit's
+    /// radiance.
     fn glossy_lobe(
         &self,
         v: &Vertex,
         ks: Vec3,
         exponent: f32,
+        u: [f32; 2],
         rng: &mut Rng,
         c: &mut SampleCounters,
     ) -> Vec3 {
@@ -503,8 +511,7 @@ impl PmContext<'_> {
         } = *v;
         let lobe = PhongLobe::new(wo, frame.n, exponent);
         c.monte_carlo += 1;
-        let (u0, u1) = (rng.uniform(), rng.uniform());
-        let wi = lobe.sample([u0, u1]);
+        let wi = lobe.sample(u);
         let cos_i = wi.dot(frame.n);
         if cos_i <= 0.0 || !frame.same_side(wi) {
             return Vec3::ZERO;

@@ -490,6 +490,11 @@ impl IrradianceAtlas {
         (2 * grid.nu as u32 * grid.nv as u32, *first)
     }
 
+    /// Photons per texel estimate, and the search radius's limit.
+    pub fn search(&self) -> (usize, f32) {
+        (self.k, self.max_radius)
+    }
+
     /// The middle of a texel's part of its triangle (where its estimates are made).
     pub fn middle(&self, texel: &Texel) -> Vec3 {
         self.grids[texel.tri as usize].0.middle(texel.i, texel.j)
@@ -497,6 +502,20 @@ impl IrradianceAtlas {
 
     /// A texel's value: its slot's, estimated first if no ray has reached it yet.
     pub fn read(&self, cov: &SceneCoverage, global: &PhotonMap, texel: Texel) -> TexelIrradiance {
+        self.read_given(cov, global, texel, None)
+    }
+
+    /// [`read`](Self::read), given the irradiance of the texel's photons that are not direct and of the
+    /// indirect ones when the caller has estimated them over the texel's neighbourhood already (the
+    /// glossy texels do: one search then serves both). The same sums either way, so the value does not
+    /// depend on who reaches the texel first.
+    pub fn read_given(
+        &self,
+        cov: &SceneCoverage,
+        global: &PhotonMap,
+        texel: Texel,
+        given: Option<(Vec3, Vec3)>,
+    ) -> TexelIrradiance {
         let Texel {
             index,
             tri,
@@ -510,8 +529,11 @@ impl IrradianceAtlas {
             let t = &scene.geometry.triangles[tri as usize];
             let n = if front { t.ng } else { -t.ng };
             let middle = grid.middle(i, j);
-            let (est, e_indirect) =
-                global.irradiance_not_direct(middle, n, self.k, self.max_radius, cov);
+            let (e_not_direct, e_indirect) = given.unwrap_or_else(|| {
+                let (est, e_indirect) =
+                    global.irradiance_not_direct(middle, n, self.k, self.max_radius, cov);
+                (est.e, e_indirect)
+            });
             self.estimated.fetch_add(1, Ordering::Relaxed);
             let area = direct_irradiance(scene, tri, middle, n, index as u64, false, true);
             let (delta, edge) = delta_over_texel(scene, tri, grid, i, j, n, index as u64);
@@ -520,13 +542,13 @@ impl IrradianceAtlas {
             if edge {
                 self.edges.fetch_add(1, Ordering::Relaxed);
                 TexelIrradiance {
-                    radiance: albedo_pi * (area + est.e),
+                    radiance: albedo_pi * (area + e_not_direct),
                     e_indirect,
                     albedo_pi,
                 }
             } else {
                 TexelIrradiance {
-                    radiance: albedo_pi * (delta + area + est.e),
+                    radiance: albedo_pi * (delta + area + e_not_direct),
                     e_indirect,
                     albedo_pi: Vec3::ZERO,
                 }

@@ -31,6 +31,10 @@ const LEN: usize = sh::len(ORDER);
 /// direct photons' power-weighted direction sums (x, y, z).
 type Coefficients = [Vec3; 2 * LEN + 3];
 
+/// The sums of a texel's estimate: its [`Coefficients`], then the irradiance of the photons that are
+/// not direct and of the indirect ones (the atlas texel's).
+const SUMS: usize = 2 * LEN + 5;
+
 /// Direct light whose photons' mean direction is at least this long (nearly one direction: one small
 /// light) is reflected as arriving from that direction rather than through the bands, which spread a
 /// highlight over what it lights.
@@ -97,7 +101,6 @@ impl GlossyTexels {
         atlas: &IrradianceAtlas,
         cov: &SceneCoverage,
         global: &PhotonMap,
-        (k, max_radius): (usize, f32),
         (tri, front, p): (u32, bool, Vec3),
         (material, ks): (u32, Vec3),
         (n, wo): (Vec3, Vec3),
@@ -118,23 +121,24 @@ impl GlossyTexels {
             self.estimated.fetch_add(1, Ordering::Relaxed);
             let ng = cov.0.geometry.triangles[tri as usize].ng;
             let side = if front { ng } else { -ng };
-            let (_, sums) = global.projected(
-                atlas.middle(&texel),
-                side,
-                k,
-                max_radius,
-                cov,
-                |w, direct| {
-                    let mut y = [0.0f32; 2 * LEN + 3];
-                    let at = if direct { LEN } else { 0 };
-                    sh::eval(ORDER, w, &mut y[at..at + LEN]);
-                    if direct {
-                        y[2 * LEN..].copy_from_slice(&w.to_array());
+            let (k, max_radius) = atlas.search();
+            // The atlas texel's irradiance is summed over the same photons: one search for both.
+            let (_, sums) =
+                global.projected(atlas.middle(&texel), side, k, max_radius, cov, |ph| {
+                    let mut y = [0.0f32; SUMS];
+                    let at = if ph.direct { LEN } else { 0 };
+                    sh::eval(ORDER, ph.wi, &mut y[at..at + LEN]);
+                    if ph.direct {
+                        y[2 * LEN..2 * LEN + 3].copy_from_slice(&ph.wi.to_array());
                     }
+                    y[SUMS - 2] = (!ph.direct) as u32 as f32;
+                    y[SUMS - 1] = ph.indirect as u32 as f32;
                     y
-                },
-            );
-            Box::new(sums)
+                });
+            atlas.read_given(cov, global, texel, Some((sums[SUMS - 2], sums[SUMS - 1])));
+            let mut g = Box::new([Vec3::ZERO; 2 * LEN + 3]);
+            g.copy_from_slice(&sums[..2 * LEN + 3]);
+            g
         });
         let r = crate::warp::reflect(wo, n);
         // Truncated harmonics ring, below zero in some directions: the caller clamps the point's sum,

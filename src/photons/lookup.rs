@@ -409,7 +409,6 @@ impl<'a> PhotonData<'a> {
             atlas,
             &self.coverage,
             global,
-            (self.settings.lookup, self.settings.max_radius_global),
             (hit.tri, frame.front, hit.p),
             (hit.material, specular),
             (frame.n, wo),

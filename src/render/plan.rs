@@ -25,6 +25,8 @@ pub struct Plan {
     pub noise: f32,
     /// Under a noise target, the most samples of a pixel whose samples made no Monte Carlo estimate.
     pub aa_spp: u32,
+    /// Past `aa_spp`, the layers whose noise decides ([`past_aa_layers`]).
+    pub past_aa_layers: Option<u32>,
     pub seed: u64,
     pub width: u32,
     pub height: u32,
@@ -62,6 +64,7 @@ impl Plan {
             spp: self.spp,
             noise: self.noise,
             aa_spp: self.aa_spp,
+            past_aa_layers: self.past_aa_layers,
             finer: self.finer,
         }
     }
@@ -142,6 +145,7 @@ pub fn plan(scene: &Scene, opts: &Options) -> Result<Plan> {
         spp,
         noise,
         aa_spp,
+        past_aa_layers: past_aa_layers(scene, method),
         seed: opts.seed.unwrap_or(scene.settings.seed),
         width,
         height,
@@ -165,6 +169,35 @@ pub fn plan(scene: &Scene, opts: &Options) -> Result<Plan> {
         finer: None,
         kept: None,
     })
+}
+
+/// In a scene with glossy lobes, the photon-map methods' layers whose noise decides whether a pixel
+/// goes on past `aa_spp`: those holding Monte Carlo estimates — the glossy lobe's sample, mirror and
+/// glass paths, the media, the direct light where area lights are sampled, and `pm-fg`'s per-sample
+/// gathers. Not the emission, the caustic and soft indirect light read from maps and caches, nor the
+/// direct light of point, spot and directional lights: their samples differ only by where they fall
+/// in the pixel, which `aa_spp` already stops. Judged by the beauty, every textured pixel a glossy
+/// lobe made Monte Carlo went on to `spp` for its texture's sake. Elsewhere (`None`) the beauty
+/// decides, as validated.
+fn past_aa_layers(scene: &Scene, method: Method) -> Option<u32> {
+    let layout = crate::integrator::terms::Layout::of(scene);
+    if !method.uses_photon_maps() || !layout.glossy {
+        return None;
+    }
+    let names = layout.names();
+    let monte_carlo = |name: &str| match name {
+        "direct" => scene.lights.has_area(),
+        "indirect" => method == Method::PmFg,
+        "emission" | "caustic" => false,
+        _ => true,
+    };
+    Some(
+        names
+            .iter()
+            .enumerate()
+            .filter(|(_, n)| monte_carlo(n))
+            .fold(0, |m, (i, _)| m | 1 << i),
+    )
 }
 
 /// Photon-map files that would do nothing are refused rather than left unwritten or unread without a

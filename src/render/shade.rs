@@ -9,7 +9,7 @@ use photon::sampling::Rng;
 
 use super::fill::CacheFill;
 use super::stats::ShadeStats;
-use super::tiles::{render_tiles, Canvas, GrowStats, MissedSample, Sampler};
+use super::tiles::{render_tiles, Canvas, GrowStats, MissedSample, SamplePoint, Sampler};
 use super::Plan;
 use crate::camera::Camera;
 use crate::counters::SampleCounters;
@@ -172,7 +172,7 @@ impl Sampler for GrowingCache<'_> {
         &self,
         x: u32,
         y: u32,
-        off: [f32; 2],
+        at: SamplePoint,
         memo: &mut PixelMemo,
         rng: &mut Rng,
         c: &mut SampleCounters,
@@ -183,7 +183,7 @@ impl Sampler for GrowingCache<'_> {
             defer_misses,
             ..self.ctx
         };
-        camera_sample(&ctx, &self.plan.camera, x, y, off, memo, rng, c)
+        camera_sample(&ctx, &self.plan.camera, x, y, at, memo, rng, c)
     }
 
     fn adds_records(&self) -> bool {
@@ -250,12 +250,12 @@ fn path_sample<'a>(scene: &'a Scene, camera: &'a Camera) -> Box<dyn Sampler + 'a
     Box::new(
         move |x: u32,
               y: u32,
-              off: [f32; 2],
+              at: SamplePoint,
               _: &mut PixelMemo,
               rng: &mut Rng,
               c: &mut SampleCounters|
               -> LayerValues {
-            let d = camera.ray(x as f32 + off[0], y as f32 + off[1]);
+            let d = camera.ray(x as f32 + at.offset[0], y as f32 + at.offset[1]);
             LayerValues::one(path::radiance(
                 scene,
                 camera.eye,
@@ -278,7 +278,7 @@ fn pm_sample<'a>(
     Box::new(
         move |x: u32,
               y: u32,
-              off: [f32; 2],
+              at: SamplePoint,
               memo: &mut PixelMemo,
               rng: &mut Rng,
               c: &mut SampleCounters|
@@ -290,25 +290,26 @@ fn pm_sample<'a>(
                 },
                 None => ctx,
             };
-            camera_sample(&ctx, camera, x, y, off, memo, rng, c)
+            camera_sample(&ctx, camera, x, y, at, memo, rng, c)
         },
     )
 }
 
-/// One camera sample of the photon-map methods: the terms of the split along the ray through (x, y) + off.
+/// One camera sample of the photon-map methods: the terms of the split along the ray through (x, y) +
+/// `at.offset`, its first glossy lobe sampled at `at.lobe`.
 #[allow(clippy::too_many_arguments)]
 fn camera_sample(
     ctx: &PmContext,
     camera: &Camera,
     x: u32,
     y: u32,
-    off: [f32; 2],
+    at: SamplePoint,
     memo: &mut PixelMemo,
     rng: &mut Rng,
     c: &mut SampleCounters,
 ) -> LayerValues {
-    let d = camera.ray(x as f32 + off[0], y as f32 + off[1]);
-    ctx.shade(camera.eye, d, Some(memo), rng, c)
+    let d = camera.ray(x as f32 + at.offset[0], y as f32 + at.offset[1]);
+    ctx.shade(camera.eye, d, at.lobe, Some(memo), rng, c)
         .to_layers(Layout::of(ctx.scene))
 }
 

@@ -87,7 +87,7 @@ pub trait Sampler: Sync {
         &self,
         x: u32,
         y: u32,
-        offset: [f32; 2],
+        at: SamplePoint,
         memo: &mut PixelMemo,
         rng: &mut Rng,
         c: &mut SampleCounters,
@@ -122,7 +122,7 @@ pub struct GrowStats {
 }
 
 impl<
-        F: Fn(u32, u32, [f32; 2], &mut PixelMemo, &mut Rng, &mut SampleCounters) -> LayerValues
+        F: Fn(u32, u32, SamplePoint, &mut PixelMemo, &mut Rng, &mut SampleCounters) -> LayerValues
             + Sync
             + ?Sized,
     > Sampler for F
@@ -131,13 +131,13 @@ impl<
         &self,
         x: u32,
         y: u32,
-        offset: [f32; 2],
+        at: SamplePoint,
         memo: &mut PixelMemo,
         rng: &mut Rng,
         c: &mut SampleCounters,
         _: bool,
     ) -> LayerValues {
-        self(x, y, offset, memo, rng, c)
+        self(x, y, at, memo, rng, c)
     }
 }
 
@@ -152,6 +152,9 @@ pub struct Sampling {
     /// ([`SampleCounters::monte_carlo`]): they differ only by where they fall in the pixel (a texture's
     /// mortar lines, an edge), which more samples resolve slowly and nobody sees as noise. At most `spp`.
     pub aa_spp: u32,
+    /// Past `aa_spp`, the layers (bit i: layer i) whose noise decides whether a pixel takes more
+    /// samples; `None`: the beauty's.
+    pub past_aa_layers: Option<u32>,
     /// A window of pixels held to a lower noise target than `noise` (a sequence's frame: where
     /// something moved, a pixel's noise changes from frame to frame and is seen as flicker).
     pub finer: Option<(Window, f32)>,
@@ -174,6 +177,42 @@ const GROUP: u32 = 4;
 /// Floor of the squared mean in the relative variance, as in the relMSE of the accuracy figures.
 const REL_FLOOR: f64 = 0.01;
 
+/// Where a sample falls: its offset in the pixel, and a second point of the unit square for the
+/// first glossy lobe it samples ([`lobe_point`]).
+#[derive(Clone, Copy, Debug)]
+pub struct SamplePoint {
+    pub offset: [f32; 2],
+    pub lobe: [f32; 2],
+}
+
+/// Keys the stream of the lobe points apart from the samples' own.
+const LOBE_KEY: u64 = 0x10be;
+
+/// Sample `s`'s point for the first glossy lobe it samples (of at most `spp` in pixel `pixel`). In a
+/// whole group of four it lies in quarter π(s mod 4) of the unit square, as the sample's offset lies in
+/// quarter s mod 4 of the pixel: each group then samples every quarter of the lobe once, which removes
+/// most of a narrow lobe's noise. π is a random permutation shared by the two groups of a pair, so that
+/// the variance estimate's differences compare samples of the same quarter in both, and drawn afresh
+/// for each pair, so that over the pairs where a sample falls in the pixel and where in the lobe are
+/// independent (a fixed pairing would weight the pixel's quarters by the lobe's). Anywhere otherwise.
+/// Its own stream: the rest of the sample's random numbers stay as they are without glossy lobes.
+fn lobe_point(seed: u64, pixel: u64, s: u32, spp: u32) -> [f32; 2] {
+    let mut rng = Rng::new(hash_keys(&[seed, pixel, s as u64, LOBE_KEY]));
+    let (u, v) = (rng.uniform(), rng.uniform());
+    if !in_whole_group(s, spp) {
+        return [u, v];
+    }
+    let pair = (s / (2 * GROUP)) as u64;
+    let mut perm = [0u32, 1, 2, 3];
+    let mut shuffle = Rng::new(hash_keys(&[seed, pixel, pair, LOBE_KEY, 1]));
+    for i in (1..perm.len()).rev() {
+        let j = ((shuffle.uniform() * (i + 1) as f32) as usize).min(i);
+        perm.swap(i, j);
+    }
+    let cell = perm[(s % GROUP) as usize];
+    [((cell % 2) as f32 + u) * 0.5, ((cell / 2) as f32 + v) * 0.5]
+}
+
 /// Sub-pixel offset of sample `s`: its quarter of the pixel when it belongs to a whole group of four
 /// within `spp`, anywhere otherwise; jittered by (u, v).
 fn offset(s: u32, spp: u32, u: f32, v: f32) -> [f32; 2] {
@@ -190,21 +229,22 @@ fn in_whole_group(s: u32, spp: u32) -> bool {
     (s / GROUP + 1) * GROUP <= spp
 }
 
-/// True when a pixel's samples, whose mean is `mean`, estimate it well enough: Σ_c Var[x̄_c] / (x̄_c² + 0.01)
-/// ≤ 3 noise² (each channel's relative variance, averaged). Var[x̄] comes from within the quarters once
-/// the pixel has a pair of groups (see the module header), else from the plain variance of its first
-/// group (a decision is due only at the end of a round, and the first round is that group).
-fn converged(px: &PixelSums, mean: Vec3, noise: f32) -> bool {
-    let n = px.n as f64;
+/// True when a pixel's `n` samples, whose mean is `mean` and spread `spread`, estimate it well enough:
+/// Σ_c Var[x̄_c] / (x̄_c² + 0.01) ≤ 3 noise² (each channel's relative variance, averaged). Var[x̄] comes
+/// from within the quarters once the pixel has a pair of groups (see the module header), else from the
+/// plain variance of its first group (a decision is due only at the end of a round, and the first round
+/// is that group).
+fn converged(spread: &Spread, n: u32, mean: Vec3, noise: f32) -> bool {
+    let n = n as f64;
     let mut rel = 0.0;
     for c in 0..3 {
         let m = mean[c] as f64;
-        let var_mean = if px.pairs > 0 {
+        let var_mean = if spread.pairs > 0 {
             // Σ over pairs and quarters of d² has mean 2 P Σ_q σ_q²; with n/4 samples per quarter the
             // stratified mean has variance Σ_q σ_q² / (16 n/4).
-            px.diff2[c] as f64 / (8.0 * px.pairs as f64 * n)
+            spread.diff2[c] as f64 / (8.0 * spread.pairs as f64 * n)
         } else {
-            let g = px.first.map(|b| b[c] as f64);
+            let g = spread.first.map(|b| b[c] as f64);
             let gm = g.iter().sum::<f64>() / 4.0;
             g.iter().map(|x| (x - gm).powi(2)).sum::<f64>() / 3.0 / 4.0
         };
@@ -234,18 +274,27 @@ pub struct SampleCount {
 struct PixelSums {
     /// Samples taken.
     n: u32,
-    /// Pairs of whole groups (the 1st and 2nd, the 3rd and 4th, …), and per channel the sum over them
-    /// of the squared difference between their samples in the same quarter (adaptive sampling only).
-    pairs: u32,
-    diff2: [f32; 3],
-    /// The beauty of each quarter's sample in the first group of a pair, until its second group comes.
-    first: [[f32; 3]; 4],
+    /// The spread of the beauty (adaptive sampling only).
+    spread: Spread,
+    /// With [`Sampling::past_aa_layers`], the spread of the sum of those layers.
+    monte_carlo_spread: Option<Box<Spread>>,
     /// Whether a sample made a Monte Carlo estimate (the pixel may then go past `aa_spp`).
     monte_carlo: bool,
 }
 
-impl PixelSums {
-    /// Adds sample `s` (of at most `spp`) with beauty `b`.
+/// How a value's samples differ within the quarters of a pixel.
+#[derive(Clone, Default)]
+struct Spread {
+    /// Pairs of whole groups (the 1st and 2nd, the 3rd and 4th, …), and per channel the sum over them
+    /// of the squared difference between their samples in the same quarter.
+    pairs: u32,
+    diff2: [f32; 3],
+    /// The value of each quarter's sample in the first group of a pair, until its second group comes.
+    first: [[f32; 3]; 4],
+}
+
+impl Spread {
+    /// Adds sample `s` (of at most `spp`) of value `b`.
     fn add(&mut self, s: u32, spp: u32, b: Vec3) {
         if !in_whole_group(s, spp) {
             return;
@@ -263,7 +312,9 @@ impl PixelSums {
 }
 
 /// Bytes per pixel of the tiles' running sums besides their layers.
-pub const SUMS_BYTES_PER_PIXEL: u64 = std::mem::size_of::<PixelSums>() as u64;
+/// (the second spread only in scenes that name [`Sampling::past_aa_layers`]; 16 for its allocation).
+pub const SUMS_BYTES_PER_PIXEL: u64 =
+    (std::mem::size_of::<PixelSums>() + std::mem::size_of::<Spread>() + 16) as u64;
 
 /// A tile's pixels: their sums and, per layer, the sum of their samples.
 struct TileState {
@@ -356,7 +407,7 @@ pub fn render_tiles(
     let adaptive = sampling.noise > 0.0 && spp > MIN_ADAPTIVE_SPP;
     let aa_spp = sampling.aa_spp.clamp(1, spp);
     let keep_redo = sampler.adds_records() && n_layers <= MAX_LAYERS;
-    let mut tiles = tile_states(window, n_layers);
+    let mut tiles = tile_states(window, n_layers, sampling.past_aa_layers.is_some());
     // Pixels that take the next round's samples.
     let mut active = Active::all(window, kept, width);
     let rounds = rounds(spp, aa_spp, adaptive);
@@ -368,6 +419,7 @@ pub fn render_tiles(
         spp,
         seed,
         adaptive,
+        past_aa_layers: sampling.past_aa_layers,
     };
     for (round, &target) in rounds.iter().enumerate() {
         let active_ref = &active;
@@ -447,7 +499,12 @@ pub fn render_tiles(
 }
 
 /// The window cut into tiles of [`TILE`]² pixels, none sampled yet.
-fn tile_states(window: Window, n_layers: usize) -> Vec<TileState> {
+/// The tiles of `window`, their pixels' sums with a second spread when `monte_carlo_spread`.
+fn tile_states(window: Window, n_layers: usize, monte_carlo_spread: bool) -> Vec<TileState> {
+    let sums = PixelSums {
+        monte_carlo_spread: monte_carlo_spread.then(Box::default),
+        ..Default::default()
+    };
     let mut tiles = Vec::new();
     for ty in (window.y0..window.y1).step_by(TILE as usize) {
         for tx in (window.x0..window.x1).step_by(TILE as usize) {
@@ -460,7 +517,7 @@ fn tile_states(window: Window, n_layers: usize) -> Vec<TileState> {
             let n = w.n_pixels() as usize;
             tiles.push(TileState {
                 window: w,
-                pixels: vec![PixelSums::default(); n],
+                pixels: vec![sums.clone(); n],
                 layers: vec![vec![Vec3::ZERO; n]; n_layers],
                 memos: vec![PixelMemo::default(); n],
                 redo: Vec::new(),
@@ -525,7 +582,11 @@ fn next_round(
                 let at = (y - window.y0) as usize * ww + (x - window.x0) as usize;
                 allowed[at] = (!past_aa || px.monte_carlo)
                     && !kept.is_some_and(|(k, width)| k[(y * width + x) as usize]);
-                open[at] = allowed[at] && !converged(px, mean, sampling.noise_at(x, y));
+                let spread = match &px.monte_carlo_spread {
+                    Some(s) if past_aa => s,
+                    _ => &px.spread,
+                };
+                open[at] = allowed[at] && !converged(spread, px.n, mean, sampling.noise_at(x, y));
             }
         }
     }
@@ -574,6 +635,7 @@ struct RoundSpec {
     spp: u32,
     seed: u64,
     adaptive: bool,
+    past_aa_layers: Option<u32>,
 }
 
 impl RoundSpec {
@@ -623,20 +685,30 @@ impl RoundSpec {
             let mut rng = Rng::new(hash_keys(&[self.seed, pixel, px.n as u64]));
             let (u, v) = (rng.uniform(), rng.uniform());
             let off = offset(px.n, self.spp, u, v);
+            let at = SamplePoint {
+                offset: off,
+                lobe: lobe_point(self.seed, pixel, px.n, self.spp),
+            };
             let (misses, monte_carlo) = (own.lookups.n_misses, own.monte_carlo);
-            let values = sampler.sample(x, y, off, memo, &mut rng, &mut own, keep_redo);
+            let values = sampler.sample(x, y, at, memo, &mut rng, &mut own, keep_redo);
             px.monte_carlo |= own.monte_carlo > monte_carlo;
             if own.lookups.n_misses > misses {
                 missed.push(off);
             }
-            let mut b = Vec3::ZERO;
-            for (layer, l) in t.layers.iter_mut().zip(values) {
+            let (mut b, mut mc) = (Vec3::ZERO, Vec3::ZERO);
+            for (i, (layer, l)) in t.layers.iter_mut().zip(values).enumerate() {
                 let l = sanitize(l, &mut own);
                 layer[k] += l;
                 b += l;
+                if self.past_aa_layers.is_some_and(|m| m >> i & 1 == 1) {
+                    mc += l;
+                }
             }
             if self.adaptive {
-                px.add(px.n, self.spp, b);
+                px.spread.add(px.n, self.spp, b);
+                if let Some(spread) = px.monte_carlo_spread.as_mut() {
+                    spread.add(px.n, self.spp, mc);
+                }
             }
             px.n += 1;
         }
@@ -749,7 +821,7 @@ mod tests {
         // 0–3 count a Monte Carlo estimate in each sample, pixels 4–7 none.
         let sampler = |x: u32,
                        _y: u32,
-                       _off: [f32; 2],
+                       _at: SamplePoint,
                        _m: &mut PixelMemo,
                        rng: &mut Rng,
                        c: &mut SampleCounters| {
@@ -772,6 +844,7 @@ mod tests {
                 spp,
                 noise: 0.01,
                 aa_spp,
+                past_aa_layers: None,
             };
             render_tiles(&canvas(sampling), &mut s, &|_| {}, &AtomicBool::new(false))
                 .unwrap()
@@ -791,6 +864,7 @@ mod tests {
                 spp: 16,
                 noise: 0.0,
                 aa_spp: 4,
+                past_aa_layers: None,
             }),
             &mut s,
             &|_| {},
@@ -801,10 +875,91 @@ mod tests {
         assert_eq!(fixed.samples, 8 * 16);
     }
 
+    #[test]
+    fn past_aa_spp_only_the_named_layers_noise_keeps_a_pixel_sampling() {
+        // The direct layer (1) a coin flip (noise more samples would not remove, like a texture's
+        // coverage of the pixel), the indirect one (4) constant; every sample counts a Monte Carlo
+        // estimate.
+        let sampler = |_x: u32,
+                       _y: u32,
+                       _at: SamplePoint,
+                       _m: &mut PixelMemo,
+                       rng: &mut Rng,
+                       c: &mut SampleCounters| {
+            c.monte_carlo += 1;
+            let terms = crate::integrator::terms::Terms {
+                direct: Vec3::splat((rng.uniform() < 0.5) as u32 as f32),
+                indirect: Vec3::ONE,
+                ..Default::default()
+            };
+            terms.to_layers(crate::integrator::terms::Layout {
+                glossy: false,
+                media: false,
+            })
+        };
+        let run = |past_aa_layers| {
+            let mut s = sampler;
+            let canvas = Canvas {
+                kept: None,
+                width: 4,
+                height: 1,
+                window: Window::full(4, 1),
+                sampling: Sampling {
+                    finer: None,
+                    spp: 128,
+                    noise: 0.01,
+                    aa_spp: 32,
+                    past_aa_layers,
+                },
+                seed: 1,
+                n_layers: 5,
+            };
+            render_tiles(&canvas, &mut s, &|_| {}, &AtomicBool::new(false))
+                .unwrap()
+                .2
+                .samples
+        };
+        assert_eq!(run(None), 4 * 128);
+        assert_eq!(run(Some(1 << 4)), 4 * 32);
+        assert_eq!(run(Some(1 << 1)), 4 * 128);
+    }
+
+    #[test]
+    fn lobe_points_take_every_quarter_once_per_group() {
+        let quarter = |p: [f32; 2]| (p[0] >= 0.5) as u32 + 2 * (p[1] >= 0.5) as u32;
+        for pixel in 0..50u64 {
+            let q: Vec<u32> = (0..32)
+                .map(|s| quarter(lobe_point(7, pixel, s, 32)))
+                .collect();
+            for g in q.chunks(4) {
+                let mut seen = g.to_vec();
+                seen.sort();
+                assert_eq!(seen, [0, 1, 2, 3], "pixel {pixel}: {q:?}");
+            }
+            // The two groups of a pair put each sample's quarter of the pixel in the same quarter of
+            // the lobe.
+            for pair in q.chunks(8) {
+                assert_eq!(pair[..4], pair[4..], "pixel {pixel}: {q:?}");
+            }
+        }
+        // Over pixels, the pixel's quarter and the lobe's are independent.
+        let mut counts = [[0u32; 4]; 4];
+        for pixel in 0..4000u64 {
+            for s in 0..4 {
+                counts[s as usize][quarter(lobe_point(7, pixel, s, 32)) as usize] += 1;
+            }
+        }
+        for row in counts {
+            for n in row {
+                assert!((850..1150).contains(&n), "{counts:?}");
+            }
+        }
+    }
+
     fn pixel(samples: &[f32], spp: u32) -> PixelSums {
         let mut px = PixelSums::default();
         for (s, &x) in samples.iter().enumerate() {
-            px.add(s as u32, spp, Vec3::splat(x));
+            px.spread.add(s as u32, spp, Vec3::splat(x));
             px.n += 1;
         }
         px
@@ -812,7 +967,8 @@ mod tests {
 
     fn converged(samples: &[f32], noise: f32) -> bool {
         let mean = samples.iter().sum::<f32>() / samples.len() as f32;
-        super::converged(&pixel(samples, 32), Vec3::splat(mean), noise)
+        let px = pixel(samples, 32);
+        super::converged(&px.spread, px.n, Vec3::splat(mean), noise)
     }
 
     #[test]
@@ -833,12 +989,16 @@ mod tests {
         // stop at 0.2.
         let px = pixel(&varied, 32);
         assert!(!super::converged(
-            &PixelSums { pairs: 0, ..px },
+            &Spread {
+                pairs: 0,
+                ..px.spread
+            },
+            px.n,
             Vec3::splat(0.5),
             0.2
         ));
         // Samples past the last whole group (spp 6) are in no quarter: they leave the pairs alone.
-        assert_eq!(pixel(&[0.0, 1.0, 0.0, 1.0, 0.0, 1.0], 6).pairs, 0);
+        assert_eq!(pixel(&[0.0, 1.0, 0.0, 1.0, 0.0, 1.0], 6).spread.pairs, 0);
         assert_eq!(rounds(32, 32, true), [4, 8, 16, 32]);
         assert_eq!(rounds(20, 20, true), [4, 8, 16, 20]);
         assert_eq!(rounds(32, 32, false), [32]);
