@@ -21,6 +21,7 @@ use crate::geometry::{spawn, spawn_clear, Hit};
 use crate::material::{glass_lobes, Bsdf, PhongLobe, Transport};
 use crate::medium::MediumId;
 use crate::photons::PhotonData;
+use crate::photons::{GatherHit, GatherLobe};
 use crate::scene::Scene;
 use crate::warp::power_heuristic;
 
@@ -685,10 +686,10 @@ impl PmContext<'_> {
                     rays += 1;
                     ends.push(self.gather_ray(hit, dir, medium, &mut rng, &mut rays));
                 }
-                let diffuse: Vec<(u32, bool, Vec3)> = ends
+                let diffuse: Vec<GatherHit> = ends
                     .iter()
                     .filter(|e| e.weight != Vec3::ZERO)
-                    .map(|e| (e.tri, e.front, e.p))
+                    .map(|e| e.hit)
                     .collect();
                 let mut texels = Vec::with_capacity(diffuse.len());
                 self.photons.gather_radiance_batch(&diffuse, &mut texels);
@@ -701,7 +702,7 @@ impl PmContext<'_> {
                         Vec3::ZERO
                     };
                     GatherRay {
-                        radiance: (lit + end.glossy + end.scattered).max(Vec3::ZERO),
+                        radiance: (lit + end.scattered).max(Vec3::ZERO),
                         distance: end.distance,
                     }
                 }));
@@ -780,13 +781,23 @@ impl PmContext<'_> {
             let frame = Frame::new(&hit, -d);
             let bsdf = &self.scene.material(&hit).bsdf;
             if !bsdf.is_specular() {
-                let glossy = self.photons.glossy_radiance(bsdf, &hit, &frame, -d, false) * beta;
+                let lobe = match *bsdf {
+                    Bsdf::Glossy { specular, .. } => Some(GatherLobe {
+                        material: hit.material,
+                        ks: specular,
+                        n: frame.n,
+                        wo: -d,
+                    }),
+                    _ => None,
+                };
                 return GatherEnd {
-                    p: hit.p,
-                    tri: hit.tri,
-                    front: frame.front,
+                    hit: GatherHit {
+                        tri: hit.tri,
+                        front: frame.front,
+                        p: hit.p,
+                        lobe,
+                    },
                     weight: beta,
-                    glossy,
                     scattered,
                     distance,
                 };
@@ -857,14 +868,11 @@ impl PmContext<'_> {
 
 /// The end of one gather ray (see `gather_ray`).
 struct GatherEnd {
-    p: Vec3,
-    tri: u32,
-    /// Whether the ray reached the triangle's winding side.
-    front: bool,
-    /// Throughput of the specular chain to the end (times the texel's diffuse radiance there).
+    /// The surface, the side the ray reached, and a glossy surface's lobe.
+    hit: GatherHit,
+    /// Throughput of the specular chain to the end (times the texel's radiance there, diffuse and
+    /// the lobe's).
     weight: Vec3,
-    /// Radiance of a glossy surface's specular lobe toward the ray (a photon-map estimate).
-    glossy: Vec3,
     /// Radiance participating media scatter into the ray before its first surface.
     scattered: Vec3,
     distance: f32,
@@ -872,11 +880,13 @@ struct GatherEnd {
 
 impl GatherEnd {
     const MISS: GatherEnd = GatherEnd {
-        p: Vec3::ZERO,
-        tri: 0,
-        front: true,
+        hit: GatherHit {
+            tri: 0,
+            front: true,
+            p: Vec3::ZERO,
+            lobe: None,
+        },
         weight: Vec3::ZERO,
-        glossy: Vec3::ZERO,
         scattered: Vec3::ZERO,
         distance: f32::INFINITY,
     };

@@ -381,8 +381,8 @@ fn delta_over_texel(
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Texel {
     pub(crate) index: u32,
-    tri: u32,
-    front: bool,
+    pub(crate) tri: u32,
+    pub(crate) front: bool,
     i: u32,
     j: u32,
 }

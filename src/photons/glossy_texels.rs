@@ -16,7 +16,7 @@ use std::sync::OnceLock;
 use glam::Vec3;
 use photon::PhotonMap;
 
-use super::atlas::IrradianceAtlas;
+use super::atlas::{IrradianceAtlas, Texel};
 use super::coverage::SceneCoverage;
 use crate::material::Bsdf;
 use crate::scene::Scene;
@@ -40,13 +40,41 @@ const SUMS: usize = 2 * LEN + 5;
 /// highlight over what it lights.
 const COHERENT_DIRECT: f32 = 0.95;
 
-/// Bytes a glossy texel's harmonics take once estimated.
-pub const TEXEL_BYTES: u64 = std::mem::size_of::<Coefficients>() as u64;
+/// A glossy texel once estimated, laid out for its reads (a gather ray's read is mostly a cache miss):
+/// what a read needs first and together.
+struct Baked {
+    /// The direct light as arriving from one direction, when its photons nearly share one: that
+    /// direction and the light's irradiance.
+    coherent: Option<(Vec3, Vec3)>,
+    /// Harmonics of the light of the photons that are not direct.
+    not_direct: [Vec3; LEN],
+    /// Harmonics of all the light (read when the direct light is not `coherent`).
+    all: [Vec3; LEN],
+}
+
+impl Baked {
+    fn new(g: &Coefficients) -> Baked {
+        let mut not_direct = [Vec3::ZERO; LEN];
+        not_direct.copy_from_slice(&g[..LEN]);
+        let mut all = [Vec3::ZERO; LEN];
+        for (a, (x, y)) in all.iter_mut().zip(g[..LEN].iter().zip(&g[LEN..2 * LEN])) {
+            *a = *x + *y;
+        }
+        Baked {
+            coherent: coherent_direct(g),
+            not_direct,
+            all,
+        }
+    }
+}
+
+/// Bytes a glossy texel takes once estimated.
+pub const TEXEL_BYTES: u64 = std::mem::size_of::<Baked>() as u64;
 
 pub struct GlossyTexels {
     /// Each triangle's first slot; `u32::MAX` for triangles that are not glossy.
     first: Vec<u32>,
-    slots: Vec<OnceLock<Box<Coefficients>>>,
+    slots: Vec<OnceLock<Box<Baked>>>,
     /// Each material's lobe as a kernel, and its exponent (glossy materials only).
     kernels: Vec<Option<(PhongKernel, f32)>>,
     estimated: AtomicU64,
@@ -102,10 +130,27 @@ impl GlossyTexels {
         cov: &SceneCoverage,
         global: &PhotonMap,
         (tri, front, p): (u32, bool, Vec3),
+        lobe: (u32, Vec3),
+        toward: (Vec3, Vec3),
+        not_direct: bool,
+    ) -> Vec3 {
+        let texel = atlas.texel(tri, front, p);
+        self.radiance_at(atlas, cov, global, texel, lobe, toward, not_direct)
+    }
+
+    /// [`radiance`](Self::radiance) at the point's texel, found by the caller.
+    #[allow(clippy::too_many_arguments)]
+    pub fn radiance_at(
+        &self,
+        atlas: &IrradianceAtlas,
+        cov: &SceneCoverage,
+        global: &PhotonMap,
+        texel: Texel,
         (material, ks): (u32, Vec3),
         (n, wo): (Vec3, Vec3),
         not_direct: bool,
     ) -> Vec3 {
+        let (tri, front) = (texel.tri, texel.front);
         let (Some((kernel, exponent)), Some(&first)) = (
             self.kernels.get(material as usize).copied().flatten(),
             self.first.get(tri as usize),
@@ -115,7 +160,6 @@ impl GlossyTexels {
         if first == u32::MAX {
             return Vec3::ZERO;
         }
-        let texel = atlas.texel(tri, front, p);
         let slot = first + (texel.index - atlas.texel_range(tri).1);
         let g = self.slots[slot as usize].get_or_init(|| {
             self.estimated.fetch_add(1, Ordering::Relaxed);
@@ -136,38 +180,32 @@ impl GlossyTexels {
                     y
                 });
             atlas.read_given(cov, global, texel, Some((sums[SUMS - 2], sums[SUMS - 1])));
-            let mut g = Box::new([Vec3::ZERO; 2 * LEN + 3]);
+            let mut g = [Vec3::ZERO; 2 * LEN + 3];
             g.copy_from_slice(&sums[..2 * LEN + 3]);
-            g
+            Box::new(Baked::new(&g))
         });
         let r = crate::warp::reflect(wo, n);
         // Truncated harmonics ring, below zero in some directions: the caller clamps the point's sum,
         // where the other terms offset the ringing (clamping here alone biases the lobe up).
         if not_direct {
-            return ks * sh::reflect(&g[..LEN], ORDER, &kernel, r);
+            return ks * sh::reflect(&g.not_direct, ORDER, &kernel, r);
         }
-        ks * match coherent_direct(g) {
+        ks * match g.coherent {
             Some((d, e)) => {
                 let cos = d.dot(r).max(0.0);
-                sh::reflect(&g[..LEN], ORDER, &kernel, r)
+                sh::reflect(&g.not_direct, ORDER, &kernel, r)
                     + e * (exponent + 2.0) / (2.0 * std::f32::consts::PI) * cos.powf(exponent)
             }
-            None => {
-                let mut all = [Vec3::ZERO; LEN];
-                for (a, (x, y)) in all.iter_mut().zip(g[..LEN].iter().zip(&g[LEN..2 * LEN])) {
-                    *a = *x + *y;
-                }
-                sh::reflect(&all, ORDER, &kernel, r)
-            }
+            None => sh::reflect(&g.all, ORDER, &kernel, r),
         }
     }
 
     /// Texels estimated so far, and the bytes held.
     pub fn stats(&self) -> (u64, u64) {
         let estimated = self.estimated.load(Ordering::Relaxed);
-        let bytes = self.slots.len() * std::mem::size_of::<OnceLock<Box<Coefficients>>>()
+        let bytes = self.slots.len() * std::mem::size_of::<OnceLock<Box<Baked>>>()
             + self.first.len() * 4
-            + estimated as usize * std::mem::size_of::<Coefficients>();
+            + estimated as usize * std::mem::size_of::<Baked>();
         (estimated, bytes as u64)
     }
 }

@@ -29,6 +29,26 @@ pub fn atlas_k(lookup: usize) -> usize {
     (lookup / 3).max(8).min(lookup)
 }
 
+/// Where a final-gather ray ends on a non-specular surface: the `front` or back side of triangle `tri`
+/// at `p`, and on a glossy surface its lobe.
+#[derive(Clone, Copy, Debug)]
+pub struct GatherHit {
+    pub tri: u32,
+    pub front: bool,
+    pub p: Vec3,
+    pub lobe: Option<GatherLobe>,
+}
+
+/// A glossy surface's lobe where a gather ray ends: its material, specular reflectance, shading normal
+/// and the direction back along the ray.
+#[derive(Clone, Copy, Debug)]
+pub struct GatherLobe {
+    pub material: u32,
+    pub ks: Vec3,
+    pub n: Vec3,
+    pub wo: Vec3,
+}
+
 thread_local! {
     static NEIGHBORS: std::cell::RefCell<Vec<photon::Neighbor>> = const { std::cell::RefCell::new(Vec::new()) };
 }
@@ -354,9 +374,10 @@ impl<'a> PhotonData<'a> {
         }
     }
 
-    /// [`gather_radiance`](Self::gather_radiance) at many ends at once, appended to `out` in order: the
+    /// [`gather_radiance`](Self::gather_radiance) at many ends at once, appended to `out` in order, plus
+    /// at glossy ends the lobe's light toward the ray (all of it, from the texel's harmonics): the
     /// texels are found first, then read, so that the memory reads of neighbouring ends overlap.
-    pub fn gather_radiance_batch(&self, ends: &[(u32, bool, Vec3)], out: &mut Vec<Vec3>) {
+    pub fn gather_radiance_batch(&self, ends: &[GatherHit], out: &mut Vec<Vec3>) {
         let (Some(atlas), Some(global)) = (self.surfaces.atlas.as_ref(), self.maps.global.as_ref())
         else {
             out.extend(ends.iter().map(|_| Vec3::ZERO));
@@ -364,10 +385,23 @@ impl<'a> PhotonData<'a> {
         };
         let texels: Vec<_> = ends
             .iter()
-            .map(|&(tri, front, p)| atlas.texel(tri, front, p))
+            .map(|e| atlas.texel(e.tri, e.front, e.p))
             .collect();
-        out.extend(texels.into_iter().zip(ends).map(|(t, &(tri, front, p))| {
-            self.texel_radiance(&atlas.read(&self.coverage, global, t), tri, front, p)
+        let glossy = self.surfaces.glossy.as_ref();
+        out.extend(texels.into_iter().zip(ends).map(|(t, e)| {
+            let lobe = match (glossy, e.lobe) {
+                (Some(texels), Some(lobe)) => texels.radiance_at(
+                    atlas,
+                    &self.coverage,
+                    global,
+                    t,
+                    (lobe.material, lobe.ks),
+                    (lobe.n, lobe.wo),
+                    false,
+                ),
+                _ => Vec3::ZERO,
+            };
+            self.texel_radiance(&atlas.read(&self.coverage, global, t), e.tri, e.front, e.p) + lobe
         }));
     }
 

@@ -12,5 +12,5 @@ mod settings;
 pub mod volume_grid;
 
 pub use glossy_texels::TEXEL_BYTES as GLOSSY_TEXEL_BYTES;
-pub use lookup::{atlas_k, PhotonData};
+pub use lookup::{atlas_k, GatherHit, GatherLobe, PhotonData};
 pub use settings::{PhotonSettings, DEFAULT_PHOTONS_PER_TEXEL};
