@@ -195,6 +195,17 @@ impl PmContext<'_> {
         };
         let frame = Frame::new(&hit, wo);
         let bsdf = &self.scene.material(&hit).bsdf;
+        if let (Via::Glossy { .. }, false) = (via, bsdf.is_specular()) {
+            // After a glossy reflection the point is not shaded again: its light is read as a
+            // final-gather ray reads it (the caller sums the terms).
+            if let Some(read) = self
+                .photons
+                .surface_radiance(&gather_hit(&hit, &frame, bsdf, wo))
+            {
+                t.indirect = read.max(Vec3::ZERO);
+                return t;
+            }
+        }
         let kd = self.scene.albedo(&hit);
         let v = Vertex {
             hit: &hit,
@@ -211,13 +222,8 @@ impl PmContext<'_> {
             return t;
         }
         if let Via::Glossy { .. } = via {
-            // After a glossy reflection the point is not shaded again in full: no further lobe
-            // sample (a chain of them, each with shadow rays to every light, is what made glossy
-            // scenes many times slower than diffuse ones). Direct light is sampled, since the few
-            // bands of the texels would spread a light's highlight; the rest is read: the atlas
-            // texel's indirect irradiance, the caustic estimate, and on a glossy surface its lobe
-            // from the texel's harmonics of the photons that are not direct (a k-NN estimate per
-            // sample would cost as much as the shading it replaces; see docs/algorithms.md).
+            // Without a global map (no photon stored), direct light is sampled and the glossy
+            // lobe's light other than direct read from the texels.
             t.direct = self.direct(&v, kd, bsdf, true, rng, c);
             let rho_d = bsdf.diffuse_albedo(kd) / PI;
             if rho_d != Vec3::ZERO {
@@ -781,22 +787,8 @@ impl PmContext<'_> {
             let frame = Frame::new(&hit, -d);
             let bsdf = &self.scene.material(&hit).bsdf;
             if !bsdf.is_specular() {
-                let lobe = match *bsdf {
-                    Bsdf::Glossy { specular, .. } => Some(GatherLobe {
-                        material: hit.material,
-                        ks: specular,
-                        n: frame.n,
-                        wo: -d,
-                    }),
-                    _ => None,
-                };
                 return GatherEnd {
-                    hit: GatherHit {
-                        tri: hit.tri,
-                        front: frame.front,
-                        p: hit.p,
-                        lobe,
-                    },
+                    hit: gather_hit(&hit, &frame, bsdf, -d),
                     weight: beta,
                     scattered,
                     distance,
@@ -863,6 +855,25 @@ impl PmContext<'_> {
         }
         let t = rng.uniform() * len;
         weight * m.transmittance(t) * self.photons.gather_volume_radiance(o + d * t, d, m.g) * len
+    }
+}
+
+/// A non-specular surface where a ray ends, seen from `wo`, as the texels are read there.
+fn gather_hit(hit: &Hit, frame: &Frame, bsdf: &Bsdf, wo: Vec3) -> GatherHit {
+    let lobe = match *bsdf {
+        Bsdf::Glossy { specular, .. } => Some(GatherLobe {
+            material: hit.material,
+            ks: specular,
+            n: frame.n,
+            wo,
+        }),
+        _ => None,
+    };
+    GatherHit {
+        tri: hit.tri,
+        front: frame.front,
+        p: hit.p,
+        lobe,
     }
 }
 

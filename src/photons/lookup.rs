@@ -387,22 +387,49 @@ impl<'a> PhotonData<'a> {
             .iter()
             .map(|e| atlas.texel(e.tri, e.front, e.p))
             .collect();
-        let glossy = self.surfaces.glossy.as_ref();
-        out.extend(texels.into_iter().zip(ends).map(|(t, e)| {
-            let lobe = match (glossy, e.lobe) {
-                (Some(texels), Some(lobe)) => texels.radiance_at(
-                    atlas,
-                    &self.coverage,
-                    global,
-                    t,
-                    (lobe.material, lobe.ks),
-                    (lobe.n, lobe.wo),
-                    false,
-                ),
-                _ => Vec3::ZERO,
-            };
-            self.texel_radiance(&atlas.read(&self.coverage, global, t), e.tri, e.front, e.p) + lobe
-        }));
+        out.extend(
+            texels
+                .into_iter()
+                .zip(ends)
+                .map(|(t, e)| self.read_end(atlas, global, t, e)),
+        );
+    }
+
+    /// The light leaving a surface toward a ray that ends there, read as a gather ray reads it: the
+    /// texel's diffuse radiance (its direct light included) and a glossy surface's lobe. `None`
+    /// without a global map (no photon was stored).
+    pub fn surface_radiance(&self, end: &GatherHit) -> Option<Vec3> {
+        let (atlas, global) = (self.surfaces.atlas.as_ref()?, self.maps.global.as_ref()?);
+        let texel = atlas.texel(end.tri, end.front, end.p);
+        Some(self.read_end(atlas, global, texel, end))
+    }
+
+    /// [`surface_radiance`](Self::surface_radiance) at `texel`, the end's.
+    fn read_end(
+        &self,
+        atlas: &super::atlas::IrradianceAtlas,
+        global: &PhotonMap,
+        texel: super::atlas::Texel,
+        e: &GatherHit,
+    ) -> Vec3 {
+        let lobe = match (self.surfaces.glossy.as_ref(), e.lobe) {
+            (Some(texels), Some(lobe)) => texels.radiance_at(
+                atlas,
+                &self.coverage,
+                global,
+                texel,
+                (lobe.material, lobe.ks),
+                (lobe.n, lobe.wo),
+                false,
+            ),
+            _ => Vec3::ZERO,
+        };
+        self.texel_radiance(
+            &atlas.read(&self.coverage, global, texel),
+            e.tri,
+            e.front,
+            e.p,
+        ) + lobe
     }
 
     /// Soft indirect irradiance (direct and caustic photons left out) at a point that has its own
