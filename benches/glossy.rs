@@ -1,4 +1,5 @@
-//! `make bench`, third part: glossy scenes as authored. For each, `pm` with its defaults against the
+//! `make bench`, third part: glossy scenes as authored (Sponza as a Blender export, whose lobes are
+//! sampled, and as the conference room authors its materials, whose lobes the radiance cache serves). For each, `pm` with its defaults against the
 //! same scene with its materials diffuse (its MTL as authored: time ratio), and against its independent reference:
 //! image mean error, relMSE, and `path`'s relMSE at the same wall time (the ratio `pm` must keep at 5×
 //! or more), and Sibenik's polished floor against its diffuse floor (each against its own reference, over
@@ -181,6 +182,15 @@ fn main() {
             (640, 480),
         );
     }
+    if wanted("sponza-conference") {
+        time_ratio(
+            root,
+            "sponza-conference",
+            "tests/scenes/sponza-conference.toml",
+            "tests/scenes/sponza.toml",
+            (640, 480),
+        );
+    }
     if wanted("sibenik-polished") {
         time_ratio(
             root,
@@ -195,6 +205,7 @@ fn main() {
     }
     for name in [
         "sponza-blender",
+        "sponza-conference",
         "sibenik-polished",
         "cornell-glossy",
         "cornell-glossy-floor",

@@ -7,7 +7,8 @@ Usage (from anywhere; `pip install -r tools/chart_requirements.txt`, `cargo buil
 
 Scenes: scenes/NAME.toml or tests/scenes/NAME.toml (the large public scenes) with a reference
 tests/reference/NAME-path.exr (+ .json); by default every shipped scene with a reference and Sibenik
-(`--scenes sponza` adds Sponza); every render is made at the reference's size. Per scene it runs pmrender with
+and the glossy scenes of tests/scenes (`--scenes sponza` adds Sponza; with `--scenes`, the other scenes of
+an earlier run into the same --out stay in its table); every render is made at the reference's size. Per scene it runs pmrender with
   pm      several spp at the defaults, then at the default spp: [render.icache] rays, photon counts,
           accuracy, visibility (a temporary copy of the scene with its [render] tables edited);
   pm-fg   a few spp;  path  several spp;  photons  two spp;
@@ -424,8 +425,9 @@ def write_markdown(path, results, quick, elapsed):
         f.write("\n".join(lines))
 
 
-# Large public scenes charted by default (each takes several minutes).
-LARGE_DEFAULT = ("sibenik",)
+# Large public scenes and the glossy scenes charted by default (the large ones take several minutes each).
+LARGE_DEFAULT = ("sibenik", "cornell-glossy", "cornell-glossy-floor", "sibenik-polished", "sponza-blender",
+                 "sponza-conference")
 
 
 def has_reference(name):
@@ -476,14 +478,30 @@ def main():
         print(chart_sequence.run(args.bin, args.out, name, args.quick, log=log))
 
 
+def reference_info(name):
+    with open(os.path.join(ROOT, "tests", "reference", f"{name}-path.json")) as f:
+        return json.load(f)
+
+
+def kept_results(out, names):
+    """With --scenes: the other scenes' results of an earlier run into the same --out (so that the
+    table stays whole when a few scenes are charted again), those that still have a reference."""
+    path = os.path.join(out, "speed_accuracy.json")
+    if not os.path.isfile(path):
+        return {}
+    with open(path) as f:
+        old = json.load(f)
+    return {n: (r["runs"], r["converge"], r["mask_pixels"], reference_info(n))
+            for n, r in old.items() if n not in names and has_reference(n)}
+
+
 def stills(args, names, log):
-    t0, results = time.perf_counter(), {}
+    t0 = time.perf_counter()
+    results = kept_results(args.out, names) if args.scenes else {}
     with tempfile.TemporaryDirectory(prefix="pm-chart-") as tmp:
         for name in names:
             rows, conv, mask_px = run_scene(args.bin, name, args.quick, tmp, log)
-            with open(os.path.join(ROOT, "tests", "reference", f"{name}-path.json")) as f:
-                ref_info = json.load(f)
-            results[name] = (rows, conv, mask_px, ref_info)
+            results[name] = (rows, conv, mask_px, reference_info(name))
             plot_speed(rows, name, os.path.join(args.out, f"speed_accuracy_{name}.png"))
             plot_convergence(conv, name, os.path.join(args.out, f"convergence_{name}.png"))
     write_markdown(os.path.join(args.out, "speed_accuracy.md"), results, args.quick, time.perf_counter() - t0)
