@@ -79,7 +79,7 @@ fn check(name: &str, method: &str, spp: Option<u32>, max_block: f64) {
 
 #[test]
 fn cornell_glossy_pm() {
-    // Measured: mean -0.472 %, block relMSE 0.000059 (0.7 s).
+    // Measured: mean -0.470 %, block relMSE 0.000051 (0.6 s).
     check("cornell-glossy", "pm", None, 1e-4);
 }
 
@@ -130,8 +130,8 @@ fn sponza_blender_path() {
 
 #[test]
 fn sponza_conference_pm() {
-    // Measured: mean -0.920 %, block relMSE 0.000616 (4.8 s); seeds 1, 2: -0.92 %, -0.62 %. Sponza with
-    // its diffuse MTL is -0.43 % against its own reference; with the radiance cache off -0.78 %.
+    // Measured: mean -0.778 %, block relMSE 0.000363 (5.7 s); seeds 1, 2: -0.96 %, -0.64 %. Sponza
+    // with its diffuse MTL is -0.43 % against its own reference.
     check("sponza-conference", "pm", None, 1e-3);
 }
 

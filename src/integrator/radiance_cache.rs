@@ -8,9 +8,10 @@
 //!
 //! The coefficients are in world space (no rotation between a record's frame and the lookup's). The
 //! lobes the cache serves are those whose kernel falls below [`TOLERANCE`] of its first band within
-//! [`sh::MAX_ORDER`] bands (exponents up to about 65); it keeps all [`sh::MAX_ORDER`] bands for them.
-//! Both limits are measured (docs/algorithms.md, "Glossy surfaces"): past them the cache's error grows
-//! beyond sampling's, and fewer bands ring at the horizon. Sharper lobes keep importance sampling.
+//! [`sh::MAX_ORDER`] bands (exponents up to about 37); it keeps all [`sh::MAX_ORDER`] bands for them.
+//! Both limits are measured (docs/algorithms.md, "Glossy surfaces"): past them sampling the lobe is
+//! as fast and the cache's error grows beyond sampling's, and fewer bands ring at the horizon.
+//! Sharper lobes keep importance sampling.
 
 use std::collections::HashMap;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -24,8 +25,8 @@ use crate::scene::Scene;
 use crate::sh::{self, PhongKernel};
 
 /// A lobe is cached when its kernel's band `l` falls below this fraction of band 0 for some
-/// `l < MAX_ORDER` (exponents up to about 65; see the module's measurements).
-pub const TOLERANCE: f32 = 0.5;
+/// `l < MAX_ORDER` (exponents up to about 37; see the module's measurements).
+pub const TOLERANCE: f32 = 0.3;
 
 /// The radiance cache of one render.
 pub struct RadianceCache {
