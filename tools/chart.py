@@ -57,8 +57,8 @@ PM_DEFAULT_SPP = 128
 
 def plan(quick, media=False, glossy=False):
     """(method, label, series, spp, edits) per run; edits are dotted [render] keys for the scene copy.
-    Scenes with participating media add pm without the media records' gradients; scenes with glossy
-    materials add pm without the radiance cache and with fewer harmonic bands."""
+    Scenes with participating media add pm without the media records' gradients; scenes whose glossy
+    lobes the radiance cache serves add pm without it and with fewer harmonic bands."""
     runs = [("pm", f"pm spp={s}", "pm (spp)", s, {}) for s in ((8, PM_DEFAULT_SPP) if quick else (4, 8, 16, 32, 64, PM_DEFAULT_SPP))]
     rays = (250,) if quick else (125, 250, 500, 1000)
     runs += [("pm", f"pm rays={r}", "pm (gather rays)", PM_DEFAULT_SPP, {"icache.rays": r}) for r in rays]
@@ -216,7 +216,8 @@ def run_scene(binary, name, quick, tmp, log):
     log(f"{name}: high-quality pm render for masks and term references")
     _, _, hq_stats = render(binary, scene_copy(scene, hq_edits, tmp, f"{name}-hq"), hq_path, "pm",
                             16 if quick else 64, size, seed=7)
-    glossy = "glossy" in hq_stats
+    # The radiance cache's series only where it has records (lobes wide enough for it).
+    glossy = hq_stats.get("glossy", {}).get("records", 0) > 0
     masks = {k: term_mask(hq_path, k, read_rgb(hq_path)) for k in ("caustic", "specular")}
     rows = []
     with open(scene) as f:
