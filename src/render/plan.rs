@@ -25,7 +25,8 @@ pub struct Plan {
     pub noise: f32,
     /// Under a noise target, the most samples of a pixel whose samples made no Monte Carlo estimate.
     pub aa_spp: u32,
-    /// Past `aa_spp`, the layers whose noise decides ([`past_aa_layers`]).
+    /// Past `aa_spp`, the layers whose noise decides ([`past_aa_layers`]); `Some` exactly in the
+    /// renders whose samples carry stratified lobe points (scenes with glossy lobes, photon-map methods).
     pub past_aa_layers: Option<u32>,
     pub seed: u64,
     pub width: u32,
@@ -65,6 +66,7 @@ impl Plan {
             noise: self.noise,
             aa_spp: self.aa_spp,
             past_aa_layers: self.past_aa_layers,
+            lobe_points: self.past_aa_layers.is_some(),
             finer: self.finer,
         }
     }

@@ -155,6 +155,9 @@ pub struct Sampling {
     /// Past `aa_spp`, the layers (bit i: layer i) whose noise decides whether a pixel takes more
     /// samples; `None`: the beauty's.
     pub past_aa_layers: Option<u32>,
+    /// Whether samples carry a stratified point for a glossy lobe ([`lobe_point`]; else its middle,
+    /// unread): scenes with glossy lobes shaded by the photon-map methods.
+    pub lobe_points: bool,
     /// A window of pixels held to a lower noise target than `noise` (a sequence's frame: where
     /// something moved, a pixel's noise changes from frame to frame and is seen as flicker).
     pub finer: Option<(Window, f32)>,
@@ -420,6 +423,7 @@ pub fn render_tiles(
         seed,
         adaptive,
         past_aa_layers: sampling.past_aa_layers,
+        lobe_points: sampling.lobe_points,
     };
     for (round, &target) in rounds.iter().enumerate() {
         let active_ref = &active;
@@ -636,6 +640,7 @@ struct RoundSpec {
     seed: u64,
     adaptive: bool,
     past_aa_layers: Option<u32>,
+    lobe_points: bool,
 }
 
 impl RoundSpec {
@@ -687,7 +692,11 @@ impl RoundSpec {
             let off = offset(px.n, self.spp, u, v);
             let at = SamplePoint {
                 offset: off,
-                lobe: lobe_point(self.seed, pixel, px.n, self.spp),
+                lobe: if self.lobe_points {
+                    lobe_point(self.seed, pixel, px.n, self.spp)
+                } else {
+                    [0.5, 0.5]
+                },
             };
             let (misses, monte_carlo) = (own.lookups.n_misses, own.monte_carlo);
             let values = sampler.sample(x, y, at, memo, &mut rng, &mut own, keep_redo);
@@ -845,6 +854,7 @@ mod tests {
                 noise: 0.01,
                 aa_spp,
                 past_aa_layers: None,
+                lobe_points: false,
             };
             render_tiles(&canvas(sampling), &mut s, &|_| {}, &AtomicBool::new(false))
                 .unwrap()
@@ -865,6 +875,7 @@ mod tests {
                 noise: 0.0,
                 aa_spp: 4,
                 past_aa_layers: None,
+                lobe_points: false,
             }),
             &mut s,
             &|_| {},
@@ -910,6 +921,7 @@ mod tests {
                     noise: 0.01,
                     aa_spp: 32,
                     past_aa_layers,
+                    lobe_points: false,
                 },
                 seed: 1,
                 n_layers: 5,
