@@ -20,8 +20,7 @@ use crate::geometry::Frame;
 use crate::geometry::{spawn, spawn_clear, Hit};
 use crate::material::{glass_lobes, Bsdf, PhongLobe, Transport};
 use crate::medium::MediumId;
-use crate::photons::PhotonData;
-use crate::photons::{GatherHit, GatherLobe};
+use crate::photons::{GatherHit, GatherLobe, PhotonData};
 use crate::scene::Scene;
 use crate::warp::power_heuristic;
 
@@ -91,9 +90,10 @@ enum Via {
 
 impl PmContext<'_> {
     /// Radiance along a camera ray, split into terms; a glossy surface it meets first samples its lobe
-    /// at `lobe` (a point of the unit square stratified over the pixel's samples). With a `memo`, the caustic and soft indirect
-    /// irradiance of the surface the ray hits first come from the pixel's earlier samples on that
-    /// surface when there are some (not for `pm-fg`, whose per-sample gathers are what it averages).
+    /// at `lobe` (a point of the unit square stratified over the pixel's samples). With a `memo`, the
+    /// caustic and soft indirect irradiance of the surface the ray hits first come from the pixel's
+    /// earlier samples on that surface when there are some (not for `pm-fg`, whose per-sample gathers
+    /// are what it averages).
     pub fn shade(
         &self,
         origin: Vec3,

@@ -352,13 +352,6 @@ impl<'a> PhotonData<'a> {
         })
     }
 
-    /// Diffuse radiance where a final-gather ray ends (point `p` on the `front` or back side of triangle
-    /// `tri`): the atlas texel's mean albedo / π × all of its irradiance.
-    pub fn gather_radiance(&self, tri: u32, front: bool, p: Vec3) -> Vec3 {
-        self.texel(tri, front, p)
-            .map_or(Vec3::ZERO, |t| self.texel_radiance(&t, tri, front, p))
-    }
-
     /// A texel's radiance at point `p` of it: an edge texel's direct light is `p`'s own.
     fn texel_radiance(
         &self,
@@ -374,9 +367,9 @@ impl<'a> PhotonData<'a> {
         }
     }
 
-    /// [`gather_radiance`](Self::gather_radiance) at many ends at once, appended to `out` in order, plus
-    /// at glossy ends the lobe's light toward the ray (all of it, from the texel's harmonics): the
-    /// texels are found first, then read, so that the memory reads of neighbouring ends overlap.
+    /// [`surface_radiance`](Self::surface_radiance) at many ends at once, appended to `out` in order
+    /// (zero without a global map): the texels are found first, then read, so that the memory reads
+    /// of neighbouring ends overlap.
     pub fn gather_radiance_batch(&self, ends: &[GatherHit], out: &mut Vec<Vec3>) {
         let (Some(atlas), Some(global)) = (self.surfaces.atlas.as_ref(), self.maps.global.as_ref())
         else {
@@ -396,8 +389,9 @@ impl<'a> PhotonData<'a> {
     }
 
     /// The light leaving a surface toward a ray that ends there, read as a gather ray reads it: the
-    /// texel's diffuse radiance (its direct light included) and a glossy surface's lobe. `None`
-    /// without a global map (no photon was stored).
+    /// atlas texel's mean albedo / π × all of its irradiance (an edge texel's direct light the point's
+    /// own), and on a glossy surface its lobe from the texel's harmonics. `None` without a global map
+    /// (no photon was stored).
     pub fn surface_radiance(&self, end: &GatherHit) -> Option<Vec3> {
         let (atlas, global) = (self.surfaces.atlas.as_ref()?, self.maps.global.as_ref()?);
         let texel = atlas.texel(end.tri, end.front, end.p);

@@ -193,8 +193,8 @@ const LOBE_KEY: u64 = 0x10be;
 
 /// Sample `s`'s point for the first glossy lobe it samples (of at most `spp` in pixel `pixel`). In a
 /// whole group of four it lies in quarter π(s mod 4) of the unit square, as the sample's offset lies in
-/// quarter s mod 4 of the pixel: each group then samples every quarter of the lobe once, which removes
-/// most of a narrow lobe's noise. π is a random permutation shared by the two groups of a pair, so that
+/// quarter s mod 4 of the pixel: each group then samples every quarter of the lobe once, which lowers
+/// the noise of a lobe whose light varies smoothly across it. π is a random permutation shared by the two groups of a pair, so that
 /// the variance estimate's differences compare samples of the same quarter in both, and drawn afresh
 /// for each pair, so that over the pairs where a sample falls in the pixel and where in the lobe are
 /// independent (a fixed pairing would weight the pixel's quarters by the lobe's). Anywhere otherwise.
