@@ -138,5 +138,5 @@ fn sponza_conference_pm() {
 #[test]
 fn sponza_conference_path() {
     // Measured: mean -0.211 %, block relMSE 0.0032 at the default 64 spp (2.0 s).
-    check("sponza-conference", "path", None, 0.05);
+    check("sponza-conference", "path", None, 0.008);
 }
