@@ -215,9 +215,29 @@ impl<'a> PhotonData<'a> {
         let s = cached.unwrap_or_else(|| {
             c.photon_estimates += 1;
             let (k, cap) = (self.settings.lookup, self.settings.max_radius_volume);
-            super::volume_grid::estimate(map, x, k, cap, self.media.camera_photons, false)
-                .0
-                .s
+            let scene = self.coverage.0;
+            // Near a surface the kernel reaches past it: the estimate is fitted over what the point
+            // sees. Far from any, it sees the whole kernel and needs no rays.
+            let near_surface = || {
+                self.media.volume_grid.as_ref().is_none_or(|grid| {
+                    !grid.clear(x, cap, |centre| {
+                        super::media_cache::surroundings(scene, centre).0.nearest()
+                    })
+                })
+            };
+            let around = (scene.settings.icache.media_visibility() && near_surface())
+                .then(|| super::media_cache::surroundings(scene, x).0);
+            let est = super::volume_grid::estimate_within(
+                map,
+                x,
+                (k, cap),
+                self.media.camera_photons,
+                false,
+                around.as_ref(),
+                Some((d, g)),
+            );
+            ratio = est.phase_ratio;
+            est.rec.s
         });
         super::volume_grid::phase_moments(s, d, g) * ratio
     }

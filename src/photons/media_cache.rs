@@ -197,17 +197,7 @@ pub fn media_record(
     let Some(map) = &photons.maps().volume else {
         return VolumeRecord::default();
     };
-    // What the estimate sees reaches through faces shared by two media (their photons are in the one
-    // map); the radius still stops at every boundary (the light changes there).
-    let mut first = Vec::new();
-    let around = Surroundings::measure(|dir| {
-        let (wall, reach) = extent(scene, p.pos, dir);
-        first.push(wall);
-        reach
-    });
-    let mut first = first.into_iter();
-    let walls =
-        Surroundings::measure(|_| first.next().unwrap_or((f32::INFINITY, false, Vec3::ZERO)));
+    let (around, walls) = surroundings(scene, p.pos);
     let (k, cap) = (
         photons.settings().lookup,
         photons.settings().max_radius_volume,
@@ -246,6 +236,22 @@ pub fn media_record(
         dir: p.dir,
         ratio: est.phase_ratio,
     }
+}
+
+/// What a point in a medium sees around it: as far as a volume estimate's kernel reaches (through
+/// faces shared by two media: their photons are in the one map), and up to the first surface of any
+/// kind (a record's radius stops at every boundary: the light changes there).
+pub fn surroundings(scene: &Scene, x: Vec3) -> (Surroundings, Surroundings) {
+    let mut first = Vec::with_capacity(96);
+    let around = Surroundings::measure(|dir| {
+        let (wall, reach) = extent(scene, x, dir);
+        first.push(wall);
+        reach
+    });
+    let mut first = first.into_iter();
+    let walls =
+        Surroundings::measure(|_| first.next().unwrap_or((f32::INFINITY, false, Vec3::ZERO)));
+    (around, walls)
 }
 
 /// Along `dir` from `x` (in a medium): the first surface, and how far the volume photons reach — to

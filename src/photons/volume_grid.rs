@@ -43,6 +43,9 @@ pub struct VolumeGrid {
     cell: f32,
     dims: UVec3,
     all: Vec<OnceLock<MediaRecord>>,
+    /// Per lattice cell, the distance from its centre to the nearest surface it sees (measured lazily,
+    /// for [`VolumeGrid::clear`]).
+    clearance: Vec<OnceLock<f32>>,
     k: usize,
     max_radius: f32,
     /// Extrapolate each record by its gradient (`[render.icache] media_gradients`).
@@ -70,6 +73,7 @@ impl VolumeGrid {
             cell,
             dims,
             all,
+            clearance: (0..n).map(|_| OnceLock::new()).collect(),
             k,
             max_radius,
             gradients,
@@ -117,6 +121,23 @@ impl VolumeGrid {
         let i = ((c.z * self.dims.y + c.y) * self.dims.x + c.x) as usize;
         *self.all[i]
             .get_or_init(|| estimate(map, centre, self.k, self.max_radius, Photons::All, true).0)
+    }
+
+    /// Whether no surface lies within `r` of `x`, judged from the clearance of the centre of the lattice
+    /// cell around `x` (`measure`: the distance from a point to the nearest surface it sees), less the
+    /// distance between the two. A function of the cell alone, so the answer does not depend on which
+    /// thread asked first.
+    pub fn clear(&self, x: Vec3, r: f32, measure: impl FnOnce(Vec3) -> f32) -> bool {
+        let max = self.dims.as_ivec3() - IVec3::ONE;
+        let c = ((x - self.lo) / self.cell)
+            .floor()
+            .as_ivec3()
+            .clamp(IVec3::ZERO, max)
+            .as_uvec3();
+        let centre = self.lo + (c.as_vec3() + 0.5) * self.cell;
+        let i = ((c.z * self.dims.y + c.y) * self.dims.x + c.x) as usize;
+        let clearance = *self.clearance[i].get_or_init(|| measure(centre));
+        clearance - (x - centre).length() >= r
     }
 
     /// Records created so far, of all.
@@ -357,6 +378,15 @@ impl Surroundings {
         (f0, f1, f2)
     }
 
+    /// The distance to the nearest plane of the surfaces seen (infinite when none is).
+    pub fn nearest(&self) -> f32 {
+        self.plane
+            .iter()
+            .zip(&self.dist)
+            .map(|(p, d)| p.1.min(*d))
+            .fold(f32::INFINITY, f32::min)
+    }
+
     /// Harmonic mean of the distances, each cut at `cap`.
     pub fn harmonic_mean(&self, cap: f32) -> f32 {
         let inv: f32 = self
@@ -382,15 +412,22 @@ fn cell_direction(c: usize, fi: f32, fj: f32) -> (Vec3, f32) {
 }
 
 /// The [`SUB_N`]² directions over cube cell `c` (their cell's centres), each with its solid angle's
-/// weight.
+/// weight (tabled: every estimate near a surface integrates over them).
 fn sub_directions(c: usize) -> impl Iterator<Item = (Vec3, f32)> {
-    (0..SUB_N * SUB_N).map(move |k| {
-        cell_direction(
-            c,
-            ((k / SUB_N) as f32 + 0.5) / SUB_N as f32,
-            ((k % SUB_N) as f32 + 0.5) / SUB_N as f32,
-        )
-    })
+    type Table = [[(Vec3, f32); SUB_N * SUB_N]; CUBE_CELLS];
+    static TABLE: std::sync::OnceLock<Box<Table>> = std::sync::OnceLock::new();
+    let table = TABLE.get_or_init(|| {
+        Box::new(std::array::from_fn(|c| {
+            std::array::from_fn(|k| {
+                cell_direction(
+                    c,
+                    ((k / SUB_N) as f32 + 0.5) / SUB_N as f32,
+                    ((k % SUB_N) as f32 + 0.5) / SUB_N as f32,
+                )
+            })
+        }))
+    });
+    table[c].iter().copied()
 }
 
 /// Per cube cell, the mean of its [`SUB_N`]² directions and of their outer products, weighted by solid
