@@ -217,16 +217,15 @@ impl<'a> PhotonData<'a> {
             let (k, cap) = (self.settings.lookup, self.settings.max_radius_volume);
             let scene = self.coverage.0;
             // Near a surface the kernel reaches past it: the estimate is fitted over what the point
-            // sees. Far from any, it sees the whole kernel and needs no rays.
-            let near_surface = || {
-                self.media.volume_grid.as_ref().is_none_or(|grid| {
-                    !grid.clear(x, cap, |centre| {
-                        super::media_cache::surroundings(scene, centre).0.nearest()
-                    })
-                })
+            // sees (a coarse lattice's measurements, moved to the point where nothing lies between).
+            let measure = |p: Vec3| super::media_cache::surroundings(scene, p).0;
+            let around = if !scene.settings.icache.media_visibility() {
+                None
+            } else if let Some(grid) = &self.media.volume_grid {
+                grid.surroundings(x, cap, measure, |a, b| scene.segment_clear(a, b))
+            } else {
+                Some(measure(x))
             };
-            let around = (scene.settings.icache.media_visibility() && near_surface())
-                .then(|| super::media_cache::surroundings(scene, x).0);
             let est = super::volume_grid::estimate_within(
                 map,
                 x,

@@ -43,9 +43,11 @@ pub struct VolumeGrid {
     cell: f32,
     dims: UVec3,
     all: Vec<OnceLock<MediaRecord>>,
-    /// Per lattice cell, the distance from its centre to the nearest surface it sees (measured lazily,
-    /// for [`VolumeGrid::clear`]).
-    clearance: Vec<OnceLock<f32>>,
+    /// What the centre of each cell of a coarser lattice sees (measured lazily, for
+    /// [`VolumeGrid::surroundings`]), and that lattice's cell size and dimensions.
+    seen: Vec<OnceLock<Seen>>,
+    seen_cell: f32,
+    seen_dims: UVec3,
     k: usize,
     max_radius: f32,
     /// Extrapolate each record by its gradient (`[render.icache] media_gradients`).
@@ -68,12 +70,16 @@ impl VolumeGrid {
         };
         let n = (dims.x * dims.y * dims.z) as usize;
         let all = (0..n).map(|_| OnceLock::new()).collect();
+        let (seen_cell, seen_dims) = seen_lattice(extent, max_radius);
+        let seen_n = (seen_dims.x * seen_dims.y * seen_dims.z) as usize;
         VolumeGrid {
             lo: bounds.0,
             cell,
             dims,
             all,
-            clearance: (0..n).map(|_| OnceLock::new()).collect(),
+            seen: (0..seen_n).map(|_| OnceLock::new()).collect(),
+            seen_cell,
+            seen_dims,
             k,
             max_radius,
             gradients,
@@ -123,21 +129,42 @@ impl VolumeGrid {
             .get_or_init(|| estimate(map, centre, self.k, self.max_radius, Photons::All, true).0)
     }
 
-    /// Whether no surface lies within `r` of `x`, judged from the clearance of the centre of the lattice
-    /// cell around `x` (`measure`: the distance from a point to the nearest surface it sees), less the
-    /// distance between the two. A function of the cell alone, so the answer does not depend on which
-    /// thread asked first.
-    pub fn clear(&self, x: Vec3, r: f32, measure: impl FnOnce(Vec3) -> f32) -> bool {
-        let max = self.dims.as_ivec3() - IVec3::ONE;
-        let c = ((x - self.lo) / self.cell)
+    /// What `x` sees around it, for an estimate's fit: `None` where no surface lies within `r` of it.
+    /// Taken from what the centre of its cell of a coarse lattice sees (measured once by `measure`,
+    /// each plane then moved to `x`) when `clear(centre, x)` says nothing lies between the two; else
+    /// measured at `x` itself. A function of the cell and `x` alone, so the answer does not depend on
+    /// which thread asked first.
+    pub fn surroundings(
+        &self,
+        x: Vec3,
+        r: f32,
+        measure: impl Fn(Vec3) -> Surroundings,
+        clear: impl FnOnce(Vec3, Vec3) -> bool,
+    ) -> Option<Surroundings> {
+        let max = self.seen_dims.as_ivec3() - IVec3::ONE;
+        let c = ((x - self.lo) / self.seen_cell)
             .floor()
             .as_ivec3()
             .clamp(IVec3::ZERO, max)
             .as_uvec3();
-        let centre = self.lo + (c.as_vec3() + 0.5) * self.cell;
-        let i = ((c.z * self.dims.y + c.y) * self.dims.x + c.x) as usize;
-        let clearance = *self.clearance[i].get_or_init(|| measure(centre));
-        clearance - (x - centre).length() >= r
+        let centre = self.lo + (c.as_vec3() + 0.5) * self.seen_cell;
+        let i = ((c.z * self.seen_dims.y + c.y) * self.seen_dims.x + c.x) as usize;
+        let seen = self.seen[i].get_or_init(|| {
+            let around = measure(centre);
+            Seen {
+                nearest: around.nearest(),
+                planes: around.planes(),
+            }
+        });
+        let offset = x - centre;
+        if seen.nearest - offset.length() >= r {
+            return None;
+        }
+        Some(if clear(centre, x) {
+            Surroundings::moved(&seen.planes, offset, r)
+        } else {
+            measure(x)
+        })
     }
 
     /// Records created so far, of all.
@@ -146,6 +173,31 @@ impl VolumeGrid {
             self.all.iter().filter(|c| c.get().is_some()).count(),
             self.all.len(),
         )
+    }
+}
+
+/// What the centre of a cell of [`VolumeGrid`]'s coarse lattice sees: its nearest surface's distance
+/// and the distinct planes of the surfaces around it.
+struct Seen {
+    nearest: f32,
+    planes: Vec<(Vec3, f32, bool)>,
+}
+
+/// Most cells of the lattice of [`Seen`] (up to 1.6 KiB each once measured).
+pub const MAX_SEEN_CELLS: u64 = 1 << 14;
+/// Bytes of a measured [`Seen`] at most (96 planes of 20 bytes, the list and its lock).
+pub const SEEN_BYTES: u64 = 96 * 20 + 48;
+
+/// The coarse lattice over a box of size `extent` whose cells' centres measure what they see: cells
+/// about the estimate's radius cap across, fewer than [`MAX_SEEN_CELLS`].
+fn seen_lattice(extent: Vec3, max_radius: f32) -> (f32, UVec3) {
+    let mut cell = max_radius.max(extent.max_element() * 1e-3);
+    loop {
+        let d = (extent / cell).ceil().as_uvec3().max(UVec3::ONE);
+        if (d.x as u64) * (d.y as u64) * (d.z as u64) <= MAX_SEEN_CELLS {
+            return (cell, d);
+        }
+        cell *= 1.25;
     }
 }
 
@@ -378,6 +430,55 @@ impl Surroundings {
         (f0, f1, f2)
     }
 
+    /// The distinct planes of the surfaces seen, each as its unit normal facing away from the point,
+    /// its distance and whether it is an occluder's (for [`Surroundings::moved`]).
+    pub fn planes(&self) -> Vec<(Vec3, f32, bool)> {
+        let mut planes: Vec<(Vec3, f32, bool)> = Vec::new();
+        for (&(n, h), &solid) in self.plane.iter().zip(&self.solid) {
+            let same = |p: &(Vec3, f32, bool)| {
+                (p.0 - n).length_squared() < 1e-6 && (p.1 - h).abs() <= 1e-4 * h.max(1e-3)
+            };
+            if h.is_finite() && !planes.iter().any(same) {
+                planes.push((n, h, solid));
+            }
+        }
+        planes
+    }
+
+    /// What a point `offset` away from the one that saw `planes` ([`Surroundings::planes`]) sees within
+    /// `reach`, approximately: the planes moved by the offset, and along each cell's direction the
+    /// first of them — exact inside a convex space (a room, a fog box: the first wall along a ray is
+    /// the nearest crossing of all the walls' planes), approximate among occluders. A plane the point
+    /// lies beyond, or farther than `reach`, is left out.
+    pub fn moved(planes: &[(Vec3, f32, bool)], offset: Vec3, reach: f32) -> Surroundings {
+        let near: Vec<(Vec3, f32, bool)> = planes
+            .iter()
+            .map(|&(n, h, solid)| (n, h - n.dot(offset), solid))
+            .filter(|p| p.1 > 0.0 && p.1 < reach)
+            .collect();
+        let mut s = Surroundings {
+            dist: [f32::INFINITY; CUBE_CELLS],
+            solid: [false; CUBE_CELLS],
+            plane: [(Vec3::ZERO, f32::INFINITY); CUBE_CELLS],
+            weight: *cell_weights(),
+        };
+        if near.is_empty() {
+            return s;
+        }
+        for c in 0..CUBE_CELLS {
+            let d = cell_centres()[c];
+            for &(n, h, solid) in &near {
+                let cos = d.dot(n);
+                if cos > 0.0 && h < s.dist[c] * cos {
+                    s.dist[c] = h / cos;
+                    s.plane[c] = (n, h);
+                    s.solid[c] = solid;
+                }
+            }
+        }
+        s
+    }
+
     /// The distance to the nearest plane of the surfaces seen (infinite when none is).
     pub fn nearest(&self) -> f32 {
         self.plane
@@ -397,6 +498,22 @@ impl Surroundings {
             .sum();
         1.0 / inv
     }
+}
+
+/// Each cube cell's central direction (tabled).
+fn cell_centres() -> &'static [Vec3; CUBE_CELLS] {
+    static TABLE: OnceLock<[Vec3; CUBE_CELLS]> = OnceLock::new();
+    TABLE.get_or_init(|| std::array::from_fn(|c| cell_direction(c, 0.5, 0.5).0))
+}
+
+/// Each cube cell's share of the sphere, as [`Surroundings::measure`] weights it (tabled).
+fn cell_weights() -> &'static [f32; CUBE_CELLS] {
+    static TABLE: OnceLock<[f32; CUBE_CELLS]> = OnceLock::new();
+    TABLE.get_or_init(|| {
+        let w: [f32; CUBE_CELLS] = std::array::from_fn(|c| cell_direction(c, 0.5, 0.5).1);
+        let total: f32 = w.iter().sum();
+        w.map(|x| x / total)
+    })
 }
 
 /// The unit direction at (fi, fj) ∈ [0, 1]² within cube cell `c`, and its solid angle's weight
@@ -829,6 +946,27 @@ mod tests {
         let mut n = Vec3::ZERO;
         n[a] = -d[a].signum();
         (t(a), wall < 1.0 && a == 0 && d.x > 0.0, n)
+    }
+
+    /// What a box's centre sees, moved to a point near two of its walls, is what that point sees:
+    /// the kernel's visible share and moments agree with a measurement made there.
+    #[test]
+    fn moved_surroundings_match_a_measurement_at_the_point() {
+        let centre = Vec3::splat(0.5);
+        let x = Vec3::new(0.12, 0.8, 0.55);
+        let here = Surroundings::measure(|d| box_distance(x, d, 1.0));
+        let planes = Surroundings::measure(|d| box_distance(centre, d, 1.0)).planes();
+        let moved = Surroundings::moved(&planes, x - centre, 1.0);
+        for r in [0.1, 0.25, 0.4] {
+            let (a, b) = (here.share(r).0, moved.share(r).0);
+            assert!((a - b).abs() < 0.02, "r {r}: share {a} measured, {b} moved");
+            let (ma, mb) = (here.moments(r).1, moved.moments(r).1);
+            assert!(
+                (ma - mb).length() < 0.02 * r,
+                "r {r}: first moment {ma} vs {mb}"
+            );
+        }
+        assert!((moved.nearest() - 0.12).abs() < 1e-4, "{}", moved.nearest());
     }
 
     /// Uniform photons (power 1 each) in the unit cube, twice as dense left of x = 0.5.

@@ -173,6 +173,13 @@ pub fn estimate(scene: &Scene, plan: &Plan, opts: &Options) -> Vec<(String, u64)
                 "media records".into(),
                 crate::photons::volume_grid::MAX_RECORDS * MEDIA_RECORD_BYTES,
             ));
+            // What the cells of the estimates' coarse lattice see, once measured.
+            items.push((
+                "media surroundings".into(),
+                crate::photons::volume_grid::MAX_SEEN_CELLS
+                    * (std::mem::size_of::<crate::photons::volume_grid::Surroundings>() as u64
+                        + 16),
+            ));
             if plan.method == Method::Pm {
                 let cache = icache::media::MAX_RECORDS as u64
                     * (std::mem::size_of::<icache::media::VolumeRecord>() as u64 + 64);

@@ -170,6 +170,12 @@ impl Scene {
         })
     }
 
+    /// Whether no surface of any kind (invisible boundaries included) lies between points `a` and `b`.
+    pub(crate) fn segment_clear(&self, a: Vec3, b: Vec3) -> bool {
+        let (d, len) = ((b - a).normalize_or_zero(), (b - a).length());
+        d == Vec3::ZERO || !self.bvh.occluded(a, d, len)
+    }
+
     /// Whether the segment from `hit` toward a light point is blocked.
     pub(crate) fn occluded(&self, hit: &Hit, wi: Vec3, dist: f32) -> bool {
         let o = spawn(hit, wi);
