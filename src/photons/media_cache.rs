@@ -241,7 +241,7 @@ pub fn media_record(
 /// What a point in a medium sees around it: as far as a volume estimate's kernel reaches (through
 /// faces shared by two media: their photons are in the one map), and up to the first surface of any
 /// kind (a record's radius stops at every boundary: the light changes there).
-pub fn surroundings(scene: &Scene, x: Vec3) -> (Surroundings, Surroundings) {
+pub(crate) fn surroundings(scene: &Scene, x: Vec3) -> (Surroundings, Surroundings) {
     let mut first = Vec::with_capacity(96);
     let around = Surroundings::measure(|dir| {
         let (wall, reach) = extent(scene, x, dir);

@@ -432,7 +432,7 @@ impl Surroundings {
 
     /// The distinct planes of the surfaces seen, each as its unit normal facing away from the point,
     /// its distance and whether it is an occluder's (for [`Surroundings::moved`]).
-    pub fn planes(&self) -> Vec<(Vec3, f32, bool)> {
+    fn planes(&self) -> Vec<(Vec3, f32, bool)> {
         let mut planes: Vec<(Vec3, f32, bool)> = Vec::new();
         for (&(n, h), &solid) in self.plane.iter().zip(&self.solid) {
             let same = |p: &(Vec3, f32, bool)| {
@@ -450,7 +450,7 @@ impl Surroundings {
     /// first of them — exact inside a convex space (a room, a fog box: the first wall along a ray is
     /// the nearest crossing of all the walls' planes), approximate among occluders. A plane the point
     /// lies beyond, or farther than `reach`, is left out.
-    pub fn moved(planes: &[(Vec3, f32, bool)], offset: Vec3, reach: f32) -> Surroundings {
+    fn moved(planes: &[(Vec3, f32, bool)], offset: Vec3, reach: f32) -> Surroundings {
         let near: Vec<(Vec3, f32, bool)> = planes
             .iter()
             .map(|&(n, h, solid)| (n, h - n.dot(offset), solid))
@@ -480,7 +480,7 @@ impl Surroundings {
     }
 
     /// The distance to the nearest plane of the surfaces seen (infinite when none is).
-    pub fn nearest(&self) -> f32 {
+    fn nearest(&self) -> f32 {
         self.plane
             .iter()
             .zip(&self.dist)
