@@ -183,7 +183,7 @@ struct Seen {
     planes: Vec<(Vec3, f32, bool)>,
 }
 
-/// Most cells of the lattice of [`Seen`] (up to 1.6 KiB each once measured).
+/// Most cells of the lattice of [`Seen`] (up to [`SEEN_BYTES`] each once measured).
 pub const MAX_SEEN_CELLS: u64 = 1 << 14;
 /// Bytes of a measured [`Seen`] at most (96 planes of 20 bytes, the list and its lock).
 pub const SEEN_BYTES: u64 = 96 * 20 + 48;
@@ -275,7 +275,6 @@ pub struct Surroundings {
     solid: [bool; CUBE_CELLS],
     /// The plane through the cell's hit: its unit normal facing away from the point, and its distance.
     plane: [(Vec3, f32); CUBE_CELLS],
-    weight: [f32; CUBE_CELLS],
 }
 
 /// Directions per cell side over which [`Surroundings::share`] integrates each cell's plane: with one
@@ -326,12 +325,9 @@ impl Surroundings {
             dist: [0.0; CUBE_CELLS],
             solid: [false; CUBE_CELLS],
             plane: [(Vec3::ZERO, f32::INFINITY); CUBE_CELLS],
-            weight: [0.0; CUBE_CELLS],
         };
-        let mut total = 0.0;
         for c in 0..CUBE_CELLS {
-            let (d, w) = cell_direction(c, 0.5, 0.5);
-            s.weight[c] = w;
+            let d = cell_centres()[c];
             let n;
             (s.dist[c], s.solid[c], n) = dist(d);
             let cos = d.dot(n);
@@ -339,9 +335,7 @@ impl Surroundings {
                 let away = if cos > 0.0 { n } else { -n };
                 s.plane[c] = (away, s.dist[c] * cos.abs());
             }
-            total += w;
         }
-        s.weight.iter_mut().for_each(|w| *w /= total);
         s
     }
 
@@ -375,7 +369,7 @@ impl Surroundings {
         for c in 0..CUBE_CELLS {
             let (n, h) = self.plane[c];
             if !(h < r) {
-                f += self.weight[c];
+                f += cell_weights()[c];
                 continue;
             }
             let (mut fc, mut gc, mut wsum) = (0.0, Vec3::ZERO, 0.0);
@@ -390,8 +384,8 @@ impl Surroundings {
                 fc += w * kernel_share(u);
                 gc -= n * (w * kernel_share_slope(u) / (r * cos.max(0.05)));
             }
-            f += self.weight[c] * fc / wsum;
-            g += gc * (self.weight[c] / wsum);
+            f += cell_weights()[c] * fc / wsum;
+            g += gc * (cell_weights()[c] / wsum);
         }
         (f, g)
     }
@@ -407,9 +401,9 @@ impl Surroundings {
                 // The whole cell within reach: its directions' mean and second moment (tabled) times
                 // the kernel's radial moments over the whole radius.
                 let (mean, second) = cell_direction_moments()[c];
-                f0 += self.weight[c];
-                f1 += mean * (self.weight[c] * r * kernel_first_moment(1.0));
-                f2 += second * (self.weight[c] * r * r * kernel_second_moment(1.0));
+                f0 += cell_weights()[c];
+                f1 += mean * (cell_weights()[c] * r * kernel_first_moment(1.0));
+                f2 += second * (cell_weights()[c] * r * r * kernel_second_moment(1.0));
                 continue;
             }
             let mut wsum = 0.0;
@@ -422,7 +416,7 @@ impl Surroundings {
                 c1 += d * (w * kernel_first_moment(u) * r);
                 c2 += outer(d) * (w * kernel_second_moment(u) * r * r);
             }
-            let cw = self.weight[c] / wsum;
+            let cw = cell_weights()[c] / wsum;
             f0 += c0 * cw;
             f1 += c1 * cw;
             f2 += c2 * cw;
@@ -460,7 +454,6 @@ impl Surroundings {
             dist: [f32::INFINITY; CUBE_CELLS],
             solid: [false; CUBE_CELLS],
             plane: [(Vec3::ZERO, f32::INFINITY); CUBE_CELLS],
-            weight: *cell_weights(),
         };
         if near.is_empty() {
             return s;
@@ -493,7 +486,7 @@ impl Surroundings {
         let inv: f32 = self
             .dist
             .iter()
-            .zip(&self.weight)
+            .zip(cell_weights())
             .map(|(d, w)| w / d.min(cap).max(1e-9))
             .sum();
         1.0 / inv
