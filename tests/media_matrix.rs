@@ -28,9 +28,19 @@ struct Check {
 }
 
 const fn check(method: &'static str, mean: f32, block: f64) -> Check {
+    with_args(method, &[], mean, block)
+}
+
+/// `method` rendered with `extra` arguments.
+const fn with_args(
+    method: &'static str,
+    extra: &'static [&'static str],
+    mean: f32,
+    block: f64,
+) -> Check {
     Check {
         method,
-        extra: &[],
+        extra,
         mean,
         block,
     }
@@ -38,12 +48,7 @@ const fn check(method: &'static str, mean: f32, block: f64) -> Check {
 
 /// `path` at 512 samples per pixel.
 const fn path(mean: f32, block: f64) -> Check {
-    Check {
-        method: "path",
-        extra: &["--spp", "512"],
-        mean,
-        block,
-    }
+    with_args("path", &["--spp", "512"], mean, block)
 }
 
 fn run_case(case: &str, checks: &[Check]) {
@@ -265,13 +270,8 @@ fn point_light_in_dense_forward_fog() {
     run_case(
         "dense-point",
         &[
-            Check {
-                method: "path",
-                extra: &["--spp", "4096"],
-                mean: 0.01,
-                block: 0.003,
-            }, // −0.73 %, 0.00124
-            check("pm", 0.015, 0.005),      // +0.88 %, 0.00230
+            with_args("path", &["--spp", "4096"], 0.01, 0.003), // −0.73 %, 0.00124
+            check("pm", 0.015, 0.005),                          // +0.88 %, 0.00230
             check("photons", 0.015, 0.004), // −0.79 %, 0.00186; seeds 1, 2: −1.36, −1.25 %
         ],
     );
@@ -306,12 +306,7 @@ fn area_light_over_dense_fog() {
 /// `pm-fg` at 32 samples per pixel (its default of 4 leaves ±2 % of pixel noise in the image mean of
 /// these 48² images where an emitter is in view), on every case (`make test-slow`).
 const fn pm_fg(mean: f32, block: f64) -> Check {
-    Check {
-        method: "pm-fg",
-        extra: &["--spp", "32"],
-        mean,
-        block,
-    }
+    with_args("pm-fg", &["--spp", "32"], mean, block)
 }
 
 #[test]
