@@ -66,7 +66,8 @@ pub struct IcacheSettings {
     pub fill: FillMode,
     /// Media radiance-cache records extrapolated by their gradients (`media_gradients`, default true).
     media_gradients: bool,
-    /// Media records' estimates aware of what their point sees (`media_visibility`, default true):
+    /// Volume estimates along camera rays (media records; `photons` and `pm-fg` at each step) aware of
+    /// what their point sees (`media_visibility`, default true):
     /// see [`Self::media_visibility`].
     media_visibility: bool,
     /// `pass_a_stride` as given; see [`Self::pass_a_stride`].
@@ -89,7 +90,8 @@ impl IcacheSettings {
         self.media_gradients
     }
 
-    /// Whether the media cache's records leave out photons behind occluders and fit the power over
+    /// Whether volume estimates along camera rays (the media cache's records; `photons` and `pm-fg`
+    /// at each step) leave out photons behind occluders and fit the power over
     /// the kernel's visible part (`volume_grid::estimate_within`): a plain kernel near a wall or a
     /// medium's boundary counts the empty side and reads low.
     pub(crate) fn media_visibility(&self) -> bool {
