@@ -287,7 +287,8 @@ fn cli_inputs(a: &RenderArgs) -> Vec<(String, PathBuf)> {
     inputs
 }
 
-fn check_outputs(a: &RenderArgs) -> Result<()> {
+/// Each output's extension names its format.
+fn check_extensions(a: &RenderArgs) -> Result<()> {
     let ext_ok = |p: &Path, ext: &str| {
         p.extension()
             .map(|e| e.eq_ignore_ascii_case(ext))
@@ -305,6 +306,11 @@ fn check_outputs(a: &RenderArgs) -> Result<()> {
             _ => {}
         }
     }
+    Ok(())
+}
+
+/// A still render's outputs can be written, and its input files given by options can be read.
+fn check_outputs(a: &RenderArgs) -> Result<()> {
     for (opt, p) in outputs(a) {
         check_output(opt, p)?;
     }
@@ -337,13 +343,19 @@ fn input_file(opt: &str, p: &Path) -> Result<()> {
 fn render_command(a: RenderArgs, cancel: &AtomicBool) -> Result<()> {
     let opts = options(&a)?;
     let threads = thread_count(a.threads)?;
-    check_outputs(&a)?;
+    check_extensions(&a)?;
     // No file of ours exists until the outputs are written: a signal may end the process at any time.
     signal::arm(true);
     if let Some(anim) = scene::load_animation(&a.scene)? {
+        // Each frame's outputs are checked once the frame numbers are known (`####` may stand in a
+        // folder's name).
         let pool = pool(threads)?;
         return sequence::render_animation(&a, &opts, &anim, &pool, cancel);
     }
+    // The checks create and remove a file beside each output: not while a signal ends the process.
+    signal::arm(false);
+    check_outputs(&a)?;
+    signal::arm(true);
     if a.frames.is_some() {
         return Err(option("--frames", "the scene has no [animation]"));
     }

@@ -24,10 +24,18 @@ pub fn render_sequence(
     on_frame: &mut dyn FnMut(u32, &Scene, &RenderOutput, &RenderStats) -> Result<()>,
 ) -> Result<()> {
     let (first, last) = (*frames.start(), *frames.end());
+    // Whatever a frame's scene would refuse is refused before the first frame is written.
+    let mut loaded = Some(scene::load_frame(anim, first)?);
+    if let Some(s) = &loaded {
+        scene::check_sequence(anim, frames.clone(), s, cancel)?;
+    }
     let mut f = first;
     let mut handoff: Option<Handoff> = None;
     while f <= last {
-        let scene = scene::load_frame(anim, f)?;
+        let scene = match loaded.take() {
+            Some(s) => s,
+            None => scene::load_frame(anim, f)?,
+        };
         let temporal = scene.settings.icache.temporal;
         let mut carry = match handoff.take() {
             Some(h) if temporal => h.into_carry(anim, &scene, f),
@@ -54,8 +62,12 @@ pub fn render_sequence(
                     if let Some((mut out, _)) = prev.take() {
                         carry.cache = out.cache.take();
                     }
+                    let camera = scene::frame_camera(anim, f)?;
+                    // The scene was built for its first frame's eye: this frame's may be in
+                    // another medium.
+                    scene.place_eye(camera.eye);
                     let frame_opts = Options {
-                        camera: Some(scene::frame_camera(anim, f)?),
+                        camera: Some(camera),
                         frame: Some(f),
                         ..opts.clone()
                     };
@@ -114,7 +126,10 @@ impl Handoff {
     fn into_carry<'a>(self, anim: &Animation, scene: &Scene, f: u32) -> Carry<'a> {
         let mut moved = Vec::new();
         let mut rigid = Vec::new();
+        // A mesh that emits and moved is a light that changed.
+        let mut lights = anim.lights_changed(f - 1, f);
         for m in anim.moved_meshes(f - 1, f) {
+            lights |= scene.mesh_emits(m);
             if let (Some(before), Some(after)) = (
                 self.mesh_spheres.get(m).copied().flatten(),
                 scene.mesh_sphere(m),
@@ -138,7 +153,7 @@ impl Handoff {
             change: Some(super::temporal::SceneChange {
                 moved,
                 rigid,
-                lights: anim.lights_changed(f - 1, f),
+                lights,
             }),
             ..Carry::default()
         }

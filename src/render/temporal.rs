@@ -11,9 +11,10 @@
 //!   hemisphere. Its temporal gradient ∂E/∂t is the change since its last gather per frame, and its
 //!   next lifespan the frames that change takes to reach [`TOLERANCE`] of its irradiance (at most
 //!   [`MAX_LIFESPAN`]; one frame for a new record, whose rate is not known yet).
-//! - A gather that differs from the record's by no more than twice the gathers' own noise (or a
-//!   quarter of [`TOLERANCE`]) leaves the record as it was, due again after [`MAX_LIFESPAN`]: where
-//!   nothing happened the image stays the same.
+//! - Where no light changed, a gather that differs from the record's in no channel by more than
+//!   twice the gathers' own noise (or a quarter of [`TOLERANCE`]) leaves the record as it was, due
+//!   again after [`MAX_LIFESPAN`]: where nothing happened the image stays the same. After a light
+//!   changed (a `[[light]]`'s values, or a mesh that emits moved), every record takes its new gather.
 //! - Between gathers a record's irradiance follows its temporal gradient.
 //!
 //! Frames where only the camera moves keep every record of earlier frames that is fine enough for the
@@ -294,11 +295,14 @@ impl Lifespans {
             let age = frame.saturating_sub(old.made).max(1);
             let de_dt = (new.e - old.e) / age as f32;
             let level = luminance(new.e).max(luminance(old.e)).max(1e-12);
-            let change = luminance(new.e - old.e).abs() / level;
-            // A change within the gather's own noise is no change: the record stays as it was,
-            // and the image does not flicker where nothing happened.
+            // Per channel: a light that changes colour may keep its luminance.
+            let moved_by = (new.e - old.e).abs().max_element() / level;
+            // Where only meshes moved, a change within the gather's own noise is no change: the
+            // record stays as it was, and the image does not flicker where nothing happened. A
+            // changed light changes every record (and the photons of every path): each takes its
+            // new gather.
             let noise = 2.0 * new.rel_err.max(cache.records()[i].rel_err);
-            let life = if change <= noise.max(0.25 * TOLERANCE) {
+            let life = if !change.lights && moved_by <= noise.max(0.25 * TOLERANCE) {
                 Life {
                     due: frame + MAX_LIFESPAN,
                     de_dt: Vec3::ZERO,

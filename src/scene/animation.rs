@@ -123,6 +123,45 @@ impl Animation {
         d
     }
 
+    /// Whether `[[mesh]]` entry `m` bounds a medium (it has an `interior`).
+    pub(super) fn is_boundary(&self, m: usize) -> bool {
+        self.desc.mesh.get(m).is_some_and(|d| d.interior.is_some())
+    }
+
+    /// The line to name when the lights of frame `f` have no power: of the keys that set a light's
+    /// intensity or irradiance, the last at or before `f` (else the first after it); the first light's
+    /// table when no key sets one.
+    pub(super) fn light_power_line(&self, f: u32) -> usize {
+        let mut best: Option<(bool, i64, usize, usize, &str)> = None;
+        for (i, l) in self.desc.light.iter().enumerate() {
+            for (k, key) in l.key.iter().enumerate() {
+                let name = if key.intensity.is_some() {
+                    "intensity"
+                } else if key.irradiance.is_some() {
+                    "irradiance"
+                } else {
+                    continue;
+                };
+                // Keys at or before f first, the latest of them; then the earliest after f.
+                let rank = (
+                    key.frame <= f as i64,
+                    if key.frame <= f as i64 {
+                        key.frame
+                    } else {
+                        -key.frame
+                    },
+                );
+                if best.is_none_or(|b| (b.0, b.1) < rank) {
+                    best = Some((rank.0, rank.1, i, k, name));
+                }
+            }
+        }
+        match best {
+            Some((_, _, i, k, name)) => line_of_path(&self.text, &["light", "key", name], &[i, k]),
+            None => line_of_path(&self.text, &["light"], &[0]),
+        }
+    }
+
     /// What differs between frames `a` and `b`.
     pub fn change(&self, a: u32, b: u32) -> Change {
         let (da, db) = (self.frame_desc(a), self.frame_desc(b));

@@ -9,8 +9,8 @@ use super::animation::{at_frame, Animation};
 use super::context::Ctx;
 use super::file::{self, line_of, line_of_key, SceneFile};
 use super::input::{self, read_text, MAX_SCENE_BYTES, MAX_TEXTURE_BYTES};
-use super::lights::{check_lights, lights, Origin};
-use super::media::media;
+use super::lights::{check_lights, lights, some_light_emits, Origin};
+use super::media::{check_camera_medium, media};
 use super::settings::{camera, settings};
 use super::{limits, mtl, obj, Scene};
 use crate::accel::embree::Bvh;
@@ -56,6 +56,66 @@ pub fn load_animation(path: &Path) -> Result<Option<Animation>> {
 /// Frame `f` of an animated scene.
 pub fn load_frame(anim: &Animation, f: u32) -> Result<Scene> {
     build(anim.path(), anim.text(), &anim.frame_desc(f)).map_err(|e| at_frame(e, f))
+}
+
+/// What building frames `frames` of `anim` would refuse, found before any of them is rendered
+/// (`first`: the scene of the first): each frame's lights without power (unless meshes emit) and the
+/// camera's declared medium at each frame's eye. A frame where a medium's boundary mesh moved is
+/// built (its media checked as a still's are). Stops with `Interrupted` once `cancel` is set.
+pub fn check_sequence(
+    anim: &Animation,
+    frames: std::ops::RangeInclusive<u32>,
+    first: &Scene,
+    cancel: &std::sync::atomic::AtomicBool,
+) -> Result<()> {
+    let cx = Ctx {
+        path: anim.path(),
+        text: anim.text(),
+    };
+    let meshes_emit = (0..first.mesh_ranges.len()).any(|m| first.mesh_emits(m));
+    let boundaries: Vec<usize> = (0..first.mesh_ranges.len())
+        .filter(|&m| anim.is_boundary(m))
+        .collect();
+    let placed = |f: u32| -> Vec<Option<Mat4>> {
+        boundaries
+            .iter()
+            .map(|&m| mesh_transform(anim, f, m))
+            .collect()
+    };
+    let start = *frames.start();
+    let (mut built, mut built_at) = (None, placed(start));
+    for f in frames {
+        if cancel.load(std::sync::atomic::Ordering::Relaxed) {
+            return Err(crate::error::Error::Interrupted);
+        }
+        let desc = anim.frame_desc(f);
+        if !meshes_emit && !some_light_emits(&cx, &desc).map_err(|e| at_frame(e, f))? {
+            return Err(at_frame(
+                at_line(
+                    cx.path,
+                    anim.light_power_line(f),
+                    "every light has zero power",
+                ),
+                f,
+            ));
+        }
+        if f == start || first.media.is_none() {
+            continue;
+        }
+        let at = placed(f);
+        if at != built_at {
+            built = Some(load_frame(anim, f)?);
+            built_at = at;
+            continue;
+        }
+        let scene = built.as_ref().unwrap_or(first);
+        if let Some(media) = &scene.media {
+            let eye = Vec3::from(desc.camera.eye);
+            check_camera_medium(&cx, &desc, &media.list, media.medium_at(eye))
+                .map_err(|e| at_frame(e, f))?;
+        }
+    }
+    Ok(())
 }
 
 /// The camera of frame `f` (checked by [`load_animation`]).

@@ -80,6 +80,16 @@ pub(super) fn check_lights(cx: &Ctx, desc: &SceneFile) -> Result<()> {
     Ok(())
 }
 
+/// Whether some `[[light]]` entry emits (their values checked already by [`check_lights`]).
+pub(super) fn some_light_emits(cx: &Ctx, desc: &SceneFile) -> Result<bool> {
+    for (i, l) in desc.light.iter().enumerate() {
+        if power_f64(&light(cx, i, l, Vec3::ZERO, 1.0)?) > 0.0 {
+            return Ok(true);
+        }
+    }
+    Ok(false)
+}
+
 /// Emitted power in f64, where the f32 product could overflow.
 fn power_f64(l: &Light) -> f64 {
     let pi = std::f64::consts::PI;

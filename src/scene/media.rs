@@ -10,6 +10,7 @@ mod overlap;
 
 use std::collections::HashMap;
 use std::ops::Range;
+use std::sync::atomic::{AtomicU16, Ordering};
 
 use glam::Vec3;
 use rayon::prelude::*;
@@ -31,8 +32,9 @@ pub struct Media {
     pub list: Vec<Medium>,
     /// Per triangle: `[medium on the side ng points to, medium behind]`, for boundary triangles only.
     sides: Vec<Option<[MediumId; 2]>>,
-    /// The medium the camera's eye is in.
-    pub camera: MediumId,
+    /// The medium the camera's eye is in: set when the scene is built, and again for each frame of a
+    /// sequence that reuses the scene with another eye ([`crate::scene::Scene::place_eye`]).
+    camera: AtomicU16,
     /// The medium each light emits into (indexed as `Lights::lights`).
     pub lights: Vec<MediumId>,
     /// The boundary meshes, and a BVH of their triangles alone, for [`Media::medium_at`].
@@ -50,13 +52,23 @@ impl std::fmt::Debug for Media {
         f.debug_struct("Media")
             .field("list", &self.list)
             .field("sides", &self.sides)
-            .field("camera", &self.camera)
+            .field("camera", &self.camera())
             .field("lights", &self.lights)
             .finish()
     }
 }
 
 impl Media {
+    /// The medium the camera's eye is in.
+    pub fn camera(&self) -> MediumId {
+        self.camera.load(Ordering::Relaxed)
+    }
+
+    /// Places the camera's eye at `eye`.
+    pub(crate) fn place_eye(&self, eye: Vec3) {
+        self.camera.store(self.medium_at(eye), Ordering::Relaxed);
+    }
+
     /// The medium a ray leaving triangle `tri` (geometric normal `ng`) in direction `dir` travels in,
     /// when it was in `current` before: changed only at a boundary.
     pub(crate) fn after(&self, tri: u32, ng: Vec3, dir: Vec3, current: MediumId) -> MediumId {
@@ -260,7 +272,7 @@ pub(super) fn media(
     Ok(Some(Media {
         list,
         sides,
-        camera,
+        camera: AtomicU16::new(camera),
         lights,
         boundaries,
         boundary_bvh,
@@ -485,7 +497,7 @@ fn check_no_medium_used(
 }
 
 /// The camera's `medium`, if given, must be the one the eye is in (`camera`, by the boundaries).
-fn check_camera_medium(
+pub(super) fn check_camera_medium(
     cx: &Ctx,
     desc: &SceneFile,
     list: &[Medium],

@@ -19,7 +19,7 @@ use std::path::PathBuf;
 use glam::Vec3;
 
 pub use animation::{Animation, Change};
-pub use build::{frame_camera, load, load_animation, load_frame, mesh_transform};
+pub use build::{check_sequence, frame_camera, load, load_animation, load_frame, mesh_transform};
 pub use media::{Media, MAX_SIGMA};
 pub use settings::{FillMode, IcacheSettings, PhotonConfig, MAX_PHOTONS, SPACING_REFERENCE_SIDE};
 
@@ -146,6 +146,23 @@ impl Scene {
         ))
     }
 
+    /// Places the eye at `eye` for a frame that reuses this scene (only the camera moved): camera rays
+    /// start in the medium around it.
+    pub fn place_eye(&self, eye: Vec3) {
+        if let Some(m) = &self.media {
+            m.place_eye(eye);
+        }
+    }
+
+    /// Whether `[[mesh]]` entry `mesh` has a triangle that emits light (an area light).
+    pub fn mesh_emits(&self, mesh: usize) -> bool {
+        self.mesh_ranges.get(mesh).is_some_and(|r| {
+            self.geometry.triangles[r.clone()]
+                .iter()
+                .any(|t| self.materials[t.material as usize].emission.max_element() > 0.0)
+        })
+    }
+
     pub fn intersect(&self, origin: Vec3, dir: Vec3) -> Option<Hit> {
         self.bvh
             .intersect(origin, dir, f32::INFINITY)
@@ -231,7 +248,7 @@ impl Scene {
 
     /// The medium the camera sits in.
     pub(crate) fn camera_medium(&self) -> MediumId {
-        self.media.as_ref().map_or(VACUUM, |m| m.camera)
+        self.media.as_ref().map_or(VACUUM, |m| m.camera())
     }
 
     /// What reaches `hit` from a light point in direction `wi` at distance `dist`, per channel: 0 or 1
