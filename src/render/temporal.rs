@@ -10,11 +10,15 @@
 //!   light changed, or when geometry that moved comes near enough to take a noticeable part of its
 //!   hemisphere. Its temporal gradient ∂E/∂t is the change since its last gather per frame, and its
 //!   next lifespan the frames that change takes to reach [`TOLERANCE`] of its irradiance (at most
-//!   [`MAX_LIFESPAN`]; one frame for a new record, whose rate is not known yet).
+//!   [`MAX_LIFESPAN`]). A new record on a moving mesh is due the next frame (its rate is not known
+//!   yet); one elsewhere, where only the photons that meet a moved mesh change its light, after
+//!   [`MAX_LIFESPAN`].
 //! - Where no light changed, a gather that differs from the record's in no channel by more than
 //!   twice the gathers' own noise (or a quarter of [`TOLERANCE`]) leaves the record as it was, due
-//!   again after [`MAX_LIFESPAN`]: where nothing happened the image stays the same. After a light
-//!   changed (a `[[light]]`'s values, or a mesh that emits moved), every record takes its new gather.
+//!   again after twice its last quiet lifespan (from [`MAX_LIFESPAN`] up to [`MAX_QUIET_LIFESPAN`]):
+//!   where nothing happened the image stays the same, and records far from what moves are seldom
+//!   gathered. After a light changed (a `[[light]]`'s values, or a mesh that emits moved), every
+//!   record takes its new gather.
 //! - Between gathers a record's irradiance follows its temporal gradient.
 //!
 //! Frames where only the camera moves keep every record of earlier frames that is fine enough for the
@@ -41,8 +45,14 @@ use crate::scene::Scene;
 
 /// Relative change of its irradiance a record may build up before it is gathered again.
 const TOLERANCE: f32 = 0.02;
-/// Most frames between two gathers of a record (Gautron's δt_max).
+/// Most frames between two gathers of a record whose light changed at its last gather (Gautron's
+/// δt_max), and the first lifespan of a new record no moved mesh is near.
 const MAX_LIFESPAN: u32 = 8;
+/// Most frames between two gathers of a record whose light did not change: each gather that finds
+/// no change doubles its lifespan, up to this. Where nothing moves near a record, its light changes
+/// only through the photons that meet the moved meshes; a moved mesh that comes near makes it due
+/// at once ([`near`]).
+const MAX_QUIET_LIFESPAN: u32 = 32;
 /// The noise target where something moved, as a fraction of the frame's: a pixel's Monte Carlo noise
 /// there differs from frame to frame (its samples meet other things), and is seen as flicker.
 pub const MOVING_NOISE: f32 = 0.5;
@@ -73,6 +83,11 @@ struct Life {
     due: u32,
     e: Vec3,
     de_dt: Vec3,
+    /// Frames between its last two gathers that found no change (0: its last gather found one,
+    /// or it has had none).
+    quiet: u32,
+    /// Whether it has been gathered again since it was made (its rate of change is known).
+    measured: bool,
 }
 
 /// The lives of the records of a sequence's cache, by their position's bits: when each is due for a
@@ -222,7 +237,9 @@ impl Lifespans {
         Ok(cache)
     }
 
-    /// Records made in `frame` (none known before) start their life: due again the next frame.
+    /// Records made in `frame` (none known before) start their life: one on a moving mesh is due
+    /// again the next frame (its rate is not known yet), any other after [`MAX_LIFESPAN`] frames or
+    /// as soon as a moved mesh comes near ([`Lifespans::update`]).
     pub fn note_new(&mut self, cache: &IrradianceCache, frame: u32) {
         for r in cache.records() {
             self.by_pos.entry(key(r.pos)).or_insert(Life {
@@ -230,6 +247,8 @@ impl Lifespans {
                 due: frame + 1,
                 e: r.e,
                 de_dt: Vec3::ZERO,
+                quiet: 0,
+                measured: false,
             });
         }
     }
@@ -258,6 +277,8 @@ impl Lifespans {
                     due: frame,
                     e: r.e,
                     de_dt: Vec3::ZERO,
+                    quiet: 0,
+                    measured: true,
                 });
                 let Some(hit) = surface_at(scene, r) else {
                     // Carried along with its mesh: what lit it moved relative to it at the rate
@@ -266,7 +287,14 @@ impl Lifespans {
                     let due = frame >= life.due || change.lights;
                     return Some((life, due.then_some(hit), Some(moved)));
                 };
-                let due = frame >= life.due || change.lights || near(r, &movers);
+                // Where no moved mesh is near, the light changes only through the photons that
+                // meet one: a new record's rate is measured with its first lifespan's change.
+                let due_at = if life.measured {
+                    life.due
+                } else {
+                    life.made + MAX_LIFESPAN
+                };
+                let due = frame >= due_at || change.lights || near(r, &movers);
                 Some((life, due.then_some(hit), None))
             })
             .collect();
@@ -303,9 +331,12 @@ impl Lifespans {
             // new gather.
             let noise = 2.0 * new.rel_err.max(cache.records()[i].rel_err);
             let life = if !change.lights && moved_by <= noise.max(0.25 * TOLERANCE) {
+                let quiet = (2 * old.quiet).clamp(MAX_LIFESPAN, MAX_QUIET_LIFESPAN);
                 Life {
-                    due: frame + MAX_LIFESPAN,
+                    due: frame + quiet,
                     de_dt: Vec3::ZERO,
+                    quiet,
+                    measured: true,
                     ..old
                 }
             } else {
@@ -320,6 +351,8 @@ impl Lifespans {
                     due: frame + lifespan,
                     e: new.e,
                     de_dt,
+                    quiet: 0,
+                    measured: true,
                 }
             };
             lives.insert(key(new_pos(&cache.records()[i], moved)), life);
