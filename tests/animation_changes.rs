@@ -7,6 +7,7 @@
 //! - the camera walking into a fog box: `path` frames start their rays in the eye's medium of that
 //!   frame; a camera keyed out of its declared `[camera] medium` is refused before the first frame;
 //! - the only light keyed to zero intensity: refused before the first frame, naming the key's line;
+//!   a field of view or `up` keyed into a bad value: refused naming that key;
 //! - an output pattern whose `#` run is in a directory name: each frame's directory is checked (and
 //!   written into), not the pattern's literal name.
 
@@ -515,6 +516,36 @@ fn a_light_keyed_to_zero_is_refused_before_any_frame() {
         key.start(),
         key.end()
     );
+}
+
+/// A value the keys interpolate into a bad one (here a camera field of view keyed to 180° at frame 2,
+/// and `up` keyed parallel to the view at frame 1) is refused naming the key that set it, not the
+/// base value or the `[camera]` table.
+#[test]
+fn a_bad_interpolated_value_is_refused_at_its_key() {
+    for (keys, what) in [
+        ("[[camera.key]]\nframe = 0\nfov = 45.0\n[[camera.key]]\nframe = 2\nfov = 180.0\n", "fov"),
+        (
+            "[[camera.key]]\nframe = 0\nup = [0.0, 1.0, 0.0]\n[[camera.key]]\nframe = 1\nup = [0.0, 0.0, -1.0]\n",
+            "up",
+        ),
+    ] {
+        let text = point_light_room(3, [2.0, 2.0, 2.0], "").replacen(
+            "[[mesh]]",
+            &format!("{keys}[[mesh]]"),
+            1,
+        );
+        let d = folder(&[("scene.toml", &text)]);
+        let stderr = refused(d.path(), &["-o", &out(d.path(), "f-####.exr")]);
+        let key = table_lines(&text, "[[camera.key]]", 1);
+        let line = line_named(&stderr);
+        assert!(
+            line.is_some_and(|l| key.contains(&l)) && stderr.contains(&format!("camera.{what}")),
+            "the {what} key (lines {}–{}) not named: {stderr}",
+            key.start(),
+            key.end()
+        );
+    }
 }
 
 // ---------------------------------------------------------------------------------------------------

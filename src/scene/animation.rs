@@ -162,6 +162,76 @@ impl Animation {
         }
     }
 
+    /// Per entry of `table` (the camera, each mesh, each light), its keys' frames and whether each sets
+    /// `field`; `None` for a table without keys.
+    fn keys_setting(&self, table: &str, field: &str) -> Option<Vec<Vec<(i64, bool)>>> {
+        Some(match table {
+            "camera" => vec![self
+                .desc
+                .camera
+                .key
+                .iter()
+                .map(|k| {
+                    (
+                        k.frame,
+                        match field {
+                            "eye" => k.eye.is_some(),
+                            "target" => k.target.is_some(),
+                            "up" => k.up.is_some(),
+                            "fov" => k.fov.is_some(),
+                            _ => false,
+                        },
+                    )
+                })
+                .collect()],
+            "mesh" => self
+                .desc
+                .mesh
+                .iter()
+                .map(|m| {
+                    m.key
+                        .iter()
+                        .map(|k| {
+                            (
+                                k.frame,
+                                match field {
+                                    "scale" => k.scale.is_some(),
+                                    "rotate" => k.rotate.is_some(),
+                                    "translate" => k.translate.is_some(),
+                                    _ => false,
+                                },
+                            )
+                        })
+                        .collect()
+                })
+                .collect(),
+            "light" => self
+                .desc
+                .light
+                .iter()
+                .map(|l| {
+                    l.key
+                        .iter()
+                        .map(|k| {
+                            (
+                                k.frame,
+                                match field {
+                                    "position" => k.position.is_some(),
+                                    "target" => k.target.is_some(),
+                                    "direction" => k.direction.is_some(),
+                                    "intensity" => k.intensity.is_some(),
+                                    "irradiance" => k.irradiance.is_some(),
+                                    _ => false,
+                                },
+                            )
+                        })
+                        .collect()
+                })
+                .collect(),
+            _ => return None,
+        })
+    }
+
     /// What differs between frames `a` and `b`.
     pub fn change(&self, a: u32, b: u32) -> Change {
         let (da, db) = (self.frame_desc(a), self.frame_desc(b));
@@ -206,9 +276,66 @@ impl Animation {
             text: &self.text,
         };
         for f in 0..self.frames {
-            check(&cx, &self.frame_desc(f)).map_err(|e| at_frame(e, f))?;
+            check(&cx, &self.frame_desc(f)).map_err(|e| at_frame(self.at_key(e, f), f))?;
         }
         Ok(())
+    }
+
+    /// An error about a keyed value of frame `f` ("file:line: table.field: …", the line of the base
+    /// value or of its table) moved to the line of the key that set that value at `f`: the last key
+    /// at or before `f` that sets it, else the first after. Unchanged when no key sets it.
+    fn at_key(&self, e: Error, f: u32) -> Error {
+        let Error::Input(msg) = &e else {
+            return e;
+        };
+        let Some((at, what)) = msg.split_once(": ") else {
+            return e;
+        };
+        let Some((table, field)) = what
+            .split_once(": ")
+            .and_then(|(name, _)| name.split_once('.'))
+        else {
+            return e;
+        };
+        let Some(line) = at
+            .rsplit_once(':')
+            .and_then(|(_, l)| l.parse::<usize>().ok())
+        else {
+            return e;
+        };
+        let Some(entries) = self.keys_setting(table, field) else {
+            return e;
+        };
+        let array = table != "camera";
+        let indices = |i: usize, rest: &[usize]| -> Vec<usize> {
+            if array {
+                [&[i], rest].concat()
+            } else {
+                rest.to_vec()
+            }
+        };
+        let Some(i) = (0..entries.len()).find(|&i| {
+            line == line_of_path(&self.text, &[table, field], &indices(i, &[]))
+                || line == line_of_path(&self.text, &[table], &indices(i, &[]))
+        }) else {
+            return e;
+        };
+        let setting = entries[i].iter().enumerate().filter(|(_, (_, sets))| *sets);
+        let before = setting
+            .clone()
+            .filter(|(_, (k, _))| *k <= f as i64)
+            .max_by_key(|(_, (k, _))| *k);
+        let after = setting
+            .filter(|(_, (k, _))| *k > f as i64)
+            .min_by_key(|(_, (k, _))| *k);
+        let Some((k, _)) = before.or(after) else {
+            return e;
+        };
+        at_line(
+            &self.path,
+            line_of_path(&self.text, &[table, "key", field], &indices(i, &[k])),
+            what,
+        )
     }
 }
 
