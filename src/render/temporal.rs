@@ -532,7 +532,7 @@ pub fn unchanged_pixels(
             !sources.iter().any(|&(c_l, r_l)| {
                 movers
                     .iter()
-                    .any(|&(c, r)| segment_distance(c, p, c_l) < r + r_l)
+                    .any(|&(c, r)| meets_shadow_cone(c, r, p, c_l, r_l))
             })
         })
         .collect();
@@ -585,11 +585,28 @@ fn light_spheres(scene: &Scene) -> Vec<(Vec3, f32)> {
     out
 }
 
-/// Distance from `c` to the segment from `a` to `b`.
-fn segment_distance(c: Vec3, a: Vec3, b: Vec3) -> f32 {
-    let ab = b - a;
-    let t = ((c - a).dot(ab) / ab.length_squared().max(1e-30)).clamp(0.0, 1.0);
-    c.distance(a + ab * t)
+/// Whether the sphere (c, r) meets a shadow ray from `p` to some point of the light's ball (c_l, r_l).
+/// Those rays fill the cone whose cross-section at t ∈ [0, 1] is the ball (p + t (c_l − p), t r_l):
+/// narrow at `p`, as wide as the light at its end (a mover near the floor and a light at the ceiling
+/// shade only the floor points whose narrow end of the cone it crosses). The sphere meets it when
+/// g(t) = |c − p − t d| − t r_l falls below r for some t; g is convex, its minimum found in closed form.
+fn meets_shadow_cone(c: Vec3, r: f32, p: Vec3, c_l: Vec3, r_l: f32) -> bool {
+    let d = c_l - p;
+    let len = d.length();
+    if !(len > 0.0) {
+        return c.distance(p) < r + r_l;
+    }
+    let w = c - p;
+    let along = w.dot(d) / len;
+    let across = (w.length_squared() - along * along).max(0.0).sqrt();
+    let k = r_l / len;
+    // g'(t) = 0 where (along − t len) = −k across / √(1 − k²); past k ≥ 1 g only falls.
+    let t = if k >= 1.0 {
+        1.0
+    } else {
+        ((along + k * across / (1.0 - k * k).sqrt()) / len).clamp(0.0, 1.0)
+    };
+    w.distance(d * t) - t * r_l < r
 }
 
 #[cfg(test)]
@@ -597,11 +614,33 @@ mod tests {
     use super::*;
 
     #[test]
-    fn segment_distance_is_to_the_nearest_point_of_the_segment() {
-        let (a, b) = (Vec3::ZERO, Vec3::new(2.0, 0.0, 0.0));
-        assert_eq!(segment_distance(Vec3::new(1.0, 3.0, 0.0), a, b), 3.0);
-        assert_eq!(segment_distance(Vec3::new(-4.0, 0.0, 0.0), a, b), 4.0);
-        assert_eq!(segment_distance(Vec3::new(5.0, 4.0, 0.0), a, b), 5.0);
+    fn a_sphere_meets_the_shadow_cone_where_a_dense_search_says_so() {
+        let mut rng = photon::sampling::Rng::new(7);
+        let mut v = || Vec3::new(rng.uniform(), rng.uniform(), rng.uniform()) * 4.0 - 2.0;
+        let (mut met, mut missed) = (0, 0);
+        for _ in 0..4000 {
+            let (c, p, c_l) = (v(), v(), v());
+            let (r, r_l) = (0.05 + 0.3 * v().x.abs(), 0.6 * v().y.abs());
+            // The cone's balls at 20 001 steps of t, the sphere's distance to each.
+            let dense = (0..=20_000).any(|i| {
+                let t = i as f32 / 20_000.0;
+                c.distance(p + (c_l - p) * t) < r + t * r_l - 1e-4
+            });
+            let near_edge = (0..=20_000).any(|i| {
+                let t = i as f32 / 20_000.0;
+                (c.distance(p + (c_l - p) * t) - r - t * r_l).abs() < 2e-3
+            });
+            let fast = meets_shadow_cone(c, r, p, c_l, r_l);
+            if !near_edge {
+                assert_eq!(fast, dense, "c {c} r {r} p {p} light {c_l} {r_l}");
+            }
+            if fast {
+                met += 1;
+            } else {
+                missed += 1;
+            }
+        }
+        assert!(met > 200 && missed > 200, "{met} {missed}");
     }
 
     #[test]
