@@ -486,8 +486,10 @@ fn near(r: &Record, movers: &[Mover]) -> bool {
 }
 
 /// The pixels a frame may take from the frame before (the camera stayed, a mesh moved, no light
-/// changed): outside the moved meshes' window, their centre's camera ray ends on a diffuse surface
-/// (or nothing) whose shadow rays pass no moved mesh and whose cached light no changed record reaches.
+/// changed): outside the moved meshes' window, or inside it where the pixel's cone of camera rays
+/// passes every moved mesh before and after its step, their centre's camera ray ends on a diffuse
+/// surface (or nothing) whose shadow rays pass no moved mesh and whose cached light no changed record
+/// reaches.
 /// `None` where the scene has more than diffuse surfaces without media (caustic and glossy terms read
 /// photon maps traced again; media scatter along every ray), or when a light changed.
 pub fn unchanged_pixels(
@@ -519,12 +521,23 @@ pub fn unchanged_pixels(
                 .map(|hit| (hit.p, cam.pixel_world(d, hit.t, hit.ns.dot(d))))
         })
         .collect();
+    // A pixel's samples leave the eye within about a pixel of its centre's ray (a pixel's angle at
+    // the image's middle, more than anywhere else): in the window, a pixel keeps its value only when
+    // that cone passes every moved mesh before and after its step.
+    let pixel_angle = 2.0 * (cam.fov_deg().to_radians() * 0.5).tan() / h as f32;
+    let far = cam.eye.distance((scene.bounds.0 + scene.bounds.1) * 0.5) + scene.diagonal();
     let mut keep: Vec<bool> = (0..w * h)
         .into_par_iter()
         .map(|i| {
             let (x, y) = (i % w, i / w);
             if x >= window.x0 && x < window.x1 && y >= window.y0 && y < window.y1 {
-                return false;
+                let end = cam.eye + cam.ray(x as f32 + 0.5, y as f32 + 0.5) * far;
+                if movers
+                    .iter()
+                    .any(|&(c, r)| sphere_meets_cone(c, r, cam.eye, end, far * pixel_angle))
+                {
+                    return false;
+                }
             }
             let Some((p, _)) = hits[i as usize] else {
                 return true;
@@ -532,7 +545,7 @@ pub fn unchanged_pixels(
             !sources.iter().any(|&(c_l, r_l)| {
                 movers
                     .iter()
-                    .any(|&(c, r)| meets_shadow_cone(c, r, p, c_l, r_l))
+                    .any(|&(c, r)| sphere_meets_cone(c, r, p, c_l, r_l))
             })
         })
         .collect();
@@ -585,12 +598,13 @@ fn light_spheres(scene: &Scene) -> Vec<(Vec3, f32)> {
     out
 }
 
-/// Whether the sphere (c, r) meets a shadow ray from `p` to some point of the light's ball (c_l, r_l).
-/// Those rays fill the cone whose cross-section at t ∈ [0, 1] is the ball (p + t (c_l − p), t r_l):
-/// narrow at `p`, as wide as the light at its end (a mover near the floor and a light at the ceiling
-/// shade only the floor points whose narrow end of the cone it crosses). The sphere meets it when
-/// g(t) = |c − p − t d| − t r_l falls below r for some t; g is convex, its minimum found in closed form.
-fn meets_shadow_cone(c: Vec3, r: f32, p: Vec3, c_l: Vec3, r_l: f32) -> bool {
+/// Whether the sphere (c, r) meets the cone from apex `p` to the ball (c_l, r_l): the rays from a
+/// point to a light's ball (shadow rays), or a pixel's camera rays. The cone's cross-section at
+/// t ∈ [0, 1] is the ball (p + t (c_l − p), t r_l): narrow at `p`, as wide as the ball at its end (a
+/// mover near the floor and a light at the ceiling shade only the floor points whose narrow end of the
+/// cone it crosses). The sphere meets it when g(t) = |c − p − t d| − t r_l falls below r for some t; g
+/// is convex, its minimum found in closed form.
+fn sphere_meets_cone(c: Vec3, r: f32, p: Vec3, c_l: Vec3, r_l: f32) -> bool {
     let d = c_l - p;
     let len = d.length();
     if !(len > 0.0) {
@@ -614,7 +628,7 @@ mod tests {
     use super::*;
 
     #[test]
-    fn a_sphere_meets_the_shadow_cone_where_a_dense_search_says_so() {
+    fn a_sphere_meets_a_cone_where_a_dense_search_says_so() {
         let mut rng = photon::sampling::Rng::new(7);
         let mut v = || Vec3::new(rng.uniform(), rng.uniform(), rng.uniform()) * 4.0 - 2.0;
         let (mut met, mut missed) = (0, 0);
@@ -630,7 +644,7 @@ mod tests {
                 let t = i as f32 / 20_000.0;
                 (c.distance(p + (c_l - p) * t) - r - t * r_l).abs() < 2e-3
             });
-            let fast = meets_shadow_cone(c, r, p, c_l, r_l);
+            let fast = sphere_meets_cone(c, r, p, c_l, r_l);
             if !near_edge {
                 assert_eq!(fast, dense, "c {c} r {r} p {p} light {c_l} {r_l}");
             }
