@@ -99,16 +99,6 @@ fn out(d: &Path, name: &str) -> String {
     p(&d.join("out"), name)
 }
 
-/// The file names in a folder, sorted.
-fn listing(dir: &Path) -> Vec<String> {
-    let mut v: Vec<String> = std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .collect();
-    v.sort();
-    v
-}
-
 /// Runs `render` and panics with its stderr unless it succeeds.
 fn render_ok(args: &[&str]) {
     let mut all = vec!["render"];
@@ -120,10 +110,6 @@ fn render_ok(args: &[&str]) {
         "{all:?}: {}",
         String::from_utf8_lossy(&r.stderr)
     );
-}
-
-fn bytes(path: &str) -> Vec<u8> {
-    std::fs::read(path).unwrap_or_else(|e| panic!("{path}: {e}"))
 }
 
 fn rel_diff(a: f32, b: f32) -> f32 {

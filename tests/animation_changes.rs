@@ -150,16 +150,6 @@ fn out(d: &Path, name: &str) -> String {
     p(&d.join("out"), name)
 }
 
-/// The file names in a folder, sorted.
-fn listing(dir: &Path) -> Vec<String> {
-    let mut v: Vec<String> = std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .collect();
-    v.sort();
-    v
-}
-
 /// Runs `render` with `args` (and `--quiet`), bounded in time.
 fn render(args: &[&str]) -> std::process::Output {
     let mut all = vec!["render"];
@@ -178,14 +168,20 @@ fn render_ok(args: &[&str]) {
     );
 }
 
-fn bytes(path: &str) -> Vec<u8> {
-    std::fs::read(path).unwrap_or_else(|e| panic!("{path}: {e}"))
-}
-
 /// Per channel, how far the mean of `img` lies from that of `still`, relative to the still's.
 fn mean_diff(img: &Image, still: &Image) -> Vec3 {
     let (m, r) = (mean(img), mean(still));
     (m - r) / r.abs().max(Vec3::splat(1e-9))
+}
+
+/// Per-channel differences as "R +x.xx %, G …, B …".
+fn percents(d: Vec3) -> String {
+    format!(
+        "R {:+.2} %, G {:+.2} %, B {:+.2} %",
+        d.x * 100.0,
+        d.y * 100.0,
+        d.z * 100.0
+    )
 }
 
 /// Renders the sequence `scene` into out/f-####.exr, then each still scene of `stills` into
@@ -287,21 +283,14 @@ fn a_light_changing_colour_at_constant_luminance_matches_its_still() {
     );
     let (frame, still, ..) = &pairs[0];
     let diff = mean_diff(frame, still);
-    eprintln!(
-        "[colour] pm frame 2 vs still: R {:+.2} %, G {:+.2} %, B {:+.2} %",
-        diff.x * 100.0,
-        diff.y * 100.0,
-        diff.z * 100.0
-    );
+    eprintln!("[colour] pm frame 2 vs still: {}", percents(diff));
     // With a frame's irradiance gathered anew wherever the light changed, the frame is the still
     // (the photons and the records' places are the same); the stale records left red 15 % low and
     // blue 46 % high.
     assert!(
         diff.abs().max_element() <= 0.01,
-        "frame 2's means differ from its still's by {:+.2} / {:+.2} / {:+.2} %",
-        diff.x * 100.0,
-        diff.y * 100.0,
-        diff.z * 100.0
+        "frame 2's means differ from its still's by {}",
+        percents(diff)
     );
 }
 
@@ -333,12 +322,7 @@ fn a_dimming_light_matches_its_still_at_every_frame() {
     let mut worst = (0, 0.0f32);
     for (f, (frame, still, ..)) in (1..=4).zip(&pairs) {
         let diff = mean_diff(frame, still);
-        eprintln!(
-            "[dim] pm frame {f} vs still: R {:+.2} %, G {:+.2} %, B {:+.2} %",
-            diff.x * 100.0,
-            diff.y * 100.0,
-            diff.z * 100.0
-        );
+        eprintln!("[dim] pm frame {f} vs still: {}", percents(diff));
         if diff.abs().max_element() > worst.1 {
             worst = (f, diff.abs().max_element());
         }
@@ -384,23 +368,16 @@ fn a_moving_emissive_mesh_matches_its_still() {
     };
     let di = (indirect(frame_path) - indirect(still_path)) / indirect(still_path);
     eprintln!(
-        "[area light] pm frame 3 vs still: R {:+.2} %, G {:+.2} %, B {:+.2} % (indirect: {:+.2} / \
-         {:+.2} / {:+.2} %)",
-        diff.x * 100.0,
-        diff.y * 100.0,
-        diff.z * 100.0,
-        di.x * 100.0,
-        di.y * 100.0,
-        di.z * 100.0
+        "[area light] pm frame 3 vs still: {} (indirect: {})",
+        percents(diff),
+        percents(di)
     );
     // Stills of other seeds lie within 0.4 %; records the moving light was not counted as reaching
     // kept its earlier light (green and blue 15 % low, their indirect 34 % low).
     assert!(
         diff.abs().max_element() <= 0.015,
-        "frame 3's means differ from its still's by {:+.2} / {:+.2} / {:+.2} %",
-        diff.x * 100.0,
-        diff.y * 100.0,
-        diff.z * 100.0
+        "frame 3's means differ from its still's by {}",
+        percents(diff)
     );
 }
 
@@ -427,20 +404,16 @@ fn a_camera_walking_into_fog_matches_its_still() {
     let same = bytes(frame_path) == bytes(still_path);
     let diff = mean_diff(frame, still);
     eprintln!(
-        "[fog camera] path frame 2 vs still: {}R {:+.2} %, G {:+.2} %, B {:+.2} %",
+        "[fog camera] path frame 2 vs still: {}{}",
         if same { "byte-identical, " } else { "" },
-        diff.x * 100.0,
-        diff.y * 100.0,
-        diff.z * 100.0
+        percents(diff)
     );
     // Rendered alone (--frames 2) the frame is the still byte for byte; with the medium of frame
     // 0's eye (none) the fog between the eye and the walls was missing: 17 % dark.
     assert!(
         same || diff.abs().max_element() <= 0.005,
-        "frame 2's means differ from its still's by {:+.2} / {:+.2} / {:+.2} %",
-        diff.x * 100.0,
-        diff.y * 100.0,
-        diff.z * 100.0
+        "frame 2's means differ from its still's by {}",
+        percents(diff)
     );
 }
 

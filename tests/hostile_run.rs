@@ -32,15 +32,6 @@ fn room_with_out(toml: &str) -> (tempfile::TempDir, PathBuf) {
     (d, out)
 }
 
-fn listing(dir: &Path) -> Vec<String> {
-    let mut v: Vec<String> = std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .collect();
-    v.sort();
-    v
-}
-
 /// Contents of every file directly in `dir` (inputs, to check they are unchanged).
 fn snapshot(dir: &Path) -> Vec<(String, Vec<u8>)> {
     listing(dir)

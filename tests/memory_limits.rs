@@ -38,15 +38,6 @@ fn assert_refused(r: &Output, expect: &[&str]) {
     }
 }
 
-fn listing(dir: &Path) -> Vec<String> {
-    let mut v: Vec<String> = std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .collect();
-    v.sort();
-    v
-}
-
 /// The room scene with an empty `out/` directory.
 fn room_with_out() -> (tempfile::TempDir, PathBuf) {
     let d = room();

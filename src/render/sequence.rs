@@ -25,10 +25,9 @@ pub fn render_sequence(
 ) -> Result<()> {
     let (first, last) = (*frames.start(), *frames.end());
     // Whatever a frame's scene would refuse is refused before the first frame is written.
-    let mut loaded = Some(scene::load_frame(anim, first)?);
-    if let Some(s) = &loaded {
-        scene::check_sequence(anim, frames.clone(), s, cancel)?;
-    }
+    let first_scene = scene::load_frame(anim, first)?;
+    scene::check_sequence(anim, frames.clone(), &first_scene, cancel)?;
+    let mut loaded = Some(first_scene);
     let mut f = first;
     let mut handoff: Option<Handoff> = None;
     while f <= last {

@@ -132,32 +132,17 @@ impl Animation {
     /// intensity or irradiance, the last at or before `f` (else the first after it); the first light's
     /// table when no key sets one.
     pub(super) fn light_power_line(&self, f: u32) -> usize {
-        let mut best: Option<(bool, i64, usize, usize, &str)> = None;
-        for (i, l) in self.desc.light.iter().enumerate() {
-            for (k, key) in l.key.iter().enumerate() {
-                let name = if key.intensity.is_some() {
-                    "intensity"
-                } else if key.irradiance.is_some() {
-                    "irradiance"
-                } else {
-                    continue;
-                };
-                // Keys at or before f first, the latest of them; then the earliest after f.
-                let rank = (
-                    key.frame <= f as i64,
-                    if key.frame <= f as i64 {
-                        key.frame
-                    } else {
-                        -key.frame
-                    },
-                );
-                if best.is_none_or(|b| (b.0, b.1) < rank) {
-                    best = Some((rank.0, rank.1, i, k, name));
-                }
-            }
-        }
-        match best {
-            Some((_, _, i, k, name)) => line_of_path(&self.text, &["light", "key", name], &[i, k]),
+        let candidates = ["intensity", "irradiance"].into_iter().flat_map(|field| {
+            let entries = self.keys_setting("light", field).unwrap_or_default();
+            entries.into_iter().enumerate().flat_map(move |(i, keys)| {
+                keys.into_iter()
+                    .enumerate()
+                    .filter(|(_, (_, sets))| *sets)
+                    .map(move |(k, (frame, _))| ((i, k, field), frame))
+            })
+        });
+        match nearest_key(candidates, f) {
+            Some((i, k, field)) => line_of_path(&self.text, &["light", "key", field], &[i, k]),
             None => line_of_path(&self.text, &["light"], &[0]),
         }
     }
@@ -320,15 +305,12 @@ impl Animation {
         }) else {
             return e;
         };
-        let setting = entries[i].iter().enumerate().filter(|(_, (_, sets))| *sets);
-        let before = setting
-            .clone()
-            .filter(|(_, (k, _))| *k <= f as i64)
-            .max_by_key(|(_, (k, _))| *k);
-        let after = setting
-            .filter(|(_, (k, _))| *k > f as i64)
-            .min_by_key(|(_, (k, _))| *k);
-        let Some((k, _)) = before.or(after) else {
+        let setting = entries[i]
+            .iter()
+            .enumerate()
+            .filter(|(_, (_, sets))| *sets)
+            .map(|(k, &(frame, _))| (k, frame));
+        let Some(k) = nearest_key(setting, f) else {
             return e;
         };
         at_line(
@@ -337,6 +319,14 @@ impl Animation {
             what,
         )
     }
+}
+
+/// Of keys (what, frame), the one that sets a value at frame `f`: the last at or before `f`, else
+/// the first after it.
+fn nearest_key<T>(keys: impl Iterator<Item = (T, i64)>, f: u32) -> Option<T> {
+    let f = f as i64;
+    keys.max_by_key(|&(_, k)| if k <= f { (true, k) } else { (false, -k) })
+        .map(|(t, _)| t)
 }
 
 /// The values keys can change that affect light transport (mesh placements and light values), as bits.
@@ -510,6 +500,16 @@ fn first_key(desc: &SceneFile) -> Option<KeyPath> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_key_that_sets_a_value_is_the_last_before_else_the_first_after() {
+        let keys = || [("a", 2), ("b", 6), ("c", 9)].into_iter();
+        assert_eq!(nearest_key(keys(), 7), Some("b"));
+        assert_eq!(nearest_key(keys(), 6), Some("b"));
+        assert_eq!(nearest_key(keys(), 20), Some("c"));
+        assert_eq!(nearest_key(keys(), 0), Some("a"));
+        assert_eq!(nearest_key(std::iter::empty::<((), i64)>(), 3), None);
+    }
 
     #[test]
     fn a_track_holds_before_and_after_its_keys_and_is_linear_between() {
