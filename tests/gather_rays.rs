@@ -6,7 +6,7 @@
 
 mod common;
 
-use common::{block_means, read, rel_mse, repo, run};
+use common::{block_means, mean, read, rel_mse, repo, run};
 
 fn render(
     scene: &str,
@@ -88,6 +88,59 @@ fn rays_follow_what_the_gathers_see() {
         fixed["gather"].get("rays_chosen").is_none(),
         "{}",
         fixed["gather"]
+    );
+}
+
+/// A dark room lit through a small spot-lit patch (image mean 0.018): its gathers see the patch in a
+/// few rays each (their own noise 10–30 %), which an absolute floor of the relMSE called calm (predicted
+/// 7e-5, 250 rays) while the image mean came out +0.6 %, +1.1 % (seeds 0, 1; worst channel +1.1 %,
+/// +1.5 %) against Mitsuba. The floor scales with the image's brightness: 1000 rays, and the mean
+/// within +0.2 %, +0.2 % (worst channel +0.5 %, +0.6 %). The choice does not depend on the lights' scale
+/// in a dark image: the spot at half its intensity predicts the same noise.
+#[test]
+fn a_dark_scene_chooses_its_rays_as_a_bright_one_would() {
+    let d = tempfile::tempdir().unwrap();
+    let scene = "tests/scenes/dark-spot-room.toml";
+    let reference = read(&repo().join("tests/reference/dark-spot-room-path.exr"));
+    let r = mean(&reference);
+    let lum = |v: glam::Vec3| 0.2126 * v.x + 0.7152 * v.y + 0.0722 * v.z;
+    let mut ratio_sum = 0.0;
+    let mut predicted = 0.0;
+    for seed in [0, 1] {
+        let (out, stats) = render(scene, [64, 64], seed, &[], d.path(), &format!("s{seed}"));
+        let g = &stats["gather"];
+        assert_eq!(g["rays_chosen"].as_u64(), Some(1000), "{g}");
+        predicted = g["predicted_noise"].as_f64().unwrap();
+        let m = mean(&read(&out));
+        let worst = (m / r - glam::Vec3::ONE).abs().max_element();
+        eprintln!(
+            "[gather rays] dark room seed {seed}: mean / reference {}",
+            m / r
+        );
+        assert!(worst < 0.01, "seed {seed}: mean {m} against {r}");
+        ratio_sum += lum(m) / lum(r);
+    }
+    assert!(
+        (ratio_sum / 2.0 - 1.0).abs() < 0.005,
+        "mean ratio {}",
+        ratio_sum / 2.0
+    );
+    // The same room with the spot at half its intensity (seed 1, as the last render above).
+    let text = std::fs::read_to_string(repo().join(scene))
+        .unwrap()
+        .replace(
+            "\"../media_matrix/",
+            &format!("\"{}/", repo().join("tests/media_matrix").display()),
+        )
+        .replace("intensity = [8, 8, 8]", "intensity = [4, 4, 4]");
+    assert!(text.contains("[4, 4, 4]"));
+    let half = d.path().join("half.toml");
+    std::fs::write(&half, text).unwrap();
+    let (_, stats) = render(half.to_str().unwrap(), [64, 64], 1, &[], d.path(), "half");
+    let p = stats["gather"]["predicted_noise"].as_f64().unwrap();
+    assert!(
+        (p / predicted - 1.0).abs() < 1e-3,
+        "{p} at half intensity against {predicted}"
     );
 }
 
