@@ -26,6 +26,10 @@ use crate::warp::power_heuristic;
 
 /// Area-light samples per non-specular hit in `direct` (chosen from the chart's error/time trade-off).
 const AREA_LIGHT_SAMPLES: u32 = 4;
+/// Most points a gather ray reads the volume lattice at along one stretch through a medium (one per
+/// lattice cell crossed, up to this): on the shipped fog-spot scene at 240×180, 16 halved the records'
+/// predicted gather noise for 0.9 s more pass A (12.9 s in all; 64 gained little more).
+const MARCH_POINTS: usize = 16;
 
 /// Where soft indirect irradiance comes from.
 #[derive(Clone, Copy)]
@@ -839,8 +843,10 @@ impl PmContext<'_> {
     }
 
     /// The light medium `m` scatters into a gather ray's stretch of `len` from `o` along `d`, times
-    /// `weight` (the throughput before the stretch): one point uniform along it, from the volume map
-    /// (a gather averages hundreds of rays).
+    /// `weight` (the throughput before the stretch), from the volume lattice: one point jittered in each
+    /// of up to [`MARCH_POINTS`] equal parts of the stretch, about a lattice cell long (one point for
+    /// `pm-fg`). A single point along the whole stretch rarely lands in a narrow beam and then counts
+    /// it many times over: with it, the records' gathers under a spot in fog were twice as noisy.
     fn in_scattered(
         &self,
         o: Vec3,
@@ -853,8 +859,20 @@ impl PmContext<'_> {
         if !(len.is_finite() && m.sigma_s != Vec3::ZERO) {
             return Vec3::ZERO;
         }
-        let t = rng.uniform() * len;
-        weight * m.transmittance(t) * self.photons.gather_volume_radiance(o + d * t, d, m.g) * len
+        // `pm-fg` gathers at every sample: its pixels average the single points' noise.
+        let most = match self.source {
+            IndirectSource::Gather => 1,
+            _ => MARCH_POINTS,
+        };
+        let cell = self.photons.volume_grid().map_or(len, |g| g.cell());
+        let parts = ((len / cell).ceil() as usize).clamp(1, most);
+        let step = len / parts as f32;
+        let mut sum = Vec3::ZERO;
+        for i in 0..parts {
+            let t = (i as f32 + rng.uniform()) * step;
+            sum += m.transmittance(t) * self.photons.gather_volume_radiance(o + d * t, d, m.g);
+        }
+        weight * sum * step
     }
 }
 

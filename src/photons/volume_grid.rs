@@ -86,6 +86,11 @@ impl VolumeGrid {
         }
     }
 
+    /// The lattice's cell size.
+    pub fn cell(&self) -> f32 {
+        self.cell
+    }
+
     /// σs·Li toward a ray travelling along `d` at `x` in a medium of asymmetry `g`: all the light the
     /// medium scatters (for final-gather rays).
     pub fn radiance(&self, map: &PhotonMap, x: Vec3, d: Vec3, g: f32) -> Vec3 {
