@@ -26,7 +26,10 @@ pub fn render_sequence(
     let (first, last) = (*frames.start(), *frames.end());
     // Whatever a frame's scene would refuse is refused before the first frame is written.
     let first_scene = scene::load_frame(anim, first)?;
+    // Frames where a medium's boundary moved are built to be checked: that can take a while.
+    progress.start("checking frames", (last - first + 1) as u64);
     scene::check_sequence(anim, frames.clone(), &first_scene, cancel)?;
+    progress.finish();
     let mut loaded = Some(first_scene);
     let mut f = first;
     let mut handoff: Option<Handoff> = None;
