@@ -309,6 +309,9 @@ pub fn render_frame<'a>(
     if let (Some(f), Some(c)) = (&mut frame, &cache) {
         f.n_records_after = c.cache.len() as u64;
         carry.lifespans.note_new(&c.cache, f.frame);
+        if let Some(p) = photons {
+            carry.lifespans.note_photons(scene, p);
+        }
     }
     stats.frame = frame;
     let mut out = output(images, media_cache, plan.camera.clone());

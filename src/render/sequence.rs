@@ -8,7 +8,8 @@
 use std::ops::RangeInclusive;
 use std::sync::atomic::AtomicBool;
 
-use super::{render_frame, Carry, Options, RenderOutput, RenderStats};
+use super::temporal::Moved;
+use super::{render_frame, Carry, FrameStats, Options, RenderOutput, RenderStats};
 use crate::error::Result;
 use crate::progress::Progress;
 use crate::scene::{self, Animation, Scene};
@@ -50,14 +51,7 @@ pub fn render_sequence(
             let unchanged = change.is_some_and(|c: scene::Change| !c.camera);
             match &mut prev {
                 Some((out, stats)) if unchanged => {
-                    let frame = stats.frame.get_or_insert_with(Default::default);
-                    frame.frame = f;
-                    frame.image_reused = true;
-                    frame.photons_reused = true;
-                    frame.n_records_reused = frame.n_records_after;
-                    frame.n_records_dropped = 0;
-                    stats.total_s = 0.0;
-                    stats.write_outputs_s = None;
+                    *stats = reused_image_stats(stats, f);
                     on_frame(f, &scene, out, stats)?;
                 }
                 _ => {
@@ -136,12 +130,16 @@ impl Handoff {
                 self.mesh_spheres.get(m).copied().flatten(),
                 scene.mesh_sphere(m),
             ) {
-                moved.push([before, after]);
-                if let (Some(t0), Some(t1)) = (
+                let step = match (
                     scene::mesh_transform(anim, f - 1, m),
                     scene::mesh_transform(anim, f, m),
                 ) {
-                    rigid.push((before, t1 * t0.inverse()));
+                    (Some(t0), Some(t1)) => Some(t1 * t0.inverse()),
+                    _ => None,
+                };
+                moved.push(Moved::new(before, after, step));
+                if let Some(step) = step {
+                    rigid.push((before, step));
                 }
             }
         }
@@ -159,5 +157,35 @@ impl Handoff {
             }),
             ..Carry::default()
         }
+    }
+}
+
+/// The statistics of frame `f`, which shows the frame before's image (nothing changed): the frame
+/// before's setup and cache, and no work of its own (no photons traced, no record gathered, no pixel
+/// sampled), so that the sequence's sums count each phase once.
+fn reused_image_stats(before: &RenderStats, f: u32) -> RenderStats {
+    let after = before.frame.map_or(0, |fr| fr.n_records_after);
+    RenderStats {
+        setup: before.setup.clone(),
+        cache: before.cache,
+        frame: Some(FrameStats {
+            frame: f,
+            photons_reused: true,
+            n_records_reused: after,
+            n_records_after: after,
+            image_reused: true,
+            ..Default::default()
+        }),
+        photons: None,
+        fill: None,
+        shade: Default::default(),
+        atlas: None,
+        volume_grid: None,
+        media_fill: None,
+        media_cache: before.media_cache,
+        glossy: None,
+        total_s: 0.0,
+        write_outputs_s: None,
+        peak_rss_bytes: before.peak_rss_bytes,
     }
 }

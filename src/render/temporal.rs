@@ -7,18 +7,23 @@
 //!   around a moving object changes at the rate its gathers measure, like that of a still one. One
 //!   that lands on no surface is dropped; pass A makes new records where the frame needs them.
 //! - A record is re-gathered at its own place, with its own jitter, when its lifespan is over, when a
-//!   light changed, or when geometry that moved comes near enough to take a noticeable part of its
-//!   hemisphere. Its temporal gradient ∂E/∂t is the change since its last gather per frame, and its
+//!   light changed, when geometry that moved (or turned: a mesh's step is how far any of its points
+//!   went) comes near enough to take a noticeable part of its hemisphere, or when it sees light that
+//!   changed far from it — a mover that blocks a spot or turns a mirror moves light across the room:
+//!   the photon power deposited per cell of a lattice is compared with the frame before's. On a
+//!   glossy surface the tolerance is the lobe's: (n + 2) / 2 times finer. Its temporal gradient
+//!   ∂E/∂t is the change since its last gather per frame, and its
 //!   next lifespan the frames that change takes to reach [`TOLERANCE`] of its irradiance (at most
 //!   [`MAX_LIFESPAN`]). A new record on a moving mesh is due the next frame (its rate is not known
 //!   yet); one elsewhere, where only the photons that meet a moved mesh change its light, after
 //!   [`MAX_LIFESPAN`].
-//! - Where no light changed, a gather that differs from the record's in no channel by more than
-//!   twice the gathers' own noise (or a quarter of [`TOLERANCE`]) leaves the record as it was, due
+//! - A record due only because its lifespan ended, whose gather differs from its own in no channel
+//!   by more than twice the gathers' own noise (or a quarter of [`TOLERANCE`]), stays as it was, due
 //!   again after twice its last quiet lifespan (from [`MAX_LIFESPAN`] up to [`MAX_QUIET_LIFESPAN`]):
 //!   where nothing happened the image stays the same, and records far from what moves are seldom
-//!   gathered. After a light changed (a `[[light]]`'s values, or a mesh that emits moved), every
-//!   record takes its new gather.
+//!   gathered. After a light changed (a `[[light]]`'s values, or a mesh that emits moved), and where
+//!   a record was due for a known reason (a mover near, light that changed in sight), it takes its
+//!   new gather.
 //! - Between gathers a record's irradiance follows its temporal gradient.
 //!
 //! Frames where only the camera moves keep every record of earlier frames that is fine enough for the
@@ -57,15 +62,43 @@ const MAX_QUIET_LIFESPAN: u32 = 32;
 /// there differs from frame to frame (its samples meet other things), and is seen as flicker.
 pub const MOVING_NOISE: f32 = 0.5;
 
-/// What changed since the frame before: the bounding sphere (centre, radius) of every moved mesh
-/// before and after, and whether a light changed.
+/// What changed since the frame before: every moved mesh, and whether a light changed.
 #[derive(Clone, Debug, Default)]
 pub struct SceneChange {
-    pub moved: Vec<[(Vec3, f32); 2]>,
+    pub moved: Vec<Moved>,
     /// Each moved mesh's bounding sphere before its step, and the step (new placement × old⁻¹): the
     /// records on it move with it.
     pub rigid: Vec<((Vec3, f32), Mat4)>,
     pub lights: bool,
+}
+
+/// A mesh that moved: its bounding sphere (centre, radius) before and after, and how far any of its
+/// points moved (a mesh turning about its centre keeps its sphere but moves its points).
+#[derive(Clone, Copy, Debug)]
+pub struct Moved {
+    pub spheres: [(Vec3, f32); 2],
+    pub step: f32,
+}
+
+impl Moved {
+    /// A mesh whose bounding sphere went from `before` to `after`, by the placement step `step` (new
+    /// placement × old⁻¹) when known: its points within `before` move at most |step(c) − c| plus the
+    /// radius times the norm of step's linear part less the identity (Frobenius, an upper bound).
+    pub fn new(before: (Vec3, f32), after: (Vec3, f32), step: Option<Mat4>) -> Moved {
+        let spheres_apart = before.0.distance(after.0) + (before.1 - after.1).abs();
+        let points = step.map_or(0.0, |t| {
+            let turn = Mat3::from_mat4(t) - Mat3::IDENTITY;
+            let norm = (turn.x_axis.length_squared()
+                + turn.y_axis.length_squared()
+                + turn.z_axis.length_squared())
+            .sqrt();
+            t.transform_point3(before.0).distance(before.0) + norm * before.1
+        });
+        Moved {
+            spheres: [before, after],
+            step: spheres_apart.max(points),
+        }
+    }
 }
 
 /// A moved mesh as a bounding sphere: where it is, how large, how far it moved.
@@ -96,6 +129,109 @@ struct Life {
 pub struct Lifespans {
     by_pos: HashMap<[u32; 3], Life>,
     unseen_since: HashMap<[u32; 3], u32>,
+    /// The photon power the last traced maps deposited, per cell.
+    deposits: Option<Deposits>,
+}
+
+/// Photon power the global map deposited on surfaces, summed over the cells of a lattice fixed for
+/// the sequence (photons outside it count in its border cells). Where it changed between two frames
+/// the light changed there — a mover blocked a light or turned a mirror — and with it the indirect
+/// light of every record that sees the place, however far from the mover ([`Lifespans::update`]).
+struct Deposits {
+    lo: Vec3,
+    cell: f32,
+    dims: [usize; 3],
+    power: Vec<Vec3>,
+    /// The mean photon's power: a cell whose power changed by less than [`NOISE_PHOTONS`] of it
+    /// changed by the few paths a mover deflected there.
+    photon: Vec3,
+}
+
+/// Cells along the deposit lattice's longest side.
+const DEPOSIT_CELLS: f32 = 32.0;
+/// Photons' worth of power a cell's change must exceed to count (see [`Deposits::photon`]).
+const NOISE_PHOTONS: f32 = 4.0;
+
+impl Deposits {
+    /// The deposits of `photons` on the lattice of `like` (or a new one over `bounds`).
+    fn of(
+        photons: &[photon::map::Photon],
+        bounds: (Vec3, Vec3),
+        like: Option<&Deposits>,
+    ) -> Deposits {
+        let (lo, cell, dims) = match like {
+            Some(d) => (d.lo, d.cell, d.dims),
+            None => {
+                let size = (bounds.1 - bounds.0).max(Vec3::splat(1e-6));
+                let cell = size.max_element() / DEPOSIT_CELLS;
+                let dims = (size / cell).ceil().as_uvec3().max(glam::UVec3::ONE);
+                (
+                    bounds.0,
+                    cell,
+                    [dims.x as usize, dims.y as usize, dims.z as usize],
+                )
+            }
+        };
+        let mut power = vec![Vec3::ZERO; dims[0] * dims[1] * dims[2]];
+        let mut total = Vec3::ZERO;
+        for ph in photons {
+            let c = ((ph.pos - lo) / cell).floor();
+            if !c.is_finite() {
+                continue;
+            }
+            let at = |v: f32, n: usize| (v.max(0.0) as usize).min(n - 1);
+            let (x, y, z) = (at(c.x, dims[0]), at(c.y, dims[1]), at(c.z, dims[2]));
+            power[(z * dims[1] + y) * dims[0] + x] += ph.power;
+            total += ph.power;
+        }
+        Deposits {
+            lo,
+            cell,
+            dims,
+            power,
+            photon: total / photons.len().max(1) as f32,
+        }
+    }
+
+    /// The cells whose deposited power changed since `before` by more than [`NOISE_PHOTONS`]
+    /// photons' worth: (centre, change).
+    fn changes(&self, before: &Deposits) -> Vec<(Vec3, Vec3)> {
+        let floor = NOISE_PHOTONS * self.photon.max(before.photon).max_element();
+        let [nx, ny, _] = self.dims;
+        self.power
+            .iter()
+            .zip(&before.power)
+            .enumerate()
+            .filter_map(|(i, (now, was))| {
+                let change = *now - *was;
+                (change.abs().max_element() > floor).then(|| {
+                    let (x, y, z) = (i % nx, (i / nx) % ny, i / (nx * ny));
+                    let centre =
+                        self.lo + (Vec3::new(x as f32, y as f32, z as f32) + 0.5) * self.cell;
+                    (centre, change)
+                })
+            })
+            .collect()
+    }
+}
+
+/// Whether the deposits that changed (cells of size `cell`: centre, power change) change the
+/// irradiance of record `r` by more than `tolerance` of its own: each cell as a Lambertian patch
+/// reflecting all it received (an upper bound), seen at its distance (at least a cell's) and at the
+/// record's cosine. The changes are summed with their signs: a mover's own deposits, leaving one
+/// cell for the next, cancel at a distance.
+fn sees_changed_light(r: &Record, changes: &[(Vec3, Vec3)], cell: f32, tolerance: f32) -> bool {
+    if changes.is_empty() {
+        return false;
+    }
+    let mut de = Vec3::ZERO;
+    for &(q, dp) in changes {
+        let to = q - r.pos;
+        let d2 = to.length_squared().max(cell * cell);
+        let cos = to.dot(r.normal).max(0.0) / d2.sqrt();
+        de += dp * (cos / (std::f32::consts::PI * d2));
+    }
+    de.abs().max_element() > tolerance * luminance(r.e).max(1e-12)
 }
 
 /// Most times its pixel-spacing limit a record of an earlier frame may span in this frame's view
@@ -136,7 +272,7 @@ pub struct TemporalStats {
 
 /// What becomes of a record: its life, the hit to gather from (when due) and its new place (when it
 /// moved with its mesh).
-type Fate = (Life, Option<Hit>, Option<Record>);
+type Fate = (Life, Option<Hit>, Option<Record>, bool);
 
 fn new_pos(r: &Record, moved: Option<Record>) -> Vec3 {
     moved.map_or(r.pos, |m| m.pos)
@@ -180,12 +316,11 @@ fn luminance(e: Vec3) -> f32 {
 
 impl Mover {
     /// A mesh's bounding spheres before and after its step, each moving by that step.
-    fn pair(&[(c0, r0), (c1, r1)]: &[(Vec3, f32); 2]) -> [Mover; 2] {
-        let step = c0.distance(c1) + (r0 - r1).abs();
-        [(c0, r0), (c1, r1)].map(|(center, radius)| Mover {
+    fn pair(m: &Moved) -> [Mover; 2] {
+        m.spheres.map(|(center, radius)| Mover {
             center,
             radius,
-            step,
+            step: m.step,
         })
     }
 }
@@ -253,6 +388,31 @@ impl Lifespans {
         }
     }
 
+    /// Keeps the deposits of the maps a frame traced, when none are kept yet (the sequence's first
+    /// frame; later frames' updates keep theirs).
+    pub fn note_photons(&mut self, scene: &Scene, photons: &crate::photons::PhotonData) {
+        if self.deposits.is_none() {
+            if let Some(map) = &photons.maps().global {
+                self.deposits = Some(Deposits::of(map.photons(), scene.bounds, None));
+            }
+        }
+    }
+
+    /// Where the deposits of `ctx`'s maps changed from those kept (and keeps the new ones): the
+    /// cells (centre, power change) and their size; none without deposits to compare.
+    fn deposit_changes(&mut self, ctx: &PmContext) -> (Vec<(Vec3, Vec3)>, f32) {
+        let Some(map) = &ctx.photons.maps().global else {
+            return (Vec::new(), 1.0);
+        };
+        let now = Deposits::of(map.photons(), ctx.scene.bounds, self.deposits.as_ref());
+        let out = match &self.deposits {
+            Some(before) => (now.changes(before), now.cell),
+            None => (Vec::new(), now.cell),
+        };
+        self.deposits = Some(now);
+        out
+    }
+
     /// The cache of the frame before, made valid for `frame` of `ctx.scene` (see the module header).
     pub fn update(
         &mut self,
@@ -264,6 +424,7 @@ impl Lifespans {
         let start = std::time::Instant::now();
         let scene = ctx.scene;
         let movers: Vec<Mover> = change.moved.iter().flat_map(Mover::pair).collect();
+        let (changes, cell) = self.deposit_changes(ctx);
         let mut stats = TemporalStats::default();
         // What becomes of each record: gone (None), kept, or due for a gather from its hit.
         // Each record's life, the hit to gather from where it is due, and its new place when it moved
@@ -285,7 +446,7 @@ impl Lifespans {
                     // its last gathers measured, so it is due like any other record.
                     let (moved, hit) = carried_along(scene, r, &change.rigid)?;
                     let due = frame >= life.due || change.lights;
-                    return Some((life, due.then_some(hit), Some(moved)));
+                    return Some((life, due.then_some(hit), Some(moved), false));
                 };
                 // Where no moved mesh is near, the light changes only through the photons that
                 // meet one: a new record's rate is measured with its first lifespan's change.
@@ -294,17 +455,26 @@ impl Lifespans {
                 } else {
                     life.made + MAX_LIFESPAN
                 };
-                let due = frame >= due_at || change.lights || near(r, &movers);
-                Some((life, due.then_some(hit), None))
+                // A glossy lobe's light changes (n + 2) / 2 times as much as the irradiance.
+                let tolerance = match scene.material(&hit).bsdf {
+                    crate::material::Bsdf::Glossy { exponent, .. } => {
+                        TOLERANCE * 2.0 / (exponent + 2.0)
+                    }
+                    _ => TOLERANCE,
+                };
+                let caused =
+                    near(r, &movers, tolerance) || sees_changed_light(r, &changes, cell, tolerance);
+                let due = frame >= due_at || change.lights || caused;
+                Some((life, due.then_some(hit), None, caused))
             })
             .collect();
         let due: Vec<usize> = (0..fate.len())
-            .filter(|&i| matches!(fate[i], Some((_, Some(_), _))))
+            .filter(|&i| matches!(fate[i], Some((_, Some(_), _, _))))
             .collect();
         let gathered: Vec<NewRecord> = due
             .par_iter()
             .map(|&i| {
-                let Some((_, Some(hit), moved)) = &fate[i] else {
+                let Some((_, Some(hit), moved, _)) = &fate[i] else {
                     unreachable!("only due records are gathered")
                 };
                 let r = moved.as_ref().unwrap_or(&cache.records()[i]);
@@ -319,18 +489,20 @@ impl Lifespans {
         let mut replaced = vec![None; fate.len()];
         let mut lives = HashMap::with_capacity(fate.len());
         for (&i, new) in due.iter().zip(gathered) {
-            let (old, _, moved) = fate[i].expect("due records have a fate");
+            let (old, _, moved, caused) = fate[i].expect("due records have a fate");
             let age = frame.saturating_sub(old.made).max(1);
             let de_dt = (new.e - old.e) / age as f32;
             let level = luminance(new.e).max(luminance(old.e)).max(1e-12);
             // Per channel: a light that changes colour may keep its luminance.
             let moved_by = (new.e - old.e).abs().max_element() / level;
-            // Where only meshes moved, a change within the gather's own noise is no change: the
-            // record stays as it was, and the image does not flicker where nothing happened. A
-            // changed light changes every record (and the photons of every path): each takes its
-            // new gather.
+            // A record due only because its lifespan ended, whose gather differs within the
+            // gather's own noise, did not change: it stays as it was, and the image does not flicker
+            // where nothing happened. A changed light changes every record (and the photons of every
+            // path), and a record near a moved mesh or seeing light that changed changed for a known
+            // reason (its gather has the same rays as before: what differs is the light): each takes
+            // its new gather.
             let noise = 2.0 * new.rel_err.max(cache.records()[i].rel_err);
-            let life = if !change.lights && moved_by <= noise.max(0.25 * TOLERANCE) {
+            let life = if !change.lights && !caused && moved_by <= noise.max(0.25 * TOLERANCE) {
                 let quiet = (2 * old.quiet).clamp(MAX_LIFESPAN, MAX_QUIET_LIFESPAN);
                 Life {
                     due: frame + quiet,
@@ -367,7 +539,7 @@ impl Lifespans {
             };
         let (mut cache, _) = cache
             .rebuilt(scene.bounds, |i, mut r| {
-                let Some((life, _, moved)) = fate[i] else {
+                let Some((life, _, moved, _)) = fate[i] else {
                     changed.push((r.pos, r.r_clamped));
                     return None;
                 };
@@ -421,7 +593,7 @@ impl Lifespans {
 pub fn screen_window(change: &SceneChange, cam: &Camera) -> Option<Window> {
     let mut lo = Vec2::splat(f32::INFINITY);
     let mut hi = Vec2::splat(f32::NEG_INFINITY);
-    for &(c, r) in change.moved.iter().flatten() {
+    for &(c, r) in change.moved.iter().flat_map(|m| &m.spheres) {
         let (a, b) = sphere_pixels(cam, c, r)?;
         lo = lo.min(a);
         hi = hi.max(b);
@@ -473,15 +645,15 @@ fn surface_at(scene: &Scene, r: &Record) -> Option<Hit> {
 }
 
 /// Whether a moved mesh is near enough to the record for its step to change the record's irradiance
-/// by more than [`TOLERANCE`]: a sphere of radius r at distance d covers about r²/d² of the sky, and
+/// by more than `tolerance` of it: a sphere of radius r at distance d covers about r²/d² of the sky, and
 /// a step s changes that by about 2r²s/d³.
-fn near(r: &Record, movers: &[Mover]) -> bool {
+fn near(r: &Record, movers: &[Mover], tolerance: f32) -> bool {
     movers.iter().any(|m| {
         let to = m.center - r.pos;
         let d = to.length();
         d <= m.radius
             || (to.dot(r.normal) > -m.radius
-                && 2.0 * m.radius * m.radius * m.step > TOLERANCE * d * d * d)
+                && 2.0 * m.radius * m.radius * m.step > tolerance * d * d * d)
     })
 }
 
@@ -509,7 +681,7 @@ pub fn unchanged_pixels(
         return None;
     }
     let (w, h) = (cam.width, cam.height);
-    let movers: Vec<(Vec3, f32)> = change.moved.iter().flatten().copied().collect();
+    let movers: Vec<(Vec3, f32)> = change.moved.iter().flat_map(|m| m.spheres).collect();
     let sources = light_spheres(scene);
     let hits: Vec<Option<(Vec3, f32)>> = (0..w * h)
         .into_par_iter()
@@ -539,13 +711,16 @@ pub fn unchanged_pixels(
                     return false;
                 }
             }
-            let Some((p, _)) = hits[i as usize] else {
+            let Some((p, pixel)) = hits[i as usize] else {
                 return true;
             };
-            !sources.iter().any(|&(c_l, r_l)| {
+            // The pixel's samples land within about a pixel of its centre's point: each mover is
+            // widened by that.
+            !sources.iter().any(|end| {
+                let (c_l, r_l) = end.seen_from(p);
                 movers
                     .iter()
-                    .any(|&(c, r)| sphere_meets_cone(c, r, p, c_l, r_l))
+                    .any(|&(c, r)| sphere_meets_cone(c, r + pixel, p, c_l, r_l))
             })
         })
         .collect();
@@ -569,9 +744,29 @@ pub fn unchanged_pixels(
     Some(keep)
 }
 
-/// Bounding spheres of where the lights' shadow rays end: all emissive triangles as one, each point or
-/// spot light, and each directional light far along its reverse direction.
-fn light_spheres(scene: &Scene) -> Vec<(Vec3, f32)> {
+/// Where a light's shadow rays from a point end.
+#[derive(Clone, Copy)]
+enum ShadowEnd {
+    /// A ball every shadow ray ends in (centre, radius): all emissive triangles as one, a point or
+    /// spot light.
+    Ball(Vec3, f32),
+    /// Far along a directional light's reverse direction from the point itself: its shadow rays are
+    /// parallel (this offset).
+    Along(Vec3),
+}
+
+impl ShadowEnd {
+    /// The ball the shadow rays from `p` end in.
+    fn seen_from(self, p: Vec3) -> (Vec3, f32) {
+        match self {
+            ShadowEnd::Ball(c, r) => (c, r),
+            ShadowEnd::Along(offset) => (p + offset, 0.0),
+        }
+    }
+}
+
+/// Where the lights' shadow rays end.
+fn light_spheres(scene: &Scene) -> Vec<ShadowEnd> {
     let mut out = Vec::new();
     let (lo, hi) = scene.bounds;
     let far = (hi - lo).length() * 4.0 + 1.0;
@@ -585,15 +780,13 @@ fn light_spheres(scene: &Scene) -> Vec<(Vec3, f32)> {
                 }
             }
             crate::light::Light::Point { pos, .. } | crate::light::Light::Spot { pos, .. } => {
-                out.push((pos, 0.0))
+                out.push(ShadowEnd::Ball(pos, 0.0))
             }
-            crate::light::Light::Directional { dir, center, .. } => {
-                out.push((center - dir * far, 0.0))
-            }
+            crate::light::Light::Directional { dir, .. } => out.push(ShadowEnd::Along(-dir * far)),
         }
     }
     if let Some((a, b)) = area {
-        out.push(((a + b) * 0.5, (b - a).length() * 0.5));
+        out.push(ShadowEnd::Ball((a + b) * 0.5, (b - a).length() * 0.5));
     }
     out
 }
@@ -658,6 +851,100 @@ mod tests {
     }
 
     #[test]
+    fn a_mesh_turning_about_its_centre_moves_by_its_radius_times_the_angle() {
+        let sphere = (Vec3::new(1.0, 2.0, 3.0), 0.5);
+        // 30° about its own centre: the sphere stays, its points move up to 2 r sin 15° ≈ 0.26 r.
+        let turn = Mat4::from_translation(sphere.0)
+            * Mat4::from_rotation_z(30f32.to_radians())
+            * Mat4::from_translation(-sphere.0);
+        let m = Moved::new(sphere, sphere, Some(turn));
+        assert!(m.step >= 0.5 * 2.0 * 15f32.to_radians().sin(), "{}", m.step);
+        assert!(m.step <= 0.5 * 1.5, "{}", m.step);
+        // A translation: its length, whatever the radius.
+        let shift = Mat4::from_translation(Vec3::new(0.0, 0.3, 0.0));
+        let after = (sphere.0 + Vec3::new(0.0, 0.3, 0.0), 0.5);
+        assert!((Moved::new(sphere, after, Some(shift)).step - 0.3).abs() < 1e-5);
+        // Without a known placement, the spheres' distance.
+        assert!((Moved::new(sphere, after, None).step - 0.3).abs() < 1e-5);
+    }
+
+    #[test]
+    fn records_see_deposits_that_changed_in_their_sky_and_not_a_mover_passing_by() {
+        let photon = |pos: Vec3, power: f32| photon::map::Photon {
+            pos,
+            wi: Vec3::Y,
+            power: Vec3::splat(power),
+            normal: Vec3::Y,
+            indirect: false,
+            direct: true,
+        };
+        let bounds = (Vec3::ZERO, Vec3::splat(4.0));
+        // A floor of photons, and a bright patch at (3, 0, 2) that a blocker takes away.
+        let floor: Vec<_> = (0..400)
+            .map(|i| {
+                photon(
+                    Vec3::new(
+                        0.1 + 0.2 * (i % 20) as f32,
+                        0.0,
+                        0.1 + 0.2 * (i / 20) as f32,
+                    ),
+                    0.01,
+                )
+            })
+            .collect();
+        let lit: Vec<_> = floor
+            .iter()
+            .copied()
+            .chain((0..50).map(|_| photon(Vec3::new(3.0, 0.0, 2.0), 0.02)))
+            .collect();
+        let before = Deposits::of(&lit, bounds, None);
+        let after = Deposits::of(&floor, bounds, Some(&before));
+        let changes = after.changes(&before);
+        assert_eq!(changes.len(), 1, "{changes:?}");
+        // A record on the ceiling above: its indirect 1.0 would change by about 1 / (π 16) ≈ 2 %…
+        let rec = |pos: Vec3, normal: Vec3, e: f32| Record {
+            pos,
+            normal,
+            e: Vec3::splat(e),
+            grad_r: [Vec3::ZERO; 3],
+            grad_t: [Vec3::ZERO; 3],
+            r_harmonic: 1.0,
+            r_clamped: 1.0,
+            dir: normal,
+            pixel_world: 0.01,
+            rel_err: 0.0,
+            at: [0; 3],
+        };
+        let ceiling = rec(Vec3::new(2.0, 4.0, 2.0), -Vec3::Y, 0.2);
+        assert!(sees_changed_light(
+            &ceiling, &changes, after.cell, TOLERANCE
+        ));
+        // …but not one facing away, nor a brighter one.
+        assert!(!sees_changed_light(
+            &rec(Vec3::new(2.0, 4.0, 2.0), Vec3::Y, 0.2),
+            &changes,
+            after.cell,
+            TOLERANCE
+        ));
+        assert!(!sees_changed_light(
+            &rec(Vec3::new(2.0, 4.0, 2.0), -Vec3::Y, 5.0),
+            &changes,
+            after.cell,
+            TOLERANCE
+        ));
+        // A patch that moves one cell over: the changes cancel at a distance.
+        let moved: Vec<_> = floor
+            .iter()
+            .copied()
+            .chain((0..50).map(|_| photon(Vec3::new(3.15, 0.0, 2.0), 0.02)))
+            .collect();
+        let shifted = Deposits::of(&moved, bounds, Some(&before)).changes(&before);
+        assert!(!sees_changed_light(
+            &ceiling, &shifted, after.cell, TOLERANCE
+        ));
+    }
+
+    #[test]
     fn a_record_is_near_a_mover_whose_step_changes_its_sky_by_more_than_the_tolerance() {
         let rec = |z: f32| Record {
             pos: Vec3::new(0.0, 0.0, z),
@@ -678,15 +965,16 @@ mod tests {
             step: 0.025,
         };
         // 2 r² s / d³ = 0.003125 / d³ against 0.02: near within d ≈ 0.54.
-        assert!(near(&rec(0.6), &[ball]));
-        assert!(!near(&rec(0.0), &[ball]));
+        assert!(near(&rec(0.6), &[ball], TOLERANCE));
+        assert!(!near(&rec(0.0), &[ball], TOLERANCE));
         // Below its tangent plane the mover is not in the record's sky.
         assert!(!near(
             &Record {
                 pos: Vec3::new(0.0, 0.0, 1.5),
                 ..rec(0.0)
             },
-            &[ball]
+            &[ball],
+            TOLERANCE
         ));
     }
 }
