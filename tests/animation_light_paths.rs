@@ -8,6 +8,8 @@
 //! - a ball moving above a glossy floor: its reflection (the glossy layer) moves with it;
 //! - a ball's long shadow from a low directional light: pixels kept from the frame before show the
 //!   shadow where it is now, not where it was;
+//! - a light keyed to another hue at the same luminance, then held while a small ball still moves:
+//!   the records do not go on drifting in hue after the light stopped;
 //! - frames that show the frame before's image (nothing changed) report no work of their own, and
 //!   the sequence summary counts each rendered frame's records once, with `records_dropped` (view
 //!   drops) and `records_gone` apart.
@@ -410,4 +412,36 @@ fn frames_that_reuse_the_image_report_no_work_of_their_own() {
             "the summary's {k} is not the sum over the frames rendered"
         );
     }
+}
+
+/// A closed grey room (the cube, seen from inside) lit by a point light keyed from [2, 2, 2] to
+/// [2.6, 1.8, 2.213] (the same luminance) over frames 0–2, then held, while a tiny ball creeps along
+/// the floor until frame 8 (so that the later frames are rendered, not copied). A record's lifespan
+/// after the light's change came from its luminance's rate of change, about zero: it went on
+/// following its per-channel temporal gradient for 8 frames, frame 5's indirect 1.047, 0.974, 1.018
+/// of the still's (pink disks, one per record, red up to 1.37). Now each channel of frame 5's
+/// `indirect` mean is within 1.5 % of the still's (measured 0.9973, 0.9974, 0.9975; a still of seed
+/// 1 is within 0.3 %).
+#[test]
+fn records_stop_changing_hue_when_the_light_stops() {
+    let scene = format!(
+        "version = 1\n[animation]\nframes = 9\n[camera]\neye = [0.0, 1.0, 0.95]\n\
+         target = [0.0, 0.8, 0.0]\nfov = 60.0\nwidth = 64\nheight = 48\n[[mesh]]\n\
+         obj = \"cube.obj\"\ntranslate = [0.0, 1.0, 0.0]\n{}[[light]]\ntype = \"point\"\n\
+         position = [0.0, 1.8, 0.0]\nintensity = [2.0, 2.0, 2.0]\n[[light.key]]\nframe = 0\n\
+         intensity = [2.0, 2.0, 2.0]\n[[light.key]]\nframe = 2\nintensity = [2.6, 1.8, 2.213]\n\
+         [render]\nseed = 0\n",
+        moving_ball(0.03, [-0.8, 0.03, -0.8], [-0.7, 0.03, -0.8], 8)
+    );
+    let d = folder(&scene);
+    let (frame, still) = frame_and_still(d.path(), 5, &[]);
+    let r = ratio(
+        &layer(&frame, Some("indirect")),
+        &layer(&still, Some("indirect")),
+    );
+    eprintln!("[hue held] frame 5 indirect / still: {r:.4}");
+    assert!(
+        (r - Vec3::ONE).abs().max_element() <= 0.015,
+        "frame 5's indirect means are {r:.4} of its still's"
+    );
 }

@@ -512,7 +512,9 @@ impl Lifespans {
                     ..old
                 }
             } else {
-                let rate = luminance(de_dt).abs() / level;
+                // Per channel, as the change: a light keyed to another hue at the same luminance
+                // changes its records' colour, which their gradient goes on changing until due.
+                let rate = de_dt.abs().max_element() / level;
                 let lifespan = ((TOLERANCE / rate) as u32).clamp(1, MAX_LIFESPAN);
                 replaced[i] = Some(new);
                 if moved.is_some() {

@@ -125,7 +125,11 @@ pub fn write_sequence_summary(
         "pixels_kept": total("pixels_kept"),
         "render_s": render_s,
         "wall_s": wall_s,
-        "peak_rss_bytes": crate::stats::peak_rss_bytes(),
+        // The kernel updates the high-water mark lazily: a frame's own reading may exceed a later one.
+        "peak_rss_bytes": frames
+            .iter()
+            .filter_map(|r| r["memory_peak_rss_bytes"].as_u64())
+            .fold(crate::stats::peak_rss_bytes(), u64::max),
     });
     let text = serde_json::to_string_pretty(&json).map_err(|e| Error::Runtime(e.to_string()))?;
     let mut set = OutputSet::new();
