@@ -4,8 +4,10 @@
 //! `shade`; [`write::write_outputs`] is the last phase, called by the binary once the render is done.
 
 pub mod budget;
+mod deposits;
 pub mod files;
 pub mod fill;
+mod frame_pixels;
 pub mod gather_rays;
 pub mod outputs;
 pub mod photons;
@@ -202,7 +204,7 @@ pub fn render_frame<'a>(
                         .as_ref()
                         .is_some_and(|cam| cam.same_view(&plan.camera))
                     {
-                        only = temporal::screen_window(&change, &plan.camera);
+                        only = frame_pixels::screen_window(&change, &plan.camera);
                         plan.finer = only.map(|w| (w, plan.noise * temporal::MOVING_NOISE));
                         if carry.layers.is_some()
                             && plan.window == tiles::Window::full(plan.width, plan.height)
@@ -266,7 +268,7 @@ pub fn render_frame<'a>(
                 .iter()
                 .map(|r| (r.pos, r.r_clamped)),
         );
-        plan.kept = temporal::unchanged_pixels(scene, &plan.camera, &change, &changed, w);
+        plan.kept = frame_pixels::unchanged_pixels(scene, &plan.camera, &change, &changed, w);
     }
 
     let lighting = Lighting {

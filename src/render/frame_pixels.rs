@@ -1,0 +1,254 @@
+//! Which pixels of a sequence's frame must be rendered again when the camera stayed and meshes moved:
+//! the window where the moved meshes may be seen (pass A visits only it, at a finer noise target), and
+//! outside what their moves changed, the pixels kept from the frame before unsampled.
+
+use glam::{Vec2, Vec3};
+use rayon::prelude::*;
+
+use super::temporal::SceneChange;
+use super::tiles::Window;
+use crate::camera::Camera;
+use crate::scene::Scene;
+
+/// The pixels whose camera rays may meet a moved mesh, before or after its step (its bounding
+/// spheres' projections, with a margin); `None` when that may be anywhere (a sphere around or behind
+/// the eye).
+pub fn screen_window(change: &SceneChange, cam: &Camera) -> Option<Window> {
+    let mut lo = Vec2::splat(f32::INFINITY);
+    let mut hi = Vec2::splat(f32::NEG_INFINITY);
+    for &(c, r) in change.moved.iter().flat_map(|m| &m.spheres) {
+        let (a, b) = sphere_pixels(cam, c, r)?;
+        lo = lo.min(a);
+        hi = hi.max(b);
+    }
+    Some(pixel_window(cam, lo, hi))
+}
+
+/// The pixel box a sphere may cover on screen (`None` when it surrounds or lies behind the eye): its
+/// radius at its nearest depth, widened for the off-axis stretch.
+fn sphere_pixels(cam: &Camera, c: Vec3, r: f32) -> Option<(Vec2, Vec2)> {
+    let depth = (c - cam.eye).dot(cam.forward());
+    if depth <= 2.0 * r {
+        return None;
+    }
+    let (x, y) = cam.project(c)?;
+    let px_per_unit = cam.height as f32 / (2.0 * (cam.fov_deg().to_radians() * 0.5).tan());
+    let reach = 2.0 * r * px_per_unit / (depth - r) + 2.0;
+    Some((
+        Vec2::new(x - reach, y - reach),
+        Vec2::new(x + reach, y + reach),
+    ))
+}
+
+/// The image's pixels within [lo, hi] (empty when lo > hi).
+fn pixel_window(cam: &Camera, lo: Vec2, hi: Vec2) -> Window {
+    if lo.x > hi.x || lo.y > hi.y {
+        return Window {
+            x0: 0,
+            y0: 0,
+            x1: 0,
+            y1: 0,
+        };
+    }
+    let clamp = |v: f32, max: u32| v.clamp(0.0, max as f32) as u32;
+    Window {
+        x0: clamp(lo.x.floor(), cam.width),
+        y0: clamp(lo.y.floor(), cam.height),
+        x1: clamp(hi.x.ceil() + 1.0, cam.width),
+        y1: clamp(hi.y.ceil() + 1.0, cam.height),
+    }
+}
+
+/// The pixels a frame may take from the frame before (the camera stayed, a mesh moved, no light
+/// changed): outside the moved meshes' window, or inside it where the pixel's cone of camera rays
+/// passes every moved mesh before and after its step, their centre's camera ray ends on a diffuse
+/// surface (or nothing) whose shadow rays pass no moved mesh and whose cached light no changed record
+/// reaches.
+/// `None` where the scene has more than diffuse surfaces without media (caustic and glossy terms read
+/// photon maps traced again; media scatter along every ray), or when a light changed.
+pub fn unchanged_pixels(
+    scene: &Scene,
+    cam: &Camera,
+    change: &SceneChange,
+    changed: &[(Vec3, f32)],
+    window: Window,
+) -> Option<Vec<bool>> {
+    let plain = scene.specular_bvh.is_none()
+        && scene.media.is_none()
+        && scene
+            .materials
+            .iter()
+            .all(|m| matches!(m.bsdf, crate::material::Bsdf::Diffuse { .. }));
+    if change.lights || !plain {
+        return None;
+    }
+    let (w, h) = (cam.width, cam.height);
+    let movers: Vec<(Vec3, f32)> = change.moved.iter().flat_map(|m| m.spheres).collect();
+    let sources = light_spheres(scene);
+    let hits: Vec<Option<(Vec3, f32)>> = (0..w * h)
+        .into_par_iter()
+        .map(|i| {
+            let (x, y) = (i % w, i / w);
+            let d = cam.ray(x as f32 + 0.5, y as f32 + 0.5);
+            scene
+                .intersect(cam.eye, d)
+                .map(|hit| (hit.p, cam.pixel_world(d, hit.t, hit.ns.dot(d))))
+        })
+        .collect();
+    // A pixel's samples leave the eye within about a pixel of its centre's ray (a pixel's angle at
+    // the image's middle, more than anywhere else): in the window, a pixel keeps its value only when
+    // that cone passes every moved mesh before and after its step.
+    let pixel_angle = 2.0 * (cam.fov_deg().to_radians() * 0.5).tan() / h as f32;
+    let far = cam.eye.distance((scene.bounds.0 + scene.bounds.1) * 0.5) + scene.diagonal();
+    let mut keep: Vec<bool> = (0..w * h)
+        .into_par_iter()
+        .map(|i| {
+            let (x, y) = (i % w, i / w);
+            if x >= window.x0 && x < window.x1 && y >= window.y0 && y < window.y1 {
+                let end = cam.eye + cam.ray(x as f32 + 0.5, y as f32 + 0.5) * far;
+                if movers
+                    .iter()
+                    .any(|&(c, r)| sphere_meets_cone(c, r, cam.eye, end, far * pixel_angle))
+                {
+                    return false;
+                }
+            }
+            let Some((p, pixel)) = hits[i as usize] else {
+                return true;
+            };
+            // The pixel's samples land within about a pixel of its centre's point: each mover is
+            // widened by that.
+            !sources.iter().any(|end| {
+                let (c_l, r_l) = end.seen_from(p);
+                movers
+                    .iter()
+                    .any(|&(c, r)| sphere_meets_cone(c, r + pixel, p, c_l, r_l))
+            })
+        })
+        .collect();
+    for &(c, reach) in changed {
+        let Some((lo, hi)) = sphere_pixels(cam, c, reach) else {
+            // Around or behind the eye: it may reach anywhere.
+            return None;
+        };
+        let rect = pixel_window(cam, lo, hi);
+        for y in rect.y0..rect.y1 {
+            for x in rect.x0..rect.x1 {
+                let i = (y * w + x) as usize;
+                if let Some((p, pixel)) = hits[i] {
+                    if p.distance(c) < reach + pixel {
+                        keep[i] = false;
+                    }
+                }
+            }
+        }
+    }
+    Some(keep)
+}
+
+/// Where a light's shadow rays from a point end.
+#[derive(Clone, Copy)]
+enum ShadowEnd {
+    /// A ball every shadow ray ends in (centre, radius): all emissive triangles as one, a point or
+    /// spot light.
+    Ball(Vec3, f32),
+    /// Far along a directional light's reverse direction from the point itself: its shadow rays are
+    /// parallel (this offset).
+    Along(Vec3),
+}
+
+impl ShadowEnd {
+    /// The ball the shadow rays from `p` end in.
+    fn seen_from(self, p: Vec3) -> (Vec3, f32) {
+        match self {
+            ShadowEnd::Ball(c, r) => (c, r),
+            ShadowEnd::Along(offset) => (p + offset, 0.0),
+        }
+    }
+}
+
+/// Where the lights' shadow rays end.
+fn light_spheres(scene: &Scene) -> Vec<ShadowEnd> {
+    let mut out = Vec::new();
+    let (lo, hi) = scene.bounds;
+    let far = (hi - lo).length() * 4.0 + 1.0;
+    let mut area: Option<(Vec3, Vec3)> = None;
+    for l in &scene.lights.lights {
+        match *l {
+            crate::light::Light::Area { tri, .. } => {
+                for k in scene.geometry.triangles[tri as usize].v {
+                    let p = scene.geometry.positions[k as usize];
+                    area = Some(area.map_or((p, p), |(a, b)| (a.min(p), b.max(p))));
+                }
+            }
+            crate::light::Light::Point { pos, .. } | crate::light::Light::Spot { pos, .. } => {
+                out.push(ShadowEnd::Ball(pos, 0.0))
+            }
+            crate::light::Light::Directional { dir, .. } => out.push(ShadowEnd::Along(-dir * far)),
+        }
+    }
+    if let Some((a, b)) = area {
+        out.push(ShadowEnd::Ball((a + b) * 0.5, (b - a).length() * 0.5));
+    }
+    out
+}
+
+/// Whether the sphere (c, r) meets the cone from apex `p` to the ball (c_l, r_l): the rays from a
+/// point to a light's ball (shadow rays), or a pixel's camera rays. The cone's cross-section at
+/// t ∈ [0, 1] is the ball (p + t (c_l − p), t r_l): narrow at `p`, as wide as the ball at its end (a
+/// mover near the floor and a light at the ceiling shade only the floor points whose narrow end of the
+/// cone it crosses). The sphere meets it when g(t) = |c − p − t d| − t r_l falls below r for some t; g
+/// is convex, its minimum found in closed form.
+fn sphere_meets_cone(c: Vec3, r: f32, p: Vec3, c_l: Vec3, r_l: f32) -> bool {
+    let d = c_l - p;
+    let len = d.length();
+    if !(len > 0.0) {
+        return c.distance(p) < r + r_l;
+    }
+    let w = c - p;
+    let along = w.dot(d) / len;
+    let across = (w.length_squared() - along * along).max(0.0).sqrt();
+    let k = r_l / len;
+    // g'(t) = 0 where (along − t len) = −k across / √(1 − k²); past k ≥ 1 g only falls.
+    let t = if k >= 1.0 {
+        1.0
+    } else {
+        ((along + k * across / (1.0 - k * k).sqrt()) / len).clamp(0.0, 1.0)
+    };
+    w.distance(d * t) - t * r_l < r
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_sphere_meets_a_cone_where_a_dense_search_says_so() {
+        let mut rng = photon::sampling::Rng::new(7);
+        let mut v = || Vec3::new(rng.uniform(), rng.uniform(), rng.uniform()) * 4.0 - 2.0;
+        let (mut met, mut missed) = (0, 0);
+        for _ in 0..4000 {
+            let (c, p, c_l) = (v(), v(), v());
+            let (r, r_l) = (0.05 + 0.3 * v().x.abs(), 0.6 * v().y.abs());
+            // The cone's balls at 20 001 steps of t, the sphere's distance to each.
+            let dense = (0..=20_000).any(|i| {
+                let t = i as f32 / 20_000.0;
+                c.distance(p + (c_l - p) * t) < r + t * r_l - 1e-4
+            });
+            let near_edge = (0..=20_000).any(|i| {
+                let t = i as f32 / 20_000.0;
+                (c.distance(p + (c_l - p) * t) - r - t * r_l).abs() < 2e-3
+            });
+            let fast = sphere_meets_cone(c, r, p, c_l, r_l);
+            if !near_edge {
+                assert_eq!(fast, dense, "c {c} r {r} p {p} light {c_l} {r_l}");
+            }
+            if fast {
+                met += 1;
+            } else {
+                missed += 1;
+            }
+        }
+        assert!(met > 200 && missed > 200, "{met} {missed}");
+    }
+}
