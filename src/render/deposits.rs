@@ -11,7 +11,7 @@ use super::temporal::luminance;
 /// Photon power the global map deposited on surfaces, summed over the cells of a lattice fixed for
 /// the sequence (photons outside it count in its border cells). Where it changed between two frames
 /// the light changed there — a mover blocked a light or turned a mirror — and with it the indirect
-/// light of every record that sees the place, however far from the mover ([`Lifespans::update`]).
+/// light of every record that sees the place, however far from the mover ([`super::temporal::Lifespans::update`]).
 pub(super) struct Deposits {
     lo: Vec3,
     pub(super) cell: f32,
