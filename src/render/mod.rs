@@ -318,7 +318,13 @@ pub fn render_frame<'a>(
     stats.frame = frame;
     let mut out = output(images, media_cache, plan.camera.clone());
     out.radiance_records = radiance.as_ref().map_or(Vec::new(), |r| r.positions());
-    carry.chosen_rays = cache.as_ref().and_then(|c| c.chosen_rays);
+    // The rays chosen by the sequence's first frame stay chosen: a frame that took them does not
+    // choose again, and its cache knows none (every second frame gathered with other rays, a record's
+    // change between the two kinds of gather read as a change of its light: 3 % flicker).
+    carry.chosen_rays = cache
+        .as_ref()
+        .and_then(|c| c.chosen_rays)
+        .or(carry.chosen_rays);
     out.cache = cache.map(|c| c.cache);
     carry.radiance = radiance;
     carry.camera = Some(plan.camera);
