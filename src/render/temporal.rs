@@ -266,6 +266,13 @@ impl Lifespans {
             })
             .map_err(runtime)?;
         self.unseen_since = unseen;
+        // A dropped record's life goes with it: a record made later at the very same place (a camera
+        // back at a pose it had) starts a life of its own, not the old one's rate and due frame.
+        if dropped > 0 {
+            let kept: std::collections::HashSet<[u32; 3]> =
+                cache.records().iter().map(|r| key(r.pos)).collect();
+            self.by_pos.retain(|k, _| kept.contains(k));
+        }
         frame.n_records_reused = (n - dropped) as u64;
         frame.n_records_dropped = dropped as u64;
         Ok(cache)
