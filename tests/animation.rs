@@ -13,25 +13,6 @@ use std::time::{Duration, Instant};
 
 use pmrender::io::output::Image;
 
-/// A closed unit cube (faces outward), placed by the scene's scale and translate.
-const CUBE_OBJ: &str = "mtllib cube.mtl
-usemtl block
-v -1 -1 -1
-v 1 -1 -1
-v 1 1 -1
-v -1 1 -1
-v -1 -1 1
-v 1 -1 1
-v 1 1 1
-v -1 1 1
-f 1 4 3 2
-f 5 6 7 8
-f 1 5 8 4
-f 2 3 7 6
-f 1 2 6 5
-f 4 8 7 3
-";
-
 const CUBE_MTL: &str = "newmtl block
 Kd 0.2 0.3 0.7
 ";
@@ -84,10 +65,11 @@ fn scene_text(k: &Keys) -> String {
 
 /// A folder with the room, the cube and `scene.toml` from `keys`, and an empty `out/` for the outputs.
 fn scene(keys: &Keys) -> tempfile::TempDir {
+    let cube = cube_obj("cube.mtl", "block");
     let d = scene_dir(&[
         ("room.obj", ROOM_OBJ),
         ("room.mtl", ROOM_MTL),
-        ("cube.obj", CUBE_OBJ),
+        ("cube.obj", &cube),
         ("cube.mtl", CUBE_MTL),
         ("scene.toml", &scene_text(keys)),
     ]);

@@ -35,26 +35,6 @@ const PANEL_MTL: &str = "newmtl glow
 Kd 0 0 0
 ";
 
-/// A closed cube −1…1, faces outward: the fog's boundary, placed by the scene's scale and
-/// translate.
-const FOG_BOX_OBJ: &str = "mtllib fogbox.mtl
-usemtl boundary
-v -1 -1 -1
-v 1 -1 -1
-v 1 1 -1
-v -1 1 -1
-v -1 -1 1
-v 1 -1 1
-v 1 1 1
-v -1 1 1
-f 1 4 3 2
-f 5 6 7 8
-f 1 5 8 4
-f 2 3 7 6
-f 1 2 6 5
-f 4 8 7 3
-";
-
 const FOG_BOX_MTL: &str = "newmtl boundary
 Kd 0 0 0
 ";
@@ -130,6 +110,7 @@ fn fog_room(frames: u32, eye: [f32; 3], camera: &str) -> String {
 /// A folder with every model of this file, the scenes `scenes` (name, text) and an empty `out/`.
 fn folder(scenes: &[(&str, &str)]) -> tempfile::TempDir {
     let (red_obj, red_mtl) = (red_room_obj(), red_room_mtl());
+    let fog_box = cube_obj("fogbox.mtl", "boundary");
     let mut files: Vec<(&str, &str)> = vec![
         ("room.obj", ROOM_OBJ),
         ("room.mtl", ROOM_MTL),
@@ -137,7 +118,7 @@ fn folder(scenes: &[(&str, &str)]) -> tempfile::TempDir {
         ("red-room.mtl", &red_mtl),
         ("panel.obj", PANEL_OBJ),
         ("panel.mtl", PANEL_MTL),
-        ("fogbox.obj", FOG_BOX_OBJ),
+        ("fogbox.obj", &fog_box),
         ("fogbox.mtl", FOG_BOX_MTL),
     ];
     files.extend_from_slice(scenes);

@@ -84,7 +84,7 @@ pub fn unchanged_pixels(
     }
     let (w, h) = (cam.width, cam.height);
     let movers: Vec<(Vec3, f32)> = change.moved.iter().flat_map(|m| m.spheres).collect();
-    let sources = light_spheres(scene);
+    let ends = shadow_ends(scene);
     let hits: Vec<Option<(Vec3, f32)>> = (0..w * h)
         .into_par_iter()
         .map(|i| {
@@ -118,7 +118,7 @@ pub fn unchanged_pixels(
             };
             // The pixel's samples land within about a pixel of its centre's point: each mover is
             // widened by that.
-            !sources.iter().any(|end| {
+            !ends.iter().any(|end| {
                 let (c_l, r_l) = end.seen_from(p);
                 movers
                     .iter()
@@ -168,7 +168,7 @@ impl ShadowEnd {
 }
 
 /// Where the lights' shadow rays end.
-fn light_spheres(scene: &Scene) -> Vec<ShadowEnd> {
+fn shadow_ends(scene: &Scene) -> Vec<ShadowEnd> {
     let mut out = Vec::new();
     let (lo, hi) = scene.bounds;
     let far = (hi - lo).length() * 4.0 + 1.0;

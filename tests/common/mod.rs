@@ -73,6 +73,16 @@ Kd 0 0 0
 Ke 10 10 10
 ";
 
+/// A closed cube −1…1 with its faces outward, of material `material` from `mtllib`: placed by a scene's
+/// scale, rotate and translate.
+pub fn cube_obj(mtllib: &str, material: &str) -> String {
+    format!(
+        "mtllib {mtllib}\nusemtl {material}\n\
+         v -1 -1 -1\nv 1 -1 -1\nv 1 1 -1\nv -1 1 -1\nv -1 -1 1\nv 1 -1 1\nv 1 1 1\nv -1 1 1\n\
+         f 1 4 3 2\nf 5 6 7 8\nf 1 5 8 4\nf 2 3 7 6\nf 1 2 6 5\nf 4 8 7 3\n"
+    )
+}
+
 pub const ROOM_TOML: &str = r#"version = 1
 [camera]
 eye = [0.0, 1.0, 3.0]
