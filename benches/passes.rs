@@ -85,9 +85,15 @@ fn photon_rates(root: &Path) {
     settings.global = 1_000_000;
     settings.caustic = 200_000;
     let t = Instant::now();
-    let (maps, stats) =
-        PhotonData::trace(&scene, &settings, 0, &|_, _| {}, &AtomicBool::new(false))
-            .expect("photons");
+    let (maps, stats) = PhotonData::trace(
+        &scene,
+        &settings,
+        None,
+        0,
+        &|_, _| {},
+        &AtomicBool::new(false),
+    )
+    .expect("photons");
     let s = t.elapsed().as_secs_f64();
     let stored = stats.n_global_stored + stats.n_caustic_stored;
     let mem = stats.global_memory_bytes + stats.caustic_memory_bytes;

@@ -22,6 +22,6 @@ pub use flann::{KdTree, Neighbor};
 pub use map::{Coverage, Estimate, Filter, FullDisc, Photon, PhotonMap};
 pub use precomputed::{IrradiancePoint, PrecomputeStats, PrecomputedIrradiance};
 pub use trace::{
-    trace_photons_cancellable, EmittedRay, PhotonMaps, PhotonScene, PhotonTargets, Propagation,
-    Scatter, SurfaceHit, TraceStats,
+    retrace_photons, trace_photons_cancellable, EmittedRay, MapPaths, PhotonMaps, PhotonScene,
+    PhotonTargets, Propagation, Scatter, SurfaceHit, TraceStats,
 };

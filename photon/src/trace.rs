@@ -212,15 +212,66 @@ pub fn trace_photons_cancellable<S: PhotonScene + ?Sized>(
     progress: &(dyn Fn(u64, u64) + Sync),
     cancel: &AtomicBool,
 ) -> Result<(PhotonMaps, TraceStats)> {
+    trace(scene, targets, None, seed, progress, cancel)
+}
+
+/// The paths each map of a trace took ([`TraceStats`]'s `n_*_paths`): given to [`retrace_photons`],
+/// a later trace takes exactly as many per map.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct MapPaths {
+    pub global: u64,
+    pub caustic: u64,
+    pub volume: u64,
+    pub volume_caustic: u64,
+}
+
+impl MapPaths {
+    pub fn of(stats: &TraceStats) -> MapPaths {
+        MapPaths {
+            global: stats.n_global_paths,
+            caustic: stats.n_caustic_paths,
+            volume: stats.n_volume_paths,
+            volume_caustic: stats.n_volume_caustic_paths,
+        }
+    }
+}
+
+/// [`trace_photons_cancellable`] over the paths of an earlier trace: each wanted map takes exactly
+/// `paths`' count of paths whatever it stores, and its power is normalised by that count. A path
+/// that meets nothing that changed since then leaves bit for bit the photons it left then, so an
+/// animation's frames differ only where something moved (with photon targets, every map's count —
+/// and so every photon's power — would shift a little from frame to frame).
+pub fn retrace_photons<S: PhotonScene + ?Sized>(
+    scene: &S,
+    targets: &PhotonTargets,
+    paths: MapPaths,
+    seed: u64,
+    progress: &(dyn Fn(u64, u64) + Sync),
+    cancel: &AtomicBool,
+) -> Result<(PhotonMaps, TraceStats)> {
+    trace(scene, targets, Some(paths), seed, progress, cancel)
+}
+
+fn trace<S: PhotonScene + ?Sized>(
+    scene: &S,
+    targets: &PhotonTargets,
+    fixed: Option<MapPaths>,
+    seed: u64,
+    progress: &(dyn Fn(u64, u64) + Sync),
+    cancel: &AtomicBool,
+) -> Result<(PhotonMaps, TraceStats)> {
     let start = Instant::now();
-    let mut maps = Fillings::new(scene, targets);
+    let mut maps = Fillings::new(scene, targets, fixed);
     let mut stats = TraceStats::default();
     let mut next_path = 0u64;
-    while maps.any_active() && next_path < targets.max_paths {
+    let max_paths = fixed.map_or(targets.max_paths, |p| {
+        p.global.max(p.caustic).max(p.volume).max(p.volume_caustic)
+    });
+    while maps.any_active() && next_path < max_paths {
         if cancel.load(Ordering::Relaxed) {
             return Err(Error::Cancelled);
         }
-        let n_batch = BATCH_PATHS.min(targets.max_paths - next_path);
+        let n_batch = BATCH_PATHS.min(max_paths - next_path);
         let batch = next_path..next_path + n_batch;
         let chunks = trace_batch(scene, batch, seed, maps.want(), cancel);
         if cancel.load(Ordering::Relaxed) {
@@ -282,23 +333,34 @@ struct Fillings {
 
 impl Fillings {
     /// Maps for `targets`, those the scene cannot make (caustics without specular surfaces, volume
-    /// maps without media) with a target of 0.
-    fn new<S: PhotonScene + ?Sized>(scene: &S, targets: &PhotonTargets) -> Fillings {
+    /// maps without media) with a target of 0; with `fixed`, each takes that many paths instead.
+    fn new<S: PhotonScene + ?Sized>(
+        scene: &S,
+        targets: &PhotonTargets,
+        fixed: Option<MapPaths>,
+    ) -> Fillings {
         let caustic_target = if scene.has_specular() {
             targets.caustic
         } else {
             0
         };
+        let volume = |target| if scene.has_media() { target } else { 0 };
+        let volume_caustic = if scene.has_media() && scene.has_specular() {
+            targets.volume_caustic
+        } else {
+            0
+        };
+        let paths = |f: fn(&MapPaths) -> u64| fixed.as_ref().map(f);
         Fillings {
-            global: Filling::new(targets.global),
-            caustic: Filling::new(caustic_target),
-            volume: Filling::new(if scene.has_media() { targets.volume } else { 0 }),
-            volume_caustic: Filling::new(if scene.has_media() && scene.has_specular() {
-                targets.volume_caustic
-            } else {
-                0
-            }),
+            global: Filling::new(targets.global, paths(|p| p.global)),
+            caustic: Filling::new(caustic_target, paths(|p| p.caustic)),
+            volume: Filling::new(volume(targets.volume), paths(|p| p.volume)),
+            volume_caustic: Filling::new(volume_caustic, paths(|p| p.volume_caustic)),
         }
+    }
+
+    fn fixed(&self) -> bool {
+        self.global.fixed.is_some()
     }
 
     fn any_active(&self) -> bool {
@@ -360,6 +422,9 @@ impl Fillings {
 
     /// Stops the maps that have had their path budget by `path`.
     fn apply_budgets(&mut self, path: u64, stats: &mut TraceStats) {
+        if self.fixed() {
+            return;
+        }
         // Where little light reaches specular surfaces, the caustic map would keep emission going
         // for a long time for a dim effect: it gets CAUSTIC_PATH_BUDGET × the paths the global
         // map needed (at least CAUSTIC_MIN_PATHS), normalised by the paths emitted while it filled.
@@ -480,15 +545,18 @@ struct Filling {
     active: bool,
     /// Paths emitted while filling; set when the target is reached.
     n_paths: Option<u64>,
+    /// Paths to take whatever is stored ([`retrace_photons`]), instead of filling to `target`.
+    fixed: Option<u64>,
 }
 
 impl Filling {
-    fn new(target: usize) -> Filling {
+    fn new(target: usize, fixed: Option<u64>) -> Filling {
         Filling {
             photons: Vec::new(),
             target,
-            active: target > 0,
+            active: target > 0 && fixed != Some(0),
             n_paths: None,
+            fixed,
         }
     }
 
@@ -497,7 +565,11 @@ impl Filling {
             return;
         }
         self.photons.extend_from_slice(path_photons);
-        if self.photons.len() >= self.target {
+        let full = match self.fixed {
+            Some(n) => path + 1 >= n,
+            None => self.photons.len() >= self.target,
+        };
+        if full {
             self.active = false;
             self.n_paths = Some(path + 1);
         }

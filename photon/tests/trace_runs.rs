@@ -226,3 +226,42 @@ fn caustic_only_paths_that_miss_every_mirror_are_not_traced_and_change_nothing()
         sb.n_paths_emitted
     );
 }
+
+#[test]
+fn a_retrace_over_the_same_paths_gives_the_same_photons_whatever_the_targets() {
+    let scene = mirror_wall();
+    let targets = PhotonTargets {
+        global: 20_000,
+        caustic: 3_000,
+        volume: 0,
+        volume_caustic: 0,
+        max_paths: 10_000_000,
+    };
+    let (a, sa) = run(&scene, targets, 2);
+    // Other targets, the same paths: each map takes exactly the paths it took, bit for bit.
+    let other = PhotonTargets {
+        global: 5,
+        caustic: 50_000_000,
+        ..targets
+    };
+    let (b, sb) = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap()
+        .install(|| {
+            photon::retrace_photons(
+                &scene,
+                &other,
+                photon::MapPaths::of(&sa),
+                11,
+                &|_, _| {},
+                &AtomicBool::new(false),
+            )
+            .unwrap()
+        });
+    assert_eq!(photon::MapPaths::of(&sb), photon::MapPaths::of(&sa));
+    assert!(sa.n_global_paths != sa.n_caustic_paths, "{sa:?}");
+    for (x, y) in [(&a.global, &b.global), (&a.caustic, &b.caustic)] {
+        assert_eq!(x.as_ref().unwrap().photons(), y.as_ref().unwrap().photons());
+    }
+}

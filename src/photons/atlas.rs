@@ -17,12 +17,14 @@
 //! surface it hit, whatever its neighbours face; texels nobody reaches are never estimated (the
 //! precomputation estimated 195 k points on Sibenik before the first ray; the atlas makes 141 k at 1000²).
 
+use std::f32::consts::SQRT_2;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::OnceLock;
 
 use glam::{Vec2, Vec3};
 use photon::sampling::{hash_keys, Rng};
 use photon::{Estimate, PhotonMap};
+use rayon::prelude::*;
 
 use super::coverage::SceneCoverage;
 use crate::geometry::{Geometry, Hit};
@@ -73,12 +75,16 @@ pub struct IrradianceAtlas {
     edges: AtomicU64,
     k: usize,
     max_radius: f32,
+    /// The side of a texel (coarser on triangles too long for [`MAX_TEXELS_PER_AXIS`]).
+    spacing: f32,
     estimated: AtomicU64,
+    /// Texels holding a value carried from the frame before ([`IrradianceAtlas::carried`]).
+    carried: u64,
 }
 
 /// A triangle's texels: square cells of side `cell` along its longest edge PQ (u) and across it toward
 /// the third vertex R (v); R sits at (u_r, height).
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 struct Grid {
     origin: Vec3,
     u_dir: Vec3,
@@ -195,6 +201,18 @@ const TEXEL_ALBEDO_SIDE: u32 = 2;
 /// by a generator seeded with `seed`). Gather rays read it with the texel's irradiance instead of a
 /// texture lookup each: on Sibenik those lookups, a cache miss each, were a tenth of the cache fill.
 /// The rays that reach a texel land about uniformly over it, so the mean is what they would have averaged.
+/// Each triangle's texel grid at texel side `spacing`.
+fn grids(geometry: &Geometry, spacing: f32) -> Vec<Grid> {
+    geometry
+        .triangles
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.v.map(|i| geometry.positions[i as usize]);
+            Grid::of(a, b, c, spacing)
+        })
+        .collect()
+}
+
 fn texel_albedo(scene: &Scene, tri: u32, grid: &Grid, i: u32, j: u32, seed: u64) -> Vec3 {
     let t = &scene.geometry.triangles[tri as usize];
     let material = &scene.materials[t.material as usize].bsdf;
@@ -393,6 +411,8 @@ pub struct AtlasStats {
     /// Texels of the scene (estimated or not).
     pub slots: u64,
     pub estimates: u64,
+    /// Texels whose value the frame before of a sequence estimated (see [`IrradianceAtlas::carried`]).
+    pub carried: u64,
     /// Caustic estimates made at texel middles ([`IrradianceAtlas::caustic`]).
     pub caustic_estimates: u64,
     /// Estimated texels whose direct light varies across them: their readers shade it at their own point.
@@ -418,39 +438,83 @@ impl IrradianceAtlas {
             f32::INFINITY
         };
         loop {
-            let grids: Vec<Grid> = geometry
-                .triangles
-                .iter()
-                .map(|t| {
-                    let [a, b, c] = t.v.map(|i| geometry.positions[i as usize]);
-                    Grid::of(a, b, c, spacing)
-                })
-                .collect();
+            let grids = grids(geometry, spacing);
             let n_slots: u64 = grids.iter().map(|g| 2 * g.nu as u64 * g.nv as u64).sum();
             if n_slots > MAX_TEXEL_SLOTS && spacing.is_finite() {
                 spacing *= 1.5;
                 continue;
             }
-            let mut first = 0u32;
-            let grids = grids
-                .into_iter()
-                .map(|g| {
-                    let at = first;
-                    first += 2 * g.nu as u32 * g.nv as u32;
-                    (g, at)
-                })
-                .collect();
-            return IrradianceAtlas {
-                grids,
-                slots: (0..n_slots).map(|_| OnceLock::new()).collect(),
-                caustic: Vec::new(),
-                caustic_estimated: AtomicU64::new(0),
-                edges: AtomicU64::new(0),
-                k,
-                max_radius,
-                estimated: AtomicU64::new(0),
-            };
+            return Self::of_grids(grids, spacing, k, max_radius);
         }
+    }
+
+    /// An empty atlas of these texel grids.
+    fn of_grids(grids: Vec<Grid>, spacing: f32, k: usize, max_radius: f32) -> Self {
+        let mut first = 0u32;
+        let grids: Vec<(Grid, u32)> = grids
+            .into_iter()
+            .map(|g| {
+                let at = first;
+                first += 2 * g.nu as u32 * g.nv as u32;
+                (g, at)
+            })
+            .collect();
+        IrradianceAtlas {
+            grids,
+            slots: (0..first).map(|_| OnceLock::new()).collect(),
+            caustic: Vec::new(),
+            caustic_estimated: AtomicU64::new(0),
+            edges: AtomicU64::new(0),
+            k,
+            max_radius,
+            spacing,
+            estimated: AtomicU64::new(0),
+            carried: 0,
+        }
+    }
+
+    /// The atlas of the next frame of a sequence over `geometry` (the same triangles, some of them
+    /// moved), with this one's texels: a texel estimated here keeps its value where its triangle did
+    /// not move and `keep(texel middle, reach)` finds that nothing its value depends on
+    /// changed within `reach` of the middle (its photons, the geometry its estimate's disc probes, its
+    /// lights' shadow rays); every other texel is estimated again when a ray reaches it. Its caustic
+    /// slots, if any, start empty.
+    pub fn carried(
+        self,
+        geometry: &Geometry,
+        keep: impl Fn(Vec3, f32) -> bool + Sync,
+    ) -> IrradianceAtlas {
+        let mut next = Self::of_grids(
+            grids(geometry, self.spacing),
+            self.spacing,
+            self.k,
+            self.max_radius,
+        );
+        if next.grids.len() != self.grids.len() {
+            return next;
+        }
+        let kept: Vec<Vec<(u32, TexelIrradiance)>> = (0..self.grids.len())
+            .into_par_iter()
+            .map(|tri| {
+                let ((grid, first), (now, at)) = (self.grids[tri], next.grids[tri]);
+                if grid != now {
+                    return Vec::new();
+                }
+                let side = grid.nu as u32 * grid.nv as u32;
+                (0..2 * side)
+                    .filter_map(|s| {
+                        let value = *self.slots[(first + s) as usize].get()?;
+                        let (i, j) = ((s % side) % grid.nu as u32, (s % side) / grid.nu as u32);
+                        keep(grid.middle(i, j), grid.cell * SQRT_2).then_some((at + s, value))
+                    })
+                    .collect()
+            })
+            .collect();
+        for (slot, value) in kept.into_iter().flatten() {
+            next.slots[slot as usize] = OnceLock::from(value);
+            next.carried += 1;
+        }
+        next
     }
 
     /// Irradiance of the global map on the `front` (winding) or back side of triangle `tri`, at the texel
@@ -560,6 +624,7 @@ impl IrradianceAtlas {
         AtlasStats {
             slots: self.slots.len() as u64,
             estimates: self.estimated.load(Ordering::Relaxed),
+            carried: self.carried,
             caustic_estimates: self.caustic_estimated.load(Ordering::Relaxed),
             edges: self.edges.load(Ordering::Relaxed),
             memory_bytes: (self.slots.len() * std::mem::size_of::<OnceLock<TexelIrradiance>>()

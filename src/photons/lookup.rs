@@ -87,21 +87,22 @@ struct MediaLookups {
 }
 
 impl<'a> PhotonData<'a> {
-    /// Both maps; `Interrupted` soon after `cancel` is set.
+    /// Both maps, to their targets or over the `paths` an earlier frame's maps took (see
+    /// [`photon::retrace_photons`]); `Interrupted` soon after `cancel` is set.
     pub fn trace(
         scene: &Scene,
         settings: &PhotonSettings,
+        paths: Option<photon::MapPaths>,
         seed: u64,
         progress: &(dyn Fn(u64, u64) + Sync),
         cancel: &AtomicBool,
     ) -> Result<(PhotonMaps, TraceStats)> {
-        match photon::trace_photons_cancellable(
-            &PhotonView(scene),
-            &Self::targets(settings),
-            seed,
-            progress,
-            cancel,
-        ) {
+        let (view, targets) = (PhotonView(scene), Self::targets(settings));
+        let traced = match paths {
+            None => photon::trace_photons_cancellable(&view, &targets, seed, progress, cancel),
+            Some(paths) => photon::retrace_photons(&view, &targets, paths, seed, progress, cancel),
+        };
+        match traced {
             Ok(r) => Ok(r),
             Err(photon::Error::Cancelled) => Err(crate::error::Error::Interrupted),
             // No light reaches any non-specular surface: there is no caustic or indirect light to
@@ -308,6 +309,33 @@ impl<'a> PhotonData<'a> {
     /// The maps, for saving once the render is done.
     pub fn into_maps(self) -> PhotonMaps {
         self.maps
+    }
+
+    /// The maps and the irradiance atlas as the render left them (a sequence's next frame carries
+    /// the atlas's texels where nothing changed: [`Self::carry_atlas`]).
+    pub fn into_maps_and_atlas(self) -> (PhotonMaps, Option<IrradianceAtlas>) {
+        (self.maps, self.surfaces.atlas)
+    }
+
+    /// The atlas of the frame before (`before`, over the same triangles) in place of this one's empty
+    /// atlas, with the texels `keep` keeps (see [`IrradianceAtlas::carried`]).
+    pub fn carry_atlas(
+        &mut self,
+        before: IrradianceAtlas,
+        keep: impl Fn(Vec3, f32) -> bool + Sync,
+    ) {
+        if self.surfaces.atlas.is_none() {
+            return;
+        }
+        let scene = self.coverage.0;
+        let atlas = before.carried(&scene.geometry, keep);
+        let atlas = if self.maps.caustic.is_some() {
+            atlas.with_caustic()
+        } else {
+            atlas
+        };
+        self.surfaces.glossy = GlossyTexels::new(scene, &atlas);
+        self.surfaces.atlas = Some(atlas);
     }
 
     pub fn settings(&self) -> &PhotonSettings {

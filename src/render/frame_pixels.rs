@@ -1,13 +1,17 @@
 //! Which pixels of a sequence's frame must be rendered again when the camera stayed and meshes moved:
-//! the window where the moved meshes may be seen (pass A visits only it, at a finer noise target), and
-//! outside what their moves changed, the pixels kept from the frame before unsampled.
+//! the window where the moved meshes may be seen (pass A visits only it, at a finer noise target),
+//! outside what their moves changed the pixels kept from the frame before unsampled, and among the
+//! rest those whose cached light alone changed, shaded again with the very samples they took.
 
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
-use super::temporal::SceneChange;
+use icache::{IrradianceCache, Pass};
+
+use super::temporal::{luminance, SceneChange};
 use super::tiles::Window;
 use crate::camera::Camera;
+use crate::geometry::Frame;
 use crate::scene::Scene;
 
 /// The pixels whose camera rays may meet a moved mesh, before or after its step (its bounding
@@ -59,11 +63,26 @@ fn pixel_window(cam: &Camera, lo: Vec2, hi: Vec2) -> Window {
     }
 }
 
+/// The cached irradiance at each pixel's centre (where its camera ray hits) when the pixel was last
+/// shaded, while the camera stays: a pixel that a changed record reaches keeps its value only while
+/// that light stays within [`LIGHT_TOLERANCE`] of it.
+#[derive(Default)]
+pub struct ShadedLight(Vec<Option<Vec3>>);
+
+/// How far, per channel and relative to its luminance, the cached light at a pixel's centre may move
+/// from what the pixel was shaded with before the pixel is shaded again. The records a frame gathers
+/// again near a mover reach far past it (their reach is the cache's largest spacing), and their
+/// light changes there by a fraction of a percent: shading every pixel they reach again was most of
+/// a ball frame's shading, and each new shade brings new pixel noise (flicker). Compared with what
+/// the pixel was shaded with, not with the frame before, so a slow drift does not accumulate.
+const LIGHT_TOLERANCE: f32 = 0.005;
+
 /// The pixels a frame may take from the frame before (the camera stayed, a mesh moved, no light
 /// changed): outside the moved meshes' window, or inside it where the pixel's cone of camera rays
 /// passes every moved mesh before and after its step, their centre's camera ray ends on a diffuse
-/// surface (or nothing) whose shadow rays pass no moved mesh and whose cached light no changed record
-/// reaches.
+/// surface (or nothing) whose shadow rays pass no moved mesh and whose cached light (in `cache`) is
+/// within [`LIGHT_TOLERANCE`] of what the pixel was shaded with (`shaded`, updated here for the
+/// pixels shaded again) where a changed record reaches.
 /// `None` where the scene has more than diffuse surfaces without media (caustic and glossy terms read
 /// photon maps traced again; media scatter along every ray), or when a light changed.
 pub fn unchanged_pixels(
@@ -72,7 +91,9 @@ pub fn unchanged_pixels(
     change: &SceneChange,
     changed: &[(Vec3, f32)],
     window: Window,
-) -> Option<Vec<bool>> {
+    cache: &IrradianceCache,
+    shaded: &mut ShadedLight,
+) -> Option<Unchanged> {
     let plain = scene.specular_bvh.is_none()
         && scene.media.is_none()
         && scene
@@ -85,14 +106,15 @@ pub fn unchanged_pixels(
     let (w, h) = (cam.width, cam.height);
     let movers: Vec<(Vec3, f32)> = change.moved.iter().flat_map(|m| m.spheres).collect();
     let ends = shadow_ends(scene);
-    let hits: Vec<Option<(Vec3, f32)>> = (0..w * h)
+    let hits: Vec<Option<(Vec3, f32, Vec3)>> = (0..w * h)
         .into_par_iter()
         .map(|i| {
             let (x, y) = (i % w, i / w);
             let d = cam.ray(x as f32 + 0.5, y as f32 + 0.5);
-            scene
-                .intersect(cam.eye, d)
-                .map(|hit| (hit.p, cam.pixel_world(d, hit.t, hit.ns.dot(d))))
+            scene.intersect(cam.eye, d).map(|hit| {
+                let n = Frame::new(&hit, -d).n;
+                (hit.p, cam.pixel_world(d, hit.t, hit.ns.dot(d)), n)
+            })
         })
         .collect();
     // A pixel's samples leave the eye within about a pixel of its centre's ray (a pixel's angle at
@@ -113,7 +135,7 @@ pub fn unchanged_pixels(
                     return false;
                 }
             }
-            let Some((p, pixel)) = hits[i as usize] else {
+            let Some((p, pixel, _)) = hits[i as usize] else {
                 return true;
             };
             // The pixel's samples land within about a pixel of its centre's point: each mover is
@@ -126,29 +148,62 @@ pub fn unchanged_pixels(
             })
         })
         .collect();
+    let mut reached = vec![false; (w * h) as usize];
     for &(c, reach) in changed {
-        let Some((lo, hi)) = sphere_pixels(cam, c, reach) else {
-            // Around or behind the eye: it may reach anywhere.
-            return None;
-        };
-        let rect = pixel_window(cam, lo, hi);
+        // Around or behind the eye, it may reach anywhere.
+        let rect = sphere_pixels(cam, c, reach)
+            .map_or(Window::full(w, h), |(lo, hi)| pixel_window(cam, lo, hi));
         for y in rect.y0..rect.y1 {
             for x in rect.x0..rect.x1 {
                 let i = (y * w + x) as usize;
-                if let Some((p, pixel)) = hits[i] {
+                if let Some((p, pixel, _)) = hits[i] {
                     if p.distance(c) < reach + pixel {
-                        keep[i] = false;
+                        reached[i] = true;
                     }
                 }
             }
         }
     }
-    Some(keep)
+    if shaded.0.len() != keep.len() {
+        shaded.0 = vec![None; keep.len()];
+    }
+    // A pixel that nothing but its cached light changed for takes its samples again (`repeat`).
+    let mut repeat = vec![false; keep.len()];
+    keep.par_iter_mut()
+        .zip(&mut repeat)
+        .zip(&mut shaded.0)
+        .zip(reached.par_iter().zip(&hits))
+        .for_each(|(((keep, repeat), shaded), (&reached, hit))| {
+            let Some((p, _, n)) = *hit else {
+                return;
+            };
+            if !(reached || !*keep) {
+                return;
+            }
+            let now = cache.lookup(p, n, Pass::B).map_or(Vec3::ZERO, |l| l.e);
+            if *keep {
+                *keep = shaded.is_some_and(|then| {
+                    (now - then).abs().max_element()
+                        <= LIGHT_TOLERANCE * luminance(now).max(luminance(then))
+                });
+                *repeat = !*keep && shaded.is_some();
+            }
+            if !*keep {
+                *shaded = Some(now);
+            }
+        });
+    Some(Unchanged { keep, repeat })
+}
+
+/// The pixels a frame keeps, and those it shades again with the samples they took.
+pub struct Unchanged {
+    pub keep: Vec<bool>,
+    pub repeat: Vec<bool>,
 }
 
 /// Where a light's shadow rays from a point end.
 #[derive(Clone, Copy)]
-enum ShadowEnd {
+pub(super) enum ShadowEnd {
     /// A ball every shadow ray ends in (centre, radius): all emissive triangles as one, a point or
     /// spot light.
     Ball(Vec3, f32),
@@ -159,7 +214,7 @@ enum ShadowEnd {
 
 impl ShadowEnd {
     /// The ball the shadow rays from `p` end in.
-    fn seen_from(self, p: Vec3) -> (Vec3, f32) {
+    pub(super) fn seen_from(self, p: Vec3) -> (Vec3, f32) {
         match self {
             ShadowEnd::Ball(c, r) => (c, r),
             ShadowEnd::Along(offset) => (p + offset, 0.0),
@@ -168,7 +223,7 @@ impl ShadowEnd {
 }
 
 /// Where the lights' shadow rays end.
-fn shadow_ends(scene: &Scene) -> Vec<ShadowEnd> {
+pub(super) fn shadow_ends(scene: &Scene) -> Vec<ShadowEnd> {
     let mut out = Vec::new();
     let (lo, hi) = scene.bounds;
     let far = (hi - lo).length() * 4.0 + 1.0;
@@ -199,7 +254,7 @@ fn shadow_ends(scene: &Scene) -> Vec<ShadowEnd> {
 /// mover near the floor and a light at the ceiling shade only the floor points whose narrow end of the
 /// cone it crosses). The sphere meets it when g(t) = |c − p − t d| − t r_l falls below r for some t; g
 /// is convex, its minimum found in closed form.
-fn sphere_meets_cone(c: Vec3, r: f32, p: Vec3, c_l: Vec3, r_l: f32) -> bool {
+pub(super) fn sphere_meets_cone(c: Vec3, r: f32, p: Vec3, c_l: Vec3, r_l: f32) -> bool {
     let d = c_l - p;
     let len = d.length();
     if !(len > 0.0) {

@@ -3,6 +3,7 @@
 //! `load_photons`) and `build_maps` for the photon-map methods, `fill_cache` (or `load_cache`) for `pm`,
 //! `shade`; [`write::write_outputs`] is the last phase, called by the binary once the render is done.
 
+mod atlas_carry;
 pub mod budget;
 mod deposits;
 pub mod files;
@@ -94,6 +95,16 @@ pub struct Carry<'a> {
     /// The camera of the frame before, and its layers (before they are summed into the beauty).
     camera: Option<Camera>,
     layers: Option<Vec<Image>>,
+    /// The cached light each pixel was last shaded with, and the samples it took, while the camera
+    /// stays.
+    shaded_light: frame_pixels::ShadedLight,
+    pixel_samples: Option<Vec<u32>>,
+    /// The paths each photon map of the sequence's first frame took: later frames trace as many.
+    photon_paths: Option<photon::MapPaths>,
+    /// The atlas, photons and photon drift of the frame before (a new scene's first frame), and
+    /// this scene's photons and drift (for the next).
+    atlas_before: Option<atlas_carry::AtlasBefore>,
+    atlas_next: Option<(atlas_carry::PhotonKeys, atlas_carry::Drift)>,
 }
 
 /// Renders `scene` without writing anything; `Interrupted` soon after `cancel` is set, in any phase.
@@ -140,10 +151,29 @@ pub fn render_frame<'a>(
     if plan.method.uses_photon_maps() && carry.photons.is_none() {
         let (traced, s) = match &opts.files.load_photons {
             Some(file) => load_photons(scene, &plan, file)?,
-            None => trace_photons(scene, &plan, &opts.files, progress, cancel)?,
+            None => trace_photons(
+                scene,
+                &plan,
+                carry.photon_paths,
+                &opts.files,
+                progress,
+                cancel,
+            )?,
         };
+        // The temporal cache's frames trace the first frame's paths and carry its atlas's texels
+        // (`pm-fg` and `photons` render each frame as a still).
+        let temporal = opts.frame.is_some() && plan.method == Method::Pm;
+        if temporal && carry.photon_paths.is_none() {
+            carry.photon_paths = Some(photon::MapPaths::of(&s.trace));
+        }
         stats.photons = Some(s);
-        carry.photons = Some(build_maps(scene, &plan, traced.maps));
+        let mut data = build_maps(scene, &plan, traced.maps);
+        if let (true, Some(before), Some(change)) =
+            (temporal, carry.atlas_before.take(), &carry.change)
+        {
+            carry.atlas_next = atlas_carry::carry_atlas(scene, &mut data, before, change);
+        }
+        carry.photons = Some(data);
         carry.photon_info = traced.info;
         carry.precomputed = traced.precomputed;
     }
@@ -268,7 +298,24 @@ pub fn render_frame<'a>(
                 .iter()
                 .map(|r| (r.pos, r.r_clamped)),
         );
-        plan.kept = frame_pixels::unchanged_pixels(scene, &plan.camera, &change, &changed, w);
+        if let Some(u) = frame_pixels::unchanged_pixels(
+            scene,
+            &plan.camera,
+            &change,
+            &changed,
+            w,
+            &c.cache,
+            &mut carry.shaded_light,
+        ) {
+            plan.kept = Some(u.keep);
+            plan.repeat = Some(u.repeat);
+        }
+    }
+    if plan.kept.is_some() {
+        plan.kept_samples = carry.pixel_samples.take();
+    } else {
+        // Every pixel is shaded anew (or the view changed): nothing to compare with.
+        carry.shaded_light = Default::default();
     }
 
     let lighting = Lighting {
@@ -284,7 +331,7 @@ pub fn render_frame<'a>(
         foreign,
     };
     let (mut sample, n_layers) = sampler(scene, &plan, lighting, cancel);
-    let (mut layers, s) = shade(&plan, n_layers, &mut *sample, progress, cancel)?;
+    let (mut layers, s, mut samples) = shade(&plan, n_layers, &mut *sample, progress, cancel)?;
     drop(sample);
     stats.shade = s;
     if let (Some(kept), Some(before)) = (&plan.kept, &carry.layers) {
@@ -293,12 +340,18 @@ pub fn render_frame<'a>(
                 now.pixels[i] = then.pixels[i];
             }
         }
+        if let Some(then) = &plan.kept_samples {
+            for (i, _) in kept.iter().enumerate().filter(|(_, k)| **k) {
+                samples[i] = then[i];
+            }
+        }
         if let Some(f) = &mut frame {
             f.n_pixels_kept = kept.iter().filter(|k| **k).count() as u64;
         }
     }
     if opts.frame.is_some() {
         carry.layers = Some(layers.clone());
+        carry.pixel_samples = Some(samples);
     }
     let images = beauty(&plan, crate::integrator::terms::Layout::of(scene), layers);
     stats.finish(

@@ -26,9 +26,11 @@ pub struct Maps {
     pub info: Option<MapsInfo>,
 }
 
+/// The maps to the plan's targets, or over the paths `paths` of a sequence's first frame took.
 pub fn trace_photons(
     scene: &Scene,
     plan: &Plan,
+    paths: Option<photon::MapPaths>,
     files: &FileOptions,
     progress: &dyn Progress,
     cancel: &AtomicBool,
@@ -42,6 +44,7 @@ pub fn trace_photons(
     let (maps, trace) = PhotonData::trace(
         scene,
         settings,
+        paths,
         plan.seed,
         &|done, _| progress.set(done),
         cancel,

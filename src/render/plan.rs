@@ -49,6 +49,10 @@ pub struct Plan {
     pub finer: Option<(Window, f32)>,
     /// Pixels (row-major) whose value a sequence's frame takes from the frame before, unsampled.
     pub kept: Option<Vec<bool>>,
+    /// With `kept`: the samples each pixel took when last shaded ([`super::tiles::Canvas::kept_samples`]).
+    pub kept_samples: Option<Vec<u32>>,
+    /// With `kept`: the pixels shaded again with the samples they took ([`super::tiles::Canvas::repeat`]).
+    pub repeat: Option<Vec<bool>>,
 }
 
 /// Default noise target of the photon-map methods (chosen from the speed×accuracy chart; README).
@@ -170,6 +174,8 @@ pub fn plan(scene: &Scene, opts: &Options) -> Result<Plan> {
         choose_rays,
         finer: None,
         kept: None,
+        kept_samples: None,
+        repeat: None,
     })
 }
 

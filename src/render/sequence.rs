@@ -8,6 +8,7 @@
 use std::ops::RangeInclusive;
 use std::sync::atomic::AtomicBool;
 
+use super::atlas_carry::{AtlasBefore, Drift, PhotonKeys};
 use super::temporal::Moved;
 use super::{render_frame, Carry, FrameStats, Options, RenderOutput, RenderStats};
 use crate::error::Result;
@@ -100,18 +101,42 @@ struct Handoff {
     chosen_rays: Option<usize>,
     camera: Option<crate::camera::Camera>,
     layers: Option<Vec<crate::io::output::Image>>,
+    shaded_light: super::frame_pixels::ShadedLight,
+    pixel_samples: Option<Vec<u32>>,
     mesh_spheres: Vec<Option<(glam::Vec3, f32)>>,
+    photon_paths: Option<photon::MapPaths>,
+    atlas: Option<AtlasBefore>,
 }
 
 impl Handoff {
     fn of(carry: Carry, scene: &Scene) -> Handoff {
+        // The temporal cache's frames carry the atlas (see `render_frame`).
+        let temporal = carry.photon_paths.is_some();
+        let atlas = carry.photons.filter(|_| temporal).and_then(|p| {
+            let radius = p.settings().max_radius_global;
+            let (maps, atlas) = p.into_maps_and_atlas();
+            let (keys, drift) = carry.atlas_next.or_else(|| {
+                let keys = PhotonKeys::of(maps.global.as_ref()?.photons());
+                let drift = Drift::new(scene, radius, &keys);
+                Some((keys, drift))
+            })?;
+            Some(AtlasBefore {
+                atlas: atlas?,
+                keys,
+                drift,
+            })
+        });
         Handoff {
+            photon_paths: carry.photon_paths,
+            atlas,
             cache: carry.cache,
             radiance: carry.radiance,
             lifespans: carry.lifespans,
             chosen_rays: carry.chosen_rays,
             camera: carry.camera,
             layers: carry.layers,
+            shaded_light: carry.shaded_light,
+            pixel_samples: carry.pixel_samples,
             mesh_spheres: (0..scene.mesh_ranges.len())
                 .map(|m| scene.mesh_sphere(m))
                 .collect(),
@@ -150,6 +175,10 @@ impl Handoff {
             chosen_rays: self.chosen_rays,
             camera: self.camera,
             layers: self.layers,
+            shaded_light: self.shaded_light,
+            pixel_samples: self.pixel_samples,
+            photon_paths: self.photon_paths,
+            atlas_before: self.atlas,
             change: Some(super::temporal::SceneChange {
                 moved,
                 rigid,

@@ -28,14 +28,15 @@ use gather::GatherParams;
 use icache::media::MediaCache;
 use icache::{IrradianceCache, ShadingPoint};
 
-/// `n_layers` images of the plan's window, by `sampler`. `cancel` is read before every sample.
+/// `n_layers` images of the plan's window, by `sampler`, and the samples each pixel took (row-major,
+/// 0 where it took none). `cancel` is read before every sample.
 pub fn shade(
     plan: &Plan,
     n_layers: usize,
     sampler: &mut dyn Sampler,
     progress: &dyn Progress,
     cancel: &AtomicBool,
-) -> Result<(Vec<Image>, ShadeStats)> {
+) -> Result<(Vec<Image>, ShadeStats, Vec<u32>)> {
     let t = Instant::now();
     progress.start("shade", plan.window.n_pixels());
     let canvas = Canvas {
@@ -46,8 +47,10 @@ pub fn shade(
         seed: plan.seed,
         n_layers,
         kept: plan.kept.as_deref(),
+        kept_samples: plan.kept_samples.as_deref(),
+        repeat: plan.repeat.as_deref(),
     };
-    let (layers, mut counters, samples) =
+    let (layers, mut counters, samples, per_pixel) =
         render_tiles(&canvas, sampler, &|n| progress.set(n), cancel)?;
     progress.finish();
     // The gathers of records made between rounds are rays of the shading.
@@ -61,6 +64,7 @@ pub fn shade(
             samples,
             grown,
         },
+        per_pixel,
     ))
 }
 

@@ -403,6 +403,14 @@ impl RenderStats {
                 "photons.atlas_estimates",
                 s.estimates,
             );
+            if s.carried > 0 {
+                r.count(
+                    "Photons",
+                    "Irradiance atlas texels carried from the frame before",
+                    "photons.atlas_carried",
+                    s.carried,
+                );
+            }
             r.count(
                 "Photons",
                 "Edge texels (direct light shaded where each ray lands)",

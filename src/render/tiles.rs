@@ -378,6 +378,16 @@ pub struct Canvas<'a> {
     pub seed: u64,
     pub n_layers: usize,
     pub kept: Option<&'a [bool]>,
+    /// With `kept`, the samples each pixel took when it was last shaded (row-major over the image): a
+    /// kept pixel counts as not converged after each round that took fewer, so that its neighbours go
+    /// on sampling as they would have beside it (see [`render_tiles`]). Without that, a pixel shaded
+    /// again among kept ones had no neighbour to go on for it, and a few lucky samples in a penumbra
+    /// stopped it 30 % dark.
+    pub kept_samples: Option<&'a [u32]>,
+    /// With `kept_samples`, the pixels that take exactly the samples they took when last shaded (a
+    /// sequence's frame where only their cached light changed): the same samples then read the new
+    /// light, and the pixel changes by what the light did, not by new noise.
+    pub repeat: Option<&'a [bool]>,
 }
 
 /// Renders the canvas's images (box filter: the mean of each pixel's samples).
@@ -396,7 +406,7 @@ pub fn render_tiles(
     sampler: &mut dyn Sampler,
     progress: &(dyn Fn(u64) + Sync),
     cancel: &AtomicBool,
-) -> Result<(Vec<Image>, SampleCounters, SampleCount)> {
+) -> Result<(Vec<Image>, SampleCounters, SampleCount, Vec<u32>)> {
     let Canvas {
         width,
         window,
@@ -404,6 +414,8 @@ pub fn render_tiles(
         seed,
         n_layers,
         kept,
+        kept_samples,
+        repeat,
         ..
     } = *canvas;
     let spp = sampling.spp.max(1);
@@ -478,7 +490,19 @@ pub fn render_tiles(
         }
         // Past `aa_spp`, only pixels whose samples made Monte Carlo estimates go on.
         let past_aa = rounds[round + 1] > aa_spp;
-        active = next_round(&tiles, window, past_aa, &sampling, kept.map(|k| (k, width)));
+        active = next_round(
+            &tiles,
+            window,
+            past_aa,
+            &sampling,
+            Masks {
+                width,
+                kept,
+                kept_samples,
+                repeat,
+                done: target,
+            },
+        );
         // A pixel that stops sampling needs its memo no more.
         for t in &mut tiles {
             let w = t.window;
@@ -493,13 +517,15 @@ pub fn render_tiles(
             }
         }
     }
-    let images = images(canvas, &tiles, |n, monte_carlo| {
+    let mut samples = vec![0u32; (width * canvas.height) as usize];
+    let images = images(canvas, &tiles, |i, n, monte_carlo| {
+        samples[i] = n;
         count.samples += n as u64;
         count.pixels += 1;
         count.at_limit += (adaptive && n == if monte_carlo { spp } else { aa_spp }) as u64;
         count.monte_carlo_pixels += monte_carlo as u64;
     });
-    Ok((images, total, count))
+    Ok((images, total, count, samples))
 }
 
 /// The window cut into tiles of [`TILE`]² pixels, none sampled yet.
@@ -561,14 +587,27 @@ impl Active {
     }
 }
 
+/// The canvas's per-pixel masks (row-major over an image `width` wide), after a round that took each
+/// sampling pixel to `done` samples.
+#[derive(Clone, Copy)]
+struct Masks<'a> {
+    width: u32,
+    kept: Option<&'a [bool]>,
+    kept_samples: Option<&'a [u32]>,
+    repeat: Option<&'a [bool]>,
+    done: u32,
+}
+
 /// The pixels that take the next round's samples: those not converged (at their noise target) and
-/// their neighbours; `past_aa`, only among those whose samples made Monte Carlo estimates.
+/// their neighbours — a kept pixel counting as not converged while it took more samples than `done`
+/// when last shaded; `past_aa`, only among those whose samples made Monte Carlo estimates. A pixel
+/// that repeats its samples takes as many as it took when last shaded, no more, no fewer.
 fn next_round(
     tiles: &[TileState],
     window: Window,
     past_aa: bool,
     sampling: &Sampling,
-    kept: Option<(&[bool], u32)>,
+    masks: Masks,
 ) -> Active {
     let (ww, wh) = (
         (window.x1 - window.x0) as usize,
@@ -576,6 +615,7 @@ fn next_round(
     );
     let mut open = vec![false; ww * wh];
     let mut allowed = vec![true; ww * wh];
+    let mut forced: Vec<Option<bool>> = vec![None; ww * wh];
     for t in tiles {
         let w = t.window;
         for y in w.y0..w.y1 {
@@ -584,8 +624,19 @@ fn next_round(
                 let px = &t.pixels[k];
                 let mean = t.layers.iter().map(|l| l[k]).sum::<Vec3>() / px.n as f32;
                 let at = (y - window.y0) as usize * ww + (x - window.x0) as usize;
-                allowed[at] = (!past_aa || px.monte_carlo)
-                    && !kept.is_some_and(|(k, width)| k[(y * width + x) as usize]);
+                let i = (y * masks.width + x) as usize;
+                let before = masks.kept_samples.map(|n| n[i]);
+                if masks.kept.is_some_and(|k| k[i]) {
+                    allowed[at] = false;
+                    open[at] = before.is_some_and(|n| n > masks.done);
+                    continue;
+                }
+                if let (Some(n), true) = (before, masks.repeat.is_some_and(|r| r[i])) {
+                    open[at] = n > masks.done;
+                    forced[at] = Some(px.n < n);
+                    continue;
+                }
+                allowed[at] = !past_aa || px.monte_carlo;
                 let spread = match &px.monte_carlo_spread {
                     Some(s) if past_aa => s,
                     _ => &px.spread,
@@ -597,9 +648,12 @@ fn next_round(
     let mut active = vec![false; ww * wh];
     for y in 0..wh {
         for x in 0..ww {
-            active[y * ww + x] = allowed[y * ww + x]
-                && (y.saturating_sub(1)..(y + 2).min(wh))
-                    .any(|yy| (x.saturating_sub(1)..(x + 2).min(ww)).any(|xx| open[yy * ww + xx]));
+            active[y * ww + x] = forced[y * ww + x].unwrap_or_else(|| {
+                allowed[y * ww + x]
+                    && (y.saturating_sub(1)..(y + 2).min(wh)).any(|yy| {
+                        (x.saturating_sub(1)..(x + 2).min(ww)).any(|xx| open[yy * ww + xx])
+                    })
+            });
         }
     }
     Active {
@@ -613,7 +667,7 @@ fn next_round(
 fn images(
     canvas: &Canvas,
     tiles: &[TileState],
-    mut each_pixel: impl FnMut(u32, bool),
+    mut each_pixel: impl FnMut(usize, u32, bool),
 ) -> Vec<Image> {
     let width = canvas.width;
     let mut images = vec![Image::new(width, canvas.height); canvas.n_layers];
@@ -623,7 +677,7 @@ fn images(
             for x in w.x0..w.x1 {
                 let k = ((y - w.y0) * (w.x1 - w.x0) + (x - w.x0)) as usize;
                 let (n, monte_carlo) = (t.pixels[k].n, t.pixels[k].monte_carlo);
-                each_pixel(n, monte_carlo);
+                each_pixel((y * width + x) as usize, n, monte_carlo);
                 for (img, layer) in images.iter_mut().zip(&t.layers) {
                     img.pixels[(y * width + x) as usize] = layer[k] / n.max(1) as f32;
                 }
@@ -839,6 +893,8 @@ mod tests {
         };
         let canvas = |sampling| Canvas {
             kept: None,
+            kept_samples: None,
+            repeat: None,
             width: 8,
             height: 1,
             window: Window::full(8, 1),
@@ -912,6 +968,8 @@ mod tests {
             let mut s = sampler;
             let canvas = Canvas {
                 kept: None,
+                kept_samples: None,
+                repeat: None,
                 width: 4,
                 height: 1,
                 window: Window::full(4, 1),
@@ -934,6 +992,55 @@ mod tests {
         assert_eq!(run(None), 4 * 128);
         assert_eq!(run(Some(1 << 4)), 4 * 32);
         assert_eq!(run(Some(1 << 1)), 4 * 128);
+    }
+
+    #[test]
+    fn kept_neighbours_sample_on_as_they_did_and_repeated_pixels_take_their_count() {
+        // 5 × 1 pixels, every sample the same value (each converges at its first group); the
+        // image's four other pixels are kept, having taken 64 samples when last shaded.
+        let sampler = |_x: u32,
+                       _y: u32,
+                       _at: SamplePoint,
+                       _m: &mut PixelMemo,
+                       _rng: &mut Rng,
+                       c: &mut SampleCounters| {
+            c.monte_carlo += 1;
+            LayerValues::one(Vec3::splat(0.5))
+        };
+        let run = |kept: &[bool], before: &[u32], repeat: &[bool]| {
+            let mut s = sampler;
+            let canvas = Canvas {
+                kept: Some(kept),
+                kept_samples: Some(before),
+                repeat: Some(repeat),
+                width: 5,
+                height: 1,
+                window: Window::full(5, 1),
+                sampling: Sampling {
+                    finer: None,
+                    spp: 128,
+                    noise: 0.04,
+                    aa_spp: 32,
+                    past_aa_layers: None,
+                    lobe_points: false,
+                },
+                seed: 1,
+                n_layers: 1,
+            };
+            render_tiles(&canvas, &mut s, &|_| {}, &AtomicBool::new(false))
+                .unwrap()
+                .3
+        };
+        let kept = [true, true, false, true, true];
+        let no_repeat = [false; 5];
+        // Its kept neighbours went on to 64: so does the pixel shaded again beside them.
+        assert_eq!(run(&kept, &[64, 64, 0, 64, 64], &no_repeat)[2], 64);
+        // Beside neighbours that stopped at their first group, it stops at its own.
+        assert_eq!(run(&kept, &[4, 4, 0, 4, 4], &no_repeat)[2], 4);
+        // A pixel that repeats its samples takes the count it took, no more and no fewer.
+        let repeat = [false, false, true, false, false];
+        assert_eq!(run(&kept, &[64, 64, 16, 64, 64], &repeat)[2], 16);
+        assert_eq!(run(&kept, &[4, 4, 32, 4, 4], &repeat)[2], 32);
     }
 
     #[test]
