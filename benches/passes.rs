@@ -85,10 +85,10 @@ fn photon_rates(root: &Path) {
     settings.global = 1_000_000;
     settings.caustic = 200_000;
     let t = Instant::now();
-    let (maps, stats) = PhotonData::trace(
+    let (maps, stats, _) = PhotonData::trace(
         &scene,
         &settings,
-        None,
+        Default::default(),
         0,
         &|_, _| {},
         &AtomicBool::new(false),

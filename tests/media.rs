@@ -1098,8 +1098,15 @@ fn volume_photons_stay_inside_the_fog_cube() {
     let settings = PhotonSettings::resolve(&scene);
     let cancel = std::sync::atomic::AtomicBool::new(false);
     for seed in 0..3 {
-        let (maps, _) =
-            PhotonData::trace(&scene, &settings, None, seed, &|_, _| {}, &cancel).unwrap();
+        let (maps, _, _) = PhotonData::trace(
+            &scene,
+            &settings,
+            Default::default(),
+            seed,
+            &|_, _| {},
+            &cancel,
+        )
+        .unwrap();
         let photons = maps.volume.as_ref().expect("a volume map").photons();
         let outside: Vec<Vec3> = photons
             .iter()

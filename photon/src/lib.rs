@@ -10,6 +10,7 @@ mod error;
 pub mod file;
 mod flann;
 pub mod map;
+pub mod pathlog;
 mod pointtree;
 mod precomputed;
 pub mod reach;
@@ -20,8 +21,9 @@ pub use error::{Error, Result};
 pub use file::{LoadedMaps, MapsInfo, Plausible};
 pub use flann::{KdTree, Neighbor};
 pub use map::{Coverage, Estimate, Filter, FullDisc, Photon, PhotonMap};
+pub use pathlog::{PathLog, Reuse};
 pub use precomputed::{IrradiancePoint, PrecomputeStats, PrecomputedIrradiance};
 pub use trace::{
-    retrace_photons, trace_photons_cancellable, EmittedRay, MapPaths, PhotonMaps, PhotonScene,
-    PhotonTargets, Propagation, Scatter, SurfaceHit, TraceStats,
+    retrace_photons, trace_photons_cancellable, EmittedRay, MapPaths, Over, PhotonMaps,
+    PhotonScene, PhotonTargets, Propagation, Scatter, SurfaceHit, TraceStats,
 };

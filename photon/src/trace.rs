@@ -18,6 +18,7 @@ use rayon::prelude::*;
 
 use crate::error::{Error, Result};
 use crate::map::{Photon, PhotonMap};
+use crate::pathlog::{LoggedPath, PathLog, Reuse, ESCAPE_LENGTH};
 use crate::sampling::{halton, hash_keys, Rng};
 
 /// Bounces after which a path is cut (its remaining power is lost; counted in the stats).
@@ -184,6 +185,8 @@ pmbase::summable! {
         pub n_volume_caustic_stored: u64,
         /// Paths abandoned on a non-finite or negative power, direction or hit (should stay ~0).
         pub n_paths_dropped: u64,
+        /// Paths copied from an earlier trace's log, not traced ([`retrace_photons`]).
+        pub n_paths_copied: u64,
         /// Paths cut at [`MAX_DEPTH`].
         pub n_paths_depth_capped: u64,
         /// 1 when the caustic map stopped short of its target at `CAUSTIC_PATH_BUDGET`.
@@ -212,7 +215,16 @@ pub fn trace_photons_cancellable<S: PhotonScene + ?Sized>(
     progress: &(dyn Fn(u64, u64) + Sync),
     cancel: &AtomicBool,
 ) -> Result<(PhotonMaps, TraceStats)> {
-    trace(scene, targets, None, seed, progress, cancel)
+    trace(scene, targets, None, seed, progress, cancel).map(|(maps, stats, _)| (maps, stats))
+}
+
+/// How a trace goes: to the targets, or over the paths of an earlier one ([`retrace_photons`]) —
+/// copying, with `reuse`, the paths nothing that moved touched — and whether it keeps a [`PathLog`].
+#[derive(Clone, Copy, Default)]
+pub struct Over<'a> {
+    pub paths: Option<MapPaths>,
+    pub reuse: Option<Reuse<'a>>,
+    pub log: bool,
 }
 
 /// The paths each map of a trace took ([`TraceStats`]'s `n_*_paths`): given to [`retrace_photons`],
@@ -241,26 +253,34 @@ impl MapPaths {
 /// that meets nothing that changed since then leaves bit for bit the photons it left then, so an
 /// animation's frames differ only where something moved (with photon targets, every map's count —
 /// and so every photon's power — would shift a little from frame to frame).
+///
+/// With `over.reuse`, a path the log holds whose segments nothing touched is copied, not traced: the
+/// same photons, bit for bit, as tracing it would give. With `over.log` the trace returns its own
+/// log for the next. Without `over.paths` the maps fill to their targets, as
+/// [`trace_photons_cancellable`]'s.
 pub fn retrace_photons<S: PhotonScene + ?Sized>(
     scene: &S,
     targets: &PhotonTargets,
-    paths: MapPaths,
+    over: Over,
     seed: u64,
     progress: &(dyn Fn(u64, u64) + Sync),
     cancel: &AtomicBool,
-) -> Result<(PhotonMaps, TraceStats)> {
-    trace(scene, targets, Some(paths), seed, progress, cancel)
+) -> Result<(PhotonMaps, TraceStats, Option<PathLog>)> {
+    trace(scene, targets, Some(over), seed, progress, cancel)
 }
 
 fn trace<S: PhotonScene + ?Sized>(
     scene: &S,
     targets: &PhotonTargets,
-    fixed: Option<MapPaths>,
+    over: Option<Over>,
     seed: u64,
     progress: &(dyn Fn(u64, u64) + Sync),
     cancel: &AtomicBool,
-) -> Result<(PhotonMaps, TraceStats)> {
+) -> Result<(PhotonMaps, TraceStats, Option<PathLog>)> {
     let start = Instant::now();
+    let over = over.unwrap_or_default();
+    let fixed = over.paths;
+    let mut log = over.log.then(PathLog::default);
     let mut maps = Fillings::new(scene, targets, fixed);
     let mut stats = TraceStats::default();
     let mut next_path = 0u64;
@@ -273,12 +293,12 @@ fn trace<S: PhotonScene + ?Sized>(
         }
         let n_batch = BATCH_PATHS.min(max_paths - next_path);
         let batch = next_path..next_path + n_batch;
-        let chunks = trace_batch(scene, batch, seed, maps.want(), cancel);
+        let chunks = trace_batch(scene, batch, seed, maps.want(), over.reuse, cancel);
         if cancel.load(Ordering::Relaxed) {
             return Err(Error::Cancelled);
         }
         for chunk in &chunks {
-            maps.take_chunk(chunk, &mut next_path, &mut stats);
+            maps.take_chunk(chunk, &mut next_path, &mut stats, log.as_mut());
             if !maps.any_active() {
                 break;
             }
@@ -296,7 +316,8 @@ fn trace<S: PhotonScene + ?Sized>(
             n_paths_emitted: next_path,
         });
     }
-    maps.build(next_path, stats, cancel)
+    let (maps, stats) = maps.build(next_path, stats, cancel)?;
+    Ok((maps, stats, log))
 }
 
 /// The paths `batch` traced in parallel chunks of `CHUNK_PATHS`, in path order; empty chunks once
@@ -306,6 +327,7 @@ fn trace_batch<S: PhotonScene + ?Sized>(
     batch: Range<u64>,
     seed: u64,
     want: Want,
+    reuse: Option<Reuse>,
     cancel: &AtomicBool,
 ) -> Vec<ChunkOut> {
     let n_batch = batch.end - batch.start;
@@ -318,7 +340,7 @@ fn trace_batch<S: PhotonScene + ?Sized>(
             }
             let first = batch.start + c as u64 * CHUNK_PATHS;
             let end = (first + CHUNK_PATHS).min(batch.end);
-            trace_chunk(scene, first..end, seed, want)
+            trace_chunk(scene, first..end, seed, want, reuse)
         })
         .collect()
 }
@@ -393,7 +415,14 @@ impl Fillings {
 
     /// Takes the chunk's paths, numbered from `next_path` on, one by one until every map is full,
     /// stopping the maps whose path budget runs out.
-    fn take_chunk(&mut self, chunk: &ChunkOut, next_path: &mut u64, stats: &mut TraceStats) {
+    fn take_chunk(
+        &mut self,
+        chunk: &ChunkOut,
+        next_path: &mut u64,
+        stats: &mut TraceStats,
+        log: Option<&mut PathLog>,
+    ) {
+        let mut log = log;
         for j in 0..chunk.ends.len() {
             let path = *next_path;
             *next_path += 1;
@@ -403,6 +432,21 @@ impl Fillings {
                 chunk.ends[j - 1]
             };
             let (g1, c1, v1, w1) = chunk.ends[j];
+            if let Some(log) = log.as_deref_mut() {
+                let s0 = if j == 0 { 0 } else { chunk.segment_ends[j - 1] };
+                log.push(LoggedPath {
+                    segments: &chunk.segments[s0..chunk.segment_ends[j]],
+                    photons: [
+                        &chunk.global[g0..g1],
+                        &chunk.caustic[c0..c1],
+                        &chunk.volume[v0..v1],
+                        &chunk.volume_caustic[w0..w1],
+                    ],
+                    want: chunk.want.bits(),
+                    end: chunk.end_kinds[j] as u8,
+                });
+            }
+            stats.n_paths_copied += chunk.copied[j] as u64;
             self.global.take(&chunk.global[g0..g1], path);
             self.caustic.take(&chunk.caustic[c0..c1], path);
             self.volume.take(&chunk.volume[v0..v1], path);
@@ -590,7 +634,7 @@ impl Filling {
     }
 }
 
-#[derive(Clone, Copy)]
+#[derive(Clone, Copy, Default)]
 struct Want {
     global: bool,
     caustic: bool,
@@ -598,14 +642,35 @@ struct Want {
     volume_caustic: bool,
 }
 
+impl Want {
+    fn bits(self) -> u8 {
+        self.global as u8
+            | (self.caustic as u8) << 1
+            | (self.volume as u8) << 2
+            | (self.volume_caustic as u8) << 3
+    }
+}
+
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(u8)]
 enum PathEnd {
     Done,
     Dropped,
     DepthCapped,
 }
 
-/// Photons of consecutive paths; `ends[j]` = (global, caustic, volume, volume caustic) lengths after path j.
+impl PathEnd {
+    fn of(code: u8) -> PathEnd {
+        match code {
+            1 => PathEnd::Dropped,
+            2 => PathEnd::DepthCapped,
+            _ => PathEnd::Done,
+        }
+    }
+}
+
+/// Photons of consecutive paths; `ends[j]` = (global, caustic, volume, volume caustic) lengths after
+/// path j, `segment_ends[j]` its segments' end, `copied[j]` whether it came from a [`Reuse`]'s log.
 #[derive(Default)]
 struct ChunkOut {
     global: Vec<Photon>,
@@ -614,6 +679,10 @@ struct ChunkOut {
     volume_caustic: Vec<Photon>,
     ends: Vec<(usize, usize, usize, usize)>,
     end_kinds: Vec<PathEnd>,
+    segments: Vec<[Vec3; 2]>,
+    segment_ends: Vec<usize>,
+    copied: Vec<bool>,
+    want: Want,
 }
 
 fn trace_chunk<S: PhotonScene + ?Sized>(
@@ -621,8 +690,12 @@ fn trace_chunk<S: PhotonScene + ?Sized>(
     paths: std::ops::Range<u64>,
     seed: u64,
     want: Want,
+    reuse: Option<Reuse>,
 ) -> ChunkOut {
-    let mut out = ChunkOut::default();
+    let mut out = ChunkOut {
+        want,
+        ..ChunkOut::default()
+    };
     for i in paths {
         let (g, c, v, w) = (
             out.global.len(),
@@ -630,13 +703,32 @@ fn trace_chunk<S: PhotonScene + ?Sized>(
             out.volume.len(),
             out.volume_caustic.len(),
         );
-        let mut sampler = PathSampler {
-            index: i,
-            seed,
-            dim: 0,
-            rng: None,
+        let logged = reuse.and_then(|r| {
+            let path = r.log.path(i)?;
+            let untouched =
+                path.want == want.bits() && !path.segments.iter().any(|&[a, b]| (r.touched)(a, b));
+            untouched.then_some(path)
+        });
+        let copied = logged.is_some();
+        let end = match logged {
+            Some(path) => {
+                out.global.extend_from_slice(path.photons[0]);
+                out.caustic.extend_from_slice(path.photons[1]);
+                out.volume.extend_from_slice(path.photons[2]);
+                out.volume_caustic.extend_from_slice(path.photons[3]);
+                out.segments.extend_from_slice(path.segments);
+                PathEnd::of(path.end)
+            }
+            None => {
+                let mut sampler = PathSampler {
+                    index: i,
+                    seed,
+                    dim: 0,
+                    rng: None,
+                };
+                trace_path(scene, &mut sampler, want, &mut out)
+            }
         };
-        let end = trace_path(scene, &mut sampler, want, &mut out);
         if end == PathEnd::Dropped {
             // A path that went bad leaves nothing behind.
             out.global.truncate(g);
@@ -651,6 +743,8 @@ fn trace_chunk<S: PhotonScene + ?Sized>(
             out.volume_caustic.len(),
         ));
         out.end_kinds.push(end);
+        out.segment_ends.push(out.segments.len());
+        out.copied.push(copied);
     }
     out
 }
@@ -724,6 +818,8 @@ fn trace_path<S: PhotonScene + ?Sized>(
     // path either). In a scene whose light reaches little glass, most paths are such.
     let caustic_only = !want.global && !want.volume && (want.caustic || want.volume_caustic);
     if caustic_only && !scene.may_reach_specular(ray.origin, ray.dir) {
+        out.segments
+            .push([ray.origin, ray.origin + ray.dir * ESCAPE_LENGTH]);
         return PathEnd::Done;
     }
     let (mut origin, mut dir, mut power, mut medium) = (ray.origin, ray.dir, ray.power, ray.medium);
@@ -759,6 +855,14 @@ fn trace_path<S: PhotonScene + ?Sized>(
                 None => Propagation::Escaped,
             }
         };
+        out.segments.push([
+            origin,
+            match &event {
+                Propagation::Escaped => origin + dir * ESCAPE_LENGTH,
+                Propagation::Surface { hit, .. } => hit.pos,
+                Propagation::Medium { pos, .. } => *pos,
+            },
+        ]);
         let hit = match event {
             Propagation::Escaped => return PathEnd::Done,
             Propagation::Surface {

@@ -249,19 +249,72 @@ fn a_retrace_over_the_same_paths_gives_the_same_photons_whatever_the_targets() {
         .build()
         .unwrap()
         .install(|| {
-            photon::retrace_photons(
+            let over = photon::Over {
+                paths: Some(photon::MapPaths::of(&sa)),
+                ..Default::default()
+            };
+            let (maps, stats, _) = photon::retrace_photons(
                 &scene,
                 &other,
-                photon::MapPaths::of(&sa),
+                over,
                 11,
                 &|_, _| {},
                 &AtomicBool::new(false),
             )
-            .unwrap()
+            .unwrap();
+            (maps, stats)
         });
     assert_eq!(photon::MapPaths::of(&sb), photon::MapPaths::of(&sa));
     assert!(sa.n_global_paths != sa.n_caustic_paths, "{sa:?}");
     for (x, y) in [(&a.global, &b.global), (&a.caustic, &b.caustic)] {
         assert_eq!(x.as_ref().unwrap().photons(), y.as_ref().unwrap().photons());
+    }
+}
+
+#[test]
+fn paths_copied_from_a_log_are_the_paths_traced_again() {
+    let scene = mirror_wall();
+    let targets = PhotonTargets {
+        global: 20_000,
+        caustic: 3_000,
+        volume: 0,
+        volume_caustic: 0,
+        max_paths: 10_000_000,
+    };
+    let cancel = AtomicBool::new(false);
+    let first = photon::Over {
+        log: true,
+        ..Default::default()
+    };
+    let (a, sa, log) =
+        photon::retrace_photons(&scene, &targets, first, 11, &|_, _| {}, &cancel).unwrap();
+    let log = log.unwrap();
+    assert_eq!(log.len() as u64, sa.n_paths_emitted);
+    // Segments on one side of the scene "moved": those paths are traced, the others copied; the
+    // scene did not change, so either way the photons are the same.
+    for (touched, copied) in [
+        (
+            &(|_: Vec3, _: Vec3| false) as &(dyn Fn(Vec3, Vec3) -> bool + Sync),
+            true,
+        ),
+        (&|a: Vec3, b: Vec3| a.x > 0.0 || b.x > 0.0, false),
+        (&|_: Vec3, _: Vec3| true, false),
+    ] {
+        let over = photon::Over {
+            paths: Some(photon::MapPaths::of(&sa)),
+            reuse: Some(photon::Reuse { log: &log, touched }),
+            log: true,
+        };
+        let (b, sb, next) =
+            photon::retrace_photons(&scene, &targets, over, 11, &|_, _| {}, &cancel).unwrap();
+        for (x, y) in [(&a.global, &b.global), (&a.caustic, &b.caustic)] {
+            assert_eq!(x.as_ref().unwrap().photons(), y.as_ref().unwrap().photons());
+        }
+        assert_eq!(next.unwrap().len(), log.len());
+        if copied {
+            assert_eq!(sb.n_paths_copied, sb.n_paths_emitted);
+        } else {
+            assert!(sb.n_paths_copied < sb.n_paths_emitted, "{sb:?}");
+        }
     }
 }

@@ -87,22 +87,20 @@ struct MediaLookups {
 }
 
 impl<'a> PhotonData<'a> {
-    /// Both maps, to their targets or over the `paths` an earlier frame's maps took (see
-    /// [`photon::retrace_photons`]); `Interrupted` soon after `cancel` is set.
+    /// Both maps, to their targets or as `over` says (an animation's frame: over the paths an
+    /// earlier frame's maps took, copying those nothing that moved touched, see
+    /// [`photon::retrace_photons`]), and the trace's path log if `over` asks for one; `Interrupted`
+    /// soon after `cancel` is set.
     pub fn trace(
         scene: &Scene,
         settings: &PhotonSettings,
-        paths: Option<photon::MapPaths>,
+        over: photon::Over,
         seed: u64,
         progress: &(dyn Fn(u64, u64) + Sync),
         cancel: &AtomicBool,
-    ) -> Result<(PhotonMaps, TraceStats)> {
+    ) -> Result<(PhotonMaps, TraceStats, Option<photon::PathLog>)> {
         let (view, targets) = (PhotonView(scene), Self::targets(settings));
-        let traced = match paths {
-            None => photon::trace_photons_cancellable(&view, &targets, seed, progress, cancel),
-            Some(paths) => photon::retrace_photons(&view, &targets, paths, seed, progress, cancel),
-        };
-        match traced {
+        match photon::retrace_photons(&view, &targets, over, seed, progress, cancel) {
             Ok(r) => Ok(r),
             Err(photon::Error::Cancelled) => Err(crate::error::Error::Interrupted),
             // No light reaches any non-specular surface: there is no caustic or indirect light to
@@ -113,6 +111,7 @@ impl<'a> PhotonData<'a> {
                     n_paths_emitted,
                     ..Default::default()
                 },
+                None,
             )),
             Err(e) => Err(crate::error::runtime(format!("photon pass: {e}"))),
         }

@@ -99,8 +99,10 @@ pub struct Carry<'a> {
     /// stays.
     shaded_light: frame_pixels::ShadedLight,
     pixel_samples: Option<Vec<u32>>,
-    /// The paths each photon map of the sequence's first frame took: later frames trace as many.
+    /// The paths each photon map of the sequence's first frame took: later frames trace as many;
+    /// and the last trace's log of them (later frames copy the paths nothing moved touched).
     photon_paths: Option<photon::MapPaths>,
+    photon_log: Option<photon::PathLog>,
     /// The atlas, photons and photon drift of the frame before (a new scene's first frame), and
     /// this scene's photons and drift (for the next).
     atlas_before: Option<atlas_carry::AtlasBefore>,
@@ -149,20 +151,38 @@ pub fn render_frame<'a>(
     }
 
     if plan.method.uses_photon_maps() && carry.photons.is_none() {
+        // The temporal cache's frames trace the first frame's paths, copying those nothing that
+        // moved touched, and carry its atlas's texels (`pm-fg` and `photons` render each frame as
+        // a still).
+        let temporal = opts.frame.is_some() && plan.method == Method::Pm;
+        let movers: Vec<(glam::Vec3, f32)> = match &carry.change {
+            Some(c) if !c.lights => c.moved.iter().flat_map(|m| m.spheres).collect(),
+            _ => Vec::new(),
+        };
+        let margin = 1e-4 * scene.diagonal();
+        let touched = |a: glam::Vec3, b: glam::Vec3| {
+            movers
+                .iter()
+                .any(|&(c, r)| photon::pathlog::segment_meets_sphere(a, b, c, r + margin))
+        };
+        let reuse_ok = temporal && carry.change.as_ref().is_some_and(|c| !c.lights);
+        let over = photon::Over {
+            paths: carry.photon_paths.filter(|_| temporal),
+            reuse: carry
+                .photon_log
+                .as_ref()
+                .filter(|_| reuse_ok)
+                .map(|log| photon::Reuse {
+                    log,
+                    touched: &touched,
+                }),
+            log: temporal,
+        };
         let (traced, s) = match &opts.files.load_photons {
             Some(file) => load_photons(scene, &plan, file)?,
-            None => trace_photons(
-                scene,
-                &plan,
-                carry.photon_paths,
-                &opts.files,
-                progress,
-                cancel,
-            )?,
+            None => trace_photons(scene, &plan, over, &opts.files, progress, cancel)?,
         };
-        // The temporal cache's frames trace the first frame's paths and carry its atlas's texels
-        // (`pm-fg` and `photons` render each frame as a still).
-        let temporal = opts.frame.is_some() && plan.method == Method::Pm;
+        carry.photon_log = traced.log;
         if temporal && carry.photon_paths.is_none() {
             carry.photon_paths = Some(photon::MapPaths::of(&s.trace));
         }

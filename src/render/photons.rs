@@ -24,13 +24,15 @@ pub struct Maps {
     pub precomputed: Option<PrecomputedIrradiance>,
     /// There when the maps were traced and `--save-photons` or `--dump-photons` asks for them.
     pub info: Option<MapsInfo>,
+    /// The trace's paths, when asked for (an animation's next frame copies those nothing touched).
+    pub log: Option<photon::PathLog>,
 }
 
-/// The maps to the plan's targets, or over the paths `paths` of a sequence's first frame took.
+/// The maps to the plan's targets, or as `over` says (a sequence's frame: see [`PhotonData::trace`]).
 pub fn trace_photons(
     scene: &Scene,
     plan: &Plan,
-    paths: Option<photon::MapPaths>,
+    over: photon::Over,
     files: &FileOptions,
     progress: &dyn Progress,
     cancel: &AtomicBool,
@@ -41,10 +43,10 @@ pub fn trace_photons(
         "photons",
         (settings.global + settings.caustic + settings.volume + settings.volume_caustic) as u64,
     );
-    let (maps, trace) = PhotonData::trace(
+    let (maps, trace, log) = PhotonData::trace(
         scene,
         settings,
-        paths,
+        over,
         plan.seed,
         &|done, _| progress.set(done),
         cancel,
@@ -66,6 +68,7 @@ pub fn trace_photons(
             maps,
             precomputed: None,
             info,
+            log,
         },
         stats,
     ))
@@ -111,6 +114,7 @@ pub fn load_photons(scene: &Scene, plan: &Plan, path: &Path) -> Result<(Maps, Ph
             maps: loaded.maps,
             precomputed: loaded.precomputed,
             info: None,
+            log: None,
         },
         stats,
     ))
@@ -139,4 +143,80 @@ fn photon_stats(
 /// The maps wrapped for the render (see [`PhotonData::new`]); nothing here is counted.
 pub fn build_maps<'a>(scene: &'a Scene, plan: &Plan, maps: PhotonMaps) -> PhotonData<'a> {
     PhotonData::new(maps, plan.photons.clone(), scene)
+}
+
+#[cfg(test)]
+mod tests {
+    use std::path::Path;
+    use std::sync::atomic::AtomicBool;
+
+    use crate::photons::{PhotonData, PhotonSettings};
+    use crate::scene;
+
+    /// anim-ball's frames 10 and 11: the ball moved a step. Frame 11 traced over frame 10's paths,
+    /// copying those whose segments pass the ball's spheres (before and after) by, equals frame 11
+    /// traced in full over the same paths, photon for photon; and most paths are copied.
+    #[test]
+    fn copied_paths_give_the_photons_a_full_retrace_gives() {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+        let anim = scene::load_animation(&root.join("scenes/anim-ball.toml"))
+            .unwrap()
+            .unwrap();
+        let (before, after) = (
+            scene::load_frame(&anim, 10).unwrap(),
+            scene::load_frame(&anim, 11).unwrap(),
+        );
+        let settings = PhotonSettings::resolve(&before);
+        let cancel = AtomicBool::new(false);
+        let first = photon::Over {
+            log: true,
+            ..Default::default()
+        };
+        let (_, s0, log) =
+            PhotonData::trace(&before, &settings, first, 0, &|_, _| {}, &cancel).unwrap();
+        let paths = photon::MapPaths::of(&s0);
+        let spheres: Vec<(glam::Vec3, f32)> = anim
+            .moved_meshes(10, 11)
+            .into_iter()
+            .flat_map(|m| [before.mesh_sphere(m), after.mesh_sphere(m)])
+            .flatten()
+            .collect();
+        assert_eq!(spheres.len(), 2);
+        let touched = |a: glam::Vec3, b: glam::Vec3| {
+            spheres
+                .iter()
+                .any(|&(c, r)| photon::pathlog::segment_meets_sphere(a, b, c, r * 1.001))
+        };
+        let log = log.unwrap();
+        let reuse = photon::Over {
+            paths: Some(paths),
+            reuse: Some(photon::Reuse {
+                log: &log,
+                touched: &touched,
+            }),
+            log: false,
+        };
+        let full = photon::Over {
+            paths: Some(paths),
+            ..Default::default()
+        };
+        let (copied, sc, _) =
+            PhotonData::trace(&after, &settings, reuse, 0, &|_, _| {}, &cancel).unwrap();
+        let (traced, st, _) =
+            PhotonData::trace(&after, &settings, full, 0, &|_, _| {}, &cancel).unwrap();
+        assert_eq!(
+            copied.global.as_ref().unwrap().photons(),
+            traced.global.as_ref().unwrap().photons()
+        );
+        assert_eq!(
+            (sc.n_paths_emitted, st.n_paths_copied),
+            (st.n_paths_emitted, 0)
+        );
+        assert!(
+            sc.n_paths_copied > sc.n_paths_emitted * 3 / 4,
+            "{} of {} paths copied",
+            sc.n_paths_copied,
+            sc.n_paths_emitted
+        );
+    }
 }

@@ -105,6 +105,7 @@ struct Handoff {
     pixel_samples: Option<Vec<u32>>,
     mesh_spheres: Vec<Option<(glam::Vec3, f32)>>,
     photon_paths: Option<photon::MapPaths>,
+    photon_log: Option<photon::PathLog>,
     atlas: Option<AtlasBefore>,
 }
 
@@ -128,6 +129,7 @@ impl Handoff {
         });
         Handoff {
             photon_paths: carry.photon_paths,
+            photon_log: carry.photon_log,
             atlas,
             cache: carry.cache,
             radiance: carry.radiance,
@@ -178,6 +180,7 @@ impl Handoff {
             shaded_light: self.shaded_light,
             pixel_samples: self.pixel_samples,
             photon_paths: self.photon_paths,
+            photon_log: self.photon_log,
             atlas_before: self.atlas,
             change: Some(super::temporal::SceneChange {
                 moved,

@@ -619,6 +619,14 @@ fn photon_rows(r: &mut Report, p: &PhotonStats) {
         "photons.paths_emitted",
         s.n_paths_emitted,
     );
+    if s.n_paths_copied > 0 {
+        r.count(
+            "Photons",
+            "Paths copied from the frame before (nothing that moved met them)",
+            "photons.paths_copied",
+            s.n_paths_copied,
+        );
+    }
     r.count(
         "Photons",
         "Global photons stored",
