@@ -63,26 +63,38 @@ fn pixel_window(cam: &Camera, lo: Vec2, hi: Vec2) -> Window {
     }
 }
 
-/// The cached irradiance at each pixel's centre (where its camera ray hits) when the pixel was last
-/// shaded, while the camera stays: a pixel that a changed record reaches keeps its value only while
-/// that light stays within [`LIGHT_TOLERANCE`] of it.
+/// The cached irradiance at each pixel's centre hit and, on a depth edge, at its corners' hits (where
+/// its camera rays end), when the pixel was last shaded, while the camera stays: a pixel that a
+/// changed record reaches keeps its value only while that light stays within [`LIGHT_TOLERANCE`] of
+/// it.
 #[derive(Default)]
-pub struct ShadedLight(Vec<Option<Vec3>>);
+pub struct ShadedLight(Vec<[Option<Vec3>; 5]>);
 
-/// How far, per channel and relative to its luminance, the cached light at a pixel's centre may move
-/// from what the pixel was shaded with before the pixel is shaded again. The records a frame gathers
-/// again near a mover reach far past it (their reach is the cache's largest spacing), and their
-/// light changes there by a fraction of a percent: shading every pixel they reach again was most of
-/// a ball frame's shading, and each new shade brings new pixel noise (flicker). Compared with what
-/// the pixel was shaded with, not with the frame before, so a slow drift does not accumulate.
+/// How far, per channel and relative to its value (at least 5 % of the luminance), the cached light
+/// at a pixel's points may move from what the pixel was shaded with before the pixel is shaded again.
+/// The records a frame gathers again near a mover reach far past it (their reach is the cache's
+/// largest spacing), and their light changes there by a fraction of a percent: shading every pixel
+/// they reach again was most of a ball frame's shading, and each new shade brings new pixel noise
+/// (flicker). Compared with what the pixel was shaded with, not with the frame before, so a slow drift
+/// does not accumulate.
 const LIGHT_TOLERANCE: f32 = 0.005;
+
+/// A pixel whose corner rays end this much nearer or farther than its centre's (relative), or on a
+/// surface turned by more than this cosine, or one where some hit and some miss, is on an edge: its
+/// centre does not speak for all of it, and its corners are tested too.
+const EDGE_DEPTH: f32 = 0.05;
+const EDGE_COS: f32 = 0.95;
+
+/// Where a camera ray ends: the point, the world size of a pixel there, the shading normal toward
+/// the eye, and the distance.
+type End = Option<(Vec3, f32, Vec3, f32)>;
 
 /// The pixels a frame may take from the frame before (the camera stayed, a mesh moved, no light
 /// changed): outside the moved meshes' window, or inside it where the pixel's cone of camera rays
-/// passes every moved mesh before and after its step, their centre's camera ray ends on a diffuse
-/// surface (or nothing) whose shadow rays pass no moved mesh and whose cached light (in `cache`) is
-/// within [`LIGHT_TOLERANCE`] of what the pixel was shaded with (`shaded`, updated here for the
-/// pixels shaded again) where a changed record reaches.
+/// passes every moved mesh before and after its step, where its camera rays end — at its centre, and
+/// on a depth edge at its corners too — on diffuse surfaces (or nothing) whose shadow rays pass no
+/// moved mesh and whose cached light (in `cache`) is within [`LIGHT_TOLERANCE`] of what the pixel was
+/// shaded with (`shaded`, updated here for the pixels shaded again) where a changed record reaches.
 /// `None` where the scene has more than diffuse surfaces without media (caustic and glossy terms read
 /// photon maps traced again; media scatter along every ray), or when a light changed.
 pub fn unchanged_pixels(
@@ -106,15 +118,41 @@ pub fn unchanged_pixels(
     let (w, h) = (cam.width, cam.height);
     let movers: Vec<(Vec3, f32)> = change.moved.iter().flat_map(|m| m.spheres).collect();
     let ends = shadow_ends(scene);
-    let hits: Vec<Option<(Vec3, f32, Vec3)>> = (0..w * h)
+    let end_at = |x: f32, y: f32| -> End {
+        let d = cam.ray(x, y);
+        scene.intersect(cam.eye, d).map(|hit| {
+            let n = Frame::new(&hit, -d).n;
+            (hit.p, cam.pixel_world(d, hit.t, hit.ns.dot(d)), n, hit.t)
+        })
+    };
+    let centres: Vec<End> = (0..w * h)
+        .into_par_iter()
+        .map(|i| end_at((i % w) as f32 + 0.5, (i / w) as f32 + 0.5))
+        .collect();
+    let corners: Vec<End> = (0..(w + 1) * (h + 1))
+        .into_par_iter()
+        .map(|i| end_at((i % (w + 1)) as f32, (i / (w + 1)) as f32))
+        .collect();
+    // Each pixel's points: its centre's end, then on an edge its corners'.
+    let points: Vec<[End; 5]> = (0..w * h)
         .into_par_iter()
         .map(|i| {
             let (x, y) = (i % w, i / w);
-            let d = cam.ray(x as f32 + 0.5, y as f32 + 0.5);
-            scene.intersect(cam.eye, d).map(|hit| {
-                let n = Frame::new(&hit, -d).n;
-                (hit.p, cam.pixel_world(d, hit.t, hit.ns.dot(d)), n)
-            })
+            let c = centres[i as usize];
+            let at = |dx: u32, dy: u32| corners[((y + dy) * (w + 1) + x + dx) as usize];
+            let k = [at(0, 0), at(1, 0), at(0, 1), at(1, 1)];
+            let edge = k.iter().any(|e| match (c, e) {
+                (Some((_, _, n0, t0)), Some((_, _, n, t))) => {
+                    (t - t0).abs() > EDGE_DEPTH * t0 || n.dot(n0) < EDGE_COS
+                }
+                (None, None) => false,
+                _ => true,
+            });
+            if edge {
+                [c, k[0], k[1], k[2], k[3]]
+            } else {
+                [c, None, None, None, None]
+            }
         })
         .collect();
     // A pixel's samples leave the eye within about a pixel of its centre's ray (a pixel's angle at
@@ -135,17 +173,19 @@ pub fn unchanged_pixels(
                     return false;
                 }
             }
-            let Some((p, pixel, _)) = hits[i as usize] else {
-                return true;
-            };
-            // The pixel's samples land within about a pixel of its centre's point: each mover is
-            // widened by that.
-            !ends.iter().any(|end| {
-                let (c_l, r_l) = end.seen_from(p);
-                movers
-                    .iter()
-                    .any(|&(c, r)| sphere_meets_cone(c, r + pixel, p, c_l, r_l))
-            })
+            // The pixel's samples land within about a pixel of its points: each mover is widened
+            // by that.
+            points[i as usize]
+                .iter()
+                .flatten()
+                .all(|&(p, pixel, _, _)| {
+                    !ends.iter().any(|end| {
+                        let (c_l, r_l) = end.seen_from(p);
+                        movers
+                            .iter()
+                            .any(|&(c, r)| sphere_meets_cone(c, r + pixel, p, c_l, r_l))
+                    })
+                })
         })
         .collect();
     let mut reached = vec![false; (w * h) as usize];
@@ -156,43 +196,51 @@ pub fn unchanged_pixels(
         for y in rect.y0..rect.y1 {
             for x in rect.x0..rect.x1 {
                 let i = (y * w + x) as usize;
-                if let Some((p, pixel, _)) = hits[i] {
-                    if p.distance(c) < reach + pixel {
-                        reached[i] = true;
-                    }
-                }
+                reached[i] |= points[i]
+                    .iter()
+                    .flatten()
+                    .any(|&(p, pixel, _, _)| p.distance(c) < reach + pixel);
             }
         }
     }
     if shaded.0.len() != keep.len() {
-        shaded.0 = vec![None; keep.len()];
+        shaded.0 = vec![[None; 5]; keep.len()];
     }
     // A pixel that nothing but its cached light changed for takes its samples again (`repeat`).
     let mut repeat = vec![false; keep.len()];
     keep.par_iter_mut()
         .zip(&mut repeat)
         .zip(&mut shaded.0)
-        .zip(reached.par_iter().zip(&hits))
-        .for_each(|(((keep, repeat), shaded), (&reached, hit))| {
-            let Some((p, _, n)) = *hit else {
-                return;
-            };
-            if !(reached || !*keep) {
+        .zip(reached.par_iter().zip(&points))
+        .for_each(|(((keep, repeat), shaded), (&reached, points))| {
+            if !(reached || !*keep)
+                || points[0].is_none() && points[1..].iter().all(Option::is_none)
+            {
                 return;
             }
-            let now = cache.lookup(p, n, Pass::B).map_or(Vec3::ZERO, |l| l.e);
+            // The light at each point (none where no record serves it: the pixel is shaded again).
+            let now: [Option<Vec3>; 5] =
+                points.map(|e| e.and_then(|(p, _, n, _)| cache.lookup(p, n, Pass::B).map(|l| l.e)));
             if *keep {
-                *keep = shaded.is_some_and(|then| {
-                    (now - then).abs().max_element()
-                        <= LIGHT_TOLERANCE * luminance(now).max(luminance(then))
-                });
-                *repeat = !*keep && shaded.is_some();
+                *keep = points
+                    .iter()
+                    .zip(now.iter().zip(shaded.iter()))
+                    .all(|(e, (now, then))| {
+                        e.is_none() || matches!((now, then), (Some(a), Some(b)) if close(*a, *b))
+                    });
+                *repeat = !*keep && shaded.iter().any(Option::is_some);
             }
             if !*keep {
-                *shaded = Some(now);
+                *shaded = now;
             }
         });
     Some(Unchanged { keep, repeat })
+}
+
+/// Whether two irradiances agree within [`LIGHT_TOLERANCE`] in every channel.
+fn close(a: Vec3, b: Vec3) -> bool {
+    let floor = 0.05 * luminance(a).max(luminance(b));
+    (0..3).all(|c| (a[c] - b[c]).abs() <= LIGHT_TOLERANCE * a[c].max(b[c]).max(floor))
 }
 
 /// The pixels a frame keeps, and those it shades again with the samples they took.

@@ -100,9 +100,10 @@ pub struct Carry<'a> {
     shaded_light: frame_pixels::ShadedLight,
     pixel_samples: Option<Vec<u32>>,
     /// The paths each photon map of the sequence's first frame took: later frames trace as many;
-    /// and the last trace's log of them (later frames copy the paths nothing moved touched).
+    /// and the last trace's log of them, with the bounds of its scene (later frames copy the paths
+    /// nothing moved touched).
     photon_paths: Option<photon::MapPaths>,
-    photon_log: Option<photon::PathLog>,
+    photon_log: Option<(photon::PathLog, (glam::Vec3, glam::Vec3))>,
     /// The atlas, photons and photon drift of the frame before (a new scene's first frame), and
     /// this scene's photons and drift (for the next).
     atlas_before: Option<atlas_carry::AtlasBefore>,
@@ -165,14 +166,16 @@ pub fn render_frame<'a>(
                 .iter()
                 .any(|&(c, r)| photon::pathlog::segment_meets_sphere(a, b, c, r + margin))
         };
+        // A directional light's photons leave a disc over the scene's bounds: where those changed
+        // (a mover came in from outside), every path starts elsewhere.
         let reuse_ok = temporal && carry.change.as_ref().is_some_and(|c| !c.lights);
         let over = photon::Over {
             paths: carry.photon_paths.filter(|_| temporal),
             reuse: carry
                 .photon_log
                 .as_ref()
-                .filter(|_| reuse_ok)
-                .map(|log| photon::Reuse {
+                .filter(|(_, bounds)| reuse_ok && *bounds == scene.bounds)
+                .map(|(log, _)| photon::Reuse {
                     log,
                     touched: &touched,
                 }),
@@ -182,7 +185,7 @@ pub fn render_frame<'a>(
             Some(file) => load_photons(scene, &plan, file)?,
             None => trace_photons(scene, &plan, over, &opts.files, progress, cancel)?,
         };
-        carry.photon_log = traced.log;
+        carry.photon_log = traced.log.map(|log| (log, scene.bounds));
         if temporal && carry.photon_paths.is_none() {
             carry.photon_paths = Some(photon::MapPaths::of(&s.trace));
         }

@@ -105,7 +105,7 @@ struct Handoff {
     pixel_samples: Option<Vec<u32>>,
     mesh_spheres: Vec<Option<(glam::Vec3, f32)>>,
     photon_paths: Option<photon::MapPaths>,
-    photon_log: Option<photon::PathLog>,
+    photon_log: Option<(photon::PathLog, (glam::Vec3, glam::Vec3))>,
     atlas: Option<AtlasBefore>,
 }
 
