@@ -156,34 +156,11 @@ pub fn render_frame<'a>(
         // moved touched, and carry its atlas's texels (`pm-fg` and `photons` render each frame as
         // a still).
         let temporal = opts.frame.is_some() && plan.method == Method::Pm;
-        let movers: Vec<(glam::Vec3, f32)> = match &carry.change {
-            Some(c) if !c.lights => c.moved.iter().flat_map(|m| m.spheres).collect(),
-            _ => Vec::new(),
-        };
-        let margin = 1e-4 * scene.diagonal();
-        let touched = |a: glam::Vec3, b: glam::Vec3| {
-            movers
-                .iter()
-                .any(|&(c, r)| photon::pathlog::segment_meets_sphere(a, b, c, r + margin))
-        };
-        // A directional light's photons leave a disc over the scene's bounds: where those changed
-        // (a mover came in from outside), every path starts elsewhere.
-        let reuse_ok = temporal && carry.change.as_ref().is_some_and(|c| !c.lights);
-        let over = photon::Over {
-            paths: carry.photon_paths.filter(|_| temporal),
-            reuse: carry
-                .photon_log
-                .as_ref()
-                .filter(|(_, bounds)| reuse_ok && *bounds == scene.bounds)
-                .map(|(log, _)| photon::Reuse {
-                    log,
-                    touched: &touched,
-                }),
-            log: temporal,
-        };
         let (traced, s) = match &opts.files.load_photons {
             Some(file) => load_photons(scene, &plan, file)?,
-            None => trace_photons(scene, &plan, over, &opts.files, progress, cancel)?,
+            None => {
+                trace_frame_photons(scene, &plan, carry, temporal, &opts.files, progress, cancel)?
+            }
         };
         carry.photon_log = traced.log.map(|log| (log, scene.bounds));
         if temporal && carry.photon_paths.is_none() {
@@ -405,6 +382,45 @@ pub fn render_frame<'a>(
     carry.radiance = radiance;
     carry.camera = Some(plan.camera);
     Ok((out, stats))
+}
+
+/// A frame's photon maps: a still's to their targets; a temporal sequence's over the paths its first
+/// frame took, copying from the frame before's log the paths no moved mesh's bounding sphere (before
+/// or after its step) comes near — not after a light changed, nor where the scene's bounds changed
+/// (a directional light's photons leave a disc over them: every path starts elsewhere).
+fn trace_frame_photons(
+    scene: &Scene,
+    plan: &Plan,
+    carry: &Carry,
+    temporal: bool,
+    files: &files::FileOptions,
+    progress: &dyn Progress,
+    cancel: &AtomicBool,
+) -> Result<(photons::Maps, stats::PhotonStats)> {
+    let movers: Vec<(glam::Vec3, f32)> = match &carry.change {
+        Some(c) if !c.lights => c.moved.iter().flat_map(|m| m.spheres).collect(),
+        _ => Vec::new(),
+    };
+    let margin = 1e-4 * scene.diagonal();
+    let touched = |a: glam::Vec3, b: glam::Vec3| {
+        movers
+            .iter()
+            .any(|&(c, r)| photon::pathlog::segment_meets_sphere(a, b, c, r + margin))
+    };
+    let reuse_ok = temporal && carry.change.as_ref().is_some_and(|c| !c.lights);
+    let over = photon::Over {
+        paths: carry.photon_paths.filter(|_| temporal),
+        reuse: carry
+            .photon_log
+            .as_ref()
+            .filter(|(_, bounds)| reuse_ok && *bounds == scene.bounds)
+            .map(|(log, _)| photon::Reuse {
+                log,
+                touched: &touched,
+            }),
+        log: temporal,
+    };
+    trace_photons(scene, plan, over, files, progress, cancel)
 }
 
 /// The images, with the media cache's record positions; the caller adds the caches and photons.
