@@ -118,43 +118,7 @@ pub fn unchanged_pixels(
     let (w, h) = (cam.width, cam.height);
     let movers: Vec<(Vec3, f32)> = change.moved.iter().flat_map(|m| m.spheres).collect();
     let ends = shadow_ends(scene);
-    let end_at = |x: f32, y: f32| -> End {
-        let d = cam.ray(x, y);
-        scene.intersect(cam.eye, d).map(|hit| {
-            let n = Frame::new(&hit, -d).n;
-            (hit.p, cam.pixel_world(d, hit.t, hit.ns.dot(d)), n, hit.t)
-        })
-    };
-    let centres: Vec<End> = (0..w * h)
-        .into_par_iter()
-        .map(|i| end_at((i % w) as f32 + 0.5, (i / w) as f32 + 0.5))
-        .collect();
-    let corners: Vec<End> = (0..(w + 1) * (h + 1))
-        .into_par_iter()
-        .map(|i| end_at((i % (w + 1)) as f32, (i / (w + 1)) as f32))
-        .collect();
-    // Each pixel's points: its centre's end, then on an edge its corners'.
-    let points: Vec<[End; 5]> = (0..w * h)
-        .into_par_iter()
-        .map(|i| {
-            let (x, y) = (i % w, i / w);
-            let c = centres[i as usize];
-            let at = |dx: u32, dy: u32| corners[((y + dy) * (w + 1) + x + dx) as usize];
-            let k = [at(0, 0), at(1, 0), at(0, 1), at(1, 1)];
-            let edge = k.iter().any(|e| match (c, e) {
-                (Some((_, _, n0, t0)), Some((_, _, n, t))) => {
-                    (t - t0).abs() > EDGE_DEPTH * t0 || n.dot(n0) < EDGE_COS
-                }
-                (None, None) => false,
-                _ => true,
-            });
-            if edge {
-                [c, k[0], k[1], k[2], k[3]]
-            } else {
-                [c, None, None, None, None]
-            }
-        })
-        .collect();
+    let points = pixel_points(scene, cam);
     // A pixel's samples leave the eye within about a pixel of its centre's ray (a pixel's angle at
     // the image's middle, more than anywhere else): in the window, a pixel keeps its value only when
     // that cone passes every moved mesh before and after its step.
@@ -235,6 +199,48 @@ pub fn unchanged_pixels(
             }
         });
     Some(Unchanged { keep, repeat })
+}
+
+/// Each pixel's points: where its centre's camera ray ends, then on a depth edge (see [`EDGE_DEPTH`])
+/// where its corners' do (corner rays are shared between neighbouring pixels).
+fn pixel_points(scene: &Scene, cam: &Camera) -> Vec<[End; 5]> {
+    let (w, h) = (cam.width, cam.height);
+    let end_at = |x: f32, y: f32| -> End {
+        let d = cam.ray(x, y);
+        scene.intersect(cam.eye, d).map(|hit| {
+            let n = Frame::new(&hit, -d).n;
+            (hit.p, cam.pixel_world(d, hit.t, hit.ns.dot(d)), n, hit.t)
+        })
+    };
+    let centres: Vec<End> = (0..w * h)
+        .into_par_iter()
+        .map(|i| end_at((i % w) as f32 + 0.5, (i / w) as f32 + 0.5))
+        .collect();
+    let corners: Vec<End> = (0..(w + 1) * (h + 1))
+        .into_par_iter()
+        .map(|i| end_at((i % (w + 1)) as f32, (i / (w + 1)) as f32))
+        .collect();
+    (0..w * h)
+        .into_par_iter()
+        .map(|i| {
+            let (x, y) = (i % w, i / w);
+            let c = centres[i as usize];
+            let at = |dx: u32, dy: u32| corners[((y + dy) * (w + 1) + x + dx) as usize];
+            let k = [at(0, 0), at(1, 0), at(0, 1), at(1, 1)];
+            let edge = k.iter().any(|e| match (c, e) {
+                (Some((_, _, n0, t0)), Some((_, _, n, t))) => {
+                    (t - t0).abs() > EDGE_DEPTH * t0 || n.dot(n0) < EDGE_COS
+                }
+                (None, None) => false,
+                _ => true,
+            });
+            if edge {
+                [c, k[0], k[1], k[2], k[3]]
+            } else {
+                [c, None, None, None, None]
+            }
+        })
+        .collect()
 }
 
 /// Whether two irradiances agree within [`LIGHT_TOLERANCE`] in every channel.
