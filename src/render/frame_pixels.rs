@@ -152,21 +152,32 @@ pub fn unchanged_pixels(
                 })
         })
         .collect();
+    // The changed records' pixel rectangles (around or behind the eye, a record may reach
+    // anywhere), then row by row in parallel the pixels whose points one of them reaches.
+    let rects: Vec<(Window, Vec3, f32)> = changed
+        .iter()
+        .map(|&(c, reach)| {
+            let rect = sphere_pixels(cam, c, reach)
+                .map_or(Window::full(w, h), |(lo, hi)| pixel_window(cam, lo, hi));
+            (rect, c, reach)
+        })
+        .collect();
     let mut reached = vec![false; (w * h) as usize];
-    for &(c, reach) in changed {
-        // Around or behind the eye, it may reach anywhere.
-        let rect = sphere_pixels(cam, c, reach)
-            .map_or(Window::full(w, h), |(lo, hi)| pixel_window(cam, lo, hi));
-        for y in rect.y0..rect.y1 {
-            for x in rect.x0..rect.x1 {
-                let i = (y * w + x) as usize;
-                reached[i] |= points[i]
-                    .iter()
-                    .flatten()
-                    .any(|&(p, pixel, _, _)| p.distance(c) < reach + pixel);
+    reached
+        .par_chunks_mut(w as usize)
+        .enumerate()
+        .for_each(|(y, row)| {
+            let y = y as u32;
+            for (rect, c, reach) in rects.iter().filter(|(r, _, _)| y >= r.y0 && y < r.y1) {
+                for x in rect.x0..rect.x1 {
+                    let i = (y * w + x) as usize;
+                    row[x as usize] |= points[i]
+                        .iter()
+                        .flatten()
+                        .any(|&(p, pixel, _, _)| p.distance(*c) < reach + pixel);
+                }
             }
-        }
-    }
+        });
     if shaded.0.len() != keep.len() {
         shaded.0 = vec![[None; 5]; keep.len()];
     }
