@@ -230,13 +230,7 @@ fn caustic_only_paths_that_miss_every_mirror_are_not_traced_and_change_nothing()
 #[test]
 fn a_retrace_over_the_same_paths_gives_the_same_photons_whatever_the_targets() {
     let scene = mirror_wall();
-    let targets = PhotonTargets {
-        global: 20_000,
-        caustic: 3_000,
-        volume: 0,
-        volume_caustic: 0,
-        max_paths: 10_000_000,
-    };
+    let targets = retrace_targets();
     let (a, sa) = run(&scene, targets, 2);
     // Other targets, the same paths: each map takes exactly the paths it took, bit for bit.
     let other = PhotonTargets {
@@ -274,13 +268,7 @@ fn a_retrace_over_the_same_paths_gives_the_same_photons_whatever_the_targets() {
 #[test]
 fn paths_copied_from_a_log_are_the_paths_traced_again() {
     let scene = mirror_wall();
-    let targets = PhotonTargets {
-        global: 20_000,
-        caustic: 3_000,
-        volume: 0,
-        volume_caustic: 0,
-        max_paths: 10_000_000,
-    };
+    let targets = retrace_targets();
     let cancel = AtomicBool::new(false);
     let first = photon::Over {
         log: true,
@@ -316,5 +304,16 @@ fn paths_copied_from_a_log_are_the_paths_traced_again() {
         } else {
             assert!(sb.n_paths_copied < sb.n_paths_emitted, "{sb:?}");
         }
+    }
+}
+
+/// The photon targets of the retrace tests: both maps, the caustic one filling over fewer paths.
+fn retrace_targets() -> PhotonTargets {
+    PhotonTargets {
+        global: 20_000,
+        caustic: 3_000,
+        volume: 0,
+        volume_caustic: 0,
+        max_paths: 10_000_000,
     }
 }

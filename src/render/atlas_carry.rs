@@ -1,6 +1,6 @@
 //! Which texels of the irradiance atlas a sequence's frame takes from the frame before when meshes
-//! moved, instead of estimating them again (the texel estimates were most of a moving-object frame's
-//! record updates).
+//! moved, instead of estimating them again: most of a re-gather's time goes into estimating the
+//! texels its rays reach.
 //!
 //! Both frames trace the same photon paths, as many per map ([`photon::retrace_photons`]), so a path
 //! that met nothing that moved leaves the same photons bit for bit. A texel's value is a function of
@@ -121,8 +121,8 @@ struct Cell {
 }
 
 /// Maps keyed by photon hashes and cell coordinates, hashed by a multiply and a rotation (Fx): the
-/// drift's maps take every changed photon at every level each frame, and std's SipHash was most of
-/// that time.
+/// drift's maps take every changed photon at every level each frame, and the keys are hashes or
+/// small integers already, for which SipHash's resistance to chosen keys buys nothing.
 type FastMap<K, V> = HashMap<K, V, BuildHasherDefault<FxHasher>>;
 type FastSet<K> = HashSet<K, BuildHasherDefault<FxHasher>>;
 

@@ -74,7 +74,7 @@ pub struct ShadedLight(Vec<[Option<Vec3>; 5]>);
 /// at a pixel's points may move from what the pixel was shaded with before the pixel is shaded again.
 /// The records a frame gathers again near a mover reach far past it (their reach is the cache's
 /// largest spacing), and their light changes there by a fraction of a percent: shading every pixel
-/// they reach again was most of a ball frame's shading, and each new shade brings new pixel noise
+/// they reach again would cost most of a frame's shading, and each new shade brings new pixel noise
 /// (flicker). Compared with what the pixel was shaded with, not with the frame before, so a slow drift
 /// does not accumulate.
 const LIGHT_TOLERANCE: f32 = 0.005;

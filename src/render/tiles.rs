@@ -380,9 +380,9 @@ pub struct Canvas<'a> {
     pub kept: Option<&'a [bool]>,
     /// With `kept`, the samples each pixel took when it was last shaded (row-major over the image): a
     /// kept pixel counts as not converged after each round that took fewer, so that its neighbours go
-    /// on sampling as they would have beside it (see [`render_tiles`]). Without that, a pixel shaded
-    /// again among kept ones had no neighbour to go on for it, and a few lucky samples in a penumbra
-    /// stopped it 30 % dark.
+    /// on sampling as they would have beside it (see [`render_tiles`]): a pixel shaded again among
+    /// kept ones would otherwise have no neighbour to go on for it, and a few lucky samples (a
+    /// penumbra they all missed) would stop it.
     pub kept_samples: Option<&'a [u32]>,
     /// With `kept_samples`, the pixels that take exactly the samples they took when last shaded (a
     /// sequence's frame where only their cached light changed): the same samples then read the new
