@@ -264,6 +264,7 @@ fn frame_summary(f: u32, stats: &pmrender::render::RenderStats) -> serde_json::V
         "records_gone": get("frame.records_gone"),
         "records_carried": get("frame.records_carried"),
         "pixels_kept": get("frame.pixels_kept"),
+        "pixels_relit": get("frame.pixels_relit"),
         "memory_peak_rss_bytes": get("memory.peak_rss_bytes"),
         "fill_cache_s": get("time.fill_cache_s"),
         "trace_photons_s": get("time.trace_photons_s"),

@@ -12,6 +12,9 @@ pub struct Layout {
     pub media: bool,
 }
 
+/// Where the soft indirect light is among the layers of every layout.
+pub const INDIRECT_LAYER: usize = 4;
+
 impl Layout {
     pub fn of(scene: &crate::scene::Scene) -> Layout {
         Layout {
@@ -23,6 +26,7 @@ impl Layout {
     /// The layer names, in the order of [`Terms::to_layers`].
     pub fn names(self) -> Vec<&'static str> {
         let mut names = vec!["emission", "direct", "specular", "caustic", "indirect"];
+        debug_assert_eq!(names[INDIRECT_LAYER], "indirect");
         if self.glossy {
             names.push("glossy");
         }

@@ -181,35 +181,64 @@ pub fn unchanged_pixels(
     if shaded.0.len() != keep.len() {
         shaded.0 = vec![[None; 5]; keep.len()];
     }
-    // A pixel that nothing but its cached light changed for takes its samples again (`repeat`).
+    // A pixel that nothing but its cached light changed for is relit (`relight`) or, on an edge,
+    // takes its samples again (`repeat`).
     let mut repeat = vec![false; keep.len()];
+    let mut relight: Vec<Option<Vec3>> = vec![None; keep.len()];
     keep.par_iter_mut()
-        .zip(&mut repeat)
+        .zip(repeat.par_iter_mut().zip(&mut relight))
         .zip(&mut shaded.0)
         .zip(reached.par_iter().zip(&points))
-        .for_each(|(((keep, repeat), shaded), (&reached, points))| {
-            if !(reached || !*keep)
-                || points[0].is_none() && points[1..].iter().all(Option::is_none)
-            {
-                return;
-            }
-            // The light at each point (none where no record serves it: the pixel is shaded again).
-            let now: [Option<Vec3>; 5] =
-                points.map(|e| e.and_then(|(p, _, n, _)| cache.lookup(p, n, Pass::B).map(|l| l.e)));
-            if *keep {
-                *keep = points
-                    .iter()
-                    .zip(now.iter().zip(shaded.iter()))
-                    .all(|(e, (now, then))| {
-                        e.is_none() || matches!((now, then), (Some(a), Some(b)) if close(*a, *b))
-                    });
-                *repeat = !*keep && shaded.iter().any(Option::is_some);
-            }
-            if !*keep {
-                *shaded = now;
-            }
-        });
-    Some(Unchanged { keep, repeat })
+        .for_each(
+            |(((keep, (repeat, relight)), shaded), (&reached, points))| {
+                if !(reached || !*keep)
+                    || points[0].is_none() && points[1..].iter().all(Option::is_none)
+                {
+                    return;
+                }
+                // The light at each point (none where no record serves it: the pixel is shaded again).
+                let now: [Option<Vec3>; 5] = points
+                    .map(|e| e.and_then(|(p, _, n, _)| cache.lookup(p, n, Pass::B).map(|l| l.e)));
+                if *keep {
+                    *keep =
+                        points
+                            .iter()
+                            .zip(now.iter().zip(shaded.iter()))
+                            .all(|(e, (now, then))| {
+                                e.is_none()
+                                    || matches!((now, then), (Some(a), Some(b)) if close(*a, *b))
+                            });
+                    *repeat = !*keep && shaded.iter().any(Option::is_some);
+                    if *repeat && points[1..].iter().all(Option::is_none) {
+                        *relight = now[0].zip(shaded[0]).and_then(|(a, b)| light_ratio(a, b));
+                        *keep = relight.is_some();
+                        *repeat = !*keep;
+                    }
+                }
+                if !*keep || relight.is_some() {
+                    *shaded = now;
+                }
+            },
+        );
+    Some(Unchanged {
+        keep,
+        repeat,
+        relight,
+    })
+}
+
+/// Per channel, the factor `now` / `then` by which a pixel's indirect light is scaled when only its
+/// cached irradiance changed; `None` where a channel was dark and is not (nothing to scale).
+fn light_ratio(now: Vec3, then: Vec3) -> Option<Vec3> {
+    let mut r = Vec3::ONE;
+    for c in 0..3 {
+        if then[c] > 0.0 {
+            r[c] = now[c] / then[c];
+        } else if now[c] > 0.0 {
+            return None;
+        }
+    }
+    r.is_finite().then_some(r)
 }
 
 /// Each pixel's points: where its centre's camera ray ends, then on a depth edge (see [`EDGE_DEPTH`])
@@ -264,6 +293,11 @@ fn close(a: Vec3, b: Vec3) -> bool {
 pub struct Unchanged {
     pub keep: Vec<bool>,
     pub repeat: Vec<bool>,
+    /// Kept pixels whose indirect light is scaled by this, per channel: on no edge (one camera-ray
+    /// end speaks for the pixel), nothing but the cached irradiance there changed, and the pixel's
+    /// indirect layer is its samples' albedo times that irradiance, which varies slowly across it:
+    /// the ratio at its centre relights it without a sample, and without new pixel noise.
+    pub relight: Vec<Option<Vec3>>,
 }
 
 /// Where a light's shadow rays from a point end.
@@ -341,6 +375,16 @@ pub(super) fn sphere_meets_cone(c: Vec3, r: f32, p: Vec3, c_l: Vec3, r_l: f32) -
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_pixel_is_relit_by_each_channel_s_change_unless_a_dark_channel_lit_up() {
+        let r = light_ratio(Vec3::new(1.0, 0.5, 0.0), Vec3::new(2.0, 0.5, 0.0)).unwrap();
+        assert_eq!(r, Vec3::new(0.5, 1.0, 1.0));
+        assert_eq!(
+            light_ratio(Vec3::new(1.0, 0.1, 1.0), Vec3::new(1.0, 0.0, 1.0)),
+            None
+        );
+    }
 
     #[test]
     fn a_sphere_meets_a_cone_where_a_dense_search_says_so() {

@@ -291,6 +291,7 @@ pub fn render_frame<'a>(
         _ => None,
     };
     interrupted(cancel)?;
+    let mut relight = None;
     if let (Some((change, mut changed, n_carried)), Some(w), Some(c)) = (still_view, only, &cache) {
         // Pass A's new records reach past its window too.
         changed.extend(
@@ -309,6 +310,7 @@ pub fn render_frame<'a>(
         ) {
             plan.kept = Some(u.keep);
             plan.repeat = Some(u.repeat);
+            relight = Some(u.relight);
         }
     }
     if plan.kept.is_some() {
@@ -340,6 +342,12 @@ pub fn render_frame<'a>(
                 now.pixels[i] = then.pixels[i];
             }
         }
+        if let Some(relight) = &relight {
+            let indirect = &mut layers[crate::integrator::terms::INDIRECT_LAYER];
+            for (v, r) in indirect.pixels.iter_mut().zip(relight) {
+                *v *= r.unwrap_or(glam::Vec3::ONE);
+            }
+        }
         if let Some(then) = &plan.kept_samples {
             for (i, _) in kept.iter().enumerate().filter(|(_, k)| **k) {
                 samples[i] = then[i];
@@ -347,6 +355,7 @@ pub fn render_frame<'a>(
         }
         if let Some(f) = &mut frame {
             f.n_pixels_kept = kept.iter().filter(|k| **k).count() as u64;
+            f.n_pixels_relit = relight.iter().flatten().flatten().count() as u64;
         }
     }
     if opts.frame.is_some() {

@@ -81,6 +81,12 @@ fn frame_rows(r: &mut Report, f: &FrameStats) {
             "frame.pixels_kept",
             f.n_pixels_kept,
         );
+        r.count(
+            "Sequence",
+            "Of them relit (only the cached light changed: indirect light scaled)",
+            "frame.pixels_relit",
+            f.n_pixels_relit,
+        );
     }
     if let Some(t) = &f.temporal {
         r.count(
@@ -150,6 +156,8 @@ pub struct FrameStats {
     pub image_reused: bool,
     /// Pixels taken from the frame before, unsampled (nothing they show changed).
     pub n_pixels_kept: u64,
+    /// Of the kept pixels, those whose indirect light was scaled to the cached light's change.
+    pub n_pixels_relit: u64,
     /// After a mesh or light changed: what the temporal update did to the records.
     pub temporal: Option<super::temporal::TemporalStats>,
 }

@@ -123,6 +123,7 @@ pub fn write_sequence_summary(
         "records_gone": total("records_gone"),
         "records_at_end": frames.last().map_or(serde_json::Value::Null, |r| r["records_after"].clone()),
         "pixels_kept": total("pixels_kept"),
+        "pixels_relit": total("pixels_relit"),
         "render_s": render_s,
         "wall_s": wall_s,
         // The kernel updates the high-water mark lazily: a frame's own reading may exceed a later one.
