@@ -1,4 +1,5 @@
-//! FFI to FLANN's C API: an exact single kd-tree over 3-D points, owned by [`KdTree`].
+//! FFI to FLANN's C API: an exact kd-tree over 3-D points (one FLANN index, or two over the halves of a
+//! large point set), owned by [`KdTree`].
 //!
 //! This is the crate's only `unsafe` module. Thread safety: a query (`flann_radius_search_float`) only
 //! reads the index (`KDTreeSingleIndex::findNeighbors` is `const` and keeps its state on the stack); the C
@@ -120,17 +121,39 @@ pub struct Neighbor {
     pub dist2: f32,
 }
 
-/// An exact kd-tree (FLANN `KDTREE_SINGLE`, unlimited checks, eps 0) over a fixed point set.
+/// An exact kd-tree over a fixed point set: one FLANN `KDTREE_SINGLE` index (unlimited checks, eps 0),
+/// or for [`SPLIT_AT`] points and more two, one on each side of the median of the widest axis, built
+/// at once on two threads. FLANN builds single-threaded, and a sequence's frames build their photon
+/// maps anew while the other core waits; a query asks the half on its side first and the other only
+/// within the k-th distance found, which passes the splitting plane by for most queries.
 pub struct KdTree {
+    parts: Vec<Part>,
+    /// With two parts: the axis and the value that part 0 lies at or below and part 1 at or above.
+    split: Option<(usize, f32)>,
+    n: usize,
+}
+
+/// Point sets from this size on are built as two trees (see [`KdTree`]); below it a build takes a
+/// few milliseconds.
+const SPLIT_AT: usize = 1 << 16;
+
+/// One FLANN index and the indices of its points in the tree's point set (`None`: the same).
+struct Part {
+    index: Index,
+    ids: Option<Vec<u32>>,
+}
+
+/// One FLANN index over a copy of its points.
+struct Index {
     /// `None` for an empty point set: FLANN is never called then.
-    index: Option<NonNull<c_void>>,
+    raw: Option<NonNull<c_void>>,
     /// Row-major copy of the points. FLANN keeps pointers into the dataset, so it lives as long as the index.
     coords: Vec<f32>,
 }
 
 // SAFETY: the index is only read after construction (see the module header) and freed once, in Drop.
-unsafe impl Send for KdTree {}
-unsafe impl Sync for KdTree {}
+unsafe impl Send for Index {}
+unsafe impl Sync for Index {}
 
 thread_local! {
     static SCRATCH: RefCell<(Vec<c_int>, Vec<f32>)> = const { RefCell::new((Vec::new(), Vec::new())) };
@@ -142,37 +165,58 @@ impl KdTree {
         if let Some(index) = points.iter().position(|p| !p.is_finite()) {
             return Err(Error::NonFinitePoint { index });
         }
-        let rows = c_int::try_from(points.len()).map_err(|_| Error::TooManyPoints {
+        c_int::try_from(points.len()).map_err(|_| Error::TooManyPoints {
             n_points: points.len(),
         })?;
-        let mut coords: Vec<f32> = points.iter().flat_map(|p| p.to_array()).collect();
-        if rows == 0 {
-            return Ok(KdTree {
-                index: None,
-                coords,
-            });
-        }
         static QUIET: Once = Once::new();
         // SAFETY: sets a plain global int; every later FLANN call happens after this Once completes.
         QUIET.call_once(|| unsafe { flann_log_verbosity(FLANN_LOG_NONE) });
-        let mut p = params(-1);
-        let mut speedup = 0.0f32;
-        // SAFETY: `coords` holds rows × 3 floats and outlives the index (both owned by the KdTree).
-        let raw =
-            unsafe { flann_build_index_float(coords.as_mut_ptr(), rows, 3, &mut speedup, &mut p) };
-        let index = NonNull::new(raw).ok_or(Error::Flann("build a kd-tree"))?;
+        let n = points.len();
+        if n < SPLIT_AT {
+            let index = Index::build(points.iter().copied())?;
+            return Ok(KdTree {
+                parts: vec![Part { index, ids: None }],
+                split: None,
+                n,
+            });
+        }
+        let (lo, hi) = points
+            .iter()
+            .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &p| {
+                (lo.min(p), hi.max(p))
+            });
+        let extent = hi - lo;
+        let axis = (0..3)
+            .max_by(|&a, &b| extent[a].total_cmp(&extent[b]))
+            .unwrap_or(0);
+        let mut ids: Vec<u32> = (0..n as u32).collect();
+        let mid = n / 2;
+        ids.select_nth_unstable_by(mid, |&a, &b| {
+            points[a as usize][axis].total_cmp(&points[b as usize][axis])
+        });
+        let value = points[ids[mid] as usize][axis];
+        let upper = ids.split_off(mid);
+        let part = |ids: Vec<u32>| -> Result<Part> {
+            let index = Index::build(ids.iter().map(|&i| points[i as usize]))?;
+            Ok(Part {
+                index,
+                ids: Some(ids),
+            })
+        };
+        let (a, b) = rayon::join(|| part(ids), || part(upper));
         Ok(KdTree {
-            index: Some(index),
-            coords,
+            parts: vec![a?, b?],
+            split: Some((axis, value)),
+            n,
         })
     }
 
     pub fn len(&self) -> usize {
-        self.coords.len() / 3
+        self.n
     }
 
     pub fn is_empty(&self) -> bool {
-        self.coords.is_empty()
+        self.n == 0
     }
 
     /// The `k` nearest points with squared distance strictly below `max_radius²`, sorted by
@@ -181,13 +225,135 @@ impl KdTree {
     /// positive yields nothing; `max_radius = f32::INFINITY` means unlimited.
     pub fn knn(&self, q: Vec3, k: usize, max_radius: f32, out: &mut Vec<Neighbor>) {
         out.clear();
-        let Some(index) = self.index else { return };
         let k = k.min(self.len());
         if k == 0 || !q.is_finite() || max_radius.is_nan() || max_radius <= 0.0 {
             return;
         }
-        let k_c = k as c_int; // k ≤ len ≤ i32::MAX, checked at build
         let radius2 = max_radius * max_radius;
+        let Some((axis, value)) = self.split else {
+            self.parts[0].index.knn(q, k, radius2, out);
+            out.sort_unstable_by(|a, b| a.dist2.total_cmp(&b.dist2).then(a.index.cmp(&b.index)));
+            return;
+        };
+        let near = usize::from(q[axis] >= value);
+        let parts = [&self.parts[near], &self.parts[1 - near]];
+        parts[0].index.knn(q, k, radius2, out);
+        parts[0].to_global(out);
+        // The other side only within the k-th distance found (just past it: a point tied with it may
+        // be the one a single tree returns), and only when the splitting plane is that near.
+        let reach2 = if out.len() == k {
+            out.iter()
+                .map(|n| n.dist2)
+                .fold(0.0f32, f32::max)
+                .next_up()
+                .min(radius2)
+        } else {
+            radius2
+        };
+        let plane2 = (q[axis] - value) * (q[axis] - value);
+        if plane2 <= reach2 * (1.0 + 1e-5) {
+            let mut other = Vec::new();
+            parts[1].index.knn(q, k, reach2, &mut other);
+            parts[1].to_global(&mut other);
+            out.append(&mut other);
+        }
+        out.sort_unstable_by(|a, b| a.dist2.total_cmp(&b.dist2).then(a.index.cmp(&b.index)));
+        out.truncate(k);
+    }
+
+    /// The nearest point to each query, in one FLANN call per part (FLANN's per-call cost, an OpenMP
+    /// region and result-set set-up, is paid once per batch instead of once per query). `out[i]` is
+    /// `None` for a non-finite query or an empty tree. No radius limit: callers compare `dist2`
+    /// themselves.
+    pub fn nearest_batch(&self, queries: &[Vec3], out: &mut Vec<Option<Neighbor>>) {
+        out.clear();
+        out.resize(queries.len(), None);
+        for part in &self.parts {
+            for (best, found) in out.iter_mut().zip(part.index.nearest_batch(queries)) {
+                let Some(mut found) = found else { continue };
+                if let Some(ids) = &part.ids {
+                    found.index = ids[found.index as usize];
+                }
+                let closer = best.is_none_or(|b| {
+                    found.dist2 < b.dist2 || (found.dist2 == b.dist2 && found.index < b.index)
+                });
+                if closer {
+                    *best = Some(found);
+                }
+            }
+        }
+    }
+
+    /// [`knn`](Self::knn) for many queries, in parallel; result `i` belongs to `queries[i]`.
+    pub fn knn_batch(&self, queries: &[Vec3], k: usize, max_radius: f32) -> Vec<Vec<Neighbor>> {
+        queries
+            .par_iter()
+            .map(|&q| {
+                let mut out = Vec::with_capacity(k.min(self.len()));
+                self.knn(q, k, max_radius, &mut out);
+                out
+            })
+            .collect()
+    }
+
+    /// Bytes held by the indices (FLANN's own count), their point copies and index maps.
+    pub fn memory_bytes(&self) -> usize {
+        self.parts
+            .iter()
+            .map(|p| {
+                p.index.memory_bytes()
+                    + p.ids
+                        .as_ref()
+                        .map_or(0, |ids| ids.capacity() * std::mem::size_of::<u32>())
+            })
+            .sum()
+    }
+}
+
+impl Part {
+    /// Rewrites `found`'s indices from this part's to the tree's point set.
+    fn to_global(&self, found: &mut [Neighbor]) {
+        if let Some(ids) = &self.ids {
+            for n in found {
+                n.index = ids[n.index as usize];
+            }
+        }
+    }
+}
+
+impl Index {
+    /// A FLANN index over `points` (finite, at most `c_int::MAX` of them: checked by the caller).
+    fn build(points: impl Iterator<Item = Vec3>) -> Result<Index> {
+        let mut coords: Vec<f32> = points.flat_map(|p| p.to_array()).collect();
+        let rows = (coords.len() / 3) as c_int;
+        if rows == 0 {
+            return Ok(Index { raw: None, coords });
+        }
+        let mut p = params(-1);
+        let mut speedup = 0.0f32;
+        // SAFETY: `coords` holds rows × 3 floats and outlives the index (both owned by the Index).
+        let raw =
+            unsafe { flann_build_index_float(coords.as_mut_ptr(), rows, 3, &mut speedup, &mut p) };
+        let raw = NonNull::new(raw).ok_or(Error::Flann("build a kd-tree"))?;
+        Ok(Index {
+            raw: Some(raw),
+            coords,
+        })
+    }
+
+    fn len(&self) -> usize {
+        self.coords.len() / 3
+    }
+
+    /// The `k` nearest points with squared distance strictly below `radius2` (`k` ≥ 1, `q` finite),
+    /// in FLANN's order, appended to `out`.
+    fn knn(&self, q: Vec3, k: usize, radius2: f32, out: &mut Vec<Neighbor>) {
+        let Some(index) = self.raw else { return };
+        let k = k.min(self.len());
+        if k == 0 {
+            return;
+        }
+        let k_c = k as c_int; // k ≤ len ≤ i32::MAX, checked at build
         SCRATCH.with(|cell| {
             let mut scratch = cell.borrow_mut();
             let (indices, dists) = &mut *scratch;
@@ -220,21 +386,18 @@ impl KdTree {
                     }),
             );
         });
-        out.sort_unstable_by(|a, b| a.dist2.total_cmp(&b.dist2).then(a.index.cmp(&b.index)));
     }
 
-    /// The nearest point to each query, in ONE FLANN call (FLANN's per-call cost, an OpenMP region and
-    /// result-set set-up, is paid once per batch instead of once per query). `out[i]` is `None` for a
-    /// non-finite query or an empty tree. No radius limit: callers compare `dist2` themselves.
-    pub fn nearest_batch(&self, queries: &[Vec3], out: &mut Vec<Option<Neighbor>>) {
-        out.clear();
-        out.resize(queries.len(), None);
-        let Some(index) = self.index else { return };
+    /// The nearest point to each query (`None` for a non-finite query or an empty index), in this
+    /// index's numbering.
+    fn nearest_batch(&self, queries: &[Vec3]) -> Vec<Option<Neighbor>> {
+        let mut out = vec![None; queries.len()];
+        let Some(index) = self.raw else { return out };
         let finite: Vec<usize> = (0..queries.len())
             .filter(|&i| queries[i].is_finite())
             .collect();
         if finite.is_empty() || finite.len() > c_int::MAX as usize {
-            return;
+            return out;
         }
         let mut flat: Vec<f32> = finite.iter().flat_map(|&i| queries[i].to_array()).collect();
         let mut indices = vec![-1 as c_int; finite.len()];
@@ -254,7 +417,7 @@ impl KdTree {
             )
         };
         if rc < 0 {
-            return;
+            return out;
         }
         for (k, &i) in finite.iter().enumerate() {
             if indices[k] >= 0 {
@@ -264,33 +427,22 @@ impl KdTree {
                 });
             }
         }
-    }
-
-    /// [`knn`](Self::knn) for many queries, in parallel; result `i` belongs to `queries[i]`.
-    pub fn knn_batch(&self, queries: &[Vec3], k: usize, max_radius: f32) -> Vec<Vec<Neighbor>> {
-        queries
-            .par_iter()
-            .map(|&q| {
-                let mut out = Vec::with_capacity(k.min(self.len()));
-                self.knn(q, k, max_radius, &mut out);
-                out
-            })
-            .collect()
+        out
     }
 
     /// Bytes held by the index (FLANN's own count) plus the point copy.
-    pub fn memory_bytes(&self) -> usize {
+    fn memory_bytes(&self) -> usize {
         // SAFETY: the index is alive; the call only reads sizes.
-        let flann = self.index.map_or(0, |i| {
+        let flann = self.raw.map_or(0, |i| {
             unsafe { flann_used_memory_float(i.as_ptr()) }.max(0) as usize
         });
         flann + self.coords.capacity() * std::mem::size_of::<f32>()
     }
 }
 
-impl Drop for KdTree {
+impl Drop for Index {
     fn drop(&mut self) {
-        if let Some(index) = self.index.take() {
+        if let Some(index) = self.raw.take() {
             let mut p = params(-1);
             // SAFETY: the index was returned by flann_build_index_float and is freed exactly once.
             unsafe { flann_free_index_float(index.as_ptr(), &mut p) };
@@ -379,6 +531,51 @@ mod tests {
                     }
                 }
             }
+        }
+    }
+
+    #[test]
+    fn a_split_tree_answers_as_brute_force_across_its_plane() {
+        let mut rng = Rng::new(11);
+        // Stretched in x so the split falls at x ≈ 1, with duplicates straddling it.
+        let mut pts: Vec<Vec3> = random_points(&mut rng, SPLIT_AT + 500, 0)
+            .into_iter()
+            .map(|p| p * Vec3::new(2.0, 1.0, 1.0))
+            .collect();
+        for i in 0..300 {
+            pts.push(Vec3::new(1.0, i as f32 / 300.0, 0.5));
+        }
+        let tree = KdTree::build(&pts).unwrap();
+        assert!(tree.split.is_some());
+        assert_eq!(tree.len(), pts.len());
+        let mut out = Vec::new();
+        let queries: Vec<Vec3> = (0..120)
+            .map(|i| {
+                let x = if i % 2 == 0 {
+                    1.0 + (rng.uniform() - 0.5) * 0.02
+                } else {
+                    2.0 * rng.uniform()
+                };
+                Vec3::new(x, rng.uniform(), rng.uniform())
+            })
+            .collect();
+        for &q in &queries {
+            for &k in &[1usize, 16, 100] {
+                for &r in &[f32::INFINITY, 0.03] {
+                    tree.knn(q, k, r, &mut out);
+                    check(&out, &brute_force(&pts, q, k, r));
+                }
+            }
+        }
+        let mut nearest = Vec::new();
+        tree.nearest_batch(&queries, &mut nearest);
+        for (q, n) in queries.iter().zip(&nearest) {
+            assert_eq!(
+                n.map(|n| n.dist2),
+                brute_force(&pts, *q, 1, f32::INFINITY)
+                    .first()
+                    .map(|n| n.dist2)
+            );
         }
     }
 
