@@ -66,9 +66,19 @@ fn pixel_window(cam: &Camera, lo: Vec2, hi: Vec2) -> Window {
 /// The cached irradiance at each pixel's centre hit and, on a depth edge, at its corners' hits (where
 /// its camera rays end), when the pixel was last shaded, while the camera stays: a pixel that a
 /// changed record reaches keeps its value only while that light stays within [`LIGHT_TOLERANCE`] of
-/// it.
+/// it. With it, where the camera rays ended the frame before.
 #[derive(Default)]
-pub struct ShadedLight(Vec<[Option<Vec3>; 5]>);
+pub struct ShadedLight {
+    light: Vec<[Option<Vec3>; 5]>,
+    rays: Option<CameraEnds>,
+}
+
+/// Where the camera rays through the pixels' centres (row-major) and corners (`width + 1` a row)
+/// end.
+struct CameraEnds {
+    centres: Vec<End>,
+    corners: Vec<End>,
+}
 
 /// How far, per channel and relative to its value (at least 5 % of the luminance), the cached light
 /// at a pixel's points may move from what the pixel was shaded with before the pixel is shaded again.
@@ -118,7 +128,7 @@ pub fn unchanged_pixels(
     let (w, h) = (cam.width, cam.height);
     let movers: Vec<(Vec3, f32)> = change.moved.iter().flat_map(|m| m.spheres).collect();
     let ends = shadow_ends(scene);
-    let points = pixel_points(scene, cam);
+    let points = pixel_points(scene, cam, window, &mut shaded.rays);
     // A pixel's samples leave the eye within about a pixel of its centre's ray (a pixel's angle at
     // the image's middle, more than anywhere else): in the window, a pixel keeps its value only when
     // that cone passes every moved mesh before and after its step.
@@ -178,8 +188,8 @@ pub fn unchanged_pixels(
                 }
             }
         });
-    if shaded.0.len() != keep.len() {
-        shaded.0 = vec![[None; 5]; keep.len()];
+    if shaded.light.len() != keep.len() {
+        shaded.light = vec![[None; 5]; keep.len()];
     }
     // A pixel that nothing but its cached light changed for is relit (`relight`) or, on an edge,
     // takes its samples again (`repeat`).
@@ -187,7 +197,7 @@ pub fn unchanged_pixels(
     let mut relight: Vec<Option<Vec3>> = vec![None; keep.len()];
     keep.par_iter_mut()
         .zip(repeat.par_iter_mut().zip(&mut relight))
-        .zip(&mut shaded.0)
+        .zip(&mut shaded.light)
         .zip(reached.par_iter().zip(&points))
         .for_each(
             |(((keep, (repeat, relight)), shaded), (&reached, points))| {
@@ -242,8 +252,15 @@ fn light_ratio(now: Vec3, then: Vec3) -> Option<Vec3> {
 }
 
 /// Each pixel's points: where its centre's camera ray ends, then on a depth edge (see [`EDGE_DEPTH`])
-/// where its corners' do (corner rays are shared between neighbouring pixels).
-fn pixel_points(scene: &Scene, cam: &Camera) -> Vec<[End; 5]> {
+/// where its corners' do (corner rays are shared between neighbouring pixels). With `rays` from the
+/// frame before (same camera), only the rays through `window` — where a moved mesh may be seen,
+/// before or after its step — are traced again: nothing else moved.
+fn pixel_points(
+    scene: &Scene,
+    cam: &Camera,
+    window: Window,
+    rays: &mut Option<CameraEnds>,
+) -> Vec<[End; 5]> {
     let (w, h) = (cam.width, cam.height);
     let end_at = |x: f32, y: f32| -> End {
         let d = cam.ray(x, y);
@@ -252,14 +269,34 @@ fn pixel_points(scene: &Scene, cam: &Camera) -> Vec<[End; 5]> {
             (hit.p, cam.pixel_world(d, hit.t, hit.ns.dot(d)), n, hit.t)
         })
     };
-    let centres: Vec<End> = (0..w * h)
-        .into_par_iter()
-        .map(|i| end_at((i % w) as f32 + 0.5, (i / w) as f32 + 0.5))
-        .collect();
-    let corners: Vec<End> = (0..(w + 1) * (h + 1))
-        .into_par_iter()
-        .map(|i| end_at((i % (w + 1)) as f32, (i / (w + 1)) as f32))
-        .collect();
+    // Whether pixel (x, y), or with `rim` 1 corner (x, y), lies in the window.
+    let inside = |x: u32, y: u32, rim: u32| {
+        x >= window.x0 && x < window.x1 + rim && y >= window.y0 && y < window.y1 + rim
+    };
+    let fresh = rays
+        .as_ref()
+        .is_none_or(|r| r.centres.len() != (w * h) as usize);
+    let ends = rays.get_or_insert_with(|| CameraEnds {
+        centres: Vec::new(),
+        corners: Vec::new(),
+    });
+    if fresh {
+        ends.centres = vec![None; (w * h) as usize];
+        ends.corners = vec![None; ((w + 1) * (h + 1)) as usize];
+    }
+    ends.centres.par_iter_mut().enumerate().for_each(|(i, e)| {
+        let (x, y) = (i as u32 % w, i as u32 / w);
+        if fresh || inside(x, y, 0) {
+            *e = end_at(x as f32 + 0.5, y as f32 + 0.5);
+        }
+    });
+    ends.corners.par_iter_mut().enumerate().for_each(|(i, e)| {
+        let (x, y) = (i as u32 % (w + 1), i as u32 / (w + 1));
+        if fresh || inside(x, y, 1) {
+            *e = end_at(x as f32, y as f32);
+        }
+    });
+    let (centres, corners) = (&ends.centres, &ends.corners);
     (0..w * h)
         .into_par_iter()
         .map(|i| {
