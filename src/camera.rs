@@ -76,6 +76,11 @@ impl Camera {
         (self.forward + sx * self.right + sy * self.up).normalize()
     }
 
+    /// The angle one pixel subtends at the image's centre (radians, small-angle).
+    pub fn pixel_angle(&self) -> f32 {
+        2.0 * self.tan_half / self.height as f32
+    }
+
     /// World-space width of one pixel at `distance` along a ray, on a surface seen at `cos_theta` to
     /// its normal (the pixel footprint projected onto the tangent plane, along its longer axis).
     pub fn pixel_world(&self, dir: Vec3, distance: f32, cos_theta: f32) -> f32 {

@@ -13,6 +13,16 @@ pub struct Texture {
     pub height: u32,
     /// Linear RGB, top row first.
     pub texels: Vec<Vec3>,
+    /// Each level half the one before in each direction (box-filtered, odd sizes rounded up), the
+    /// first half the texture.
+    mips: Vec<Level>,
+}
+
+/// One level of a texture's mip pyramid.
+struct Level {
+    width: u32,
+    height: u32,
+    texels: Vec<Vec3>,
 }
 
 fn srgb_to_linear(c: f32) -> f32 {
@@ -74,9 +84,10 @@ impl Texture {
                 "{width}×{height} pixels × {channels} channels: more than the limit of {MAX_TEXTURE_PIXELS} pixels (8192×8192)"
             ));
         }
-        // Decoding holds the library's floats and their copy, then the copy and the texels.
+        // Decoding holds the library's floats and their copy, then the copy, the texels and their
+        // mip levels (a third as many again).
         let floats = 4 * channels.min(64) as u64;
-        let peak = n_pixels * (2 * floats).max(floats + 12);
+        let peak = n_pixels * (2 * floats).max(floats + 16);
         crate::memory::check_address_space(
             &format!("decoding its {width}×{height} pixels × {channels} channels"),
             peak,
@@ -130,37 +141,98 @@ impl Texture {
                 t.z
             ));
         }
-        Ok(Texture {
-            path: path.to_path_buf(),
-            width: img.width,
-            height: img.height,
+        Ok(Texture::new(
+            path.to_path_buf(),
+            img.width,
+            img.height,
             texels,
-        })
+        ))
+    }
+
+    /// A texture of `width` × `height` linear texels (top row first) and its mip pyramid.
+    pub fn new(path: PathBuf, width: u32, height: u32, texels: Vec<Vec3>) -> Texture {
+        let mut mips: Vec<Level> = Vec::new();
+        let (mut w, mut h) = (width, height);
+        while w > 1 || h > 1 {
+            let below = mips.last().map_or(&texels[..], |l| &l.texels[..]);
+            // An odd size rounds up: its last row or column is averaged with itself, not dropped.
+            let (nw, nh) = (w.div_ceil(2), h.div_ceil(2));
+            let at = |x: u32, y: u32| below[(y.min(h - 1) * w + x.min(w - 1)) as usize];
+            let level: Vec<Vec3> = (0..nw * nh)
+                .map(|i| {
+                    let (x, y) = (2 * (i % nw), 2 * (i / nw));
+                    (at(x, y) + at(x + 1, y) + at(x, y + 1) + at(x + 1, y + 1)) * 0.25
+                })
+                .collect();
+            mips.push(Level {
+                width: nw,
+                height: nh,
+                texels: level,
+            });
+            (w, h) = (nw, nh);
+        }
+        Texture {
+            path,
+            width,
+            height,
+            texels,
+            mips,
+        }
+    }
+
+    /// The texture averaged over about `width` texels around `uv` (trilinear between the mip levels
+    /// whose texels are nearest that size); bilinear when `width` is a texel or less.
+    pub fn lookup_filtered(&self, uv: Vec2, width: f32) -> Vec3 {
+        let lod = width.max(1.0).log2();
+        if !(lod > 0.0) || self.mips.is_empty() {
+            return self.lookup(uv);
+        }
+        let lod = lod.min(self.mips.len() as f32);
+        let (k, f) = (lod.floor() as usize, lod.fract());
+        let level = |k: usize| -> Vec3 {
+            match k {
+                0 => self.lookup(uv),
+                _ => {
+                    let l = &self.mips[(k - 1).min(self.mips.len() - 1)];
+                    bilinear(&l.texels, l.width as usize, l.height as usize, uv)
+                }
+            }
+        };
+        if f == 0.0 {
+            level(k)
+        } else {
+            level(k) * (1.0 - f) + level(k + 1) * f
+        }
     }
 
     /// Bilinear lookup; OBJ's v runs upward, image rows downward.
     pub fn lookup(&self, uv: Vec2) -> Vec3 {
-        let (w, h) = (self.width as usize, self.height as usize);
-        // x ∈ [−0.5, w − 0.5] (w − 0.5 at most, or w if rem_euclid rounds up to 1): the four texels are
-        // wrapped by a comparison each, not by an integer division each.
-        let x = uv.x.rem_euclid(1.0) * w as f32 - 0.5;
-        let y = (1.0 - uv.y.rem_euclid(1.0)) * h as f32 - 0.5;
-        if !(x >= -0.5 && x <= w as f32 && y >= -0.5 && y <= h as f32) {
-            return self.texels[0];
-        }
-        // x + 1 > 0, so truncation is floor.
-        let (xi, yi) = ((x + 1.0) as usize, (y + 1.0) as usize);
-        let (fx, fy) = (x + 1.0 - xi as f32, y + 1.0 - yi as f32);
-        let (i0, i1, j0, j1) = (
-            wrap(xi, w),
-            wrap(xi + 1, w),
-            wrap(yi, h) * w,
-            wrap(yi + 1, h) * w,
-        );
-        let t = &self.texels;
-        (t[j0 + i0] * (1.0 - fx) + t[j0 + i1] * fx) * (1.0 - fy)
-            + (t[j1 + i0] * (1.0 - fx) + t[j1 + i1] * fx) * fy
+        bilinear(&self.texels, self.width as usize, self.height as usize, uv)
     }
+}
+
+/// Bilinear lookup in `texels` (`w` × `h`, top row first, wrapping); OBJ's v runs upward, image rows
+/// downward.
+fn bilinear(texels: &[Vec3], w: usize, h: usize, uv: Vec2) -> Vec3 {
+    // x ∈ [−0.5, w − 0.5] (w − 0.5 at most, or w if rem_euclid rounds up to 1): the four texels are
+    // wrapped by a comparison each, not by an integer division each.
+    let x = uv.x.rem_euclid(1.0) * w as f32 - 0.5;
+    let y = (1.0 - uv.y.rem_euclid(1.0)) * h as f32 - 0.5;
+    if !(x >= -0.5 && x <= w as f32 && y >= -0.5 && y <= h as f32) {
+        return texels[0];
+    }
+    // x + 1 > 0, so truncation is floor.
+    let (xi, yi) = ((x + 1.0) as usize, (y + 1.0) as usize);
+    let (fx, fy) = (x + 1.0 - xi as f32, y + 1.0 - yi as f32);
+    let (i0, i1, j0, j1) = (
+        wrap(xi, w),
+        wrap(xi + 1, w),
+        wrap(yi, h) * w,
+        wrap(yi + 1, h) * w,
+    );
+    let t = texels;
+    (t[j0 + i0] * (1.0 - fx) + t[j0 + i1] * fx) * (1.0 - fy)
+        + (t[j1 + i0] * (1.0 - fx) + t[j1 + i1] * fx) * fy
 }
 
 /// Texel index `i − 1` wrapped into `0..n`, for `i` in `0..=n + 2`.
@@ -192,18 +264,32 @@ mod tests {
     }
 
     #[test]
+    fn a_filtered_lookup_averages_over_its_width() {
+        // A 64² checker of single texels: read at a point, black or white; over 4 texels, grey.
+        let texels = (0..64 * 64)
+            .map(|i| Vec3::splat(((i % 64 + i / 64) % 2) as f32))
+            .collect();
+        let t = Texture::new(PathBuf::from("checker"), 64, 64, texels);
+        let uv = Vec2::new(10.5 / 64.0, 1.0 - 20.5 / 64.0);
+        assert_eq!(t.lookup_filtered(uv, 1.0), t.lookup(uv));
+        assert_eq!(t.lookup(uv), Vec3::ZERO);
+        for width in [4.0, 6.0, 64.0, 1e6] {
+            let v = t.lookup_filtered(uv, width);
+            assert!((v - Vec3::splat(0.5)).abs().max_element() < 1e-6, "{width}: {v}");
+        }
+        // An odd size keeps its last row and column in the levels.
+        let t = Texture::new(PathBuf::from("odd"), 3, 1, vec![Vec3::ZERO, Vec3::ZERO, Vec3::ONE]);
+        assert!(t.lookup_filtered(Vec2::new(0.5, 0.5), 1e6).x > 0.0);
+    }
+
+    #[test]
     fn lookup_wraps_like_the_division_form() {
         let mut rng = Rng::new(3);
         for (w, h) in [(1, 1), (1, 3), (2, 2), (3, 7), (16, 5)] {
             let texels = (0..w * h)
                 .map(|i| Vec3::new(i as f32, (i * i) as f32, 1.0))
                 .collect();
-            let t = Texture {
-                path: PathBuf::new(),
-                width: w,
-                height: h,
-                texels,
-            };
+            let t = Texture::new(PathBuf::new(), w, h, texels);
             let edges = [0.0, 1.0, -1e-9, 1.0 - 1e-9, 0.5 / w as f32, -3.0, 7.25];
             let uvs = edges
                 .iter()

@@ -64,6 +64,9 @@ pub struct PmContext<'a> {
     /// The first `foreign` records of the cache were made for other views of a sequence: pass B
     /// interpolates them only where they are in sight (see `record_in_sight`).
     pub foreign: usize,
+    /// Where a camera ray first meets a textured surface, the width (per unit of distance along the
+    /// ray) its texture is averaged over; 0: read at the point ([`crate::render::plan::TEXTURE_FILTER`]).
+    pub texture_filter: f32,
 }
 
 /// A caustic irradiance at most this fraction of the soft indirect one is reused within a pixel (see
@@ -210,7 +213,13 @@ impl PmContext<'_> {
                 return t;
             }
         }
-        let kd = self.scene.albedo(&hit);
+        // A camera sample's texture is averaged over a fraction of the pixel (see `texture_filter`).
+        let kd = match (depth, &memo) {
+            (0, Some(_)) if self.texture_filter > 0.0 => {
+                self.scene.albedo_over(&hit, self.texture_filter * hit.t)
+            }
+            _ => self.scene.albedo(&hit),
+        };
         let v = Vertex {
             hit: &hit,
             frame,

@@ -447,6 +447,41 @@ impl Scene {
         (None, Vec3::ZERO, medium)
     }
 
+    /// [`albedo`](Self::albedo) with its texture averaged over `footprint` (a width in world units
+    /// at the hit, converted to texels by the triangle's texture density).
+    pub(crate) fn albedo_over(&self, hit: &Hit, footprint: f32) -> Vec3 {
+        use crate::material::{glossy_texel, Bsdf};
+        let texels = |t: usize| footprint * self.texel_density(hit.tri, &self.textures[t]);
+        match &self.materials[hit.material as usize].bsdf {
+            Bsdf::Diffuse {
+                texture: Some(t), ..
+            } => self.textures[*t].lookup_filtered(hit.uv, texels(*t)),
+            Bsdf::Glossy {
+                specular,
+                texture: Some(t),
+                texel_scale,
+                ..
+            } => glossy_texel(
+                self.textures[*t].lookup_filtered(hit.uv, texels(*t)),
+                *texel_scale,
+                *specular,
+            ),
+            _ => self.albedo(hit),
+        }
+    }
+
+    /// Texels of `texture` per world unit on triangle `tri` (the square root of their areas' ratio).
+    fn texel_density(&self, tri: u32, texture: &crate::texture::Texture) -> f32 {
+        let g = &self.geometry;
+        let t = &g.triangles[tri as usize];
+        if !t.has_uv || t.area <= 0.0 {
+            return 0.0;
+        }
+        let [a, b, c] = t.v.map(|i| g.uvs[i as usize]);
+        let uv_area = 0.5 * ((b - a).perp_dot(c - a)).abs();
+        (uv_area * texture.width as f32 * texture.height as f32 / t.area).sqrt()
+    }
+
     /// Diffuse albedo at a hit (texture-resolved; for glossy, the diffuse part of Phong).
     pub(crate) fn albedo(&self, hit: &Hit) -> Vec3 {
         use crate::material::{glossy_texel, Bsdf};
