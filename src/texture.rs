@@ -275,10 +275,18 @@ mod tests {
         assert_eq!(t.lookup(uv), Vec3::ZERO);
         for width in [4.0, 6.0, 64.0, 1e6] {
             let v = t.lookup_filtered(uv, width);
-            assert!((v - Vec3::splat(0.5)).abs().max_element() < 1e-6, "{width}: {v}");
+            assert!(
+                (v - Vec3::splat(0.5)).abs().max_element() < 1e-6,
+                "{width}: {v}"
+            );
         }
         // An odd size keeps its last row and column in the levels.
-        let t = Texture::new(PathBuf::from("odd"), 3, 1, vec![Vec3::ZERO, Vec3::ZERO, Vec3::ONE]);
+        let t = Texture::new(
+            PathBuf::from("odd"),
+            3,
+            1,
+            vec![Vec3::ZERO, Vec3::ZERO, Vec3::ONE],
+        );
         assert!(t.lookup_filtered(Vec2::new(0.5, 0.5), 1e6).x > 0.0);
     }
 

@@ -414,6 +414,43 @@ fn a_walk_through_frame_agrees_with_a_still_render_of_its_camera() {
 }
 
 #[test]
+fn records_stay_while_the_camera_backs_away() {
+    // Stepping back along its view, every record spans fewer pixels than in the view it was made
+    // for: none is too coarse for the new view, none is dropped (a record spanning more than half
+    // its pixel-spacing limit used to be dropped the next frame whatever the camera did, and made
+    // again in the same place).
+    let (e0, t0) = ([1.2, 1.3, 1.4], [-1.4, 0.7, -1.6]);
+    let e2 = [1.5, 1.37, 1.75];
+    let keys = format!(
+        "[[camera.key]]\nframe = 0\neye = {}\n[[camera.key]]\nframe = 2\neye = {}\n",
+        v3(e0),
+        v3(e2)
+    );
+    let d = scene_dir(&[("walk.toml", &interior(&keys, e0, t0, 3, 0))]);
+    let o = |n: &str| p(d.path(), n);
+    render_ok(&[
+        &o("walk.toml"),
+        "-o",
+        &o("w-#.exr"),
+        "--stats",
+        &o("w-#.json"),
+    ]);
+    for f in 1..3 {
+        let frame = &json(&o(&format!("w-{f}.json")))["frame"];
+        eprintln!("[back] frame {f}: {frame}");
+        assert!(
+            frame["records_reused"].as_u64().unwrap_or(0) > 0,
+            "frame {f}: {frame}"
+        );
+        assert_eq!(
+            frame["records_dropped"].as_u64(),
+            Some(0),
+            "frame {f}: {frame}"
+        );
+    }
+}
+
+#[test]
 fn a_walk_through_frame_covers_its_points_before_shading() {
     // Pass B reads the records of earlier views only where a shadow ray reaches them. Pass A must
     // count a point covered by them only there too, or pass B misses the point, makes a record for it

@@ -372,7 +372,7 @@ pub fn render_frame<'a>(
     );
     if let (Some(f), Some(c)) = (&mut frame, &cache) {
         f.n_records_after = c.cache.len() as u64;
-        carry.lifespans.note_new(&c.cache, f.frame);
+        carry.lifespans.note_new(&c.cache, f.frame, &plan.camera);
         if let Some(p) = photons {
             carry.lifespans.note_photons(scene, p);
         }
