@@ -510,6 +510,9 @@ impl Lifespans {
         }
         stats.n_kept = cache.len() as u64 - stats.n_replaced;
         self.by_pos = lives;
+        // Records that moved with their mesh have new keys: what the old ones spanned goes.
+        let by_pos = &self.by_pos;
+        self.made_px.retain(|k, _| by_pos.contains_key(k));
         stats.update_s = start.elapsed().as_secs_f64();
         Ok(Updated {
             cache,
