@@ -84,6 +84,9 @@ pub fn render_sequence(
             }
             change = Some(next);
         }
+        if f > last {
+            break;
+        }
         if let Some((mut out, _)) = prev.take() {
             carry.cache = out.cache.take();
         }
