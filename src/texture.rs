@@ -13,8 +13,7 @@ pub struct Texture {
     pub height: u32,
     /// Linear RGB, top row first.
     pub texels: Vec<Vec3>,
-    /// Each level half the one before in each direction (box-filtered, odd sizes rounded up), the
-    /// first half the texture.
+    /// Each level half the one before in each direction ([`shrink`]), the first half the texture.
     mips: Vec<Level>,
 }
 
@@ -155,21 +154,9 @@ impl Texture {
         let (mut w, mut h) = (width, height);
         while w > 1 || h > 1 {
             let below = mips.last().map_or(&texels[..], |l| &l.texels[..]);
-            // An odd size rounds up: its last row or column is averaged with itself, not dropped.
-            let (nw, nh) = (w.div_ceil(2), h.div_ceil(2));
-            let at = |x: u32, y: u32| below[(y.min(h - 1) * w + x.min(w - 1)) as usize];
-            let level: Vec<Vec3> = (0..nw * nh)
-                .map(|i| {
-                    let (x, y) = (2 * (i % nw), 2 * (i / nw));
-                    (at(x, y) + at(x + 1, y) + at(x, y + 1) + at(x + 1, y + 1)) * 0.25
-                })
-                .collect();
-            mips.push(Level {
-                width: nw,
-                height: nh,
-                texels: level,
-            });
-            (w, h) = (nw, nh);
+            let level = shrink(below, w, h);
+            (w, h) = (level.width, level.height);
+            mips.push(level);
         }
         Texture {
             path,
@@ -209,6 +196,47 @@ impl Texture {
     pub fn lookup(&self, uv: Vec2) -> Vec3 {
         bilinear(&self.texels, self.width as usize, self.height as usize, uv)
     }
+}
+
+/// `texels` (`w` × `h`) averaged down to ⌈w/2⌉ × ⌈h/2⌉. Each texel of the result covers w / ⌈w/2⌉
+/// texels across and h / ⌈h/2⌉ down, each weighted by how much of it it covers: with an odd size no
+/// texel counts twice, and the level's mean is the texture's.
+fn shrink(texels: &[Vec3], w: u32, h: u32) -> Level {
+    let (nw, nh) = (w.div_ceil(2), h.div_ceil(2));
+    let (across, down) = (cover(w, nw), cover(h, nh));
+    let (w, nw) = (w as usize, nw as usize);
+    let mut rows = vec![Vec3::ZERO; nw * h as usize];
+    for y in 0..h as usize {
+        for (i, taps) in across.iter().enumerate() {
+            rows[y * nw + i] = taps.iter().map(|&(j, f)| texels[y * w + j] * f).sum();
+        }
+    }
+    let mut out = vec![Vec3::ZERO; nw * nh as usize];
+    for (k, taps) in down.iter().enumerate() {
+        for x in 0..nw {
+            out[k * nw + x] = taps.iter().map(|&(j, f)| rows[j * nw + x] * f).sum();
+        }
+    }
+    Level {
+        width: nw as u32,
+        height: nh,
+        texels: out,
+    }
+}
+
+/// For each of `m` equal cells over `n` texels in a row: the texels it overlaps, each with the part of
+/// the cell it fills (summing to 1).
+fn cover(n: u32, m: u32) -> Vec<Vec<(usize, f32)>> {
+    let span = n as f64 / m as f64;
+    (0..m)
+        .map(|i| {
+            let (a, b) = (i as f64 * span, (i + 1) as f64 * span);
+            (a.floor() as usize..(b.ceil() as usize).min(n as usize))
+                .map(|j| (j, ((b.min(j as f64 + 1.0) - a.max(j as f64)) / span) as f32))
+                .filter(|&(_, f)| f > 0.0)
+                .collect()
+        })
+        .collect()
 }
 
 /// Bilinear lookup in `texels` (`w` × `h`, top row first, wrapping); OBJ's v runs upward, image rows
@@ -280,14 +308,32 @@ mod tests {
                 "{width}: {v}"
             );
         }
-        // An odd size keeps its last row and column in the levels.
+        // Odd sizes: every level keeps the texture's mean (a texel averaged with itself counted
+        // twice, and a 3×1 texture of 0, 0, 1 read as 0.5 from afar).
         let t = Texture::new(
             PathBuf::from("odd"),
             3,
             1,
             vec![Vec3::ZERO, Vec3::ZERO, Vec3::ONE],
         );
-        assert!(t.lookup_filtered(Vec2::new(0.5, 0.5), 1e6).x > 0.0);
+        assert!((t.lookup_filtered(Vec2::new(0.5, 0.5), 1e6).x - 1.0 / 3.0).abs() < 1e-6);
+        let mut rng = Rng::new(9);
+        let (w, h) = (100u32, 37u32);
+        let texels: Vec<Vec3> = (0..w * h)
+            .map(|_| Vec3::new(rng.uniform(), rng.uniform(), rng.uniform()))
+            .collect();
+        let mean = texels.iter().sum::<Vec3>() / (w * h) as f32;
+        let t = Texture::new(PathBuf::from("random"), w, h, texels);
+        for l in &t.mips {
+            let m = l.texels.iter().sum::<Vec3>() / (l.width * l.height) as f32;
+            assert!(
+                (m - mean).abs().max_element() < 1e-5,
+                "{}×{}: {m} against {mean}",
+                l.width,
+                l.height
+            );
+        }
+        assert_eq!(t.mips.last().map(|l| (l.width, l.height)), Some((1, 1)));
     }
 
     #[test]

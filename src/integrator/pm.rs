@@ -214,11 +214,10 @@ impl PmContext<'_> {
             }
         }
         // A camera sample's texture is averaged over a fraction of the pixel (see `texture_filter`).
-        let kd = match (depth, &memo) {
-            (0, Some(_)) if self.texture_filter > 0.0 => {
-                self.scene.albedo_over(&hit, self.texture_filter * hit.t)
-            }
-            _ => self.scene.albedo(&hit),
+        let kd = if depth == 0 && self.texture_filter > 0.0 {
+            self.scene.albedo_over(&hit, self.texture_filter * hit.t)
+        } else {
+            self.scene.albedo(&hit)
         };
         let v = Vertex {
             hit: &hit,

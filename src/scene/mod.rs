@@ -16,7 +16,7 @@ mod settings;
 use std::cmp::Ordering;
 use std::path::PathBuf;
 
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 
 pub use animation::{Animation, Change};
 pub use build::{check_sequence, frame_camera, load, load_animation, load_frame, mesh_transform};
@@ -470,16 +470,43 @@ impl Scene {
         }
     }
 
-    /// Texels of `texture` per world unit on triangle `tri` (the square root of their areas' ratio).
+    /// Texels of `texture` per world unit on triangle `tri`, along the direction where they are
+    /// sparsest (the smaller singular value of the map from the triangle's plane to texels): a
+    /// stretched mapping is then never averaged over more than the footprint across its stretch.
     fn texel_density(&self, tri: u32, texture: &crate::texture::Texture) -> f32 {
         let g = &self.geometry;
         let t = &g.triangles[tri as usize];
         if !t.has_uv || t.area <= 0.0 {
             return 0.0;
         }
-        let [a, b, c] = t.v.map(|i| g.uvs[i as usize]);
-        let uv_area = 0.5 * ((b - a).perp_dot(c - a)).abs();
-        (uv_area * texture.width as f32 * texture.height as f32 / t.area).sqrt()
+        let [p0, p1, p2] = t.v.map(|i| g.positions[i as usize]);
+        let size = Vec2::new(texture.width as f32, texture.height as f32);
+        let [t0, t1, t2] = t.v.map(|i| g.uvs[i as usize] * size);
+        // The edges in an orthonormal basis of the plane (x along the first edge).
+        let (e1, e2) = (p1 - p0, p2 - p0);
+        let len1 = e1.length();
+        if !(len1 > 0.0) {
+            return 0.0;
+        }
+        let x = e1 / len1;
+        let (e2x, e2y) = (e2.dot(x), (e2 - x * e2.dot(x)).length());
+        if !(e2y > 0.0) {
+            return 0.0;
+        }
+        // J = D · E⁻¹ with D = [t1 − t0, t2 − t0] and E = [[len1, e2x], [0, e2y]].
+        let (d1, d2) = (t1 - t0, t2 - t0);
+        let col_x = d1 / len1;
+        let col_y = (d2 - col_x * e2x) / e2y;
+        // Singular values of [col_x col_y]: eigenvalues of JᵀJ.
+        let (a, b, c) = (col_x.dot(col_x), col_x.dot(col_y), col_y.dot(col_y));
+        let half_trace = 0.5 * (a + c);
+        let root = (0.25 * (a - c) * (a - c) + b * b).sqrt();
+        let smallest = (half_trace - root).max(0.0).sqrt();
+        if smallest.is_finite() {
+            smallest
+        } else {
+            0.0
+        }
     }
 
     /// Diffuse albedo at a hit (texture-resolved; for glossy, the diffuse part of Phong).
