@@ -195,12 +195,13 @@ pub fn unchanged_pixels(
     // takes its samples again (`repeat`).
     let mut repeat = vec![false; keep.len()];
     let mut relight: Vec<Option<Vec3>> = vec![None; keep.len()];
+    let edge_near = edge_neighbours(&points, w, h);
     keep.par_iter_mut()
         .zip(repeat.par_iter_mut().zip(&mut relight))
-        .zip(&mut shaded.light)
+        .zip(shaded.light.par_iter_mut().zip(&edge_near))
         .zip(reached.par_iter().zip(&points))
         .for_each(
-            |(((keep, (repeat, relight)), shaded), (&reached, points))| {
+            |(((keep, (repeat, relight)), (shaded, &edge_near)), (&reached, points))| {
                 if !(reached || !*keep)
                     || points[0].is_none() && points[1..].iter().all(Option::is_none)
                 {
@@ -219,7 +220,7 @@ pub fn unchanged_pixels(
                                     || matches!((now, then), (Some(a), Some(b)) if close(*a, *b))
                             });
                     *repeat = !*keep && shaded.iter().any(Option::is_some);
-                    if *repeat && points[1..].iter().all(Option::is_none) {
+                    if *repeat && !edge_near {
                         *relight = now[0].zip(shaded[0]).and_then(|(a, b)| light_ratio(a, b));
                         *keep = relight.is_some();
                         *repeat = !*keep;
@@ -235,6 +236,28 @@ pub fn unchanged_pixels(
         repeat,
         relight,
     })
+}
+
+/// Whether each pixel or one of its eight neighbours lies on a depth edge (has its corners among its
+/// points): next to an edge the cached light changes across a pixel (records are small there, and a
+/// record's cover may end inside it), and the change at its centre is not the pixel's.
+fn edge_neighbours(points: &[[End; 5]], w: u32, h: u32) -> Vec<bool> {
+    let edge = |x: i64, y: i64| {
+        x >= 0
+            && y >= 0
+            && x < w as i64
+            && y < h as i64
+            && points[(y * w as i64 + x) as usize][1..]
+                .iter()
+                .any(Option::is_some)
+    };
+    (0..(w * h) as i64)
+        .into_par_iter()
+        .map(|i| {
+            let (x, y) = (i % w as i64, i / w as i64);
+            (-1..=1).any(|dy| (-1..=1).any(|dx| edge(x + dx, y + dy)))
+        })
+        .collect()
 }
 
 /// Per channel, the factor `now` / `then` by which a pixel's indirect light is scaled when only its
