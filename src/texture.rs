@@ -308,8 +308,8 @@ mod tests {
                 "{width}: {v}"
             );
         }
-        // Odd sizes: every level keeps the texture's mean (a texel averaged with itself counted
-        // twice, and a 3×1 texture of 0, 0, 1 read as 0.5 from afar).
+        // Odd sizes: every level keeps the texture's mean (a 3×1 texture of 0, 0, 1 reads 1/3 from
+        // afar, not what its last texel counted twice would give).
         let t = Texture::new(
             PathBuf::from("odd"),
             3,

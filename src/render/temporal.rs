@@ -141,9 +141,9 @@ pub struct Lifespans {
 /// made far from the camera is too coarse once the camera comes close.
 const VIEW_SLACK: f32 = 0.5;
 /// A record spanning more than [`VIEW_SLACK`] of the limit stays, up to the limit, while it spans at
-/// most this many times the pixels it spanned in the view it was made for. Without it a record made
-/// in the upper half of the limit was dropped the very next frame and made again at once (Sibenik's
-/// walk: 1.7 k of 2.2–4.6 k new records a frame), though it was as fine as a new one would be.
+/// most this many times the pixels it spanned in the view it was made for: a record made in the upper
+/// half of the limit is as fine as a new one would be there, and dropping it would only make it again
+/// in the same place.
 const VIEW_GROWTH: f32 = 1.25;
 /// Frames a record may stay out of view (beyond a margin of a quarter of the image around it) before
 /// it is deleted: no pixel has used it, and a walk's cache should not grow with all it has passed.
@@ -213,6 +213,14 @@ fn carried_along(
     })
 }
 
+/// The pixels a record's radius spans in `cam`'s view (its position not at the eye).
+fn span_px(r: &Record, cam: &Camera) -> f32 {
+    let to = r.pos - cam.eye;
+    let dist = to.length();
+    let dir = to / dist;
+    r.r_clamped / cam.pixel_world(dir, dist, r.normal.dot(dir))
+}
+
 fn key(p: Vec3) -> [u32; 3] {
     p.to_array().map(f32::to_bits)
 }
@@ -254,8 +262,6 @@ impl Lifespans {
         let mut unseen = HashMap::new();
         let (cache, dropped) = cache
             .rebuilt(scene.bounds, |_, r| {
-                let to = r.pos - cam.eye;
-                let dist = to.length();
                 let in_view = cam
                     .project(r.pos)
                     .is_some_and(|(x, y)| x > -mx && x < w + mx && y > -my && y < h + my);
@@ -267,11 +273,10 @@ impl Lifespans {
                     unseen.insert(key(r.pos), since);
                     return Some(r);
                 }
-                if !(dist > 0.0) {
+                if r.pos == cam.eye {
                     return Some(r);
                 }
-                let dir = to / dist;
-                let span = r.r_clamped / cam.pixel_world(dir, dist, r.normal.dot(dir));
+                let span = span_px(&r, cam);
                 let grown = self
                     .made_px
                     .get(&key(r.pos))
@@ -300,11 +305,8 @@ impl Lifespans {
     pub fn note_new(&mut self, cache: &IrradianceCache, frame: u32, cam: &Camera) {
         for r in cache.records() {
             if let Entry::Vacant(v) = self.made_px.entry(key(r.pos)) {
-                let to = r.pos - cam.eye;
-                let dist = to.length();
-                if dist > 0.0 && cam.project(r.pos).is_some() {
-                    let dir = to / dist;
-                    v.insert(r.r_clamped / cam.pixel_world(dir, dist, r.normal.dot(dir)));
+                if r.pos != cam.eye && cam.project(r.pos).is_some() {
+                    v.insert(span_px(r, cam));
                 }
             }
             self.by_pos.entry(key(r.pos)).or_insert(Life {

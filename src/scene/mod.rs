@@ -450,24 +450,9 @@ impl Scene {
     /// [`albedo`](Self::albedo) with its texture averaged over `footprint` (a width in world units
     /// at the hit, converted to texels by the triangle's texture density).
     pub(crate) fn albedo_over(&self, hit: &Hit, footprint: f32) -> Vec3 {
-        use crate::material::{glossy_texel, Bsdf};
-        let texels = |t: usize| footprint * self.texel_density(hit.tri, &self.textures[t]);
-        match &self.materials[hit.material as usize].bsdf {
-            Bsdf::Diffuse {
-                texture: Some(t), ..
-            } => self.textures[*t].lookup_filtered(hit.uv, texels(*t)),
-            Bsdf::Glossy {
-                specular,
-                texture: Some(t),
-                texel_scale,
-                ..
-            } => glossy_texel(
-                self.textures[*t].lookup_filtered(hit.uv, texels(*t)),
-                *texel_scale,
-                *specular,
-            ),
-            _ => self.albedo(hit),
-        }
+        self.albedo_read(hit, |t| {
+            t.lookup_filtered(hit.uv, footprint * self.texel_density(hit.tri, t))
+        })
     }
 
     /// Texels of `texture` per world unit on triangle `tri`, along the direction where they are
@@ -511,10 +496,15 @@ impl Scene {
 
     /// Diffuse albedo at a hit (texture-resolved; for glossy, the diffuse part of Phong).
     pub(crate) fn albedo(&self, hit: &Hit) -> Vec3 {
+        self.albedo_read(hit, |t| t.lookup(hit.uv))
+    }
+
+    /// The hit's diffuse albedo, its texture (if any) read by `read`.
+    fn albedo_read(&self, hit: &Hit, read: impl Fn(&crate::texture::Texture) -> Vec3) -> Vec3 {
         use crate::material::{glossy_texel, Bsdf};
         match &self.materials[hit.material as usize].bsdf {
             Bsdf::Diffuse { albedo, texture } => match texture {
-                Some(t) => self.textures[*t].lookup(hit.uv),
+                Some(t) => read(&self.textures[*t]),
                 None => *albedo,
             },
             Bsdf::Glossy {
@@ -524,7 +514,7 @@ impl Scene {
                 texel_scale,
                 ..
             } => match texture {
-                Some(t) => glossy_texel(self.textures[*t].lookup(hit.uv), *texel_scale, *specular),
+                Some(t) => glossy_texel(read(&self.textures[*t]), *texel_scale, *specular),
                 None => *albedo,
             },
             _ => Vec3::ZERO,
