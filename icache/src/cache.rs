@@ -248,10 +248,7 @@ impl IrradianceCache {
         visible: impl Fn(u32, &Record) -> bool,
     ) -> (Option<Lookup>, Option<u32>) {
         let Some(tau) = self.params.adaptive else {
-            return (
-                self.lookup_first_visible(p, n, Pass::A, usize::MAX, visible),
-                None,
-            );
+            return (self.cover(p, n, visible), None);
         };
         if !(p.is_finite() && n.is_finite()) {
             return (None, None);
@@ -286,6 +283,37 @@ impl IrradianceCache {
                 Some(&(id, _)) if used.len() > 1 => (None, Some(id)),
                 _ => (lookup, None),
             }
+        })
+    }
+
+    /// Pass A's coverage test: whether a record usable at (p, n) that `visible(id, record)` accepts
+    /// exists, as the interpolation of that one record alone (`n_used` 1, a lower bound on the records
+    /// usable there). The interpolation itself is not made: pass A needs only whether it exists, and
+    /// the visibility test of each record of an earlier frame is a ray. The newest records are tried
+    /// first (those of the frame being filled need no ray).
+    pub(crate) fn cover(
+        &self,
+        p: Vec3,
+        n: Vec3,
+        visible: impl Fn(u32, &Record) -> bool,
+    ) -> Option<Lookup> {
+        if !(p.is_finite() && n.is_finite()) {
+            return None;
+        }
+        let scale = (self.params.a(Pass::A) / self.params.index_factor()).min(1.0);
+        CANDIDATES.with(|cell| {
+            let mut ids = cell.borrow_mut();
+            ids.clear();
+            self.index
+                .for_each_candidate_within(p, scale, |id| ids.push(id));
+            ids.sort_unstable_by(|a, b| b.cmp(a));
+            ids.iter().find_map(|&id| {
+                let rec = &self.records[id as usize];
+                let (w, e) = self.weighted(rec, p, n, Pass::A)?;
+                let mut acc = Accum::default();
+                acc.add(w, e);
+                visible(id, rec).then(|| self.finish(acc)).flatten()
+            })
         })
     }
 

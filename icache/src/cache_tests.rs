@@ -446,6 +446,36 @@ fn a_lookup_leaves_out_the_records_its_visibility_test_rejects() {
     );
 }
 
+/// Pass A's coverage test finds a record exactly where the full interpolation over the records the
+/// visibility test accepts exists, and names one of those records.
+#[test]
+fn pass_a_cover_exists_where_the_interpolation_does() {
+    let mut rng = Rng::new(31);
+    let mut c = cache(CacheParams::default());
+    for p in plane_points(&mut rng, 400) {
+        let n = (Vec3::Z + 0.2 * (rand01(&mut rng) - Vec3::splat(0.5))).normalize();
+        c.insert(new_rec(p, n, rand01(&mut rng), 0.2 + rng.uniform(), 0.05));
+    }
+    // Visibility by a fixed pseudo-random half of the records.
+    let visible = |id: u32, _: &crate::Record| id.wrapping_mul(2_654_435_761) >> 31 == 0;
+    let (mut covered, mut missed) = (0, 0);
+    for p in plane_points(&mut rng, 4000) {
+        let full = c.lookup_first_visible(p, Vec3::Z, Pass::A, usize::MAX, visible);
+        let cover = c.cover(p, Vec3::Z, visible);
+        assert_eq!(cover.is_some(), full.is_some(), "at {p:?}");
+        if let Some(one) = cover {
+            assert_eq!(one.n_used, 1);
+            covered += 1;
+        } else {
+            missed += 1;
+        }
+    }
+    assert!(
+        covered > 500 && missed > 100,
+        "{covered} covered, {missed} missed"
+    );
+}
+
 /// `lookup_with_noise`: one record gives its own σ = rel_err · L(E); two records of equal weight at the
 /// same point give √(σ₁² + σ₂²)/2 (their gathers are independent).
 #[test]

@@ -23,7 +23,8 @@ pmbase::summable! {
         pub gathered_pass_b: u64,
         /// Pass-B lookups answered by an earlier sample of the pixel on the same surface.
         pub reused_pass_b: u64,
-        /// Lookups that found a usable record, and the sum of usable records over them.
+        /// Pass-B lookups that found a usable record, and the sum of usable records over them (pass A
+        /// asks only whether a record covers a point).
         pub n_hits: u64,
         pub n_records_used: u64,
         pub radius_px: RadiusHistogram,
@@ -60,9 +61,8 @@ impl CacheStats {
             extrapolated_pass_b: pass_b.n_extrapolated,
             gathered_pass_b: pass_b.n_gathered,
             reused_pass_b: pass_b.n_reused,
-            n_hits: (fill.lookups.n_lookups - fill.lookups.n_misses)
-                + (pass_b.n_lookups - pass_b.n_misses),
-            n_records_used: fill.lookups.n_records_used + pass_b.n_records_used,
+            n_hits: pass_b.n_lookups - pass_b.n_misses,
+            n_records_used: pass_b.n_records_used,
             radius_px,
             shrunk_by_clamping: totals.n_shrunk_by_neighbors,
             shrunk_by_gradient: totals.n_shrunk_by_gradient,
@@ -73,7 +73,7 @@ impl CacheStats {
         }
     }
 
-    /// Mean number of usable records per successful lookup.
+    /// Mean number of usable records per successful pass-B lookup.
     pub fn mean_records_per_lookup(&self) -> f64 {
         if self.n_hits == 0 {
             0.0

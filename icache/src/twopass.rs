@@ -610,7 +610,5 @@ fn covered<P>(
     payload: &P,
     visible: &VisibleFn<P>,
 ) -> Option<Lookup> {
-    cache.lookup_first_visible(sp.pos, sp.normal, Pass::A, usize::MAX, |id, r| {
-        visible(sp, payload, id, r)
-    })
+    cache.cover(sp.pos, sp.normal, |id, r| visible(sp, payload, id, r))
 }
