@@ -177,6 +177,54 @@ impl IrradianceCache {
         self.finish(acc)
     }
 
+    /// [`lookup_first_visible`](Self::lookup_first_visible), also writing to `ids` the ids of the
+    /// records it interpolates (in record order) when their values at `p` differ by more than
+    /// `agree` times the interpolation's luminance: only then does the interpolation change much
+    /// near `p`. `ids` is cleared first, and left empty where the records agree or none is usable.
+    #[allow(clippy::too_many_arguments)]
+    pub fn lookup_noting(
+        &self,
+        p: Vec3,
+        n: Vec3,
+        pass: Pass,
+        n_records: usize,
+        visible: impl Fn(u32, &Record) -> bool,
+        agree: f32,
+        ids: &mut Vec<u32>,
+    ) -> Option<Lookup> {
+        ids.clear();
+        let mut acc = Accum::default();
+        let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
+        self.each_used(p, n, pass, n_records, visible, |id, w, e| {
+            acc.add(w, e);
+            ids.push(id);
+            let l = luminance(e);
+            (lo, hi) = (lo.min(l), hi.max(l));
+        });
+        let found = self.finish(acc);
+        if !found.is_some_and(|l| hi - lo > agree * luminance(l.e)) {
+            ids.clear();
+        }
+        found
+    }
+
+    /// The interpolation at (p, n) over the records `ids` alone (in record order; those of them usable
+    /// there, without the index or a visibility test): how the interpolation a lookup made
+    /// ([`lookup_noting`](Self::lookup_noting)) goes on near its point. Ids past the cache's end are
+    /// skipped.
+    pub fn lookup_among(&self, p: Vec3, n: Vec3, pass: Pass, ids: &[u32]) -> Option<Lookup> {
+        if !(p.is_finite() && n.is_finite()) {
+            return None;
+        }
+        let mut acc = Accum::default();
+        for rec in ids.iter().filter_map(|&id| self.records.get(id as usize)) {
+            if let Some((w, e)) = self.weighted(rec, p, n, pass) {
+                acc.add(w, e);
+            }
+        }
+        self.finish(acc)
+    }
+
     /// The records [`lookup_first_visible`](Self::lookup_first_visible) would interpolate at (p, n), each
     /// with its weight and its irradiance extrapolated to p by its gradients: `each(id, w, e)` in record
     /// order. For payloads the caller keeps beside the records (a radiance cache's coefficients).

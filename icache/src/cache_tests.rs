@@ -446,6 +446,66 @@ fn a_lookup_leaves_out_the_records_its_visibility_test_rejects() {
     );
 }
 
+/// A lookup notes the records it interpolates only where they disagree, and interpolating those records
+/// alone at a nearby point gives the full lookup's answer there (no other record reaches it).
+#[test]
+fn records_noted_where_they_disagree_interpolate_as_the_full_lookup() {
+    let mut c = cache(CacheParams {
+        neighbor_clamping: false,
+        ..Default::default()
+    });
+    c.insert(new_rec(
+        Vec3::new(4.9, 5.0, 5.0),
+        Vec3::Z,
+        Vec3::splat(0.2),
+        1.0,
+        0.01,
+    ));
+    c.insert(new_rec(
+        Vec3::new(5.1, 5.0, 5.0),
+        Vec3::Z,
+        Vec3::splat(1.0),
+        1.0,
+        0.01,
+    ));
+    let p = Vec3::new(5.0, 5.0, 5.0);
+    let mut ids = Vec::new();
+    let found = c.lookup_noting(p, Vec3::Z, Pass::B, usize::MAX, |_, _| true, 0.2, &mut ids);
+    assert_eq!(found, c.lookup(p, Vec3::Z, Pass::B));
+    assert_eq!(ids, vec![0, 1]);
+    for q in [Vec3::new(4.95, 5.02, 5.0), Vec3::new(5.04, 4.97, 5.0)] {
+        let among = c.lookup_among(q, Vec3::Z, Pass::B, &ids).unwrap();
+        let full = c.lookup(q, Vec3::Z, Pass::B).unwrap();
+        assert!(
+            (among.e - full.e).abs().max_element() < 1e-6,
+            "{among:?} {full:?}"
+        );
+        assert!(
+            (among.e - found.unwrap().e).abs().max_element() > 1e-3,
+            "moved with q"
+        );
+    }
+    // Records that agree within the fraction: none noted, the value serves the pixel.
+    let near = c.lookup_noting(p, Vec3::Z, Pass::B, usize::MAX, |_, _| true, 2.0, &mut ids);
+    assert!(near.is_some() && ids.is_empty());
+    // A miss notes nothing; records past the cache's end are skipped.
+    let far = Vec3::new(0.5, 0.5, 5.0);
+    assert_eq!(
+        c.lookup_noting(
+            far,
+            Vec3::Z,
+            Pass::B,
+            usize::MAX,
+            |_, _| true,
+            0.0,
+            &mut ids
+        ),
+        None
+    );
+    assert!(ids.is_empty());
+    assert_eq!(c.lookup_among(p, Vec3::Z, Pass::B, &[99]), None);
+}
+
 /// Pass A's coverage test finds a record exactly where the full interpolation over the records the
 /// visibility test accepts exists, and names one of those records.
 #[test]

@@ -12,11 +12,15 @@ use crate::counters::SampleCounters;
 
 /// Soft indirect (and faint caustic) irradiance already computed in one pixel, per surface the camera
 /// sees there (triangle and side), for the pixel's later samples on that surface; kept across the rounds
-/// of adaptive sampling while the pixel takes samples. Why: the cache interpolates over records several
-/// pixels apart, so its value barely changes within a pixel, while each lookup, like each caustic k-NN
-/// estimate with its coverage probes, costs more than the rest of a sample. A bright caustic is
-/// estimated again at every sample: its edges are sharp within a pixel, and reusing it blurred them.
-/// Each sample still traces its own camera ray, shadow rays and texture lookups.
+/// of adaptive sampling while the pixel takes samples. Why: each cache lookup (the index's candidates,
+/// in a sequence a shadow ray to each record of an earlier frame), like each caustic k-NN estimate
+/// with its coverage probes, costs more than the rest of a sample. Where the first sample's lookup
+/// interpolated records that disagree there (a contact shadow, a crease: the light changes within the
+/// pixel), the memo also keeps how the interpolation of those records changes across the pixel
+/// ([`Slope`]), and the later samples follow it: one value for the whole pixel was an error there that
+/// no number of samples reduced. A bright caustic is estimated again at every sample: its edges are
+/// sharp within a pixel, and reusing it blurred them. Each sample still traces its own camera ray,
+/// shadow rays and texture lookups.
 #[derive(Clone, Debug, Default)]
 pub struct PixelMemo {
     entries: Vec<MemoEntry>,
@@ -29,6 +33,7 @@ struct MemoEntry {
     /// `None` when too bright to reuse.
     caustic: Option<Vec3>,
     indirect: Vec3,
+    slope: Option<Slope>,
     /// The cache lookups the first sample made, counted again for each reuse.
     lookups: Replay,
 }
@@ -74,6 +79,35 @@ impl Replay {
 /// Surfaces remembered per pixel (later ones are estimated at every sample).
 const MEMO_SURFACES: usize = 4;
 
+/// How the soft indirect irradiance changes across a pixel's surface from the first sample's point:
+/// per unit length along the two tangent axes of the surface's normal
+/// ([`glam::Vec3::any_orthonormal_pair`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Slope {
+    pub at: Vec3,
+    pub along: [Vec3; 2],
+}
+
+impl Slope {
+    /// The irradiance `e` at `at` carried to `p` (normal `n`), at least 0.
+    pub fn carry(&self, e: Vec3, p: Vec3, n: Vec3) -> Vec3 {
+        let (s, t) = n.any_orthonormal_pair();
+        let d = p - self.at;
+        (e + self.along[0] * d.dot(s) + self.along[1] * d.dot(t)).max(Vec3::ZERO)
+    }
+}
+
+/// What a pixel's memo holds for a surface.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Remembered {
+    /// The caustic irradiance, `None` when too bright to reuse.
+    pub caustic: Option<Vec3>,
+    /// The soft indirect irradiance of the first sample.
+    pub indirect: Vec3,
+    /// How it changes across the pixel, where it does.
+    pub slope: Option<Slope>,
+}
+
 /// The most a pixel's memo holds while its pixel takes samples: the vector, its entries (grown one at a
 /// time) and the allocator's overhead. Below pass A's per-pixel bytes, which are freed before shading.
 pub const MEMO_BYTES_PER_PIXEL: u64 =
@@ -100,28 +134,26 @@ impl PixelMemo {
         self.entries = Vec::new();
     }
 
-    /// (caustic if reusable, indirect) irradiance on side `front` of triangle `tri`, if computed; its
-    /// cache lookups are counted again in `c`.
-    pub fn get(
-        &self,
-        tri: u32,
-        front: bool,
-        c: &mut SampleCounters,
-    ) -> Option<(Option<Vec3>, Vec3)> {
+    /// What an earlier sample computed on side `front` of triangle `tri`, if one did; its cache
+    /// lookups are counted again in `c`.
+    pub fn get(&self, tri: u32, front: bool, c: &mut SampleCounters) -> Option<Remembered> {
         let e = self
             .entries
             .iter()
             .find(|e| e.tri == tri && e.front == front)?;
         c.lookups.replay(&e.lookups.stats());
-        Some((e.caustic, e.indirect))
+        Some(Remembered {
+            caustic: e.caustic,
+            indirect: e.indirect,
+            slope: e.slope,
+        })
     }
 
     pub fn put(
         &mut self,
         tri: u32,
         front: bool,
-        caustic: Option<Vec3>,
-        indirect: Vec3,
+        remembered: Remembered,
         lookups: icache::LookupStats,
     ) {
         if self.entries.len() < MEMO_SURFACES {
@@ -130,8 +162,9 @@ impl PixelMemo {
             self.entries.push(MemoEntry {
                 tri,
                 front,
-                caustic,
-                indirect,
+                caustic: remembered.caustic,
+                indirect: remembered.indirect,
+                slope: remembered.slope,
                 lookups: Replay::of(&lookups),
             });
         }
@@ -145,5 +178,46 @@ pub fn sanitize(l: Vec3, counters: &mut SampleCounters) -> Vec3 {
     } else {
         counters.nan_or_negative += 1;
         Vec3::ZERO
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn stats(n: u64) -> icache::LookupStats {
+        icache::LookupStats {
+            n_lookups: n,
+            n_records_used: 2 * n,
+            ..Default::default()
+        }
+    }
+
+    /// An entry gives back what was put, replaying its lookups each time; a slope carries the value
+    /// across the surface.
+    #[test]
+    fn a_memo_gives_back_its_surfaces_and_carries_a_slope() {
+        let mut m = PixelMemo::default();
+        let n = Vec3::Z;
+        let (s, t) = n.any_orthonormal_pair();
+        let slope = Slope {
+            at: Vec3::ZERO,
+            along: [Vec3::splat(2.0), Vec3::ZERO],
+        };
+        let r = Remembered {
+            caustic: None,
+            indirect: Vec3::ONE,
+            slope: Some(slope),
+        };
+        m.put(7, true, r, stats(1));
+        let mut c = SampleCounters::default();
+        assert_eq!(m.get(7, true, &mut c), Some(r));
+        assert_eq!((c.lookups.n_lookups, c.lookups.n_reused), (1, 1));
+        assert!(m.get(7, false, &mut c).is_none());
+        let at = |p: Vec3| slope.carry(Vec3::ONE, p, n);
+        assert!((at(0.1 * s) - Vec3::splat(1.2)).abs().max_element() < 1e-6);
+        assert!((at(0.1 * t) - Vec3::ONE).abs().max_element() < 1e-6);
+        // Never below zero.
+        assert_eq!(at(-s), Vec3::ZERO);
     }
 }

@@ -67,11 +67,18 @@ pub struct PmContext<'a> {
     /// Where a camera ray first meets a textured surface, the width (per unit of distance along the
     /// ray) its texture is averaged over; 0: read at the point ([`crate::render::plan::TEXTURE_FILTER`]).
     pub texture_filter: f32,
+    /// The camera's pixel, in radians: a pixel memo's [`super::Slope`] is measured across it (0: none).
+    pub pixel_angle: f32,
 }
 
 /// A caustic irradiance at most this fraction of the soft indirect one is reused within a pixel (see
 /// `PixelMemo`).
 const FAINT_CAUSTIC: f32 = 0.05;
+
+/// A pixel memo keeps how the cache's light changes across the pixel (`Slope`) where the records
+/// the first sample interpolated differ there by more than this fraction of their interpolation:
+/// about the records' own gather noise, below which the change across a pixel is mostly noise.
+const MEMO_AGREE: f32 = 0.05;
 
 /// A surface point being shaded: the hit, its frame seen from `wo`, the medium the ray arrived in, and
 /// the path's depth and throughput there.
@@ -404,33 +411,55 @@ impl PmContext<'_> {
         c: &mut SampleCounters,
     ) -> (Vec3, Vec3) {
         let (hit, frame) = (v.hit, &v.frame);
-        let remembered = memo.as_ref().and_then(|m| m.get(hit.tri, frame.front, c));
-        match remembered {
-            Some((Some(caustic), indirect)) => (caustic, indirect),
-            Some((None, indirect)) => (
-                self.photons
-                    .caustic_irradiance(hit, frame.front, frame.n, c),
-                indirect,
-            ),
-            None => {
-                let caustic = self
-                    .photons
-                    .caustic_irradiance(hit, frame.front, frame.n, c);
-                let before = c.lookups;
-                let indirect = self.indirect(hit, frame, matches!(via, Via::Glossy { .. }), rng, c);
-                if let Some(m) = memo {
-                    let faint = caustic.max_element() <= FAINT_CAUSTIC * indirect.max_element();
-                    m.put(
-                        hit.tri,
-                        frame.front,
-                        faint.then_some(caustic),
-                        indirect,
-                        c.lookups.since(&before),
-                    );
-                }
-                (caustic, indirect)
-            }
+        let via_glossy = matches!(via, Via::Glossy { .. });
+        let caustic_here = |c: &mut SampleCounters| {
+            self.photons
+                .caustic_irradiance(hit, frame.front, frame.n, c)
+        };
+        if let Some(r) = memo.as_ref().and_then(|m| m.get(hit.tri, frame.front, c)) {
+            let caustic = r.caustic.unwrap_or_else(|| caustic_here(c));
+            let indirect = r
+                .slope
+                .map_or(r.indirect, |s| s.carry(r.indirect, hit.p, frame.n));
+            return (caustic, indirect);
         }
+        let caustic = caustic_here(c);
+        let before = c.lookups;
+        let mut records = Vec::new();
+        let indirect = self.indirect(hit, frame, via_glossy, rng, c, &mut records);
+        if let Some(m) = memo {
+            let faint = caustic.max_element() <= FAINT_CAUSTIC * indirect.max_element();
+            let remembered = super::Remembered {
+                caustic: faint.then_some(caustic),
+                indirect,
+                slope: self.slope(hit, frame, indirect, &records),
+            };
+            m.put(hit.tri, frame.front, remembered, c.lookups.since(&before));
+        }
+        (caustic, indirect)
+    }
+
+    /// How the interpolation of `records` (their value `e` at the hit) changes across the camera
+    /// pixel's footprint there: measured half a pixel away along each tangent axis. `None` without
+    /// records (they agreed, or the light did not come from the cache).
+    fn slope(&self, hit: &Hit, frame: &Frame, e: Vec3, records: &[u32]) -> Option<super::Slope> {
+        let IndirectSource::CacheUpTo(cache, _) = self.source else {
+            return None;
+        };
+        if records.is_empty() || !(self.pixel_angle > 0.0) {
+            return None;
+        }
+        let step = 0.5 * self.pixel_angle * hit.t;
+        let (s, t) = frame.n.any_orthonormal_pair();
+        let along = |axis: Vec3| {
+            cache
+                .lookup_among(hit.p + step * axis, frame.n, Pass::B, records)
+                .map_or(Vec3::ZERO, |l| (l.e - e) / step)
+        };
+        Some(super::Slope {
+            at: hit.p,
+            along: [along(s), along(t)],
+        })
     }
 
     /// Direct light with the full BRDF: every point, spot and directional light exactly (a shadow ray
@@ -554,6 +583,8 @@ impl PmContext<'_> {
     }
 
     /// Soft indirect irradiance at a non-specular point.
+    /// The soft indirect irradiance at `hit`; where a pass-B lookup interpolated records, their ids
+    /// in `records` (else it is left empty).
     fn indirect(
         &self,
         hit: &Hit,
@@ -561,6 +592,7 @@ impl PmContext<'_> {
         via_glossy: bool,
         rng: &mut Rng,
         c: &mut SampleCounters,
+        records: &mut Vec<u32>,
     ) -> Vec3 {
         // Points reached through glossy lobes are blurred by the lobe: the photon map suffices there. The
         // point has its own direct and caustic terms, so only the photons that are neither count.
@@ -574,25 +606,21 @@ impl PmContext<'_> {
                 c.photon_estimates += 1;
                 self.photons.global_indirect_irradiance(hit.p, frame.n)
             }
-            IndirectSource::CacheUpTo(cache, n)
-                if self.scene.settings.icache.visibility() || self.foreign > 0 =>
-            {
-                let visible = |id, rec: &icache::Record| self.record_in_sight(hit, frame, id, rec);
+            IndirectSource::CacheUpTo(cache, n) => {
+                let check = self.scene.settings.icache.visibility() || self.foreign > 0;
+                let visible =
+                    |id, rec: &icache::Record| !check || self.record_in_sight(hit, frame, id, rec);
                 self.cached(
-                    |pass| cache.lookup_first_visible(hit.p, frame.n, pass, n, visible),
+                    |pass, ids| {
+                        cache.lookup_noting(hit.p, frame.n, pass, n, visible, MEMO_AGREE, ids)
+                    },
                     hit,
                     frame,
                     rng,
                     c,
+                    records,
                 )
             }
-            IndirectSource::CacheUpTo(cache, n) => self.cached(
-                |pass| cache.lookup_first(hit.p, frame.n, pass, n),
-                hit,
-                frame,
-                rng,
-                c,
-            ),
             IndirectSource::Gather => {
                 c.monte_carlo += 1;
                 self.final_gather(hit, frame, rng.next_u32() as u64, c).e
@@ -606,13 +634,14 @@ impl PmContext<'_> {
     /// and answers zero: the sample will be taken again.
     fn cached(
         &self,
-        lookup: impl Fn(Pass) -> Option<icache::Lookup>,
+        lookup: impl Fn(Pass, &mut Vec<u32>) -> Option<icache::Lookup>,
         hit: &Hit,
         frame: &Frame,
         rng: &mut Rng,
         c: &mut SampleCounters,
+        records: &mut Vec<u32>,
     ) -> Vec3 {
-        let found = lookup(Pass::B);
+        let found = lookup(Pass::B, records);
         c.lookups.record(found.as_ref());
         if let Some(l) = found {
             return l.e;
@@ -620,7 +649,10 @@ impl PmContext<'_> {
         if self.defer_misses {
             return Vec3::ZERO;
         }
-        match lookup(Pass::Extrapolate) {
+        let extrapolated = lookup(Pass::Extrapolate, records);
+        // An extrapolation's records do not interpolate here: later samples reuse its value.
+        records.clear();
+        match extrapolated {
             Some(l) => {
                 c.lookups.n_extrapolated += 1;
                 l.e

@@ -105,6 +105,7 @@ impl Plan {
             radiance: None,
             foreign: 0,
             texture_filter: TEXTURE_FILTER * self.camera.pixel_angle(),
+            pixel_angle: self.camera.pixel_angle(),
         }
     }
 }
