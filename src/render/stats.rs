@@ -826,7 +826,7 @@ fn cache_rows(
     );
     r.number(
         "Irradiance cache",
-        "Mean usable records per lookup",
+        "Mean usable records per pass-B lookup",
         "icache.mean_records_per_lookup",
         s.mean_records_per_lookup(),
     );
