@@ -397,27 +397,28 @@ fn insertion_with_neighbours_found_at_the_wave_start_is_exact() {
     }
 }
 
-#[test]
-fn a_lookup_leaves_out_the_records_its_visibility_test_rejects() {
+/// Records on z = 5 at x = 4.9 (irradiance `left`) and x = 5.1 (irradiance 1), reach 1, unclamped.
+fn two_records(left: f32) -> IrradianceCache {
     let mut c = cache(CacheParams {
         neighbor_clamping: false,
         ..Default::default()
     });
+    for (x, e) in [(4.9, left), (5.1, 1.0)] {
+        c.insert(new_rec(
+            Vec3::new(x, 5.0, 5.0),
+            Vec3::Z,
+            Vec3::splat(e),
+            1.0,
+            0.01,
+        ));
+    }
+    c
+}
+
+#[test]
+fn a_lookup_leaves_out_the_records_its_visibility_test_rejects() {
     // Two records on z = 5 either side of the query, one bright, one dark.
-    c.insert(new_rec(
-        Vec3::new(4.9, 5.0, 5.0),
-        Vec3::Z,
-        Vec3::splat(2.0),
-        1.0,
-        0.01,
-    ));
-    c.insert(new_rec(
-        Vec3::new(5.1, 5.0, 5.0),
-        Vec3::Z,
-        Vec3::splat(1.0),
-        1.0,
-        0.01,
-    ));
+    let c = two_records(2.0);
     let p = Vec3::new(5.0, 5.0, 5.0);
     let all = c.lookup(p, Vec3::Z, Pass::B).unwrap();
     assert_eq!(
@@ -450,24 +451,7 @@ fn a_lookup_leaves_out_the_records_its_visibility_test_rejects() {
 /// alone at a nearby point gives the full lookup's answer there (no other record reaches it).
 #[test]
 fn records_noted_where_they_disagree_interpolate_as_the_full_lookup() {
-    let mut c = cache(CacheParams {
-        neighbor_clamping: false,
-        ..Default::default()
-    });
-    c.insert(new_rec(
-        Vec3::new(4.9, 5.0, 5.0),
-        Vec3::Z,
-        Vec3::splat(0.2),
-        1.0,
-        0.01,
-    ));
-    c.insert(new_rec(
-        Vec3::new(5.1, 5.0, 5.0),
-        Vec3::Z,
-        Vec3::splat(1.0),
-        1.0,
-        0.01,
-    ));
+    let c = two_records(0.2);
     let p = Vec3::new(5.0, 5.0, 5.0);
     let mut ids = Vec::new();
     let found = c.lookup_noting(p, Vec3::Z, Pass::B, usize::MAX, |_, _| true, 0.2, &mut ids);

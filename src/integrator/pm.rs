@@ -582,9 +582,8 @@ impl PmContext<'_> {
         weight * sub.sum()
     }
 
-    /// Soft indirect irradiance at a non-specular point.
-    /// The soft indirect irradiance at `hit`; where a pass-B lookup interpolated records, their ids
-    /// in `records` (else it is left empty).
+    /// Soft indirect irradiance at a non-specular point; where a pass-B lookup interpolated records
+    /// that disagree there, their ids in `records` (else it is left empty).
     fn indirect(
         &self,
         hit: &Hit,
@@ -607,9 +606,7 @@ impl PmContext<'_> {
                 self.photons.global_indirect_irradiance(hit.p, frame.n)
             }
             IndirectSource::CacheUpTo(cache, n) => {
-                let check = self.scene.settings.icache.visibility() || self.foreign > 0;
-                let visible =
-                    |id, rec: &icache::Record| !check || self.record_in_sight(hit, frame, id, rec);
+                let visible = |id, rec: &icache::Record| self.record_in_sight(hit, frame, id, rec);
                 self.cached(
                     |pass, ids| {
                         cache.lookup_noting(hit.p, frame.n, pass, n, visible, MEMO_AGREE, ids)
