@@ -15,6 +15,7 @@ Writes OUT.exr (linear RGB float32, channels R,G,B) and OUT.json (same name, .js
 spp, passes, time (wall and CPU seconds), the Mitsuba version and variant, and the noise of the
 reference itself, from K independent passes with different seeds:
   stderr_mean        mean over pixels and channels of the standard error of the mean
+  image_mean_rel_stderr  per channel, the standard error of the image mean over the image mean
   noise_relmse       mean of stderr^2 / (ref^2 + 0.01): the relMSE (tools/compare.py's metric) by which
                      this reference is expected to differ from the exact image
 Variant: llvm_ad_rgb when it works (needs libLLVM: Debian's libllvm19; DRJIT_LIBLLVM_PATH is set here
@@ -64,7 +65,8 @@ def pick_variant(forced):
 
 
 def render_passes(mi, scene, spp, passes, seed, width, height, variant):
-    """Returns (mean image, per-pixel standard error, spp actually rendered)."""
+    """Returns (mean image, per-pixel standard error, the image mean's relative standard error per
+    channel, spp actually rendered)."""
     per_pass = max(1, math.ceil(spp / passes))
     chunk = per_pass if variant.startswith("scalar") else max(1, min(per_pass, MAX_LANES // (width * height)))
     images, call = [], 0
@@ -80,7 +82,12 @@ def render_passes(mi, scene, spp, passes, seed, width, height, variant):
     stack = np.stack(images)
     mean = stack.mean(axis=0)
     se = stack.std(axis=0, ddof=1) / math.sqrt(passes) if passes > 1 else np.full_like(mean, np.nan)
-    return mean, se, per_pass * passes
+    # The passes' image means spread by the noise of the whole image's mean, which per-pixel errors
+    # understate where a few samples carry much of it (a point light inside a medium).
+    pass_means = stack.mean(axis=(1, 2))
+    image_se = (pass_means.std(axis=0, ddof=1) / math.sqrt(passes) / np.maximum(mean.mean(axis=(0, 1)), 1e-12)
+                if passes > 1 else np.full(3, np.nan))
+    return mean, se, image_se, per_pass * passes
 
 
 def main():
@@ -114,7 +121,7 @@ def main():
     mscene = mi.load_file(xml)
 
     t0, c0 = time.time(), time.process_time()
-    mean, se, spp_done = render_passes(mi, mscene, spp, max(1, args.passes), scene.seed, width, height, variant)
+    mean, se, image_se, spp_done = render_passes(mi, mscene, spp, max(1, args.passes), scene.seed, width, height, variant)
     wall, cpu = time.time() - t0, time.process_time() - c0
 
     from mref_exr import write_rgb
@@ -132,6 +139,7 @@ def main():
         "stderr_mean": float(np.mean(se)), "stderr_max": float(np.max(se)),
         "noise_relmse": float(np.mean(se ** 2 / (mean ** 2 + 0.01))),
         "mean_value": float(np.mean(mean)),
+        "image_mean_rel_stderr": [float(x) for x in image_se],
         "notes": (["glossy materials use the pm_phong Python plugin (modified Phong as pmrender): "
                    + ", ".join(glossy)] if glossy else [])
                  + (["media: homogeneous, HG phase, attached to their boundary shapes (interior/exterior as "
