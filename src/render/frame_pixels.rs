@@ -172,16 +172,20 @@ pub fn unchanged_pixels(
             (rect, c, reach)
         })
         .collect();
+    // Only pixels still kept need the test, and each once.
     let mut reached = vec![false; (w * h) as usize];
     reached
         .par_chunks_mut(w as usize)
+        .zip(keep.par_chunks(w as usize))
         .enumerate()
-        .for_each(|(y, row)| {
+        .for_each(|(y, (row, kept))| {
             let y = y as u32;
             for (rect, c, reach) in rects.iter().filter(|(r, _, _)| y >= r.y0 && y < r.y1) {
                 for x in rect.x0..rect.x1 {
-                    let i = (y * w + x) as usize;
-                    row[x as usize] |= points[i]
+                    if row[x as usize] || !kept[x as usize] {
+                        continue;
+                    }
+                    row[x as usize] = points[(y * w + x) as usize]
                         .iter()
                         .flatten()
                         .any(|&(p, pixel, _, _)| p.distance(*c) < reach + pixel);
