@@ -172,7 +172,13 @@ pub fn unchanged_pixels(
             (rect, c, reach)
         })
         .collect();
-    // Only pixels still kept need the test, and each once.
+    // Each kept pixel looks for the changed records near its points in a lattice of their spheres
+    // (widened by the largest pixel), and takes a record where its pixel is in the record's rectangle.
+    let widest = points
+        .par_iter()
+        .flat_map_iter(|p| p.iter().flatten().map(|e| e.1))
+        .reduce(|| 0.0, f32::max);
+    let bins = SphereBins::new(rects.iter().map(|&(_, c, reach)| (c, reach + widest)));
     let mut reached = vec![false; (w * h) as usize];
     reached
         .par_chunks_mut(w as usize)
@@ -180,16 +186,17 @@ pub fn unchanged_pixels(
         .enumerate()
         .for_each(|(y, (row, kept))| {
             let y = y as u32;
-            for (rect, c, reach) in rects.iter().filter(|(r, _, _)| y >= r.y0 && y < r.y1) {
-                for x in rect.x0..rect.x1 {
-                    if row[x as usize] || !kept[x as usize] {
-                        continue;
-                    }
-                    row[x as usize] = points[(y * w + x) as usize]
+            for x in (0..w).filter(|&x| kept[x as usize]) {
+                row[x as usize] =
+                    points[(y * w + x) as usize]
                         .iter()
                         .flatten()
-                        .any(|&(p, pixel, _, _)| p.distance(*c) < reach + pixel);
-                }
+                        .any(|&(p, pixel, _, _)| {
+                            bins.any_near(p, |j| {
+                                let (rect, c, reach) = &rects[j as usize];
+                                rect.contains(x, y) && p.distance(*c) < reach + pixel
+                            })
+                        });
             }
         });
     if shaded.light.len() != keep.len() {
@@ -436,9 +443,123 @@ pub(super) fn sphere_meets_cone(c: Vec3, r: f32, p: Vec3, c_l: Vec3, r_l: f32) -
     w.distance(d * t) - t * r_l < r
 }
 
+/// Spheres binned in a uniform lattice over their bounds, each in every cell its bounding box meets:
+/// the spheres that may hold a point are those of its cell.
+struct SphereBins {
+    lo: Vec3,
+    cell: f32,
+    dims: [usize; 3],
+    /// Per cell, its spheres' slice of `ids` (`start[c]..start[c + 1]`).
+    start: Vec<u32>,
+    ids: Vec<u32>,
+}
+
+/// Cells of a [`SphereBins`] lattice, at most.
+const MAX_BIN_CELLS: f32 = 32_768.0;
+
+impl SphereBins {
+    fn new(spheres: impl Iterator<Item = (Vec3, f32)>) -> SphereBins {
+        let spheres: Vec<(Vec3, f32)> = spheres
+            .filter(|(c, r)| c.is_finite() && r.is_finite())
+            .collect();
+        let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+        for &(c, r) in &spheres {
+            lo = lo.min(c - r);
+            hi = hi.max(c + r);
+        }
+        let extent = (hi - lo).max(Vec3::splat(1e-6));
+        // Cells about the mean sphere's diameter, fewer than MAX_BIN_CELLS.
+        let mean = spheres.iter().map(|s| 2.0 * s.1).sum::<f32>() / spheres.len().max(1) as f32;
+        let cell = mean
+            .max((extent.x * extent.y * extent.z / MAX_BIN_CELLS).cbrt())
+            .max(1e-6);
+        let dims = (extent / cell).ceil().max(Vec3::ONE).as_uvec3();
+        let dims = [dims.x as usize, dims.y as usize, dims.z as usize];
+        let cell_of = |p: Vec3| {
+            let c = ((p - lo) / cell).floor().max(Vec3::ZERO).as_uvec3();
+            [
+                (c.x as usize).min(dims[0] - 1),
+                (c.y as usize).min(dims[1] - 1),
+                (c.z as usize).min(dims[2] - 1),
+            ]
+        };
+        let index = |c: [usize; 3]| (c[2] * dims[1] + c[1]) * dims[0] + c[0];
+        let mut per_cell: Vec<Vec<u32>> = vec![Vec::new(); dims[0] * dims[1] * dims[2]];
+        for (id, &(c, r)) in spheres.iter().enumerate() {
+            let (a, b) = (cell_of(c - r), cell_of(c + r));
+            for z in a[2]..=b[2] {
+                for y in a[1]..=b[1] {
+                    for x in a[0]..=b[0] {
+                        per_cell[index([x, y, z])].push(id as u32);
+                    }
+                }
+            }
+        }
+        let mut start = Vec::with_capacity(per_cell.len() + 1);
+        let mut ids = Vec::new();
+        for c in per_cell {
+            start.push(ids.len() as u32);
+            ids.extend(c);
+        }
+        start.push(ids.len() as u32);
+        SphereBins {
+            lo,
+            cell,
+            dims,
+            start,
+            ids,
+        }
+    }
+
+    /// Whether `test` holds for one of the spheres whose bounding box may hold `p`.
+    fn any_near(&self, p: Vec3, mut test: impl FnMut(u32) -> bool) -> bool {
+        let f = (p - self.lo) / self.cell;
+        let top = Vec3::new(
+            self.dims[0] as f32,
+            self.dims[1] as f32,
+            self.dims[2] as f32,
+        );
+        if !(f.cmpge(Vec3::ZERO).all() && f.cmple(top).all()) {
+            return false;
+        }
+        let c = f.min(top - 1.0).as_uvec3();
+        let i = (c.z as usize * self.dims[1] + c.y as usize) * self.dims[0] + c.x as usize;
+        self.ids[self.start[i] as usize..self.start[i + 1] as usize]
+            .iter()
+            .any(|&id| test(id))
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The bins find every sphere holding a point, for spheres of mixed sizes (one spanning all).
+    #[test]
+    fn sphere_bins_find_what_a_search_of_every_sphere_finds() {
+        let mut rng = photon::sampling::Rng::new(11);
+        let mut v = || Vec3::new(rng.uniform(), rng.uniform(), rng.uniform());
+        let mut spheres: Vec<(Vec3, f32)> =
+            (0..300).map(|_| (v() * 4.0, 0.05 + v().x * 0.3)).collect();
+        spheres.push((Vec3::splat(2.0), 5.0));
+        let bins = SphereBins::new(spheres.iter().copied());
+        for _ in 0..20_000 {
+            let p = v() * 5.0 - 0.5;
+            let mut found = Vec::new();
+            bins.any_near(p, |j| {
+                found.push(j);
+                false
+            });
+            for (j, &(c, r)) in spheres.iter().enumerate() {
+                if p.distance(c) < r {
+                    assert!(
+                        found.contains(&(j as u32)),
+                        "sphere {j} holds {p} but was not found"
+                    );
+                }
+            }
+        }
+    }
 
     #[test]
     fn a_pixel_is_relit_by_each_channel_s_change_unless_a_dark_channel_lit_up() {

@@ -48,6 +48,11 @@ pub struct Window {
 }
 
 impl Window {
+    /// Whether pixel (`x`, `y`) lies in the window.
+    pub fn contains(&self, x: u32, y: u32) -> bool {
+        x >= self.x0 && x < self.x1 && y >= self.y0 && y < self.y1
+    }
+
     pub fn full(width: u32, height: u32) -> Window {
         Window {
             x0: 0,
