@@ -5,6 +5,7 @@
 //! every other module forbids it.
 #![deny(unsafe_code)]
 #![warn(unreachable_pub)]
+pub mod cells;
 pub mod defaults;
 mod error;
 pub mod file;

@@ -6,6 +6,7 @@ use std::sync::atomic::AtomicBool;
 
 use glam::Vec3;
 use icache::media::MediaCache;
+use photon::cells::CellIndex;
 use photon::reach::ReachGrid;
 use photon::{PhotonMap, PhotonMaps, PhotonTargets, TraceStats};
 
@@ -82,8 +83,9 @@ struct MediaLookups {
     /// The photons camera rays' multiple scattering sums: without the L S+ V ones when the volume
     /// caustic map has them (denser).
     camera_photons: Photons,
-    /// Where the volume caustic map has a photon within its lookup radius.
-    volume_caustic_reach: Option<ReachGrid>,
+    /// The volume caustic map's photons binned for its searches (every march step of a camera ray
+    /// in a medium makes one).
+    volume_caustic_cells: Option<CellIndex>,
 }
 
 impl<'a> PhotonData<'a> {
@@ -155,22 +157,18 @@ impl<'a> PhotonData<'a> {
         let Some(map) = &self.maps.volume_caustic else {
             return Vec3::ZERO;
         };
-        if self
-            .media
-            .volume_caustic_reach
-            .as_ref()
-            .is_some_and(|r| !r.may_reach(x))
-        {
+        let Some(cells) = &self.media.volume_caustic_cells else {
             return Vec3::ZERO;
-        }
-        c.photon_estimates += 1;
+        };
         let (k, cap) = (
             self.settings.lookup,
             self.settings.max_radius_volume_caustic,
         );
         NEIGHBORS.with(|nb| {
             let mut nb = nb.borrow_mut();
-            map.tree().knn(x, k, cap, &mut nb);
+            if !cells.knn(x, k, cap, &mut nb) {
+                map.tree().knn(x, k, cap, &mut nb);
+            }
             let r2 = if nb.len() >= k {
                 nb.last().map_or(0.0, |n| n.dist2)
             } else {
@@ -179,6 +177,7 @@ impl<'a> PhotonData<'a> {
             if nb.is_empty() || r2.is_nan() || r2 <= 0.0 {
                 return Vec3::ZERO;
             }
+            c.photon_estimates += 1;
             let photons = map.photons();
             let sum: Vec3 = nb
                 .iter()
@@ -273,11 +272,9 @@ impl<'a> PhotonData<'a> {
             )),
             _ => None,
         };
-        let volume_caustic_reach = maps.volume_caustic.as_ref().map(|m| {
-            ReachGrid::build(
-                m.photons().iter().map(|ph| ph.pos),
-                settings.max_radius_volume_caustic,
-            )
+        let volume_caustic_cells = maps.volume_caustic.as_ref().map(|m| {
+            let at: Vec<Vec3> = m.photons().iter().map(|ph| ph.pos).collect();
+            CellIndex::build(&at, settings.max_radius_volume_caustic)
         });
         let camera_photons = if maps.volume_caustic.is_some() {
             Photons::Indirect
@@ -296,7 +293,7 @@ impl<'a> PhotonData<'a> {
             media: MediaLookups {
                 volume_grid,
                 camera_photons,
-                volume_caustic_reach,
+                volume_caustic_cells,
             },
         }
     }
