@@ -90,15 +90,18 @@ impl CellIndex {
         }
     }
 
-    /// The `k` nearest points with squared distance strictly below `max_radius²` (at most the built
-    /// radius), sorted by `(dist2, index)`, into `out` (cleared first); among points tied at the k-th
-    /// distance, those of lower index. `false` (and nothing in `out`) where the cells around `q` hold
-    /// more than [`MAX_SCAN`] points: a kd-tree is faster there.
+    /// The `k` nearest points with squared distance strictly below `max_radius²`, sorted by
+    /// `(dist2, index)`, into `out` (cleared first); among points tied at the k-th distance, those of
+    /// lower index. `false` (and nothing in `out`) for a radius past the built one, and where the
+    /// cells around `q` hold more than [`MAX_SCAN`] points: a kd-tree is faster there.
     pub fn knn(&self, q: Vec3, k: usize, max_radius: f32, out: &mut Vec<Neighbor>) -> bool {
         out.clear();
-        let r = max_radius.min(self.radius);
+        let r = max_radius;
         if k == 0 || self.points.is_empty() || !q.is_finite() || !(r > 0.0) {
             return true;
+        }
+        if r > self.radius {
+            return false;
         }
         let r2 = r * r;
         let f = (q - self.lo) / self.cell;
@@ -200,6 +203,7 @@ mod tests {
         assert!(n_declined > 0 && n_declined < 400, "{n_declined}");
         assert!(!index.knn(Vec3::splat(0.75), 10, radius, &mut out) && out.is_empty());
         assert!(index.knn(Vec3::splat(50.0), 10, radius, &mut out) && out.is_empty());
+        assert!(!index.knn(Vec3::splat(1.5), 10, 2.0 * radius, &mut out));
         assert!(CellIndex::build(&[], radius).memory_bytes() < 64);
     }
 }

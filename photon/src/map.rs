@@ -18,6 +18,7 @@ use std::cell::RefCell;
 
 use glam::Vec3;
 
+use crate::cells::CellIndex;
 use crate::error::Result;
 use crate::flann::{KdTree, Neighbor};
 
@@ -67,10 +68,12 @@ pub struct Estimate {
     pub radius: f32,
 }
 
-/// Photons and the kd-tree over their positions (tree index i = `photons[i]`).
+/// Photons and the kd-tree over their positions (tree index i = `photons[i]`), and for a map searched
+/// at one radius everywhere a lattice of cells that answers its searches where photons are few.
 pub struct PhotonMap {
     photons: Vec<Photon>,
     tree: KdTree,
+    cells: Option<CellIndex>,
 }
 
 thread_local! {
@@ -114,7 +117,31 @@ impl PhotonMap {
     pub fn new(photons: Vec<Photon>) -> Result<PhotonMap> {
         let positions: Vec<Vec3> = photons.iter().map(|p| p.pos).collect();
         let tree = KdTree::build(&positions)?;
-        Ok(PhotonMap { photons, tree })
+        Ok(PhotonMap {
+            photons,
+            tree,
+            cells: None,
+        })
+    }
+
+    /// The map with a lattice of cells for searches within `radius` (see [`CellIndex`]): the caustic
+    /// maps, which shading searches at every sample, most searches finding few photons.
+    pub fn with_cells(mut self, radius: f32) -> PhotonMap {
+        let positions: Vec<Vec3> = self.photons.iter().map(|p| p.pos).collect();
+        self.cells = Some(CellIndex::build(&positions, radius));
+        self
+    }
+
+    /// The `k` nearest photons within `max_radius` ([`KdTree::knn`]'s contract), from the cells where
+    /// they answer, else from the kd-tree.
+    pub fn knn(&self, q: Vec3, k: usize, max_radius: f32, out: &mut Vec<Neighbor>) {
+        if !self
+            .cells
+            .as_ref()
+            .is_some_and(|c| c.knn(q, k, max_radius, out))
+        {
+            self.tree.knn(q, k, max_radius, out);
+        }
     }
 
     pub fn photons(&self) -> &[Photon] {
@@ -281,7 +308,7 @@ impl PhotonMap {
         }
         NEIGHBORS.with(|cell| {
             let mut found = cell.borrow_mut();
-            self.tree.knn(p, k, max_radius, &mut found);
+            self.knn(p, k, max_radius, &mut found);
             let hit_max_radius = found.len() < k;
             let r = match found.last() {
                 Some(last) if !hit_max_radius => last.dist2.sqrt(),
@@ -356,9 +383,11 @@ impl PhotonMap {
         })
     }
 
-    /// Bytes held by the photons and the tree.
+    /// Bytes held by the photons, the tree and the cells.
     pub fn memory_bytes(&self) -> usize {
-        self.photons.capacity() * std::mem::size_of::<Photon>() + self.tree.memory_bytes()
+        self.photons.capacity() * std::mem::size_of::<Photon>()
+            + self.tree.memory_bytes()
+            + self.cells.as_ref().map_or(0, CellIndex::memory_bytes)
     }
 }
 

@@ -6,7 +6,6 @@ use std::sync::atomic::AtomicBool;
 
 use glam::Vec3;
 use icache::media::MediaCache;
-use photon::cells::CellIndex;
 use photon::reach::ReachGrid;
 use photon::{PhotonMap, PhotonMaps, PhotonTargets, TraceStats};
 
@@ -83,9 +82,6 @@ struct MediaLookups {
     /// The photons camera rays' multiple scattering sums: without the L S+ V ones when the volume
     /// caustic map has them (denser).
     camera_photons: Photons,
-    /// The volume caustic map's photons binned for its searches (every march step of a camera ray
-    /// in a medium makes one).
-    volume_caustic_cells: Option<CellIndex>,
 }
 
 impl<'a> PhotonData<'a> {
@@ -157,18 +153,13 @@ impl<'a> PhotonData<'a> {
         let Some(map) = &self.maps.volume_caustic else {
             return Vec3::ZERO;
         };
-        let Some(cells) = &self.media.volume_caustic_cells else {
-            return Vec3::ZERO;
-        };
         let (k, cap) = (
             self.settings.lookup,
             self.settings.max_radius_volume_caustic,
         );
         NEIGHBORS.with(|nb| {
             let mut nb = nb.borrow_mut();
-            if !cells.knn(x, k, cap, &mut nb) {
-                map.tree().knn(x, k, cap, &mut nb);
-            }
+            map.knn(x, k, cap, &mut nb);
             let r2 = if nb.len() >= k {
                 nb.last().map_or(0.0, |n| n.dist2)
             } else {
@@ -240,8 +231,17 @@ impl<'a> PhotonData<'a> {
         super::volume_grid::phase_moments(s, d, g) * ratio
     }
 
-    /// Wraps the maps for the render: the caustic map's reach grid is built here.
-    pub fn new(maps: PhotonMaps, settings: PhotonSettings, scene: &'a Scene) -> Self {
+    /// Wraps the maps for the render: the caustic map's reach grid is built here, and both caustic
+    /// maps' lattices of cells for their searches at their radius.
+    pub fn new(mut maps: PhotonMaps, settings: PhotonSettings, scene: &'a Scene) -> Self {
+        maps.caustic = maps
+            .caustic
+            .take()
+            .map(|m| m.with_cells(settings.max_radius_caustic));
+        maps.volume_caustic = maps
+            .volume_caustic
+            .take()
+            .map(|m| m.with_cells(settings.max_radius_volume_caustic));
         let caustic_reach = maps.caustic.as_ref().map(|m| {
             ReachGrid::build(
                 m.photons().iter().map(|ph| ph.pos),
@@ -272,10 +272,6 @@ impl<'a> PhotonData<'a> {
             )),
             _ => None,
         };
-        let volume_caustic_cells = maps.volume_caustic.as_ref().map(|m| {
-            let at: Vec<Vec3> = m.photons().iter().map(|ph| ph.pos).collect();
-            CellIndex::build(&at, settings.max_radius_volume_caustic)
-        });
         let camera_photons = if maps.volume_caustic.is_some() {
             Photons::Indirect
         } else {
@@ -293,7 +289,6 @@ impl<'a> PhotonData<'a> {
             media: MediaLookups {
                 volume_grid,
                 camera_photons,
-                volume_caustic_cells,
             },
         }
     }
