@@ -242,10 +242,10 @@ fn cover(n: u32, m: u32) -> Vec<Vec<(usize, f32)>> {
 /// Bilinear lookup in `texels` (`w` × `h`, top row first, wrapping); OBJ's v runs upward, image rows
 /// downward.
 fn bilinear(texels: &[Vec3], w: usize, h: usize, uv: Vec2) -> Vec3 {
-    // x ∈ [−0.5, w − 0.5] (w − 0.5 at most, or w if rem_euclid rounds up to 1): the four texels are
+    // x ∈ [−0.5, w − 0.5] (w − 0.5 at most, or w if the wrap rounds up to 1): the four texels are
     // wrapped by a comparison each, not by an integer division each.
-    let x = uv.x.rem_euclid(1.0) * w as f32 - 0.5;
-    let y = (1.0 - uv.y.rem_euclid(1.0)) * h as f32 - 0.5;
+    let x = wrap_unit(uv.x) * w as f32 - 0.5;
+    let y = (1.0 - wrap_unit(uv.y)) * h as f32 - 0.5;
     if !(x >= -0.5 && x <= w as f32 && y >= -0.5 && y <= h as f32) {
         return texels[0];
     }
@@ -261,6 +261,13 @@ fn bilinear(texels: &[Vec3], w: usize, h: usize, uv: Vec2) -> Vec3 {
     let t = texels;
     (t[j0 + i0] * (1.0 - fx) + t[j0 + i1] * fx) * (1.0 - fy)
         + (t[j1 + i0] * (1.0 - fx) + t[j1 + i1] * fx) * fy
+}
+
+/// `u` wrapped into [0, 1] as `u.rem_euclid(1.0)` wraps it, to the bit, without its call to `fmodf`:
+/// `u − ⌊u⌋` is exact where `u % 1` is, and for negative `u` both round the same sum `u + ⌈−u⌉`.
+#[inline]
+fn wrap_unit(u: f32) -> f32 {
+    u - u.floor()
 }
 
 /// Texel index `i − 1` wrapped into `0..n`, for `i` in `0..=n + 2`.
@@ -289,6 +296,38 @@ mod tests {
         let (i, j) = (x0 as i64, y0 as i64);
         (at(i, j) * (1.0 - fx) + at(i + 1, j) * fx) * (1.0 - fy)
             + (at(i, j + 1) * (1.0 - fx) + at(i + 1, j + 1) * fx) * fy
+    }
+
+    #[test]
+    fn the_wrap_is_rem_euclid_to_the_bit() {
+        let mut rng = Rng::new(3);
+        let edges = [
+            0.0,
+            -0.0,
+            1.0,
+            -1.0,
+            0.5,
+            -0.5,
+            1e-30,
+            -1e-30,
+            -1e-8,
+            1e-8,
+            3.0e7,
+            -3.0e7,
+            8388607.5,
+            -8388607.5,
+            0.99999994,
+            -0.99999994,
+            f32::MAX,
+            f32::MIN,
+        ];
+        let random =
+            (0..100_000).map(|_| (rng.uniform() - 0.5) * 10f32.powi((rng.uniform() * 8.0) as i32));
+        for u in edges.into_iter().chain(random) {
+            let (a, b) = (wrap_unit(u), u.rem_euclid(1.0));
+            // Zero's sign aside (it reads the same texel), the same value.
+            assert!(a == b, "{u}: {a} against {b}");
+        }
     }
 
     #[test]

@@ -175,6 +175,7 @@ fn build(path: &Path, text: &str, desc: &SceneFile) -> Result<Scene> {
         Some(Bvh::build(&geometry.positions, &specular).map_err(runtime)?)
     };
     let fingerprint = fingerprint(&geometry, &materials, &textures, &lights, media.as_ref());
+    let texel_density = super::texel_densities(&geometry, &materials, &textures);
     Ok(Scene {
         path: path.to_path_buf(),
         camera,
@@ -189,6 +190,7 @@ fn build(path: &Path, text: &str, desc: &SceneFile) -> Result<Scene> {
         fingerprint,
         media,
         mesh_ranges: mesh_tris,
+        texel_density,
     })
 }
 

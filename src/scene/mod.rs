@@ -123,6 +123,68 @@ pub struct Scene {
     pub media: Option<Media>,
     /// Each `[[mesh]]` entry's triangles.
     pub mesh_ranges: Vec<std::ops::Range<usize>>,
+    /// Per triangle, its material's texels per world unit ([`texel_density`]; 0 without a texture).
+    texel_density: Vec<f32>,
+}
+
+/// Texels of `texture` per world unit on triangle `tri` of `g`, along the direction where they are
+/// sparsest (the smaller singular value of the map from the triangle's plane to texels): a
+/// stretched mapping is then never averaged over more than the footprint across its stretch.
+fn texel_density(g: &Geometry, tri: u32, texture: &crate::texture::Texture) -> f32 {
+    let t = &g.triangles[tri as usize];
+    if !t.has_uv || t.area <= 0.0 {
+        return 0.0;
+    }
+    let [p0, p1, p2] = t.v.map(|i| g.positions[i as usize]);
+    let size = Vec2::new(texture.width as f32, texture.height as f32);
+    let [t0, t1, t2] = t.v.map(|i| g.uvs[i as usize] * size);
+    // The edges in an orthonormal basis of the plane (x along the first edge).
+    let (e1, e2) = (p1 - p0, p2 - p0);
+    let len1 = e1.length();
+    if !(len1 > 0.0) {
+        return 0.0;
+    }
+    let x = e1 / len1;
+    let (e2x, e2y) = (e2.dot(x), (e2 - x * e2.dot(x)).length());
+    if !(e2y > 0.0) {
+        return 0.0;
+    }
+    // J = D · E⁻¹ with D = [t1 − t0, t2 − t0] and E = [[len1, e2x], [0, e2y]].
+    let (d1, d2) = (t1 - t0, t2 - t0);
+    let col_x = d1 / len1;
+    let col_y = (d2 - col_x * e2x) / e2y;
+    // Singular values of [col_x col_y]: eigenvalues of JᵀJ.
+    let (a, b, c) = (col_x.dot(col_x), col_x.dot(col_y), col_y.dot(col_y));
+    let half_trace = 0.5 * (a + c);
+    let root = (0.25 * (a - c) * (a - c) + b * b).sqrt();
+    let smallest = (half_trace - root).max(0.0).sqrt();
+    if smallest.is_finite() {
+        smallest
+    } else {
+        0.0
+    }
+}
+
+/// Each triangle's [`texel_density`] for its material's texture (0 where it has none).
+fn texel_densities(
+    g: &Geometry,
+    materials: &[Material],
+    textures: &[crate::texture::Texture],
+) -> Vec<f32> {
+    use crate::material::Bsdf;
+    g.triangles
+        .iter()
+        .enumerate()
+        .map(|(i, t)| match &materials[t.material as usize].bsdf {
+            Bsdf::Diffuse {
+                texture: Some(k), ..
+            }
+            | Bsdf::Glossy {
+                texture: Some(k), ..
+            } => texel_density(g, i as u32, &textures[*k]),
+            _ => 0.0,
+        })
+        .collect()
 }
 
 impl Scene {
@@ -451,47 +513,8 @@ impl Scene {
     /// at the hit, converted to texels by the triangle's texture density).
     pub(crate) fn albedo_over(&self, hit: &Hit, footprint: f32) -> Vec3 {
         self.albedo_read(hit, |t| {
-            t.lookup_filtered(hit.uv, footprint * self.texel_density(hit.tri, t))
+            t.lookup_filtered(hit.uv, footprint * self.texel_density[hit.tri as usize])
         })
-    }
-
-    /// Texels of `texture` per world unit on triangle `tri`, along the direction where they are
-    /// sparsest (the smaller singular value of the map from the triangle's plane to texels): a
-    /// stretched mapping is then never averaged over more than the footprint across its stretch.
-    fn texel_density(&self, tri: u32, texture: &crate::texture::Texture) -> f32 {
-        let g = &self.geometry;
-        let t = &g.triangles[tri as usize];
-        if !t.has_uv || t.area <= 0.0 {
-            return 0.0;
-        }
-        let [p0, p1, p2] = t.v.map(|i| g.positions[i as usize]);
-        let size = Vec2::new(texture.width as f32, texture.height as f32);
-        let [t0, t1, t2] = t.v.map(|i| g.uvs[i as usize] * size);
-        // The edges in an orthonormal basis of the plane (x along the first edge).
-        let (e1, e2) = (p1 - p0, p2 - p0);
-        let len1 = e1.length();
-        if !(len1 > 0.0) {
-            return 0.0;
-        }
-        let x = e1 / len1;
-        let (e2x, e2y) = (e2.dot(x), (e2 - x * e2.dot(x)).length());
-        if !(e2y > 0.0) {
-            return 0.0;
-        }
-        // J = D · E⁻¹ with D = [t1 − t0, t2 − t0] and E = [[len1, e2x], [0, e2y]].
-        let (d1, d2) = (t1 - t0, t2 - t0);
-        let col_x = d1 / len1;
-        let col_y = (d2 - col_x * e2x) / e2y;
-        // Singular values of [col_x col_y]: eigenvalues of JᵀJ.
-        let (a, b, c) = (col_x.dot(col_x), col_x.dot(col_y), col_y.dot(col_y));
-        let half_trace = 0.5 * (a + c);
-        let root = (0.25 * (a - c) * (a - c) + b * b).sqrt();
-        let smallest = (half_trace - root).max(0.0).sqrt();
-        if smallest.is_finite() {
-            smallest
-        } else {
-            0.0
-        }
     }
 
     /// Diffuse albedo at a hit (texture-resolved; for glossy, the diffuse part of Phong).
