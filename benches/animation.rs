@@ -83,22 +83,23 @@ fn reference(dir: &Path, name: &str) -> Option<Image> {
     read_layer(&dir.join(name), None).ok()
 }
 
-/// The walk: the whole sequence against stills of its frames (time at the scene's size), and the
-/// error of frames 0, 24, 47 against path references at 160×120, sequence and stills.
+/// The walk: the whole sequence against stills of its frames (time at the scene's size); the error
+/// of frames 0, 24, 47 against path references at 160×120, of the timed frames averaged down to the
+/// references' size (the target's frames), and of a sequence and stills rendered at that size.
 fn walk(root: &Path) {
     let Ok(Some(anim)) = scene::load_animation(&root.join("tests/scenes/sibenik-walk.toml")) else {
         return println!("sibenik-walk: skipped (scene missing)");
     };
     let all: Vec<u32> = (0..anim.frames()).collect();
-    let (_, t_seq) = sequence(&anim, &all, &Options::default());
-    let (_, t_still) = independent(&anim, &all, &Options::default(), true);
+    let picks = [0u32, 24, 47];
+    let (seq_big, t_seq) = sequence(&anim, &all, &Options::default());
+    let (stills_big, t_still) = independent(&anim, &all, &Options::default(), true);
     println!(
         "sibenik-walk {} frames 640×480: sequence {t_seq:.1} s, stills {t_still:.1} s, sequence/stills {:.3}",
         all.len(),
         t_seq / t_still
     );
     let dir = root.join("tests/reference/sibenik-walk");
-    let picks = [0u32, 24, 47];
     let refs: Vec<Option<Image>> = picks
         .iter()
         .map(|f| reference(&dir, &format!("path-{f:04}.exr")))
@@ -106,20 +107,51 @@ fn walk(root: &Path) {
     if refs.iter().any(Option::is_none) {
         return println!("sibenik-walk errors: skipped (references missing)");
     }
+    let errors = |label: &str, seq: &[Image], stills: &[Image]| {
+        for (i, f) in picks.iter().enumerate() {
+            let r = refs[i].as_ref().expect("reference");
+            let (Some(s), Some(t)) = (
+                averaged_down(&seq[*f as usize], r),
+                averaged_down(&stills[*f as usize], r),
+            ) else {
+                return println!("sibenik-walk {label}: sizes differ from the references'");
+            };
+            let (e_seq, e_still) = (rel_mse(&s, r), rel_mse(&t, r));
+            println!(
+                "sibenik-walk frame {f} {label}: relMSE sequence {e_seq:.5}, still {e_still:.5}, ratio {:.3}",
+                e_seq / e_still
+            );
+        }
+    };
+    errors("640×480 averaged to 160×120", &seq_big, &stills_big);
+    drop((seq_big, stills_big));
     let small = sized(160, 120);
     let (seq, _) = sequence(&anim, &all, &small);
     let (stills, _) = independent(&anim, &all, &small, true);
-    for (i, f) in picks.iter().enumerate() {
-        let r = refs[i].as_ref().expect("reference");
-        let (e_seq, e_still) = (
-            rel_mse(&seq[*f as usize], r),
-            rel_mse(&stills[*f as usize], r),
-        );
-        println!(
-            "sibenik-walk frame {f} 160×120: relMSE sequence {e_seq:.5}, still {e_still:.5}, ratio {:.3}",
-            e_seq / e_still
-        );
+    errors("rendered at 160×120", &seq, &stills);
+}
+
+/// `img` averaged over blocks of pixels down to `like`'s size (a box filter, as a pixel of `like` is
+/// the mean over its area); `None` unless `img`'s size is a whole multiple of it.
+fn averaged_down(img: &Image, like: &Image) -> Option<Image> {
+    let (w, h) = (like.width, like.height);
+    if w == 0 || h == 0 || !img.width.is_multiple_of(w) || !img.height.is_multiple_of(h) {
+        return None;
     }
+    let (kx, ky) = (img.width / w, img.height / h);
+    let mut out = like.clone();
+    for y in 0..h {
+        for x in 0..w {
+            let mut sum = glam::Vec3::ZERO;
+            for dy in 0..ky {
+                for dx in 0..kx {
+                    sum += img.pixels[((y * ky + dy) * img.width + x * kx + dx) as usize];
+                }
+            }
+            out.pixels[(y * w + x) as usize] = sum / (kx * ky) as f32;
+        }
+    }
+    Some(out)
 }
 
 /// The ball: temporal caching against an independent cache per frame — time over the whole sequence

@@ -36,4 +36,6 @@ pub use params::{CacheParams, Pass, Weighting};
 pub use record::{Lookup, NewRecord, Record};
 pub use report::CacheStats;
 pub use stats::{FillStats, InsertStats, LookupStats, RadiusHistogram};
-pub use twopass::{fill_pass_a_cancellable, fill_pixels_cancellable, ShadingPoint, VisibleFn};
+pub use twopass::{
+    fill_pass_a_cancellable, fill_pixels_cancellable, PassAPixels, ShadingPoint, VisibleFn,
+};

@@ -84,6 +84,8 @@ pub struct FillStats {
     pub n_pixels: u64,
     /// Pass A visited every `pass_a_stride`-th pixel in x and y (0: not a pass A).
     pub pass_a_stride: u32,
+    /// Pixels pass A did not visit between covered lattice pixels ([`crate::PassAPixels::LatticeThenGaps`]).
+    pub n_pixels_skipped: u64,
     /// Shading points examined (a pixel may have several, or none).
     pub n_points: u64,
     /// Coverage lookups, including the re-checks before insertion and the repair sweeps.
@@ -103,6 +105,7 @@ impl AddAssign for FillStats {
     fn add_assign(&mut self, o: Self) {
         self.n_pixels += o.n_pixels;
         self.pass_a_stride = self.pass_a_stride.max(o.pass_a_stride);
+        self.n_pixels_skipped += o.n_pixels_skipped;
         self.n_points += o.n_points;
         self.lookups += o.lookups;
         self.n_gathers += o.n_gathers;

@@ -85,15 +85,27 @@ struct Tally<S> {
     gathers: S,
 }
 
+/// Which pixels pass A visits.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PassAPixels {
+    /// Every n-th pixel in x and y (1: every pixel).
+    Stride(u32),
+    /// The lattice of every other pixel in x and y, then a pixel between lattice pixels only where a
+    /// lattice pixel next to it had a point no record covered: for a cache that already covers most of
+    /// the image (a sequence's frame after its camera moved), whose gaps the lattice finds.
+    LatticeThenGaps,
+}
+
 /// Fill the cache for a `width` × `height` image, with a payload per shading point and statistics per
 /// gather (see the module header). `progress(done_pixels, total_pixels)` is called from the calling
 /// thread after each chunk of the hierarchical pass. Returns early, with the cache partly filled, soon after `cancel` is set: it is read before every
 /// chunk of pixels. (The caller makes its long gathers return early too.) Returns the fill's statistics
 /// and the sum of the gathers'.
 ///
-/// Pass A visits the pixels (x, y) with x and y multiples of `stride` (1: every pixel): the first
-/// 1/stride² of the hierarchical order. A point between them that no record reaches is pass B's to
-/// cover (`pm` makes records for the samples that miss, between its rounds).
+/// Pass A visits the pixels `pixels` names: with [`PassAPixels::Stride`] the pixels (x, y) with x and
+/// y multiples of the stride (1: every pixel), the first 1/stride² of the hierarchical order. A point
+/// between them that no record reaches is pass B's to cover (`pm` makes records for the samples that
+/// miss, between its rounds).
 ///
 /// A point counts as covered only by records that `visible` accepts there, as the shading pass will
 /// read them.
@@ -102,14 +114,17 @@ pub fn fill_pass_a_cancellable<P: Clone + Send + Sync, S: Default + AddAssign + 
     cache: &mut IrradianceCache,
     width: u32,
     height: u32,
-    stride: u32,
+    pixels: PassAPixels,
     shading_points: &PointsWithFn<P>,
     gather: &GatherWithFn<P, S>,
     visible: &VisibleFn<P>,
     progress: &ProgressFn,
     cancel: &AtomicBool,
 ) -> (FillStats, S) {
-    let stride = stride.max(1);
+    let (stride, gaps_only) = match pixels {
+        PassAPixels::Stride(n) => (n.max(1), false),
+        PassAPixels::LatticeThenGaps => (1, true),
+    };
     let total = width.div_ceil(stride) as u64 * height.div_ceil(stride) as u64;
     let order = HierarchicalOrder::new(width, height)
         .filter(move |&(x, y)| x % stride == 0 && y % stride == 0);
@@ -117,7 +132,7 @@ pub fn fill_pass_a_cancellable<P: Clone + Send + Sync, S: Default + AddAssign + 
         cache,
         width,
         height,
-        order,
+        (order, gaps_only),
         total,
         shading_points,
         gather,
@@ -159,7 +174,7 @@ pub fn fill_pixels_cancellable<P: Clone + Send + Sync, S: Default + AddAssign + 
         cache,
         width,
         height,
-        order,
+        (order, false),
         pixels.len() as u64,
         shading_points,
         gather,
@@ -169,13 +184,14 @@ pub fn fill_pixels_cancellable<P: Clone + Send + Sync, S: Default + AddAssign + 
     )
 }
 
-/// Pass A over the pixels of `order` (`total` of them), then its repair sweeps.
+/// Pass A over the pixels of `order` (`total` of them; with `gaps_only`, see
+/// [`PassAPixels::LatticeThenGaps`]), then its repair sweeps.
 #[allow(clippy::too_many_arguments)]
 fn fill_in_order<P: Clone + Send + Sync, S: Default + AddAssign + Send>(
     cache: &mut IrradianceCache,
     width: u32,
     height: u32,
-    order: impl Iterator<Item = (u32, u32)>,
+    (order, gaps_only): (impl Iterator<Item = (u32, u32)>, bool),
     total: u64,
     shading_points: &PointsWithFn<P>,
     gather: &GatherWithFn<P, S>,
@@ -191,7 +207,7 @@ fn fill_in_order<P: Clone + Send + Sync, S: Default + AddAssign + Send>(
     cache.log_shrinks(true);
     let first = sweep(
         cache,
-        order,
+        (order, gaps_only),
         shading_points,
         &mut store,
         gather,
@@ -240,6 +256,35 @@ impl<P: Clone> PointStore<P> {
         self.pixel.extend(std::iter::repeat_n((x, y), points.len()));
         self.points.extend(points);
         self.ranges[(y * self.width + x) as usize] = (start, self.points.len() as u32);
+    }
+
+    /// Whether (x, y), off the lattice of every other pixel, has lattice pixels on both sides (or at
+    /// its four corners) all stored, every point of theirs covered at its lookup: the gaps of a cache
+    /// that covers most of the image show on the lattice, and are refined where they do.
+    fn lattice_covers(&self, x: u32, y: u32) -> bool {
+        if x.is_multiple_of(2) && y.is_multiple_of(2) {
+            return false;
+        }
+        let height = self.ranges.len() as u32 / self.width.max(1);
+        let xs = if x % 2 == 1 {
+            [x.wrapping_sub(1), x + 1]
+        } else {
+            [x, x]
+        };
+        let ys = if y % 2 == 1 {
+            [y.wrapping_sub(1), y + 1]
+        } else {
+            [y, y]
+        };
+        ys.iter().all(|&ly| {
+            xs.iter().all(|&lx| {
+                if lx >= self.width || ly >= height {
+                    return false;
+                }
+                let (a, b) = self.ranges[(ly * self.width + lx) as usize];
+                a < b && self.used[a as usize..b as usize].iter().all(|&u| u > 0)
+            })
+        })
     }
 
     /// Point `k` as a candidate for a gather.
@@ -441,7 +486,7 @@ fn first_shrinks(mut log: Vec<Shrink>) -> Vec<Shrink> {
 #[allow(clippy::too_many_arguments)]
 fn sweep<P: Clone + Send + Sync, S: Default + AddAssign + Send>(
     cache: &mut IrradianceCache,
-    mut order: impl Iterator<Item = (u32, u32)>,
+    (mut order, gaps_only): (impl Iterator<Item = (u32, u32)>, bool),
     shading_points: &PointsWithFn<P>,
     store: &mut PointStore<P>,
     gather: &GatherWithFn<P, S>,
@@ -462,6 +507,16 @@ fn sweep<P: Clone + Send + Sync, S: Default + AddAssign + Send>(
             break;
         }
         done += chunk.len() as u64;
+        let before = chunk.len();
+        let chunk: Vec<(u32, u32)> = if gaps_only {
+            chunk
+                .into_iter()
+                .filter(|&(x, y)| !store.lattice_covers(x, y))
+                .collect()
+        } else {
+            chunk
+        };
+        tally.fill.n_pixels_skipped += (before - chunk.len()) as u64;
         let cache_ref: &IrradianceCache = cache;
         let found: Vec<PixelFound<P>> = chunk
             .par_iter()

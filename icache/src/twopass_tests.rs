@@ -11,7 +11,7 @@ use std::sync::atomic::AtomicBool;
 use crate::twopass::{fill_pixels_cancellable, ProgressFn, ShadingPoint};
 use crate::{
     fill_one_pass_cancellable, fill_pass_a_cancellable, CacheParams, FillStats, IrradianceCache,
-    LookupStats, NewRecord, OnePassFill, Pass,
+    LookupStats, NewRecord, OnePassFill, Pass, PassAPixels,
 };
 
 type ShadingPointsFn<'a> = dyn Fn(u32, u32) -> Vec<ShadingPoint> + Sync + 'a;
@@ -45,7 +45,7 @@ fn fill_pass_a(
         cache,
         width,
         height,
-        1,
+        PassAPixels::Stride(1),
         &points,
         &gather,
         &|_, _, _, _| true,
@@ -502,7 +502,7 @@ fn a_pass_a_stride_visits_its_lattice_only_and_covers_it() {
         &mut cache,
         W,
         H,
-        2,
+        PassAPixels::Stride(2),
         &points,
         &gather_with,
         &|_, _, _, _| true,
@@ -550,4 +550,87 @@ fn a_pass_a_stride_visits_its_lattice_only_and_covers_it() {
         "{covered} of {}",
         between.len()
     );
+}
+
+/// Pass A through [`PassAPixels::LatticeThenGaps`] into `cache`: its statistics and the pixels it
+/// visited, sorted.
+fn fill_lattice_then_gaps(cache: &mut IrradianceCache) -> (FillStats, Vec<(u32, u32)>) {
+    let visited = std::sync::Mutex::new(Vec::new());
+    let points = |x: u32, y: u32| {
+        visited.lock().unwrap().push((x, y));
+        shading_points(x, y)
+            .into_iter()
+            .map(|sp| (sp, ()))
+            .collect()
+    };
+    let gather_with = |x, y, i, sp: &ShadingPoint, _: &()| (gather(x, y, i, sp), NoStats);
+    let (stats, _) = fill_pass_a_cancellable(
+        cache,
+        W,
+        H,
+        PassAPixels::LatticeThenGaps,
+        &points,
+        &gather_with,
+        &|_, _, _, _| true,
+        &|_, _| {},
+        &AtomicBool::new(false),
+    );
+    let mut visited = visited.into_inner().unwrap();
+    visited.sort_unstable();
+    (stats, visited)
+}
+
+#[test]
+fn lattice_then_gaps_visits_between_lattice_pixels_only_near_gaps() {
+    let is_lattice = |(x, y): (u32, u32)| x % 2 == 0 && y % 2 == 0;
+    let lattice = (0..W)
+        .flat_map(|x| (0..H).map(move |y| (x, y)))
+        .filter(|&p| is_lattice(p));
+    // A cache that covers every point already: no gap, so only the lattice and the pixels at the
+    // image's right and bottom edges (a lattice neighbour missing) or beside the empty strip.
+    let (mut full, _) = fill(2);
+    let n_records = full.len();
+    let (stats, visited) = fill_lattice_then_gaps(&mut full);
+    assert_eq!(full.len(), n_records, "no record where none was missing");
+    for p in lattice.clone() {
+        assert!(
+            visited.binary_search(&p).is_ok(),
+            "lattice pixel {p:?} not visited"
+        );
+    }
+    for &(x, y) in visited.iter().filter(|&&p| !is_lattice(p)) {
+        assert!(
+            x + 1 >= W || y + 1 >= H || x <= 3,
+            "({x}, {y}) visited though its lattice neighbours were covered"
+        );
+    }
+    assert_eq!(
+        stats.n_pixels_skipped + visited.len() as u64,
+        (W * H) as u64
+    );
+    // An empty cache: the first lattice pixels find gaps, and the pixels around them are visited;
+    // every point ends covered for pass B, and those of the visited pixels for pass A.
+    let mut cache = IrradianceCache::new(
+        Vec3::new(-3.0, -1.0, -6.0),
+        Vec3::new(3.0, 2.0, 1.0),
+        plain(),
+    )
+    .unwrap();
+    let (stats, visited) = fill_lattice_then_gaps(&mut cache);
+    assert!(stats.n_pixels_skipped > 0 && visited.len() > lattice.count());
+    for x in 0..W {
+        for y in 0..H {
+            let pass = if visited.binary_search(&(x, y)).is_ok() {
+                Pass::A
+            } else {
+                Pass::B
+            };
+            for sp in shading_points(x, y) {
+                assert!(
+                    cache.lookup(sp.pos, sp.normal, pass).is_some(),
+                    "({x}, {y}) uncovered for {pass:?}"
+                );
+            }
+        }
+    }
 }

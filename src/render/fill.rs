@@ -94,7 +94,11 @@ pub fn fill_cache(
                 &mut cache,
                 w,
                 h,
-                plan.pass_a_stride,
+                if plan.pass_a_gaps_only {
+                    icache::PassAPixels::LatticeThenGaps
+                } else {
+                    icache::PassAPixels::Stride(plan.pass_a_stride)
+                },
                 &points,
                 &gather,
                 &visible,

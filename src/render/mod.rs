@@ -255,6 +255,10 @@ pub fn render_frame<'a>(
                 .as_ref()
                 .is_some_and(|cam| !cam.same_view(&plan.camera));
             let c = if moved {
+                plan.pass_a_gaps_only = scene
+                    .settings
+                    .icache
+                    .pass_a_gaps_only(plan.width, plan.height);
                 let mut c = carry.lifespans.for_view(c, scene, &plan.camera, f)?;
                 c.thaw();
                 foreign = c.len();

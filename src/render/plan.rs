@@ -40,6 +40,10 @@ pub struct Plan {
     pub cache: CacheParams,
     /// Pass A visits every n-th pixel in x and y ([`crate::scene::IcacheSettings::pass_a_stride`]).
     pub pass_a_stride: u32,
+    /// Pass A visits the lattice of every other pixel and the pixels between only near its gaps
+    /// ([`icache::PassAPixels::LatticeThenGaps`]): a sequence's frame whose camera moved, its cache
+    /// holding the records of earlier views.
+    pub pass_a_gaps_only: bool,
     /// Rays per final gather (`pm`'s records and `pm-fg`'s samples).
     pub gather: GatherParams,
     /// `pm` chooses its gathers' rays after pass A (the file gives no `rays`; a two-pass fill, not a
@@ -173,6 +177,7 @@ pub fn plan(scene: &Scene, opts: &Options) -> Result<Plan> {
         photons: PhotonSettings::resolve(scene),
         cache: icache.for_image(width, height),
         pass_a_stride: icache.pass_a_stride(width, height),
+        pass_a_gaps_only: false,
         gather: GatherParams {
             rays: if choose_rays {
                 crate::render::gather_rays::BASE_RAYS

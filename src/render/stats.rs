@@ -875,6 +875,12 @@ fn cache_rows(
     );
     r.count(
         "Irradiance cache",
+        "Pass-A pixels skipped between covered lattice pixels",
+        "icache.pass_a_pixels_skipped",
+        fill.n_pixels_skipped,
+    );
+    r.count(
+        "Irradiance cache",
         "Pass-A waves",
         "icache.waves",
         fill.n_waves,

@@ -116,6 +116,17 @@ impl IcacheSettings {
         })
     }
 
+    /// Whether pass A of a sequence's frame whose camera moved visits the lattice of every other pixel
+    /// and the pixels between only where the lattice found a gap ([`icache::PassAPixels`]): where the
+    /// file gives no `pass_a_stride`, a still of the image visits every pixel, and the image is larger
+    /// than [`SPACING_REFERENCE_SIDE`] across: records are then more than 3 px apart, and gaps narrower
+    /// than the lattice are rare (on smaller images they were not: docs/benchmarks.md).
+    pub(crate) fn pass_a_gaps_only(&self, width: u32, height: u32) -> bool {
+        self.pass_a_stride.is_none()
+            && self.pass_a_stride(width, height) == 1
+            && width.max(height) > SPACING_REFERENCE_SIDE
+    }
+
     /// The cache parameters for a `width` × `height` image: default spacings grow with an image larger
     /// than [`SPACING_REFERENCE_SIDE`]; spacings the file gives stay. A given `max_spacing_px` below the
     /// grown default minimum lowers that minimum (checked at load against the ungrown one).
