@@ -3,16 +3,19 @@
 //! outside what their moves changed the pixels kept from the frame before unsampled, and among the
 //! rest those whose cached light alone changed, shaded again with the very samples they took.
 
+use std::ops::RangeInclusive;
+
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
 use icache::{IrradianceCache, Pass};
 
-use super::temporal::{luminance, SceneChange};
+use super::temporal::{luminance, Moved, SceneChange};
 use super::tiles::Window;
 use crate::camera::Camera;
+use crate::error::Result;
 use crate::geometry::Frame;
-use crate::scene::Scene;
+use crate::scene::{frame_camera, mesh_transform, Animation, Scene};
 
 /// The pixels whose camera rays may meet a moved mesh, before or after its step (its bounding
 /// spheres' projections, with a margin); `None` when that may be anywhere (a sphere around or behind
@@ -26,6 +29,58 @@ pub fn screen_window(change: &SceneChange, cam: &Camera) -> Option<Window> {
         hi = hi.max(b);
     }
     Some(pixel_window(cam, lo, hi))
+}
+
+/// The pixels where the meshes that move over `frames` of `anim` may be seen while the camera (at
+/// `width` × `height`) stays as in the first of them: the union of each step's [`screen_window`],
+/// up to the first frame whose view differs, with that camera. `None` when no mesh moves before then,
+/// or where one may be seen anywhere. `scene` is the first frame's.
+pub fn sequence_window(
+    anim: &Animation,
+    scene: &Scene,
+    frames: RangeInclusive<u32>,
+    (width, height): (u32, u32),
+) -> Result<Option<(Camera, Window)>> {
+    let first = *frames.start();
+    let cam = frame_camera(anim, first)?.with_resolution(width, height);
+    // Mesh m's bounding sphere at frame f: the first frame's, carried by the change of placement.
+    let sphere = |m: usize, f: u32| -> Option<(Vec3, f32)> {
+        let (c, r) = scene.mesh_sphere(m)?;
+        let t = mesh_transform(anim, f, m)? * mesh_transform(anim, first, m)?.inverse();
+        let stretch = [t.x_axis, t.y_axis, t.z_axis]
+            .iter()
+            .map(|a| a.truncate().length())
+            .fold(0.0, f32::max);
+        Some((t.transform_point3(c), r * stretch))
+    };
+    let mut union: Option<Window> = None;
+    for f in frames.skip(1) {
+        if !frame_camera(anim, f)?
+            .with_resolution(width, height)
+            .same_view(&cam)
+        {
+            break;
+        }
+        let mut moved = Vec::new();
+        for m in anim.moved_meshes(f - 1, f) {
+            match (sphere(m, f - 1), sphere(m, f)) {
+                (Some(before), Some(after)) => moved.push(Moved::new(before, after, None)),
+                _ => return Ok(None),
+            }
+        }
+        if moved.is_empty() {
+            continue;
+        }
+        let change = SceneChange {
+            moved,
+            ..Default::default()
+        };
+        let Some(w) = screen_window(&change, &cam) else {
+            return Ok(None);
+        };
+        union = Some(union.map_or(w, |u| u.union(w)));
+    }
+    Ok(union.map(|w| (cam, w)))
 }
 
 /// The pixel box a sphere may cover on screen (`None` when it surrounds or lies behind the eye): its
@@ -533,6 +588,53 @@ impl SphereBins {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::path::Path;
+
+    /// The window of a whole sequence holds each step's window, found from the meshes of the frames'
+    /// own scenes (a ball crossing a box under a fixed camera, turning as it goes here).
+    #[test]
+    fn a_sequence_window_holds_every_step_window() {
+        let dir = std::env::temp_dir().join(format!("pm-seqwin-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+        let text = std::fs::read_to_string(root.join("scenes/anim-ball.toml"))
+            .unwrap()
+            .replace("models/", &format!("{}/scenes/models/", root.display()))
+            .replace("frames = 48", "frames = 12")
+            .replace(
+                "frame = 0\ntranslate",
+                "frame = 0\nrotate = [0.0, 0.0, 0.0]\ntranslate",
+            )
+            .replace("frame = 47", "frame = 11\nrotate = [0.0, 90.0, 30.0]");
+        let path = dir.join("ball.toml");
+        std::fs::write(&path, text).unwrap();
+        let anim = crate::scene::load_animation(&path).unwrap().unwrap();
+        let first = crate::scene::load_frame(&anim, 0).unwrap();
+        let (cam, all) = sequence_window(&anim, &first, 0..=11, (64, 48))
+            .unwrap()
+            .expect("the ball moves");
+        let mut before = first;
+        for f in 1..=11 {
+            let now = crate::scene::load_frame(&anim, f).unwrap();
+            let moved = anim
+                .moved_meshes(f - 1, f)
+                .into_iter()
+                .map(|m| {
+                    let (a, b) = (before.mesh_sphere(m).unwrap(), now.mesh_sphere(m).unwrap());
+                    Moved::new(a, b, None)
+                })
+                .collect();
+            let change = SceneChange {
+                moved,
+                ..Default::default()
+            };
+            let w = screen_window(&change, &cam).unwrap();
+            assert_eq!(all.union(w), all, "frame {f}: {w:?} not within {all:?}");
+            before = now;
+        }
+        assert!(all.n_pixels() < 64 * 48, "{all:?}: the whole image");
+        std::fs::remove_dir_all(&dir).ok();
+    }
 
     /// The bins find every sphere holding a point, for spheres of mixed sizes (one spanning all).
     #[test]

@@ -108,6 +108,9 @@ pub struct Carry<'a> {
     /// this scene's photons and drift (for the next).
     atlas_before: Option<atlas_carry::AtlasBefore>,
     atlas_next: Option<(atlas_carry::PhotonKeys, atlas_carry::Drift)>,
+    /// The pixels the sequence's moving meshes may cover while its camera stays, with that camera
+    /// ([`frame_pixels::sequence_window`]): held to the finer noise target from the first frame on.
+    moving_window: Option<(Camera, tiles::Window)>,
 }
 
 /// Renders `scene` without writing anything; `Interrupted` soon after `cancel` is set, in any phase.
@@ -143,6 +146,17 @@ pub fn render_frame<'a>(
 ) -> Result<(RenderOutput, RenderStats)> {
     let start = Instant::now();
     let mut plan = plan(scene, opts)?;
+    // Where the sequence's movers pass, every frame from the first holds its pixels to the noise
+    // target of a frame where something moved: a pixel's noise then does not change (flicker) when
+    // a mover reaches it and it is shaded again.
+    let moving = carry
+        .moving_window
+        .as_ref()
+        .filter(|(cam, _)| cam.same_view(&plan.camera))
+        .map(|(_, w)| *w);
+    if plan.method == Method::Pm && opts.frame.is_some() && carry.cache.is_none() {
+        plan.finer = moving.map(|w| (w, plan.noise * temporal::MOVING_NOISE));
+    }
     budget::check(scene, &plan, opts)?;
     let mut stats = RenderStats::new(scene, &plan);
     let reused = carry.photons.is_some();
@@ -235,7 +249,11 @@ pub fn render_frame<'a>(
                         .is_some_and(|cam| cam.same_view(&plan.camera))
                     {
                         only = frame_pixels::screen_window(&change, &plan.camera);
-                        plan.finer = only.map(|w| (w, plan.noise * temporal::MOVING_NOISE));
+                        let finer = match (moving, only) {
+                            (Some(m), Some(o)) => Some(m.union(o)),
+                            (m, o) => m.or(o),
+                        };
+                        plan.finer = finer.map(|w| (w, plan.noise * temporal::MOVING_NOISE));
                         if carry.layers.is_some()
                             && plan.window == tiles::Window::full(plan.width, plan.height)
                         {

@@ -32,6 +32,15 @@ pub fn render_sequence(
     progress.start("checking frames", (last - first + 1) as u64);
     scene::check_sequence(anim, frames.clone(), &first_scene, cancel)?;
     progress.finish();
+    let moving_window = if first_scene.settings.icache.temporal {
+        let size = (
+            opts.width.unwrap_or(first_scene.camera.width),
+            opts.height.unwrap_or(first_scene.camera.height),
+        );
+        super::frame_pixels::sequence_window(anim, &first_scene, frames.clone(), size)?
+    } else {
+        None
+    };
     let mut loaded = Some(first_scene);
     let mut f = first;
     let mut handoff: Option<Handoff> = None;
@@ -43,7 +52,10 @@ pub fn render_sequence(
         let temporal = scene.settings.icache.temporal;
         let mut carry = match handoff.take() {
             Some(h) if temporal => h.into_carry(anim, &scene, f),
-            _ => Carry::default(),
+            _ => Carry {
+                moving_window: moving_window.clone(),
+                ..Carry::default()
+            },
         };
         let mut prev: Option<(RenderOutput, RenderStats)> = None;
         // What changed from frame f − 1 to f, within this scene.
@@ -110,6 +122,7 @@ struct Handoff {
     photon_paths: Option<photon::MapPaths>,
     photon_log: Option<(photon::PathLog, (glam::Vec3, glam::Vec3))>,
     atlas: Option<AtlasBefore>,
+    moving_window: Option<(crate::camera::Camera, super::tiles::Window)>,
 }
 
 impl Handoff {
@@ -145,6 +158,7 @@ impl Handoff {
             mesh_spheres: (0..scene.mesh_ranges.len())
                 .map(|m| scene.mesh_sphere(m))
                 .collect(),
+            moving_window: carry.moving_window,
         }
     }
 
@@ -185,6 +199,7 @@ impl Handoff {
             photon_paths: self.photon_paths,
             photon_log: self.photon_log,
             atlas_before: self.atlas,
+            moving_window: self.moving_window,
             change: Some(super::temporal::SceneChange {
                 moved,
                 rigid,

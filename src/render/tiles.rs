@@ -48,6 +48,22 @@ pub struct Window {
 }
 
 impl Window {
+    /// The smallest window holding both (an empty one adds nothing).
+    pub fn union(self, o: Window) -> Window {
+        if o.x0 >= o.x1 || o.y0 >= o.y1 {
+            return self;
+        }
+        if self.x0 >= self.x1 || self.y0 >= self.y1 {
+            return o;
+        }
+        Window {
+            x0: self.x0.min(o.x0),
+            y0: self.y0.min(o.y0),
+            x1: self.x1.max(o.x1),
+            y1: self.y1.max(o.y1),
+        }
+    }
+
     /// Whether pixel (`x`, `y`) lies in the window.
     pub fn contains(&self, x: u32, y: u32) -> bool {
         x >= self.x0 && x < self.x1 && y >= self.y0 && y < self.y1
