@@ -482,35 +482,13 @@ fn one_pass_fill_covers_each_pixel_with_the_records_that_existed_then() {
 
 #[test]
 fn a_pass_a_stride_visits_its_lattice_only_and_covers_it() {
-    use crate::twopass::fill_pass_a_cancellable;
-    let visited = std::sync::Mutex::new(Vec::new());
-    let points = |x: u32, y: u32| {
-        visited.lock().unwrap().push((x, y));
-        shading_points(x, y)
-            .into_iter()
-            .map(|sp| (sp, ()))
-            .collect()
-    };
-    let gather_with = |x, y, i, sp: &ShadingPoint, _: &()| (gather(x, y, i, sp), NoStats);
     let mut cache = IrradianceCache::new(
         Vec3::new(-3.0, -1.0, -6.0),
         Vec3::new(3.0, 2.0, 1.0),
         plain(),
     )
     .unwrap();
-    let (stats, _) = fill_pass_a_cancellable(
-        &mut cache,
-        W,
-        H,
-        PassAPixels::Stride(2),
-        &points,
-        &gather_with,
-        &|_, _, _, _| true,
-        &|_, _| {},
-        &AtomicBool::new(false),
-    );
-    let mut visited = visited.into_inner().unwrap();
-    visited.sort_unstable();
+    let (stats, visited) = fill_visits(&mut cache, PassAPixels::Stride(2));
     let lattice: Vec<(u32, u32)> = (0..W)
         .step_by(2)
         .flat_map(|x| (0..H).step_by(2).map(move |y| (x, y)))
@@ -552,9 +530,8 @@ fn a_pass_a_stride_visits_its_lattice_only_and_covers_it() {
     );
 }
 
-/// Pass A through [`PassAPixels::LatticeThenGaps`] into `cache`: its statistics and the pixels it
-/// visited, sorted.
-fn fill_lattice_then_gaps(cache: &mut IrradianceCache) -> (FillStats, Vec<(u32, u32)>) {
+/// Pass A over `pixels` into `cache`: its statistics and the pixels it visited, sorted.
+fn fill_visits(cache: &mut IrradianceCache, pixels: PassAPixels) -> (FillStats, Vec<(u32, u32)>) {
     let visited = std::sync::Mutex::new(Vec::new());
     let points = |x: u32, y: u32| {
         visited.lock().unwrap().push((x, y));
@@ -568,7 +545,7 @@ fn fill_lattice_then_gaps(cache: &mut IrradianceCache) -> (FillStats, Vec<(u32, 
         cache,
         W,
         H,
-        PassAPixels::LatticeThenGaps,
+        pixels,
         &points,
         &gather_with,
         &|_, _, _, _| true,
@@ -590,7 +567,7 @@ fn lattice_then_gaps_visits_between_lattice_pixels_only_near_gaps() {
     // image's right and bottom edges (a lattice neighbour missing) or beside the empty strip.
     let (mut full, _) = fill(2);
     let n_records = full.len();
-    let (stats, visited) = fill_lattice_then_gaps(&mut full);
+    let (stats, visited) = fill_visits(&mut full, PassAPixels::LatticeThenGaps);
     assert_eq!(full.len(), n_records, "no record where none was missing");
     for p in lattice.clone() {
         assert!(
@@ -616,7 +593,7 @@ fn lattice_then_gaps_visits_between_lattice_pixels_only_near_gaps() {
         plain(),
     )
     .unwrap();
-    let (stats, visited) = fill_lattice_then_gaps(&mut cache);
+    let (stats, visited) = fill_visits(&mut cache, PassAPixels::LatticeThenGaps);
     assert!(stats.n_pixels_skipped > 0 && visited.len() > lattice.count());
     for x in 0..W {
         for y in 0..H {
