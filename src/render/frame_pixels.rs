@@ -4,8 +4,9 @@
 //! rest those whose cached light alone changed, shaded again with the very samples they took.
 
 use std::ops::RangeInclusive;
+use std::sync::atomic::{AtomicBool, Ordering};
 
-use glam::{Vec2, Vec3};
+use glam::{Mat4, Vec2, Vec3};
 use rayon::prelude::*;
 
 use icache::{IrradianceCache, Pass};
@@ -13,9 +14,10 @@ use icache::{IrradianceCache, Pass};
 use super::temporal::{luminance, Moved, SceneChange};
 use super::tiles::Window;
 use crate::camera::Camera;
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::geometry::Frame;
-use crate::scene::{frame_camera, mesh_transform, Animation, Scene};
+use crate::progress::Progress;
+use crate::scene::{frame_view, Animation, Scene};
 
 /// The pixels whose camera rays may meet a moved mesh, before or after its step (its bounding
 /// spheres' projections, with a margin); `None` when that may be anywhere (a sphere around or behind
@@ -34,40 +36,58 @@ pub fn screen_window(change: &SceneChange, cam: &Camera) -> Option<Window> {
 /// The pixels where the meshes that move over `frames` of `anim` may be seen while the camera (at
 /// `width` × `height`) stays as in the first of them: the union of each step's [`screen_window`],
 /// up to the first frame whose view differs, with that camera. `None` when no mesh moves before then,
-/// or where one may be seen anywhere. `scene` is the first frame's.
+/// or where one may be seen anywhere. `scene` is the first frame's. A phase of its own: one frame's
+/// description read per frame, `cancel` read before each.
 pub fn sequence_window(
     anim: &Animation,
     scene: &Scene,
     frames: RangeInclusive<u32>,
     (width, height): (u32, u32),
+    progress: &dyn Progress,
+    cancel: &AtomicBool,
 ) -> Result<Option<(Camera, Window)>> {
     let first = *frames.start();
-    let cam = frame_camera(anim, first)?.with_resolution(width, height);
-    // Mesh m's bounding sphere at frame f: the first frame's, carried by the change of placement.
-    let sphere = |m: usize, f: u32| -> Option<(Vec3, f32)> {
-        let (c, r) = scene.mesh_sphere(m)?;
-        let t = mesh_transform(anim, f, m)? * mesh_transform(anim, first, m)?.inverse();
+    let (cam, placed_first) = frame_view(anim, first)?;
+    let cam = cam.with_resolution(width, height);
+    let spheres: Vec<Option<(Vec3, f32)>> = (0..scene.mesh_ranges.len())
+        .map(|m| scene.mesh_sphere(m))
+        .collect();
+    // Mesh m's bounding sphere where placement `t` puts it: the first frame's, carried along.
+    let sphere = |m: usize, t: Option<Mat4>| -> Option<(Vec3, f32)> {
+        let (c, r) = spheres.get(m).copied().flatten()?;
+        let t = t? * placed_first.get(m).copied().flatten()?.inverse();
         let stretch = [t.x_axis, t.y_axis, t.z_axis]
             .iter()
             .map(|a| a.truncate().length())
             .fold(0.0, f32::max);
         Some((t.transform_point3(c), r * stretch))
     };
+    progress.start("moving pixels", frames.clone().count() as u64);
+    let mut before = placed_first.clone();
     let mut union: Option<Window> = None;
-    for f in frames.skip(1) {
-        if !frame_camera(anim, f)?
-            .with_resolution(width, height)
-            .same_view(&cam)
-        {
+    for (i, f) in frames.enumerate().skip(1) {
+        if cancel.load(Ordering::Relaxed) {
+            return Err(Error::Interrupted);
+        }
+        progress.set(i as u64);
+        let (view, placed) = frame_view(anim, f)?;
+        if !view.with_resolution(width, height).same_view(&cam) {
             break;
         }
         let mut moved = Vec::new();
-        for m in anim.moved_meshes(f - 1, f) {
-            match (sphere(m, f - 1), sphere(m, f)) {
-                (Some(before), Some(after)) => moved.push(Moved::new(before, after, None)),
-                _ => return Ok(None),
+        for (m, (&b, &a)) in before.iter().zip(&placed).enumerate() {
+            if b == a {
+                continue;
+            }
+            match (sphere(m, b), sphere(m, a)) {
+                (Some(b), Some(a)) => moved.push(Moved::new(b, a, None)),
+                _ => {
+                    progress.finish();
+                    return Ok(None);
+                }
             }
         }
+        before = placed;
         if moved.is_empty() {
             continue;
         }
@@ -76,10 +96,12 @@ pub fn sequence_window(
             ..Default::default()
         };
         let Some(w) = screen_window(&change, &cam) else {
+            progress.finish();
             return Ok(None);
         };
         union = Some(union.map_or(w, |u| u.union(w)));
     }
+    progress.finish();
     Ok(union.map(|w| (cam, w)))
 }
 
@@ -610,9 +632,17 @@ mod tests {
         std::fs::write(&path, text).unwrap();
         let anim = crate::scene::load_animation(&path).unwrap().unwrap();
         let first = crate::scene::load_frame(&anim, 0).unwrap();
-        let (cam, all) = sequence_window(&anim, &first, 0..=11, (64, 48))
-            .unwrap()
-            .expect("the ball moves");
+        let no = crate::render::NoProgress;
+        let (cam, all) = sequence_window(
+            &anim,
+            &first,
+            0..=11,
+            (64, 48),
+            &no,
+            &AtomicBool::new(false),
+        )
+        .unwrap()
+        .expect("the ball moves");
         let mut before = first;
         for f in 1..=11 {
             let now = crate::scene::load_frame(&anim, f).unwrap();

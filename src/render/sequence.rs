@@ -37,7 +37,14 @@ pub fn render_sequence(
             opts.width.unwrap_or(first_scene.camera.width),
             opts.height.unwrap_or(first_scene.camera.height),
         );
-        super::frame_pixels::sequence_window(anim, &first_scene, frames.clone(), size)?
+        super::frame_pixels::sequence_window(
+            anim,
+            &first_scene,
+            frames.clone(),
+            size,
+            progress,
+            cancel,
+        )?
     } else {
         None
     };

@@ -127,6 +127,21 @@ pub fn frame_camera(anim: &Animation, f: u32) -> Result<Camera> {
     camera(&cx, &anim.frame_desc(f)).map_err(|e| at_frame(e, f))
 }
 
+/// Frame `f`'s camera and each mesh's placement (`None` where it has none), from one reading of the
+/// frame's description.
+pub fn frame_view(anim: &Animation, f: u32) -> Result<(Camera, Vec<Option<Mat4>>)> {
+    let cx = Ctx {
+        path: anim.path(),
+        text: anim.text(),
+    };
+    let desc = anim.frame_desc(f);
+    let cam = camera(&cx, &desc).map_err(|e| at_frame(e, f))?;
+    let placed = (0..desc.mesh.len())
+        .map(|m| transform(&cx, m, &desc.mesh[m]).ok())
+        .collect();
+    Ok((cam, placed))
+}
+
 /// Where `[[mesh]]` entry `mesh` is placed at frame `f` (scale → rotate → translate), `None` for no
 /// such mesh.
 pub fn mesh_transform(anim: &Animation, f: u32, mesh: usize) -> Option<Mat4> {

@@ -19,7 +19,9 @@ use std::path::PathBuf;
 use glam::{Vec2, Vec3};
 
 pub use animation::{Animation, Change};
-pub use build::{check_sequence, frame_camera, load, load_animation, load_frame, mesh_transform};
+pub use build::{
+    check_sequence, frame_camera, frame_view, load, load_animation, load_frame, mesh_transform,
+};
 pub use media::{Media, MAX_SIGMA};
 pub use settings::{FillMode, IcacheSettings, PhotonConfig, MAX_PHOTONS, SPACING_REFERENCE_SIDE};
 
