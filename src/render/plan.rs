@@ -114,8 +114,13 @@ impl Plan {
     }
 }
 
+/// The method `opts` or else the scene asks for (`pm` by default).
+pub(super) fn method(scene: &Scene, opts: &Options) -> Method {
+    opts.method.or(scene.settings.method).unwrap_or(Method::Pm)
+}
+
 pub fn plan(scene: &Scene, opts: &Options) -> Result<Plan> {
-    let method = opts.method.or(scene.settings.method).unwrap_or(Method::Pm);
+    let method = method(scene, opts);
     check_photon_files(method, &opts.files)?;
     let spp = opts.spp.or(scene.settings.spp).unwrap_or(match method {
         // Chosen from measurements against the Mitsuba reference of the caustic scene (README); for

@@ -32,7 +32,9 @@ pub fn render_sequence(
     progress.start("checking frames", (last - first + 1) as u64);
     scene::check_sequence(anim, frames.clone(), &first_scene, cancel)?;
     progress.finish();
-    let moving_window = if first_scene.settings.icache.temporal {
+    // Only `pm`'s temporal cache shades the movers' pixels at a finer target.
+    let pm = super::plan::method(&first_scene, opts) == crate::scene::Method::Pm;
+    let moving_window = if pm && first_scene.settings.icache.temporal {
         let size = (
             opts.width.unwrap_or(first_scene.camera.width),
             opts.height.unwrap_or(first_scene.camera.height),
