@@ -109,8 +109,8 @@ def main():
         scene = mi.load_file(xml)
         tf, cf = time.time(), time.process_time()
         # the same seed for every frame (0 unless --seed-offset): render_passes seeds pass k's calls from it.
-        mean, se, spp_done = render_passes(mi, scene, args.spp, max(1, args.passes), args.seed_offset,
-                                           args.width, args.height, variant)
+        mean, se, _image_se, spp_done = render_passes(mi, scene, args.spp, max(1, args.passes),
+                                                      args.seed_offset, args.width, args.height, variant)
         write_rgb(os.path.join(args.outdir, f"frame-{f:04d}.exr"), mean)
         rows.append({"frame": f, "mean_value": float(np.mean(mean)),
                      "stderr_mean": float(np.mean(se)),
