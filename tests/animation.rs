@@ -686,19 +686,9 @@ fn wait_for_handler(pid: u32) {
     }
 }
 
-#[test]
-fn ctrl_c_keeps_the_frames_written_and_nothing_of_the_current_one() {
+/// The binary run with `args`, stderr piped, once it catches SIGINT.
+fn spawn_interruptible(args: &[&str]) -> std::process::Child {
     use std::os::unix::process::CommandExt;
-    // 400 frames of a cube sliding: every frame traced and filled anew, a fraction of a second each.
-    let mut k = Keys::frames(400);
-    k.size = (48, 36);
-    k.cube = format!(
-        "[[mesh.key]]\nframe = 0\ntranslate = {}\n[[mesh.key]]\nframe = 399\ntranslate = {}\n",
-        v3([-0.6, 0.25, 0.0]),
-        v3([0.6, 0.25, 0.0])
-    );
-    let d = scene(&k);
-    let dir = d.path().join("out");
     let mut cmd = Command::new(bin());
     // SAFETY: the closure runs in the forked child before `exec` and only calls `signal`, which is
     // async-signal-safe. (The child starts with SIGINT's default disposition even when this test run
@@ -711,22 +701,76 @@ fn ctrl_c_keeps_the_frames_written_and_nothing_of_the_current_one() {
             Ok(())
         });
     }
-    let mut child = cmd
-        .args([
-            "render",
-            &p(d.path(), "scene.toml"),
-            "-o",
-            &out(d.path(), "f-####.exr"),
-            "--png",
-            &out(d.path(), "f-####.png"),
-            "--stats",
-            &out(d.path(), "f-####.json"),
-            "--quiet",
-        ])
+    let child = cmd
+        .args(args)
         .stderr(std::process::Stdio::piped())
         .spawn()
         .unwrap();
     wait_for_handler(child.id());
+    child
+}
+
+/// `frames` frames of the cube sliding across the box at 48×36: every frame traced and filled anew.
+fn sliding_cube(frames: u32) -> Keys {
+    let mut k = Keys::frames(frames);
+    k.size = (48, 36);
+    k.cube = format!(
+        "[[mesh.key]]\nframe = 0\ntranslate = {}\n[[mesh.key]]\nframe = {}\ntranslate = {}\n",
+        v3([-0.6, 0.25, 0.0]),
+        frames - 1,
+        v3([0.6, 0.25, 0.0])
+    );
+    k
+}
+
+/// Sends `child` SIGINT and checks it ends as interrupted (exit 130); its stderr.
+fn interrupt(child: std::process::Child) -> String {
+    let _ = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status();
+    let result = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&result.stderr).into_owned();
+    assert_eq!(result.status.code(), Some(130), "{stderr}");
+    assert!(stderr.contains("interrupted"), "{stderr}");
+    stderr
+}
+
+/// Ctrl-C a second into a million-frame sequence, while its outputs are checked or its movers'
+/// window found: the phase reads the flag (no watchdog), and nothing is written.
+#[test]
+fn ctrl_c_before_the_first_frame_of_a_long_sequence() {
+    let d = scene(&sliding_cube(1_000_000));
+    let dir = d.path().join("out");
+    let child = spawn_interruptible(&[
+        "render",
+        &p(d.path(), "scene.toml"),
+        "-o",
+        &out(d.path(), "f-#######.exr"),
+        "--quiet",
+    ]);
+    std::thread::sleep(Duration::from_secs(1));
+    let stderr = interrupt(child);
+    assert!(!stderr.contains("watchdog"), "{stderr}");
+    let files = listing(&dir);
+    assert!(files.iter().all(|f| !f.starts_with("f-")), "{files:?}");
+}
+
+#[test]
+fn ctrl_c_keeps_the_frames_written_and_nothing_of_the_current_one() {
+    // 400 frames of a cube sliding: every frame traced and filled anew, a fraction of a second each.
+    let d = scene(&sliding_cube(400));
+    let dir = d.path().join("out");
+    let mut child = spawn_interruptible(&[
+        "render",
+        &p(d.path(), "scene.toml"),
+        "-o",
+        &out(d.path(), "f-####.exr"),
+        "--png",
+        &out(d.path(), "f-####.png"),
+        "--stats",
+        &out(d.path(), "f-####.json"),
+        "--quiet",
+    ]);
     // Until frame 2 is on disk, then Ctrl-C during a later frame.
     let t = Instant::now();
     while !dir.join("f-0002.exr").exists() {
@@ -738,13 +782,7 @@ fn ctrl_c_keeps_the_frames_written_and_nothing_of_the_current_one() {
         std::thread::sleep(Duration::from_millis(5));
     }
     std::thread::sleep(Duration::from_millis(100));
-    let _ = Command::new("kill")
-        .args(["-INT", &child.id().to_string()])
-        .status();
-    let result = child.wait_with_output().unwrap();
-    let stderr = String::from_utf8_lossy(&result.stderr);
-    assert_eq!(result.status.code(), Some(130), "{stderr}");
-    assert!(stderr.contains("interrupted"), "{stderr}");
+    interrupt(child);
     // Frames 0..n, each with all three of its files, and the summary; nothing else.
     let files = listing(&dir);
     let n = files.iter().filter(|f| f.ends_with(".exr")).count();

@@ -1,21 +1,27 @@
 //! `render` of an animated scene: output patterns (`walk-####.exr`), `--frames A..B`, one progress
 //! bar over the frames, each frame written as soon as it is done, and a sequence summary.
 
+use std::collections::HashSet;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::AtomicBool;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
 use indicatif::ProgressBar;
 use serde_json::json;
 
 use super::{cli_inputs, styled_bar, RenderArgs};
-use pmrender::error::{option, Result};
-use pmrender::render::outputs::{check_distinct, check_output, scene_inputs};
+use pmrender::error::{option, Error, Result};
+use pmrender::render::outputs::{
+    check_distinct_from, check_target, probe_writable, scene_inputs, KnownInputs,
+};
 use pmrender::render::sequence::render_sequence;
 use pmrender::render::write::{write_outputs, write_sequence_summary, OutputPaths};
 use pmrender::render::{Options, Progress};
 use pmrender::scene::Animation;
 use pmrender::signal;
+
+/// Frames whose outputs are checked between two reads of the interrupt flag.
+const CANCEL_EVERY: u32 = 1024;
 
 /// An output path with one run of `#`, replaced by the frame number.
 struct Pattern {
@@ -142,12 +148,24 @@ impl Patterns {
         }
     }
 
-    /// Every frame's outputs can be written and none names an input.
-    fn check(&self, a: &RenderArgs, frames: &std::ops::RangeInclusive<u32>) -> Result<()> {
+    /// Every frame's outputs can be written and none names an input. A directory is tried with a
+    /// file once per length of name: a million frames' files each created and removed took longer than
+    /// a frame. Stops on `cancel`.
+    fn check(
+        &self,
+        a: &RenderArgs,
+        frames: &std::ops::RangeInclusive<u32>,
+        cancel: &AtomicBool,
+    ) -> Result<()> {
         let mut inputs = scene_inputs(&a.scene);
         inputs.extend(cli_inputs(a));
+        let inputs = KnownInputs::new(&inputs);
         let summary = self.stats.as_ref().map(|p| p.named("sequence"));
+        let mut probed = HashSet::new();
         for f in frames.clone() {
+            if f % CANCEL_EVERY == 0 && cancel.load(Ordering::Relaxed) {
+                return Err(Error::Interrupted);
+            }
             let paths = self.at(f);
             let named: Vec<(&'static str, &Path)> = [
                 (self.exr.opt, Some(paths.exr.as_path())),
@@ -160,9 +178,13 @@ impl Patterns {
             .filter_map(|(o, p)| p.map(|p| (o, p)))
             .collect();
             for (opt, p) in &named {
-                check_output(opt, p)?;
+                check_target(opt, p)?;
+                let length = p.file_name().map_or(0, |n| n.len());
+                if probed.insert((p.parent().map(Path::to_path_buf), length)) {
+                    probe_writable(opt, p)?;
+                }
             }
-            check_distinct(&named, &inputs)?;
+            check_distinct_from(&named, &inputs)?;
         }
         Ok(())
     }
@@ -207,7 +229,7 @@ pub(super) fn render_animation(
 ) -> Result<()> {
     let frames = frame_range(a.frames.as_deref(), anim.frames())?;
     let patterns = Patterns::new(a)?;
-    patterns.check(a, &frames)?;
+    patterns.check(a, &frames, cancel)?;
     let bar = FramesBar::new(a.quiet, (frames.end() - frames.start() + 1) as u64);
     bar.frame
         .store(*frames.start(), std::sync::atomic::Ordering::Relaxed);

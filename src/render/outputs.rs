@@ -16,6 +16,12 @@ pub type Output<'a> = (&'static str, &'a Path);
 
 /// The checks that need no scene: the path's form, its directory, and that it can be created.
 pub fn check_output(opt: &str, path: &Path) -> Result<()> {
+    check_target(opt, path)?;
+    probe_writable(opt, path)
+}
+
+/// `path` names a file, in a directory that exists, that is not a directory or another kind of file.
+pub fn check_target(opt: &str, path: &Path) -> Result<()> {
     let raw = path.as_os_str().as_bytes();
     let name = path.file_name();
     if raw.is_empty() || raw.ends_with(b"/") || name.is_none() || raw.ends_with(b"/.") {
@@ -45,6 +51,16 @@ pub fn check_output(opt: &str, path: &Path) -> Result<()> {
             ));
         }
     }
+    Ok(())
+}
+
+/// A file of `path`'s name length can be created in its directory (a file created and removed at once).
+pub fn probe_writable(opt: &str, path: &Path) -> Result<()> {
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    let name = path.file_name();
     let probe = probe_path(path);
     match std::fs::OpenOptions::new()
         .write(true)
@@ -113,6 +129,25 @@ impl Identity {
 
 /// Refuses two outputs naming one file, and an output naming one of `inputs` (what, path).
 pub fn check_distinct(outputs: &[Output], inputs: &[(String, PathBuf)]) -> Result<()> {
+    check_distinct_from(outputs, &KnownInputs::new(inputs))
+}
+
+/// A command's input files with where each points, found once for the outputs of many frames.
+pub struct KnownInputs(Vec<(String, PathBuf, Identity)>);
+
+impl KnownInputs {
+    pub fn new(inputs: &[(String, PathBuf)]) -> KnownInputs {
+        KnownInputs(
+            inputs
+                .iter()
+                .map(|(what, p)| (what.clone(), p.clone(), Identity::of(p)))
+                .collect(),
+        )
+    }
+}
+
+/// [`check_distinct`] against inputs whose identities are known.
+pub fn check_distinct_from(outputs: &[Output], inputs: &KnownInputs) -> Result<()> {
     let ids: Vec<Identity> = outputs.iter().map(|(_, p)| Identity::of(p)).collect();
     for (i, (opt, path)) in outputs.iter().enumerate() {
         if let Some(j) = (0..i).find(|&j| ids[j].same(&ids[i])) {
@@ -125,8 +160,8 @@ pub fn check_distinct(outputs: &[Output], inputs: &[(String, PathBuf)]) -> Resul
                 ),
             ));
         }
-        for (what, input) in inputs {
-            if ids[i].same(&Identity::of(input)) {
+        for (what, input, id) in &inputs.0 {
+            if ids[i].same(id) {
                 return Err(option(
                     opt,
                     format!(
