@@ -3,7 +3,8 @@
 
 use std::collections::HashSet;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU32, AtomicU64, Ordering};
+use std::sync::Mutex;
 use std::time::Instant;
 
 use indicatif::ProgressBar;
@@ -190,10 +191,14 @@ impl Patterns {
     }
 }
 
-/// One bar over the frames, its message naming the frame and phase.
+/// One bar over the frames, its message naming the frame, the phase and how far the phase is (a phase
+/// over the whole sequence, such as finding the movers' window, can take seconds before frame 0).
 struct FramesBar {
     bar: ProgressBar,
-    frame: std::sync::atomic::AtomicU32,
+    frame: AtomicU32,
+    /// The current phase's name and total, and the percentage last shown.
+    phase: Mutex<(String, u64)>,
+    shown: AtomicU64,
 }
 
 impl FramesBar {
@@ -201,21 +206,47 @@ impl FramesBar {
         let bar = styled_bar(
             quiet,
             n,
-            "{msg:>20} [{bar:40}] {pos}/{len} frames {elapsed_precise} eta {eta}",
+            "{msg:>28} [{bar:40}] {pos}/{len} frames {elapsed_precise} eta {eta}",
         );
         FramesBar {
             bar,
             frame: Default::default(),
+            phase: Mutex::new((String::new(), 0)),
+            shown: AtomicU64::new(u64::MAX),
         }
+    }
+
+    fn show(&self, name: &str, percent: Option<u64>) {
+        let f = self.frame.load(Ordering::Relaxed);
+        self.bar.set_message(match percent {
+            Some(p) => format!("frame {f} {name} {p}%"),
+            None => format!("frame {f} {name}"),
+        });
     }
 }
 
 impl Progress for FramesBar {
-    fn start(&self, phase: &str, _: u64) {
-        let f = self.frame.load(std::sync::atomic::Ordering::Relaxed);
-        self.bar.set_message(format!("frame {f} {phase}"));
+    fn start(&self, phase: &str, total: u64) {
+        if let Ok(mut p) = self.phase.lock() {
+            *p = (phase.to_string(), total);
+        }
+        self.shown.store(u64::MAX, Ordering::Relaxed);
+        self.show(phase, None);
     }
-    fn set(&self, _: u64) {}
+    /// Shows the phase's percentage when it changes (the phases call this from every worker).
+    fn set(&self, done: u64) {
+        let Ok(p) = self.phase.try_lock() else {
+            return;
+        };
+        let (name, total) = &*p;
+        if *total == 0 {
+            return;
+        }
+        let percent = (done.min(*total) * 100) / total;
+        if self.shown.swap(percent, Ordering::Relaxed) != percent {
+            self.show(name, Some(percent));
+        }
+    }
     fn finish(&self) {}
 }
 
@@ -231,8 +262,7 @@ pub(super) fn render_animation(
     let patterns = Patterns::new(a)?;
     patterns.check(a, &frames, cancel)?;
     let bar = FramesBar::new(a.quiet, (frames.end() - frames.start() + 1) as u64);
-    bar.frame
-        .store(*frames.start(), std::sync::atomic::Ordering::Relaxed);
+    bar.frame.store(*frames.start(), Ordering::Relaxed);
     let start = Instant::now();
     let mut summary = Vec::new();
     let mut on_frame = |f: u32, scene: &_, out: &_, stats: &pmrender::render::RenderStats| {
@@ -242,7 +272,7 @@ pub(super) fn render_animation(
         written?;
         summary.push(frame_summary(f, stats));
         bar.bar.inc(1);
-        bar.frame.store(f + 1, std::sync::atomic::Ordering::Relaxed);
+        bar.frame.store(f + 1, Ordering::Relaxed);
         Ok(())
     };
     signal::arm(true);
