@@ -30,7 +30,7 @@ pub fn render_sequence(
     let first_scene = scene::load_frame(anim, first)?;
     // Frames where a medium's boundary moved are built to be checked: that can take a while.
     progress.start("checking frames", (last - first + 1) as u64);
-    scene::check_sequence(anim, frames.clone(), &first_scene, cancel)?;
+    scene::check_sequence(anim, frames.clone(), &first_scene, progress, cancel)?;
     progress.finish();
     // Only `pm`'s temporal cache shades the movers' pixels at a finer target.
     let pm = super::plan::method(&first_scene, opts) == crate::scene::Method::Pm;

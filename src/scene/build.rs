@@ -61,11 +61,13 @@ pub fn load_frame(anim: &Animation, f: u32) -> Result<Scene> {
 /// What building frames `frames` of `anim` would refuse, found before any of them is rendered
 /// (`first`: the scene of the first): each frame's lights without power (unless meshes emit) and the
 /// camera's declared medium at each frame's eye. A frame where a medium's boundary mesh moved is
-/// built (its media checked as a still's are). Stops with `Interrupted` once `cancel` is set.
+/// built (its media checked as a still's are), reported to `progress` frame by frame. Stops with
+/// `Interrupted` once `cancel` is set.
 pub fn check_sequence(
     anim: &Animation,
     frames: std::ops::RangeInclusive<u32>,
     first: &Scene,
+    progress: &dyn crate::progress::Progress,
     cancel: &std::sync::atomic::AtomicBool,
 ) -> Result<()> {
     let cx = Ctx {
@@ -88,6 +90,7 @@ pub fn check_sequence(
         if cancel.load(std::sync::atomic::Ordering::Relaxed) {
             return Err(crate::error::Error::Interrupted);
         }
+        progress.set(u64::from(f - start));
         let desc = anim.frame_desc(f);
         if !meshes_emit && !some_light_emits(&cx, &desc).map_err(|e| at_frame(e, f))? {
             return Err(at_frame(
