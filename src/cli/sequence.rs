@@ -21,7 +21,7 @@ use pmrender::render::{Options, Progress};
 use pmrender::scene::Animation;
 use pmrender::signal;
 
-/// Frames whose outputs are checked between two reads of the interrupt flag.
+/// Frames whose outputs are checked between two reads of the interrupt flag (and reports of progress).
 const CANCEL_EVERY: u32 = 1024;
 
 /// An output path with one run of `#`, replaced by the frame number.
@@ -151,21 +151,29 @@ impl Patterns {
 
     /// Every frame's outputs can be written and none names an input. A directory is tried with a
     /// file once per length of name: a million frames' files each created and removed took longer than
-    /// a frame. Stops on `cancel`.
+    /// a frame. Reports to `progress`; stops on `cancel`.
     fn check(
         &self,
         a: &RenderArgs,
         frames: &std::ops::RangeInclusive<u32>,
+        progress: &dyn Progress,
         cancel: &AtomicBool,
     ) -> Result<()> {
+        progress.start(
+            "checking outputs",
+            u64::from(frames.end() - frames.start()) + 1,
+        );
         let mut inputs = scene_inputs(&a.scene);
         inputs.extend(cli_inputs(a));
         let inputs = KnownInputs::new(&inputs);
         let summary = self.stats.as_ref().map(|p| p.named("sequence"));
         let mut probed = HashSet::new();
         for f in frames.clone() {
-            if f % CANCEL_EVERY == 0 && cancel.load(Ordering::Relaxed) {
-                return Err(Error::Interrupted);
+            if f % CANCEL_EVERY == 0 {
+                if cancel.load(Ordering::Relaxed) {
+                    return Err(Error::Interrupted);
+                }
+                progress.set(u64::from(f - frames.start()));
             }
             let paths = self.at(f);
             let named: Vec<(&'static str, &Path)> = [
@@ -260,9 +268,9 @@ pub(super) fn render_animation(
 ) -> Result<()> {
     let frames = frame_range(a.frames.as_deref(), anim.frames())?;
     let patterns = Patterns::new(a)?;
-    patterns.check(a, &frames, cancel)?;
     let bar = FramesBar::new(a.quiet, (frames.end() - frames.start() + 1) as u64);
     bar.frame.store(*frames.start(), Ordering::Relaxed);
+    patterns.check(a, &frames, &bar, cancel)?;
     let start = Instant::now();
     let mut summary = Vec::new();
     let mut on_frame = |f: u32, scene: &_, out: &_, stats: &pmrender::render::RenderStats| {
