@@ -14,6 +14,7 @@ use super::coverage::SceneCoverage;
 use super::glossy_texels::GlossyTexels;
 use super::photon_scene::PhotonView;
 use super::settings::PhotonSettings;
+use super::volume_grid::Surroundings;
 use super::volume_grid::{Photons, VolumeGrid};
 use crate::counters::SampleCounters;
 use crate::error::Result;
@@ -205,17 +206,7 @@ impl<'a> PhotonData<'a> {
         let s = cached.unwrap_or_else(|| {
             c.photon_estimates += 1;
             let (k, cap) = (self.settings.lookup, self.settings.max_radius_volume);
-            let scene = self.coverage.0;
-            // Near a surface the kernel reaches past it: the estimate is fitted over what the point
-            // sees (a coarse lattice's measurements, moved to the point where nothing lies between).
-            let measure = |p: Vec3| super::media_cache::surroundings(scene, p).0;
-            let around = if !scene.settings.icache.media_visibility() {
-                None
-            } else if let Some(grid) = &self.media.volume_grid {
-                grid.surroundings(x, cap, measure, |a, b| scene.segment_clear(a, b))
-            } else {
-                Some(measure(x))
-            };
+            let around = self.volume_view(x);
             let est = super::volume_grid::estimate_within(
                 map,
                 x,
@@ -229,6 +220,23 @@ impl<'a> PhotonData<'a> {
             est.rec.s
         });
         super::volume_grid::phase_moments(s, d, g) * ratio
+    }
+
+    /// What a volume estimate at `x` fits its kernel over (`None`: the whole kernel, or visibility
+    /// off): near a surface the kernel reaches past it, and the estimate is fitted over what the point
+    /// sees — a coarse lattice's measurements, moved to the point where nothing lies between.
+    pub(crate) fn volume_view(&self, x: Vec3) -> Option<Surroundings> {
+        let scene = self.coverage.0;
+        if !scene.settings.icache.media_visibility() {
+            return None;
+        }
+        let measure = |p: Vec3| super::media_cache::surroundings(scene, p).0;
+        match &self.media.volume_grid {
+            Some(grid) => grid.surroundings(x, self.settings.max_radius_volume, measure, |a, b| {
+                scene.segment_clear(a, b)
+            }),
+            None => Some(measure(x)),
+        }
     }
 
     /// Wraps the maps for the render: the caustic map's reach grid is built here, and both caustic

@@ -186,8 +186,11 @@ fn follow(
     }
 }
 
-/// The record for `p`: the estimate over the photons camera rays read (with its gradient) and its
-/// radius (see the module header); `stride` is the pixel lattice's.
+/// The record for `p`: the estimate over the photons camera rays read (with its gradient), fitted over
+/// the same view of its surroundings as a camera ray's step without the cache ([`PhotonData::volume_view`]),
+/// and its radius from the walls measured at the point (see the module header); `stride` is the
+/// pixel lattice's. With its own measurement as the view, dense fog read 0.3 % brighter through the
+/// cache than without it.
 pub fn media_record(
     scene: &Scene,
     photons: &PhotonData,
@@ -197,7 +200,8 @@ pub fn media_record(
     let Some(map) = &photons.maps().volume else {
         return VolumeRecord::default();
     };
-    let (around, walls) = surroundings(scene, p.pos);
+    let around = photons.volume_view(p.pos);
+    let (_, walls) = surroundings(scene, p.pos);
     let (k, cap) = (
         photons.settings().lookup,
         photons.settings().max_radius_volume,
@@ -208,7 +212,7 @@ pub fn media_record(
         (k, cap),
         photons.camera_photons(),
         true,
-        scene.settings.icache.media_visibility().then_some(&around),
+        around.as_ref(),
         Some((p.dir, p.g)),
     );
     let (rec, r_kernel) = (est.rec, est.radius);
