@@ -150,8 +150,8 @@ impl Patterns {
     }
 
     /// Every frame's outputs can be written and none names an input. A directory is tried with a
-    /// file once per length of name: a million frames' files each created and removed took longer than
-    /// a frame. Reports to `progress`; stops on `cancel`.
+    /// file once per length of name, not once per frame: creating and removing a file for each of a
+    /// long sequence's frames is most of the check. Reports to `progress`; stops on `cancel`.
     fn check(
         &self,
         a: &RenderArgs,

@@ -189,8 +189,8 @@ fn follow(
 /// The record for `p`: the estimate over the photons camera rays read (with its gradient), fitted over
 /// the same view of its surroundings as a camera ray's step without the cache ([`PhotonData::volume_view`]),
 /// and its radius from the walls measured at the point (see the module header); `stride` is the
-/// pixel lattice's. With its own measurement as the view, dense fog read 0.3 % brighter through the
-/// cache than without it.
+/// pixel lattice's. The shared view makes the cache estimate what a step without it would (a view
+/// measured at the point reads high in dense fog: docs/validation.md).
 pub fn media_record(
     scene: &Scene,
     photons: &PhotonData,
