@@ -116,9 +116,83 @@ fn radical_inverse<const B: u64>(index: u64) -> f64 {
     r
 }
 
+/// Point `index` of a two-dimensional Sobol' sequence (a (0,2)-sequence in base 2), Owen-scrambled by
+/// `seed`: every aligned run of 2^k points puts one point in each of the 2^k cells of every
+/// subdivision of the unit square into 2^a × 2^b cells (a + b = k), so any prefix is stratified about
+/// as well as a jittered grid of its size, and points of different seeds are independent. The
+/// scramble is Burley's hash-based nested uniform scramble ("Practical hash-based Owen scrambling",
+/// JCGT 2020).
+pub fn sobol_2d(index: u32, seed: u64) -> [f32; 2] {
+    // Second dimension: the generator matrix of the polynomial x + 1, v_j = v_{j-1} ^ (v_{j-1} >> 1).
+    let (mut y, mut v, mut i) = (0u32, 1u32 << 31, index);
+    while i != 0 {
+        if i & 1 == 1 {
+            y ^= v;
+        }
+        v ^= v >> 1;
+        i >>= 1;
+    }
+    let x = index.reverse_bits();
+    let seed = mix64(seed);
+    let to_unit = |b: u32| (b >> 8) as f32 / 16_777_216.0;
+    [
+        to_unit(owen_scramble(x, seed as u32)),
+        to_unit(owen_scramble(y, (seed >> 32) as u32)),
+    ]
+}
+
+/// A nested uniform scramble of the bits of `x` (most significant first): each bit is flipped by a hash
+/// of `seed` and the bits above it.
+fn owen_scramble(x: u32, seed: u32) -> u32 {
+    let mut x = x.reverse_bits();
+    x = x.wrapping_add(seed);
+    x ^= x.wrapping_mul(0x6c50_b47c);
+    x ^= x.wrapping_mul(0xb82f_1e52);
+    x ^= x.wrapping_mul(0xc7af_e638);
+    x ^= x.wrapping_mul(0x8d22_f6e6);
+    x.reverse_bits()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn sobol_points_of_an_aligned_run_fill_every_elementary_cell_once() {
+        for seed in [0u64, 1, 99] {
+            for start in [0u32, 64, 128] {
+                // 64 points: one in each cell of 64×1, 32×2, …, 1×64.
+                for a in 0..=6u32 {
+                    let (nx, ny) = (1u32 << a, 1u32 << (6 - a));
+                    let mut seen = [false; 64];
+                    for i in start..start + 64 {
+                        let [x, y] = sobol_2d(i, seed);
+                        assert!((0.0..1.0).contains(&x) && (0.0..1.0).contains(&y));
+                        let cell = (x * nx as f32) as u32 + nx * (y * ny as f32) as u32;
+                        assert!(
+                            !seen[cell as usize],
+                            "seed {seed} start {start} cells {nx}×{ny}"
+                        );
+                        seen[cell as usize] = true;
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn sobol_points_of_different_seeds_differ_and_average_to_the_middle() {
+        let (mut sum, n) = ([0.0f64; 2], 4096u64);
+        for seed in 0..n {
+            let p = sobol_2d(0, seed);
+            assert_ne!(p, sobol_2d(0, seed + 1));
+            sum[0] += p[0] as f64;
+            sum[1] += p[1] as f64;
+        }
+        for s in sum {
+            assert!((s / n as f64 - 0.5).abs() < 0.02, "{}", s / n as f64);
+        }
+    }
 
     #[test]
     fn uniform_is_in_unit_interval_and_unbiased() {

@@ -27,7 +27,7 @@
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
 use glam::Vec3;
-use photon::sampling::{hash_keys, Rng};
+use photon::sampling::{hash_keys, sobol_2d, Rng};
 use rayon::prelude::*;
 
 use crate::counters::SampleCounters;
@@ -237,13 +237,22 @@ fn lobe_point(seed: u64, pixel: u64, s: u32, spp: u32) -> [f32; 2] {
     [((cell % 2) as f32 + u) * 0.5, ((cell / 2) as f32 + v) * 0.5]
 }
 
-/// Sub-pixel offset of sample `s`: its quarter of the pixel when it belongs to a whole group of four
-/// within `spp`, anywhere otherwise; jittered by (u, v).
-fn offset(s: u32, spp: u32, u: f32, v: f32) -> [f32; 2] {
+/// Keys the scrambles of the offsets' Sobol' points.
+const OFFSET_KEY: u64 = 0x0ff5;
+
+/// Sub-pixel offset of sample `s` (of at most `spp` in pixel `pixel`): in a whole group of four, a point
+/// of quarter `s % 4`; anywhere otherwise, at (u, v). A quarter's points come from two Sobol' sequences
+/// of their own, one for the even groups and one for the odd: each sequence's points stratify the
+/// quarter ever more finely as the pixel takes samples (an edge's coverage converges faster than with
+/// independent points), and the two samples of a pair of groups that the variance estimate compares
+/// stay independent of each other, so that the estimate is what it was with independent points.
+fn offset(seed: u64, pixel: u64, s: u32, spp: u32, u: f32, v: f32) -> [f32; 2] {
     if !in_whole_group(s, spp) {
         return [u, v];
     }
-    let cell = s % GROUP;
+    let (cell, group) = (s % GROUP, s / GROUP);
+    let stream = hash_keys(&[seed, pixel, cell as u64, (group % 2) as u64, OFFSET_KEY]);
+    let [u, v] = sobol_2d(group / 2, stream);
     [((cell % 2) as f32 + u) * 0.5, ((cell / 2) as f32 + v) * 0.5]
 }
 
@@ -764,7 +773,7 @@ impl RoundSpec {
             }
             let mut rng = Rng::new(hash_keys(&[self.seed, pixel, px.n as u64]));
             let (u, v) = (rng.uniform(), rng.uniform());
-            let off = offset(px.n, self.spp, u, v);
+            let off = offset(self.seed, pixel, px.n, self.spp, u, v);
             let at = SamplePoint {
                 offset: off,
                 lobe: if self.lobe_points {
@@ -886,17 +895,28 @@ mod tests {
     fn whole_groups_are_stratified_and_the_rest_is_not() {
         // spp 8: two whole groups, each sample in its own quarter.
         for s in 0..8 {
-            let [x, y] = offset(s, 8, 0.999, 0.0);
+            let [x, y] = offset(7, 3, s, 8, 0.999, 0.0);
             let cell = s % 4;
             assert!(
-                (x - (cell % 2) as f32 * 0.5 - 0.4995).abs() < 1e-6
-                    && (y - (cell / 2) as f32 * 0.5).abs() < 1e-6
+                (x * 2.0).floor() as u32 == cell % 2 && (y * 2.0).floor() as u32 == cell / 2,
+                "sample {s} at {x}, {y}"
             );
         }
-        // spp 1 and the tail of spp 6: anywhere in the pixel.
-        assert_eq!(offset(0, 1, 0.7, 0.8), [0.7, 0.8]);
-        assert_eq!(offset(5, 6, 0.7, 0.8), [0.7, 0.8]);
-        assert_eq!(offset(3, 6, 0.0, 0.0), [0.5, 0.5]);
+        // spp 1 and the tail of spp 6: anywhere in the pixel, at the given point.
+        assert_eq!(offset(7, 3, 0, 1, 0.7, 0.8), [0.7, 0.8]);
+        assert_eq!(offset(7, 3, 5, 6, 0.7, 0.8), [0.7, 0.8]);
+    }
+
+    #[test]
+    fn a_quarters_points_in_even_groups_stratify_it() {
+        // 128 samples: 16 even groups, whose points in quarter 0 fill a 4×4 grid of it once each.
+        let mut seen = [false; 16];
+        for g in (0..32u32).step_by(2) {
+            let [x, y] = offset(7, 3, g * GROUP, 128, 0.0, 0.0);
+            let cell = (x * 8.0) as usize + 4 * (y * 8.0) as usize;
+            assert!(!seen[cell], "group {g}");
+            seen[cell] = true;
+        }
     }
 
     #[test]
