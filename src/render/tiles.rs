@@ -646,6 +646,8 @@ fn next_round(
     let mut open = vec![false; ww * wh];
     let mut allowed = vec![true; ww * wh];
     let mut forced: Vec<Option<bool>> = vec![None; ww * wh];
+    // The mean of each pixel that took samples of its own this round.
+    let mut sampled: Vec<Option<Vec3>> = vec![None; ww * wh];
     for t in tiles {
         let w = t.window;
         for y in w.y0..w.y1 {
@@ -672,8 +674,12 @@ fn next_round(
                     _ => &px.spread,
                 };
                 open[at] = allowed[at] && !converged(spread, px.n, mean, sampling.noise_at(x, y));
+                sampled[at] = Some(mean);
             }
         }
+    }
+    if !past_aa {
+        open_beside_brighter(&mut open, &allowed, &sampled, ww, wh);
     }
     let mut active = vec![false; ww * wh];
     for y in 0..wh {
@@ -689,6 +695,37 @@ fn next_round(
     Active {
         window,
         flags: active,
+    }
+}
+
+/// How many times brighter than a pixel (over a floor of 0.1) a neighbour must be for the pixel to go on
+/// sampling before `aa_spp` whatever its own samples say.
+const BRIGHTER_NEIGHBOUR: f32 = 4.0;
+
+/// Opens each allowed pixel that has a neighbour [`BRIGHTER_NEIGHBOUR`] times brighter in some channel:
+/// a few samples that all missed a bright sliver of the pixel (an emitter's edge seen at a grazing
+/// angle, a sunlit gap) agree with one another, so the pixel's own spread says it has converged while
+/// its mean may be off by the sliver's whole light. The neighbour rule then opens the pixels around it.
+fn open_beside_brighter(
+    open: &mut [bool],
+    allowed: &[bool],
+    sampled: &[Option<Vec3>],
+    ww: usize,
+    wh: usize,
+) {
+    let floor = REL_FLOOR.sqrt() as f32;
+    for y in 0..wh {
+        for x in 0..ww {
+            let at = y * ww + x;
+            let (Some(m), true, false) = (sampled[at], allowed[at], open[at]) else {
+                continue;
+            };
+            let limit = (m + Vec3::splat(floor)) * BRIGHTER_NEIGHBOUR;
+            open[at] = (y.saturating_sub(1)..(y + 2).min(wh)).any(|yy| {
+                (x.saturating_sub(1)..(x + 2).min(ww))
+                    .any(|xx| sampled[yy * ww + xx].is_some_and(|n| n.cmpgt(limit).any()))
+            });
+        }
     }
 }
 
@@ -917,6 +954,27 @@ mod tests {
             assert!(!seen[cell], "group {g}");
             seen[cell] = true;
         }
+    }
+
+    #[test]
+    fn a_pixel_beside_a_much_brighter_one_goes_on() {
+        // A row of five converged pixels: an emitter's 17 beside the ceiling's 0.1, 0.3 and 0.5.
+        let means = [17.0, 0.1, 0.3, 0.5, 0.5];
+        let sampled: Vec<Option<Vec3>> = means.iter().map(|&m| Some(Vec3::splat(m))).collect();
+        let mut open = vec![false; 5];
+        open_beside_brighter(&mut open, &[true; 5], &sampled, 5, 1);
+        // 0.1 opens beside 17; 0.3 beside 0.1 and 0.5 does not (0.5 < 4 · 0.4); nor does the emitter.
+        assert_eq!(open, [false, true, false, false, false]);
+        // A pixel not allowed to go on (past aa_spp without Monte Carlo estimates) stays shut, and a
+        // pixel without samples of its own (kept from a frame before) neither opens nor opens others.
+        let mut open = vec![false; 5];
+        open_beside_brighter(&mut open, &[true, false, true, true, true], &sampled, 5, 1);
+        assert_eq!(open, [false; 5]);
+        let mut kept = sampled.clone();
+        kept[0] = None;
+        let mut open = vec![false; 5];
+        open_beside_brighter(&mut open, &[true; 5], &kept, 5, 1);
+        assert_eq!(open, [false; 5]);
     }
 
     #[test]
