@@ -201,12 +201,12 @@ pub fn plan(scene: &Scene, opts: &Options) -> Result<Plan> {
 /// In a scene with glossy lobes, the photon-map methods' layers whose noise decides whether a pixel
 /// goes on past `aa_spp`: those holding Monte Carlo estimates — the glossy lobe's sample, mirror and
 /// glass paths, the media, the direct light where area lights are sampled, and `pm-fg`'s per-sample
-/// gathers — and the emission: its samples differ only by where they fall in the pixel, but an
-/// emitter is so much brighter than what surrounds it that a pixel on its edge is still far off at
-/// `aa_spp` (a pixel inside it or away from it has no spread there). Not the caustic and soft indirect
-/// light read from maps and caches, nor the direct light of point, spot and directional lights: their
-/// samples differ only by where they fall in the pixel, which `aa_spp` already stops. Judged by the beauty, every textured pixel a glossy
-/// lobe made Monte Carlo went on to `spp` for its texture's sake. Elsewhere (`None`) the beauty
+/// gathers. Not the caustic and soft indirect light read from maps and caches, nor the direct light of
+/// point, spot and directional lights: their samples differ only by where they fall in the pixel,
+/// which `aa_spp` already stops. The emission's samples differ only so too, but an emitter is so much
+/// brighter than what surrounds it that a pixel on its edge is still far off at `aa_spp`; it counts (a
+/// pixel inside an emitter or away from one has no spread in it). Judged by the beauty, every textured
+/// pixel a glossy lobe made Monte Carlo went on to `spp` for its texture's sake. Elsewhere (`None`) the beauty
 /// decides, as validated.
 fn past_aa_layers(scene: &Scene, method: Method) -> Option<u32> {
     let layout = crate::integrator::terms::Layout::of(scene);
