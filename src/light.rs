@@ -178,6 +178,14 @@ impl Lights {
         self.sample_light(i, p_sel, geo, p, u)
     }
 
+    /// [`Self::sample_area`] at a point of the unit square: its first coordinate chooses the triangle
+    /// and, rescaled within the triangle's share, places the point with the second, so that points
+    /// stratified in the square stay stratified over the lights' area.
+    pub fn sample_area_at(&self, geo: &Geometry, p: Vec3, u: [f32; 2]) -> Option<LightSample> {
+        let (i, p_sel, rest) = self.select_area.as_ref()?.sample_remapped(u[0]);
+        self.sample_light(i, p_sel, geo, p, [u[0], rest, u[1]])
+    }
+
     /// The incident light from every point, spot and directional light at `p` (no randomness).
     pub fn delta_samples<'a>(
         &'a self,

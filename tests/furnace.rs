@@ -4,7 +4,7 @@
 mod common;
 use common::*;
 
-fn furnace(rho: f32, le: f32, method: &str, spp: u32) -> (glam::Vec3, f32, f32) {
+fn furnace(rho: f32, le: f32, method: &str, spp: u32) -> (glam::Vec3, f32, f32, (f32, f32)) {
     let mtl = format!("newmtl inside\nKd {rho} {rho} {rho}\nKe {le} {le} {le}\n");
     let toml = "version = 1\n[camera]\neye = [0.1, 0.2, 0.05]\ntarget = [1.0, 0.3, 0.2]\nfov = 120.0\nwidth = 16\nheight = 16\n\n[[mesh]]\nobj = \"furnace.obj\"\n\n[render]\nmax_depth = 200\n";
     let obj = inward_sphere(24, 12);
@@ -38,14 +38,33 @@ fn furnace(rho: f32, le: f32, method: &str, spp: u32) -> (glam::Vec3, f32, f32) 
         .iter()
         .map(|p| p.max_element())
         .fold(0.0, f32::max);
-    (mean(&img), lo, hi)
+    (mean(&img), lo, hi, block_range(&img))
+}
+
+/// The lowest and highest channel of the image's 4×4-pixel block means.
+fn block_range(img: &pmrender::io::output::Image) -> (f32, f32) {
+    let (mut lo, mut hi) = (f32::INFINITY, 0.0f32);
+    for by in 0..img.height / 4 {
+        for bx in 0..img.width / 4 {
+            let mut sum = glam::Vec3::ZERO;
+            for y in 4 * by..4 * by + 4 {
+                for x in 4 * bx..4 * bx + 4 {
+                    sum += img.pixels[(y * img.width + x) as usize];
+                }
+            }
+            let m = sum / 16.0;
+            lo = lo.min(m.min_element());
+            hi = hi.max(m.max_element());
+        }
+    }
+    (lo, hi)
 }
 
 #[test]
 fn path_tracer_furnace() {
     for rho in [0.5f32, 0.8] {
         let expected = 1.0 / (1.0 - rho);
-        let (m, lo, hi) = furnace(rho, 1.0, "path", 256);
+        let (m, lo, hi, _) = furnace(rho, 1.0, "path", 256);
         // 256 pixels × 256 samples: the mean's standard error is well under 1 %; 2 % allows for it.
         for c in m.to_array() {
             assert!(
@@ -66,14 +85,17 @@ fn path_tracer_furnace() {
 /// map) must add up to the geometric series. Bias, not noise, is what this catches: a term counted twice
 /// or lost, or density estimates that lose light on a curved surface. Measured (8 spp): means within
 /// 0.8 % (pm 1.9950 / 4.9691, pm-fg 1.9944 / 4.9649, photons 1.9928 / 4.9908 for 2 / 5); bound 3 %.
-/// Pixels: within 12 % (photons at ρ = 0.8, the global map read directly); bound 20 %.
+/// Where the bias would vary over the sphere, 4×4-pixel block means: `pm` at ρ = 0.5 within 1.4 %
+/// over seeds 0–23, `photons` at ρ = 0.8 (the global map read directly) within 2.9 %; bound 5 %. Single pixels carry the faceted sphere's heavy tail (an area-light
+/// sample just across an edge of the pixel's facet, close and at a grazing angle: over those seeds 3–5
+/// of 6144 pixels beyond +20 %), so they are held only to [0.5, 2] times the series.
 #[test]
 fn photon_map_methods_furnace() {
     for (method, spp) in [("pm", 8), ("pm-fg", 8), ("photons", 8)] {
         for rho in [0.5f32, 0.8] {
             let expected = 1.0 / (1.0 - rho);
-            let (m, lo, hi) = furnace(rho, 1.0, method, spp);
-            eprintln!("[furnace] {method} ρ={rho}: mean {:.4} (expected {expected:.4}), range [{lo:.3}, {hi:.3}]", m.x);
+            let (m, lo, hi, (block_lo, block_hi)) = furnace(rho, 1.0, method, spp);
+            eprintln!("[furnace] {method} ρ={rho}: mean {:.4} (expected {expected:.4}), range [{lo:.3}, {hi:.3}], blocks [{block_lo:.3}, {block_hi:.3}]", m.x);
             for c in m.to_array() {
                 assert!(
                     (c - expected).abs() < 0.03 * expected,
@@ -81,7 +103,11 @@ fn photon_map_methods_furnace() {
                 );
             }
             assert!(
-                lo > 0.8 * expected && hi < 1.2 * expected,
+                block_lo > 0.95 * expected && block_hi < 1.05 * expected,
+                "{method} ρ={rho}: blocks [{block_lo}, {block_hi}] vs {expected}"
+            );
+            assert!(
+                lo > 0.5 * expected && hi < 2.0 * expected,
                 "{method} ρ={rho}: range [{lo}, {hi}] vs {expected}"
             );
         }

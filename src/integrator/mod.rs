@@ -10,6 +10,23 @@ use glam::Vec3;
 
 use crate::counters::SampleCounters;
 
+/// The points of the unit square a camera sample's area-light samples at its first hit take: points
+/// `first`, `first + 1`, … of a scrambled Sobol' sequence of the pixel's own, so that over the pixel's
+/// samples the light's area is stratified ever more finely (a soft shadow's noise falls faster than
+/// with independent points).
+#[derive(Clone, Copy, Debug)]
+pub struct LightPoints {
+    pub stream: u64,
+    pub first: u32,
+}
+
+impl LightPoints {
+    /// Point `j` of this sample's.
+    pub fn point(&self, j: u32) -> [f32; 2] {
+        photon::sampling::sobol_2d(self.first + j, self.stream)
+    }
+}
+
 /// Soft indirect (and faint caustic) irradiance already computed in one pixel, per surface the camera
 /// sees there (triangle and side), for the pixel's later samples on that surface; kept across the rounds
 /// of adaptive sampling while the pixel takes samples. Why: each cache lookup (the index's candidates,

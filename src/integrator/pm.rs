@@ -25,7 +25,7 @@ use crate::scene::Scene;
 use crate::warp::power_heuristic;
 
 /// Area-light samples per non-specular hit in `direct` (chosen from the chart's error/time trade-off).
-const AREA_LIGHT_SAMPLES: u32 = 4;
+pub const AREA_LIGHT_SAMPLES: u32 = 4;
 /// Most points a gather ray reads the volume lattice at along one stretch through a medium (one per
 /// lattice cell crossed, up to this): on the shipped fog-spot scene at 240×180, 16 halved the records'
 /// predicted gather noise for 0.9 s more pass A (12.9 s in all; 64 gained little more).
@@ -97,7 +97,10 @@ struct Vertex<'h> {
 enum Via {
     /// From the camera or through Dirac lobes only: emission counts fully. `lobe`: the camera sample's
     /// stratified point for the first glossy lobe it samples (`None` after a mirror or glass).
-    Delta { lobe: Option<[f32; 2]> },
+    Delta {
+        lobe: Option<[f32; 2]>,
+        light: Option<super::LightPoints>,
+    },
     /// Sampled from a glossy lobe at `from` with solid-angle pdf `pdf`.
     Glossy { from: Vec3, pdf: f32 },
 }
@@ -113,6 +116,7 @@ impl PmContext<'_> {
         origin: Vec3,
         dir: Vec3,
         lobe: [f32; 2],
+        light: Option<super::LightPoints>,
         memo: Option<&mut super::PixelMemo>,
         rng: &mut Rng,
         c: &mut SampleCounters,
@@ -128,7 +132,10 @@ impl PmContext<'_> {
             0.0,
             0,
             1.0,
-            Via::Delta { lobe: Some(lobe) },
+            Via::Delta {
+                lobe: Some(lobe),
+                light,
+            },
             memo,
             self.scene.camera_medium(),
             rng,
@@ -243,7 +250,7 @@ impl PmContext<'_> {
         if let Via::Glossy { .. } = via {
             // Without a global map (no photon stored), direct light is sampled and the glossy
             // lobe's light other than direct read from the texels.
-            t.direct = self.direct(&v, kd, bsdf, true, rng, c);
+            t.direct = self.direct(&v, kd, bsdf, true, None, rng, c);
             let rho_d = bsdf.diffuse_albedo(kd) / PI;
             if rho_d != Vec3::ZERO {
                 let caustic = self
@@ -260,7 +267,11 @@ impl PmContext<'_> {
             return t;
         }
         let cached_glossy = self.cached_glossy(&hit, &frame, wo, bsdf);
-        t.direct = self.direct(&v, kd, bsdf, cached_glossy.is_some(), rng, c);
+        let light = match via {
+            Via::Delta { light, .. } => light,
+            Via::Glossy { .. } => None,
+        };
+        t.direct = self.direct(&v, kd, bsdf, cached_glossy.is_some(), light, rng, c);
         let rho_d = bsdf.diffuse_albedo(kd) / PI;
         if rho_d != Vec3::ZERO {
             let (caustic, indirect) = self.irradiance(&v, via, memo, rng, c);
@@ -276,7 +287,7 @@ impl PmContext<'_> {
         {
             if depth + 1 < self.max_depth && specular.max_element() > 0.0 {
                 let u = match via {
-                    Via::Delta { lobe: Some(u) } => u,
+                    Via::Delta { lobe: Some(u), .. } => u,
                     _ => [rng.uniform(), rng.uniform()],
                 };
                 t.glossy = self.glossy_lobe(&v, specular, exponent, u, rng, c);
@@ -365,7 +376,10 @@ impl PmContext<'_> {
                     0.0,
                     depth + 1,
                     beta * weight.max_element(),
-                    Via::Delta { lobe: None },
+                    Via::Delta {
+                        lobe: None,
+                        light: None,
+                    },
                     None,
                     next,
                     rng,
@@ -387,7 +401,10 @@ impl PmContext<'_> {
                     0.0,
                     depth + 1,
                     beta * s.weight.max_element(),
-                    Via::Delta { lobe: None },
+                    Via::Delta {
+                        lobe: None,
+                        light: None,
+                    },
                     None,
                     next,
                     rng,
@@ -474,6 +491,7 @@ impl PmContext<'_> {
         kd: Vec3,
         bsdf: &Bsdf,
         lobe_cached: bool,
+        points: Option<super::LightPoints>,
         rng: &mut Rng,
         c: &mut SampleCounters,
     ) -> Vec3 {
@@ -486,9 +504,15 @@ impl PmContext<'_> {
         }
         // Shadow rays are cheap next to the rest of a pm sample: several area samples per hit.
         c.monte_carlo += lights.has_area() as u64;
-        for _ in 0..AREA_LIGHT_SAMPLES {
-            let u = [rng.uniform(), rng.uniform(), rng.uniform()];
-            if let Some(ls) = lights.sample_area(&self.scene.geometry, hit.p, u) {
+        for j in 0..AREA_LIGHT_SAMPLES {
+            let ls = match points {
+                Some(points) => lights.sample_area_at(&self.scene.geometry, hit.p, points.point(j)),
+                None => {
+                    let u = [rng.uniform(), rng.uniform(), rng.uniform()];
+                    lights.sample_area(&self.scene.geometry, hit.p, u)
+                }
+            };
+            if let Some(ls) = ls {
                 l += self.light_contribution(hit, frame, wo, kd, bsdf, &ls, medium, mis, c)
                     / AREA_LIGHT_SAMPLES as f32;
             }

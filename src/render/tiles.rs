@@ -32,8 +32,9 @@ use rayon::prelude::*;
 
 use crate::counters::SampleCounters;
 use crate::error::{Error, Result};
+use crate::integrator::pm::AREA_LIGHT_SAMPLES;
 use crate::integrator::terms::LayerValues;
-use crate::integrator::{sanitize, PixelMemo};
+use crate::integrator::{sanitize, LightPoints, PixelMemo};
 use crate::io::output::Image;
 
 const TILE: u32 = 16;
@@ -207,6 +208,8 @@ const REL_FLOOR: f64 = 0.01;
 pub struct SamplePoint {
     pub offset: [f32; 2],
     pub lobe: [f32; 2],
+    /// The area-light samples' points at the first hit ([`light_points`]).
+    pub light: Option<LightPoints>,
 }
 
 /// Keys the stream of the lobe points apart from the samples' own.
@@ -254,6 +257,24 @@ fn offset(seed: u64, pixel: u64, s: u32, spp: u32, u: f32, v: f32) -> [f32; 2] {
     let stream = hash_keys(&[seed, pixel, cell as u64, (group % 2) as u64, OFFSET_KEY]);
     let [u, v] = sobol_2d(group / 2, stream);
     [((cell % 2) as f32 + u) * 0.5, ((cell / 2) as f32 + v) * 0.5]
+}
+
+/// Keys the scrambles of the area-light points' Sobol' sequences.
+const LIGHT_KEY: u64 = 0x119b;
+
+/// Sample `s`'s area-light points (of at most `spp` in pixel `pixel`): in a whole group of four, the
+/// next [`AREA_LIGHT_SAMPLES`] points of a Sobol' sequence of the sample's quarter and group parity, as
+/// its offset's (so that the variance estimate's pairs stay independent); `None` otherwise (the
+/// sample's own random numbers).
+fn light_points(seed: u64, pixel: u64, s: u32, spp: u32) -> Option<LightPoints> {
+    if !in_whole_group(s, spp) {
+        return None;
+    }
+    let (cell, group) = (s % GROUP, s / GROUP);
+    Some(LightPoints {
+        stream: hash_keys(&[seed, pixel, cell as u64, (group % 2) as u64, LIGHT_KEY]),
+        first: (group / 2) * AREA_LIGHT_SAMPLES,
+    })
 }
 
 /// True when sample `s` of at most `spp` belongs to a whole group of four (then it sits in quarter
@@ -818,6 +839,7 @@ impl RoundSpec {
                 } else {
                     [0.5, 0.5]
                 },
+                light: light_points(self.seed, pixel, px.n, self.spp),
             };
             let (misses, monte_carlo) = (own.lookups.n_misses, own.monte_carlo);
             let values = sampler.sample(x, y, at, memo, &mut rng, &mut own, keep_redo);
