@@ -525,11 +525,14 @@ impl Lifespans {
 }
 
 /// The surface a record was made on, hit again from just above it along its normal; `None` when it
-/// is no longer there (a mesh moved away).
+/// is no longer there (a mesh moved away). Only a surface within a tenth of the lift of the record's
+/// point counts: a moved mesh that came closer to it than the lift (the gap beside a ball resting on
+/// the floor) would otherwise hide the floor, and the floor's record would be carried along with the
+/// ball.
 fn surface_at(scene: &Scene, r: &Record) -> Option<Hit> {
     let lift = (r.pixel_world * 0.1).max((r.pos.abs().max_element() + 1.0) * 1e-5);
-    let hit = scene.intersect(r.pos + r.normal * lift, -r.normal)?;
-    ((hit.t - lift).abs() < 0.5 * lift && hit.ng.dot(r.normal).abs() > 0.99).then_some(hit)
+    let hit = scene.intersect_after(r.pos + r.normal * lift, -r.normal, 0.9 * lift)?;
+    ((hit.t - lift).abs() < 0.1 * lift && hit.ng.dot(r.normal).abs() > 0.99).then_some(hit)
 }
 
 /// Whether a moved mesh is near enough to the record for its step to change the record's irradiance
@@ -599,5 +602,50 @@ mod tests {
             &[ball],
             TOLERANCE
         ));
+    }
+
+    /// A floor record beside a ball resting on the floor, closer to the ball than its lift, still finds
+    /// the floor (it was carried along with the ball, a dark record at the ball's contact that the ball
+    /// pushed ahead of it); a record on the ball's side finds nothing once the ball has moved.
+    #[test]
+    fn a_record_in_the_gap_under_a_ball_keeps_its_floor() {
+        let dir = std::env::temp_dir().join(format!("pm-surface-at-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+        let text = std::fs::read_to_string(root.join("scenes/anim-ball.toml"))
+            .unwrap()
+            .replace("models/", &format!("{}/scenes/models/", root.display()));
+        let path = dir.join("ball.toml");
+        std::fs::write(&path, text).unwrap();
+        let anim = crate::scene::load_animation(&path).unwrap().unwrap();
+        let (frame0, frame1) = (
+            crate::scene::load_frame(&anim, 0).unwrap(),
+            crate::scene::load_frame(&anim, 1).unwrap(),
+        );
+        let rec = |pos: Vec3, normal: Vec3| Record {
+            pos,
+            normal,
+            e: Vec3::ONE,
+            grad_r: [Vec3::ZERO; 3],
+            grad_t: [Vec3::ZERO; 3],
+            r_harmonic: 0.2,
+            r_clamped: 0.2,
+            dir: normal,
+            // 96 px across the box: a lift of 6.8 mm, the gap 4.5 cm from the contact about 4 mm.
+            pixel_world: 0.0676,
+            rel_err: 0.0,
+            at: [0; 3],
+        };
+        // The ball (radius 0.25) rests at x = -0.6, z = 0.3 in frame 0.
+        let floor = rec(Vec3::new(-0.6 + 0.03, 0.0, 0.3 + 0.033), Vec3::Y);
+        let gap = 0.25 - (0.25f32 * 0.25 - (0.03f32 * 0.03 + 0.033 * 0.033)).sqrt();
+        assert!(gap < 0.1 * floor.pixel_world, "gap {gap}");
+        let hit = surface_at(&frame0, &floor).expect("the floor is still there");
+        assert!(hit.p.y.abs() < 1e-4, "{:?}", hit.p);
+        let side = rec(Vec3::new(-0.85, 0.25, 0.3), -Vec3::X);
+        let on_ball = surface_at(&frame0, &side).expect("the ball's side in frame 0");
+        assert!((on_ball.p.x + 0.85).abs() < 0.01, "{:?}", on_ball.p);
+        assert!(surface_at(&frame1, &side).is_none(), "the ball moved on");
+        std::fs::remove_dir_all(&dir).ok();
     }
 }
