@@ -22,7 +22,8 @@
 //!   again after twice its last quiet lifespan (from [`MAX_LIFESPAN`] up to [`MAX_QUIET_LIFESPAN`]):
 //!   where nothing happened the image stays the same, and records far from what moves are seldom
 //!   gathered. After a light changed (a `[[light]]`'s values, or a mesh that emits moved), and where
-//!   a record was due for a known reason (a mover near, light that changed in sight), it takes its
+//!   a record was due for a known reason (a mover near, light that changed in sight, or it moved
+//!   with its mesh: its small drifts would otherwise add up over the quiet lifespans), it takes its
 //!   new gather.
 //! - Between gathers a record's irradiance follows its temporal gradient.
 //!
@@ -375,10 +376,11 @@ impl Lifespans {
                 });
                 let Some(hit) = surface_at(scene, r) else {
                     // Carried along with its mesh: what lit it moved relative to it at the rate
-                    // its last gathers measured, so it is due like any other record.
+                    // its last gathers measured, so it is due like any other record; and what it
+                    // sees changed for a known reason (it moved), so its gather is always taken.
                     let (moved, hit) = carried_along(scene, r, &change.rigid)?;
                     let due = frame >= life.due || change.lights;
-                    return Some((life, due.then_some(hit), Some(moved), false));
+                    return Some((life, due.then_some(hit), Some(moved), true));
                 };
                 // Where no moved mesh is near, the light changes only through the photons that
                 // meet one: a new record's rate is measured with its first lifespan's change.
