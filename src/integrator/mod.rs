@@ -20,6 +20,15 @@ pub struct LightPoints {
     pub first: u32,
 }
 
+/// A camera sample's points stratified over its pixel's samples: for the first glossy lobe it samples
+/// (`lobe`) and for the area-light samples at its first hit (`light`; `None`: the sample's own random
+/// numbers).
+#[derive(Clone, Copy, Debug)]
+pub struct Stratified {
+    pub lobe: [f32; 2],
+    pub light: Option<LightPoints>,
+}
+
 impl LightPoints {
     /// Point `j` of this sample's.
     pub fn point(&self, j: u32) -> [f32; 2] {

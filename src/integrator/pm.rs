@@ -80,8 +80,9 @@ const FAINT_CAUSTIC: f32 = 0.05;
 /// about the records' own gather noise, below which the change across a pixel is mostly noise.
 const MEMO_AGREE: f32 = 0.05;
 
-/// A surface point being shaded: the hit, its frame seen from `wo`, the medium the ray arrived in, and
-/// the path's depth and throughput there.
+/// A surface point being shaded: the hit, its frame seen from `wo`, the medium the ray arrived in, the
+/// path's depth and throughput there, and the points its area-light samples take (a camera sample's
+/// first hit; `None`: its own random numbers).
 #[derive(Clone, Copy)]
 struct Vertex<'h> {
     hit: &'h Hit,
@@ -90,6 +91,7 @@ struct Vertex<'h> {
     medium: MediumId,
     depth: u32,
     beta: f32,
+    light: Option<super::LightPoints>,
 }
 
 /// How the ray being shaded was generated, for MIS of emission.
@@ -107,7 +109,7 @@ enum Via {
 
 impl PmContext<'_> {
     /// Radiance along a camera ray, split into terms; a glossy surface it meets first samples its lobe
-    /// at `lobe` (a point of the unit square stratified over the pixel's samples). With a `memo`, the
+    /// at `at.lobe`, and the area-light samples at its first hit take `at.light`. With a `memo`, the
     /// caustic and soft indirect irradiance of the surface the ray hits first come from the pixel's
     /// earlier samples on that surface when there are some (not for `pm-fg`, whose per-sample gathers
     /// are what it averages).
@@ -115,8 +117,7 @@ impl PmContext<'_> {
         &self,
         origin: Vec3,
         dir: Vec3,
-        lobe: [f32; 2],
-        light: Option<super::LightPoints>,
+        at: super::Stratified,
         memo: Option<&mut super::PixelMemo>,
         rng: &mut Rng,
         c: &mut SampleCounters,
@@ -133,8 +134,8 @@ impl PmContext<'_> {
             0,
             1.0,
             Via::Delta {
-                lobe: Some(lobe),
-                light,
+                lobe: Some(at.lobe),
+                light: at.light,
             },
             memo,
             self.scene.camera_medium(),
@@ -240,6 +241,10 @@ impl PmContext<'_> {
             medium,
             depth,
             beta,
+            light: match via {
+                Via::Delta { light, .. } => light,
+                Via::Glossy { .. } => None,
+            },
         };
         if bsdf.is_specular() {
             if depth + 1 < self.max_depth {
@@ -250,7 +255,7 @@ impl PmContext<'_> {
         if let Via::Glossy { .. } = via {
             // Without a global map (no photon stored), direct light is sampled and the glossy
             // lobe's light other than direct read from the texels.
-            t.direct = self.direct(&v, kd, bsdf, true, None, rng, c);
+            t.direct = self.direct(&v, kd, bsdf, true, rng, c);
             let rho_d = bsdf.diffuse_albedo(kd) / PI;
             if rho_d != Vec3::ZERO {
                 let caustic = self
@@ -267,11 +272,7 @@ impl PmContext<'_> {
             return t;
         }
         let cached_glossy = self.cached_glossy(&hit, &frame, wo, bsdf);
-        let light = match via {
-            Via::Delta { light, .. } => light,
-            Via::Glossy { .. } => None,
-        };
-        t.direct = self.direct(&v, kd, bsdf, cached_glossy.is_some(), light, rng, c);
+        t.direct = self.direct(&v, kd, bsdf, cached_glossy.is_some(), rng, c);
         let rho_d = bsdf.diffuse_albedo(kd) / PI;
         if rho_d != Vec3::ZERO {
             let (caustic, indirect) = self.irradiance(&v, via, memo, rng, c);
@@ -358,6 +359,7 @@ impl PmContext<'_> {
             medium,
             depth,
             beta,
+            ..
         } = *v;
         let mut specular = Vec3::ZERO;
         // Glass met at the first GLASS_SPLIT_DEPTH bounces of a camera path is followed both
@@ -491,7 +493,6 @@ impl PmContext<'_> {
         kd: Vec3,
         bsdf: &Bsdf,
         lobe_cached: bool,
-        points: Option<super::LightPoints>,
         rng: &mut Rng,
         c: &mut SampleCounters,
     ) -> Vec3 {
@@ -505,7 +506,7 @@ impl PmContext<'_> {
         // Shadow rays are cheap next to the rest of a pm sample: several area samples per hit.
         c.monte_carlo += lights.has_area() as u64;
         for j in 0..AREA_LIGHT_SAMPLES {
-            let ls = match points {
+            let ls = match v.light {
                 Some(points) => lights.sample_area_at(&self.scene.geometry, hit.p, points.point(j)),
                 None => {
                     let u = [rng.uniform(), rng.uniform(), rng.uniform()];
@@ -580,6 +581,7 @@ impl PmContext<'_> {
             medium,
             depth,
             beta,
+            ..
         } = *v;
         let lobe = PhongLobe::new(wo, frame.n, exponent);
         c.monte_carlo += 1;

@@ -313,7 +313,11 @@ fn camera_sample(
     c: &mut SampleCounters,
 ) -> LayerValues {
     let d = camera.ray(x as f32 + at.offset[0], y as f32 + at.offset[1]);
-    ctx.shade(camera.eye, d, at.lobe, at.light, Some(memo), rng, c)
+    let at = crate::integrator::Stratified {
+        lobe: at.lobe,
+        light: at.light,
+    };
+    ctx.shade(camera.eye, d, at, Some(memo), rng, c)
         .to_layers(Layout::of(ctx.scene))
 }
 
