@@ -117,6 +117,7 @@ pub(super) fn sees_changed_light(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::render::temporal::tests::record;
     use crate::render::temporal::TOLERANCE;
 
     #[test]
@@ -153,19 +154,7 @@ mod tests {
         let changes = after.changes(&before);
         assert_eq!(changes.len(), 1, "{changes:?}");
         // A record on the ceiling above: its indirect 1.0 would change by about 1 / (π 16) ≈ 2 %…
-        let rec = |pos: Vec3, normal: Vec3, e: f32| Record {
-            pos,
-            normal,
-            e: Vec3::splat(e),
-            grad_r: [Vec3::ZERO; 3],
-            grad_t: [Vec3::ZERO; 3],
-            r_harmonic: 1.0,
-            r_clamped: 1.0,
-            dir: normal,
-            pixel_world: 0.01,
-            rel_err: 0.0,
-            at: [0; 3],
-        };
+        let rec = |pos: Vec3, normal: Vec3, e: f32| record(pos, normal, e, 1.0, 0.01);
         let ceiling = rec(Vec3::new(2.0, 4.0, 2.0), -Vec3::Y, 0.2);
         assert!(sees_changed_light(
             &ceiling, &changes, after.cell, TOLERANCE

@@ -551,8 +551,32 @@ fn near(r: &Record, movers: &[Mover], tolerance: f32) -> bool {
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
+
+    /// A record at `pos` facing `normal` with irradiance `e` in every channel, of radius `r` (R and R'),
+    /// made where a pixel spans `pixel_world`.
+    pub(in crate::render) fn record(
+        pos: Vec3,
+        normal: Vec3,
+        e: f32,
+        r: f32,
+        pixel_world: f32,
+    ) -> Record {
+        Record {
+            pos,
+            normal,
+            e: Vec3::splat(e),
+            grad_r: [Vec3::ZERO; 3],
+            grad_t: [Vec3::ZERO; 3],
+            r_harmonic: r,
+            r_clamped: r,
+            dir: normal,
+            pixel_world,
+            rel_err: 0.0,
+            at: [0; 3],
+        }
+    }
 
     #[test]
     fn a_mesh_turning_about_its_centre_moves_by_its_radius_times_the_angle() {
@@ -574,19 +598,7 @@ mod tests {
 
     #[test]
     fn a_record_is_near_a_mover_whose_step_changes_its_sky_by_more_than_the_tolerance() {
-        let rec = |z: f32| Record {
-            pos: Vec3::new(0.0, 0.0, z),
-            normal: Vec3::Z,
-            e: Vec3::ONE,
-            grad_r: [Vec3::ZERO; 3],
-            grad_t: [Vec3::ZERO; 3],
-            r_harmonic: 1.0,
-            r_clamped: 1.0,
-            dir: Vec3::Z,
-            pixel_world: 0.01,
-            rel_err: 0.0,
-            at: [0; 3],
-        };
+        let rec = |z: f32| record(Vec3::new(0.0, 0.0, z), Vec3::Z, 1.0, 1.0, 0.01);
         let ball = Mover {
             center: Vec3::new(0.0, 0.0, 1.0),
             radius: 0.25,
@@ -624,20 +636,8 @@ mod tests {
             crate::scene::load_frame(&anim, 0).unwrap(),
             crate::scene::load_frame(&anim, 1).unwrap(),
         );
-        let rec = |pos: Vec3, normal: Vec3| Record {
-            pos,
-            normal,
-            e: Vec3::ONE,
-            grad_r: [Vec3::ZERO; 3],
-            grad_t: [Vec3::ZERO; 3],
-            r_harmonic: 0.2,
-            r_clamped: 0.2,
-            dir: normal,
-            // 96 px across the box: a lift of 6.8 mm, the gap 4.5 cm from the contact about 4 mm.
-            pixel_world: 0.0676,
-            rel_err: 0.0,
-            at: [0; 3],
-        };
+        // 96 px across the box: a lift of 6.8 mm, the gap 4.5 cm from the contact about 4 mm.
+        let rec = |pos: Vec3, normal: Vec3| record(pos, normal, 1.0, 0.2, 0.0676);
         // The ball (radius 0.25) rests at x = -0.6, z = 0.3 in frame 0.
         let floor = rec(Vec3::new(-0.6 + 0.03, 0.0, 0.3 + 0.033), Vec3::Y);
         let gap = 0.25 - (0.25f32 * 0.25 - (0.03f32 * 0.03 + 0.033 * 0.033)).sqrt();
