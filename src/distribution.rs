@@ -34,7 +34,7 @@ impl Distribution {
         let lo = if i == 0 { 0.0 } else { self.cdf[i - 1] };
         let width = self.cdf[i] - lo;
         let rest = if width > 0.0 {
-            ((u as f64 * self.total - lo) / width).clamp(0.0, 1.0 - f64::EPSILON) as f32
+            ((u as f64 * self.total - lo) / width).clamp(0.0, 1.0) as f32
         } else {
             0.5
         };

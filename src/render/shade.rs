@@ -300,7 +300,7 @@ fn pm_sample<'a>(
 }
 
 /// One camera sample of the photon-map methods: the terms of the split along the ray through (x, y) +
-/// `at.offset`, its first glossy lobe sampled at `at.lobe`.
+/// `at.offset`, its first glossy lobe and area-light samples at `at.points`.
 #[allow(clippy::too_many_arguments)]
 fn camera_sample(
     ctx: &PmContext,
@@ -313,11 +313,7 @@ fn camera_sample(
     c: &mut SampleCounters,
 ) -> LayerValues {
     let d = camera.ray(x as f32 + at.offset[0], y as f32 + at.offset[1]);
-    let at = crate::integrator::Stratified {
-        lobe: at.lobe,
-        light: at.light,
-    };
-    ctx.shade(camera.eye, d, at, Some(memo), rng, c)
+    ctx.shade(camera.eye, d, at.points, Some(memo), rng, c)
         .to_layers(Layout::of(ctx.scene))
 }
 

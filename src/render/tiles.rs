@@ -34,7 +34,7 @@ use crate::counters::SampleCounters;
 use crate::error::{Error, Result};
 use crate::integrator::pm::AREA_LIGHT_SAMPLES;
 use crate::integrator::terms::LayerValues;
-use crate::integrator::{sanitize, LightPoints, PixelMemo};
+use crate::integrator::{sanitize, LightPoints, PixelMemo, Stratified};
 use crate::io::output::Image;
 
 const TILE: u32 = 16;
@@ -207,9 +207,8 @@ const REL_FLOOR: f64 = 0.01;
 #[derive(Clone, Copy, Debug)]
 pub struct SamplePoint {
     pub offset: [f32; 2],
-    pub lobe: [f32; 2],
-    /// The area-light samples' points at the first hit ([`light_points`]).
-    pub light: Option<LightPoints>,
+    /// Its first glossy lobe's point and its first hit's area-light points ([`light_points`]).
+    pub points: Stratified,
 }
 
 /// Keys the stream of the lobe points apart from the samples' own.
@@ -253,10 +252,18 @@ fn offset(seed: u64, pixel: u64, s: u32, spp: u32, u: f32, v: f32) -> [f32; 2] {
     if !in_whole_group(s, spp) {
         return [u, v];
     }
-    let (cell, group) = (s % GROUP, s / GROUP);
-    let stream = hash_keys(&[seed, pixel, cell as u64, (group % 2) as u64, OFFSET_KEY]);
-    let [u, v] = sobol_2d(group / 2, stream);
+    let (cell, stream, index) = quarter_sequence(seed, pixel, s, OFFSET_KEY);
+    let [u, v] = sobol_2d(index, stream);
     [((cell % 2) as f32 + u) * 0.5, ((cell / 2) as f32 + v) * 0.5]
+}
+
+/// Sample `s`'s quarter of its pixel (in a whole group of four), the scramble of the Sobol' sequence
+/// that `key` names for that quarter and the parity of the sample's group, and the sample's index in
+/// that sequence (its group's among the groups of that parity).
+fn quarter_sequence(seed: u64, pixel: u64, s: u32, key: u64) -> (u32, u64, u32) {
+    let (cell, group) = (s % GROUP, s / GROUP);
+    let stream = hash_keys(&[seed, pixel, cell as u64, (group % 2) as u64, key]);
+    (cell, stream, group / 2)
 }
 
 /// Keys the scrambles of the area-light points' Sobol' sequences.
@@ -270,10 +277,10 @@ fn light_points(seed: u64, pixel: u64, s: u32, spp: u32) -> Option<LightPoints> 
     if !in_whole_group(s, spp) {
         return None;
     }
-    let (cell, group) = (s % GROUP, s / GROUP);
+    let (_, stream, index) = quarter_sequence(seed, pixel, s, LIGHT_KEY);
     Some(LightPoints {
-        stream: hash_keys(&[seed, pixel, cell as u64, (group % 2) as u64, LIGHT_KEY]),
-        first: (group / 2) * AREA_LIGHT_SAMPLES,
+        stream,
+        first: index * AREA_LIGHT_SAMPLES,
     })
 }
 
@@ -834,12 +841,14 @@ impl RoundSpec {
             let off = offset(self.seed, pixel, px.n, self.spp, u, v);
             let at = SamplePoint {
                 offset: off,
-                lobe: if self.lobe_points {
-                    lobe_point(self.seed, pixel, px.n, self.spp)
-                } else {
-                    [0.5, 0.5]
+                points: Stratified {
+                    lobe: if self.lobe_points {
+                        lobe_point(self.seed, pixel, px.n, self.spp)
+                    } else {
+                        [0.5, 0.5]
+                    },
+                    light: light_points(self.seed, pixel, px.n, self.spp),
                 },
-                light: light_points(self.seed, pixel, px.n, self.spp),
             };
             let (misses, monte_carlo) = (own.lookups.n_misses, own.monte_carlo);
             let values = sampler.sample(x, y, at, memo, &mut rng, &mut own, keep_redo);
