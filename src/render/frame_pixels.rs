@@ -150,6 +150,27 @@ pub struct ShadedLight {
     rays: Option<CameraEnds>,
 }
 
+impl ShadedLight {
+    /// Notes, for a frame whose every pixel was shaded anew, the light in `cache` at each pixel's
+    /// points, when nothing has been noted since: without it, the next frame would shade again every
+    /// pixel a changed record reaches (it could not tell that their light stayed).
+    pub fn note_all(&mut self, scene: &Scene, cam: &Camera, cache: &IrradianceCache) {
+        if !self.light.is_empty() {
+            return;
+        }
+        let points = pixel_points(
+            scene,
+            cam,
+            Window::full(cam.width, cam.height),
+            &mut self.rays,
+        );
+        self.light = points
+            .par_iter()
+            .map(|p| p.map(|e| e.and_then(|(p, _, n, _)| cache.lookup(p, n, Pass::B).map(|l| l.e))))
+            .collect();
+    }
+}
+
 /// Where the camera rays through the pixels' centres (row-major) and corners (`width + 1` a row)
 /// end.
 struct CameraEnds {

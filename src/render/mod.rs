@@ -227,6 +227,13 @@ pub fn render_frame<'a>(
             let f = frame.get_or_insert_with(Default::default);
             let c = match carry.change.take() {
                 Some(change) => {
+                    if carry
+                        .camera
+                        .as_ref()
+                        .is_some_and(|cam| cam.same_view(&plan.camera))
+                    {
+                        carry.shaded_light.note_all(scene, &plan.camera, &c);
+                    }
                     let ctx = PmContext {
                         radiance: radiance.as_ref(),
                         ..plan.pm_context(
