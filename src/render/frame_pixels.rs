@@ -300,51 +300,122 @@ pub fn unchanged_pixels(
     if shaded.light.len() != keep.len() {
         shaded.light = vec![[None; 5]; keep.len()];
     }
-    // A pixel that nothing but its cached light changed for is relit (`relight`) or, on an edge,
-    // takes its samples again (`repeat`).
+    // A pixel that nothing but its cached light changed for is relit (`relight`) or, where the
+    // light changed unevenly beside an edge, takes its samples again (`repeat`).
+    let edge_near = edge_neighbours(&points, w, h);
+    // The light now at the points of each pixel a changed record reaches, and of those shaded
+    // again (what they are shaded with).
+    let now: Vec<Option<[Option<Vec3>; 5]>> = (0..keep.len())
+        .into_par_iter()
+        .map(|i| {
+            let p = &points[i];
+            ((reached[i] || !keep[i]) && p.iter().any(Option::is_some)).then(|| {
+                p.map(|e| e.and_then(|(p, _, n, _)| cache.lookup(p, n, Pass::B).map(|l| l.e)))
+            })
+        })
+        .collect();
+    let then = &shaded.light;
+    // Per channel, the factor by which the light at pixel i's centre changed: 1 where no changed
+    // record reaches, `None` where it is not known (no hit, a channel that was dark, a pixel shaded
+    // again for a mover).
+    let centre_ratio = |i: usize| -> Option<Vec3> {
+        match &now[i] {
+            _ if !keep[i] => None,
+            None => Some(Vec3::ONE),
+            Some(n) => n[0].zip(then[i][0]).and_then(|(a, b)| light_ratio(a, b)),
+        }
+    };
+    let decided: Vec<(bool, bool, Option<Vec3>)> = (0..keep.len())
+        .into_par_iter()
+        .map(|i| {
+            let Some(n) = now[i].as_ref().filter(|_| keep[i]) else {
+                return (keep[i], false, None);
+            };
+            let unchanged =
+                points[i]
+                    .iter()
+                    .zip(n.iter().zip(then[i].iter()))
+                    .all(|(e, (now, then))| {
+                        e.is_none() || matches!((now, then), (Some(a), Some(b)) if close(*a, *b))
+                    });
+            if unchanged {
+                return (true, false, None);
+            }
+            if !then[i].iter().any(Option::is_some) {
+                return (false, false, None);
+            }
+            let ratio = if edge_near[i] {
+                even_ratio(i, n, &then[i], w, h, &centre_ratio)
+            } else {
+                centre_ratio(i)
+            };
+            (ratio.is_some(), ratio.is_none(), ratio)
+        })
+        .collect();
     let mut repeat = vec![false; keep.len()];
     let mut relight: Vec<Option<Vec3>> = vec![None; keep.len()];
-    let edge_near = edge_neighbours(&points, w, h);
-    keep.par_iter_mut()
-        .zip(repeat.par_iter_mut().zip(&mut relight))
-        .zip(shaded.light.par_iter_mut().zip(&edge_near))
-        .zip(reached.par_iter().zip(&points))
-        .for_each(
-            |(((keep, (repeat, relight)), (shaded, &edge_near)), (&reached, points))| {
-                if !(reached || !*keep)
-                    || points[0].is_none() && points[1..].iter().all(Option::is_none)
-                {
-                    return;
-                }
-                // The light at each point (none where no record serves it: the pixel is shaded again).
-                let now: [Option<Vec3>; 5] = points
-                    .map(|e| e.and_then(|(p, _, n, _)| cache.lookup(p, n, Pass::B).map(|l| l.e)));
-                if *keep {
-                    *keep =
-                        points
-                            .iter()
-                            .zip(now.iter().zip(shaded.iter()))
-                            .all(|(e, (now, then))| {
-                                e.is_none()
-                                    || matches!((now, then), (Some(a), Some(b)) if close(*a, *b))
-                            });
-                    *repeat = !*keep && shaded.iter().any(Option::is_some);
-                    if *repeat && !edge_near {
-                        *relight = now[0].zip(shaded[0]).and_then(|(a, b)| light_ratio(a, b));
-                        *keep = relight.is_some();
-                        *repeat = !*keep;
-                    }
-                }
-                if !*keep || relight.is_some() {
-                    *shaded = now;
-                }
-            },
-        );
+    for (i, (k, r, l)) in decided.into_iter().enumerate() {
+        keep[i] = k;
+        repeat[i] = r;
+        relight[i] = l;
+        if let Some(n) = now[i] {
+            if !k || l.is_some() {
+                shaded.light[i] = n;
+            }
+        }
+    }
     Some(Unchanged {
         keep,
         repeat,
         relight,
     })
+}
+
+/// The factor by which pixel `i`'s light changed, per channel, when it changed evenly: beside an
+/// edge the light changes across a pixel (records are small there, and a record's cover may end
+/// inside it), and the change at its centre need not be the pixel's. It is taken when the changes
+/// at its own points (`now` against `then`) and at its eight neighbours' centres (`centre_ratio`)
+/// lie within twice [`LIGHT_TOLERANCE`] of each other: the mean of its own, off by at most that
+/// tolerance (what a kept pixel may be off by); `None` otherwise.
+fn even_ratio(
+    i: usize,
+    now: &[Option<Vec3>; 5],
+    then: &[Option<Vec3>; 5],
+    w: u32,
+    h: u32,
+    centre_ratio: &(dyn Fn(usize) -> Option<Vec3> + Sync),
+) -> Option<Vec3> {
+    let mut own = Vec3::ZERO;
+    let mut n_own = 0;
+    let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+    for (a, b) in now.iter().zip(then) {
+        match (a, b) {
+            (Some(a), Some(b)) => {
+                let r = light_ratio(*a, *b)?;
+                own += r;
+                n_own += 1;
+                (lo, hi) = (lo.min(r), hi.max(r));
+            }
+            (None, None) => {}
+            _ => return None,
+        }
+    }
+    if n_own == 0 {
+        return None;
+    }
+    let (x, y) = ((i as u32 % w) as i64, (i as u32 / w) as i64);
+    for (dx, dy) in (-1..=1).flat_map(|dy| (-1..=1).map(move |dx| (dx, dy))) {
+        let (nx, ny) = (x + dx, y + dy);
+        if (dx, dy) == (0, 0) || nx < 0 || ny < 0 || nx >= w as i64 || ny >= h as i64 {
+            continue;
+        }
+        let r = centre_ratio((ny * w as i64 + nx) as usize)?;
+        (lo, hi) = (lo.min(r), hi.max(r));
+    }
+    (hi - lo)
+        .cmple(Vec3::splat(2.0 * LIGHT_TOLERANCE) * hi.max(Vec3::splat(1e-6)))
+        .all()
+        .then_some(own / n_own as f32)
 }
 
 /// Whether each pixel or one of its eight neighbours lies on a depth edge (has its corners among its
@@ -632,6 +703,30 @@ impl SphereBins {
 mod tests {
     use super::*;
     use std::path::Path;
+
+    /// An edge pixel (centre and four corners) in a 3×3 image is relit by the mean change at its
+    /// points when its own and its neighbours' changes agree within twice the tolerance, and shaded
+    /// again when one neighbour's light changed by more, or is not known.
+    #[test]
+    fn an_edge_pixel_is_relit_only_where_the_light_changed_evenly() {
+        let then = [Some(Vec3::ONE); 5];
+        let now = [1.006, 1.004, 1.008, 1.005, 1.007].map(|r| Some(Vec3::splat(r)));
+        let around = |bad: Option<f32>| {
+            move |i: usize| match (i, bad) {
+                (0, Some(r)) => (r > 0.0).then_some(Vec3::splat(r)),
+                _ => Some(Vec3::splat(1.003)),
+            }
+        };
+        let r = even_ratio(4, &now, &then, 3, 3, &around(None)).expect("an even change");
+        assert!((r - Vec3::splat(1.006)).abs().max_element() < 1e-6, "{r}");
+        assert!(even_ratio(4, &now, &then, 3, 3, &around(Some(1.02))).is_none());
+        assert!(even_ratio(4, &now, &then, 3, 3, &around(Some(-1.0))).is_none());
+        // A point that was dark and is lit now has no ratio: shaded again.
+        let mut lit = now;
+        lit[1] = Some(Vec3::new(0.1, 1.0, 1.0));
+        let dark = [Some(Vec3::new(0.0, 1.0, 1.0)); 5];
+        assert!(even_ratio(4, &lit, &dark, 3, 3, &around(None)).is_none());
+    }
 
     /// The window of a whole sequence holds each step's window, found from the meshes of the frames'
     /// own scenes (a ball crossing a box under a fixed camera, turning as it goes here).
