@@ -179,12 +179,13 @@ struct CameraEnds {
 }
 
 /// How far, per channel and relative to its value (at least 5 % of the luminance), the cached light
-/// at a pixel's points may move from what the pixel was shaded with before the pixel is shaded again.
-/// The records a frame gathers again near a mover reach far past it (their reach is the cache's
-/// largest spacing), and their light changes there by a fraction of a percent: shading every pixel
-/// they reach again would cost most of a frame's shading, and each new shade brings new pixel noise
-/// (flicker). Compared with what the pixel was shaded with, not with the frame before, so a slow drift
-/// does not accumulate.
+/// at a pixel's points may move from what the pixel was shaded with while the pixel keeps its value
+/// where it cannot be relit (its light changed unevenly beside an edge); beyond it the pixel is
+/// shaded again. The records a frame gathers again near a mover reach far past it (their reach is the
+/// cache's largest spacing), and their light changes there by a fraction of a percent: shading every
+/// pixel they reach again would cost most of a frame's shading, and each new shade brings new pixel
+/// noise (flicker). Compared with what the pixel was shaded with, not with the frame before, so a slow
+/// drift does not accumulate.
 const LIGHT_TOLERANCE: f32 = 0.005;
 
 /// A pixel whose corner rays end this much nearer or farther than its centre's (relative), or on a
@@ -201,8 +202,9 @@ type End = Option<(Vec3, f32, Vec3, f32)>;
 /// changed): outside the moved meshes' window, or inside it where the pixel's cone of camera rays
 /// passes every moved mesh before and after its step, where its camera rays end — at its centre, and
 /// on a depth edge at its corners too — on diffuse surfaces (or nothing) whose shadow rays pass no
-/// moved mesh and whose cached light (in `cache`) is within [`LIGHT_TOLERANCE`] of what the pixel was
-/// shaded with (`shaded`, updated here for the pixels shaded again) where a changed record reaches.
+/// moved mesh; where a changed record reaches, the pixel is relit by its cached light's change (in
+/// `cache`, against what it was shaded or last relit with: `shaded`, updated here) or, where that
+/// change is uneven beside an edge, kept while within [`LIGHT_TOLERANCE`] and shaded again beyond.
 /// `None` where the scene has more than diffuse surfaces without media (caustic and glossy terms read
 /// photon maps traced again; media scatter along every ray), or when a light changed.
 pub fn unchanged_pixels(
@@ -331,25 +333,29 @@ pub fn unchanged_pixels(
             let Some(n) = now[i].as_ref().filter(|_| keep[i]) else {
                 return (keep[i], false, None);
             };
-            let unchanged =
-                points[i]
-                    .iter()
-                    .zip(n.iter().zip(then[i].iter()))
-                    .all(|(e, (now, then))| {
-                        e.is_none() || matches!((now, then), (Some(a), Some(b)) if close(*a, *b))
-                    });
-            if unchanged {
-                return (true, false, None);
-            }
             if !then[i].iter().any(Option::is_some) {
                 return (false, false, None);
             }
+            // Relit by every change of its light, however small (relighting costs no sample): a
+            // pixel kept while its light stayed within the tolerance would change in steps of it.
             let ratio = if edge_near[i] {
                 even_ratio(i, n, &then[i], w, h, &centre_ratio)
             } else {
                 centre_ratio(i)
             };
-            (ratio.is_some(), ratio.is_none(), ratio)
+            let unchanged = || {
+                points[i]
+                    .iter()
+                    .zip(n.iter().zip(then[i].iter()))
+                    .all(|(e, (now, then))| {
+                        e.is_none() || matches!((now, then), (Some(a), Some(b)) if close(*a, *b))
+                    })
+            };
+            match ratio {
+                Some(r) => (true, false, (r != Vec3::ONE).then_some(r)),
+                None if unchanged() => (true, false, None),
+                None => (false, true, None),
+            }
         })
         .collect();
     let mut repeat = vec![false; keep.len()];
