@@ -1053,17 +1053,18 @@ fn anim_ball_flicker_against_the_mitsuba_sequence() {
         max(&ind_err),
         seq_flicker / ind_flicker,
     );
-    // Measured: independent stills, every frame 0.99e-3 to 1.09e-3 (the cache's bias; the reference's
-    // own noise is 2.3e-5), temporal relMSE 6.7e-5; the sequence with the temporal cache, frames up to
-    // 1.08e-3, temporal relMSE 2.45e-5 (ratio 0.37). Bounds: 2x the stills'. The target, flicker at
-    // most 1/4 of the independent stills', is printed as the ratio, not asserted.
+    // Measured against the 16384-spp reference (its own flicker about 0.26e-6): independent stills,
+    // frames 3.0e-4 to 3.4e-4, temporal relMSE 2.34e-5; the sequence with the temporal cache, frames
+    // up to 3.59e-4, temporal relMSE 5.69e-6: ratio 0.243. The images do not depend on the machine
+    // or the threads (same scene, same seed), so the target itself is the bound: flicker at most 1/4
+    // of the independent stills'. Frames: 2x the measured worst.
     assert!(
-        max(&seq_err) <= 2e-3,
-        "a frame's relMSE {:.3e} > 2e-3",
+        max(&seq_err) <= 7.2e-4,
+        "a frame's relMSE {:.3e} > 7.2e-4",
         max(&seq_err)
     );
     assert!(
-        seq_flicker <= 1.5e-4,
-        "temporal relMSE {seq_flicker:.3e} > 1.5e-4"
+        seq_flicker <= 0.25 * ind_flicker,
+        "temporal relMSE {seq_flicker:.3e} > 1/4 of the independent stills' {ind_flicker:.3e}"
     );
 }
