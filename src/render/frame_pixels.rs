@@ -381,8 +381,8 @@ pub fn unchanged_pixels(
 /// edge the light changes across a pixel (records are small there, and a record's cover may end
 /// inside it), and the change at its centre need not be the pixel's. It is taken when the changes
 /// at its own points (`now` against `then`) and at its eight neighbours' centres (`centre_ratio`)
-/// lie within twice [`LIGHT_TOLERANCE`] of each other: the mean of its own, off by at most that
-/// tolerance (what a kept pixel may be off by); `None` otherwise.
+/// lie within four times [`LIGHT_TOLERANCE`] of each other: the mean of its own, off by at most
+/// twice that tolerance; `None` otherwise.
 fn even_ratio(
     i: usize,
     now: &[Option<Vec3>; 5],
@@ -419,7 +419,7 @@ fn even_ratio(
         (lo, hi) = (lo.min(r), hi.max(r));
     }
     (hi - lo)
-        .cmple(Vec3::splat(2.0 * LIGHT_TOLERANCE) * hi.max(Vec3::splat(1e-6)))
+        .cmple(Vec3::splat(4.0 * LIGHT_TOLERANCE) * hi.max(Vec3::splat(1e-6)))
         .all()
         .then_some(own / n_own as f32)
 }
@@ -711,7 +711,7 @@ mod tests {
     use std::path::Path;
 
     /// An edge pixel (centre and four corners) in a 3×3 image is relit by the mean change at its
-    /// points when its own and its neighbours' changes agree within twice the tolerance, and shaded
+    /// points when its own and its neighbours' changes agree within four times the tolerance, and shaded
     /// again when one neighbour's light changed by more, or is not known.
     #[test]
     fn an_edge_pixel_is_relit_only_where_the_light_changed_evenly() {
@@ -725,7 +725,7 @@ mod tests {
         };
         let r = even_ratio(4, &now, &then, 3, 3, &around(None)).expect("an even change");
         assert!((r - Vec3::splat(1.006)).abs().max_element() < 1e-6, "{r}");
-        assert!(even_ratio(4, &now, &then, 3, 3, &around(Some(1.02))).is_none());
+        assert!(even_ratio(4, &now, &then, 3, 3, &around(Some(1.03))).is_none());
         assert!(even_ratio(4, &now, &then, 3, 3, &around(Some(-1.0))).is_none());
         // A point that was dark and is lit now has no ratio: shaded again.
         let mut lit = now;
