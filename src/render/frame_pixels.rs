@@ -164,11 +164,13 @@ impl ShadedLight {
             Window::full(cam.width, cam.height),
             &mut self.rays,
         );
-        self.light = points
-            .par_iter()
-            .map(|p| p.map(|e| e.and_then(|(p, _, n, _)| cache.lookup(p, n, Pass::B).map(|l| l.e))))
-            .collect();
+        self.light = points.par_iter().map(|p| light_at(p, cache)).collect();
     }
+}
+
+/// The cached irradiance at a pixel's points (none where no record serves a point).
+fn light_at(points: &[End; 5], cache: &IrradianceCache) -> [Option<Vec3>; 5] {
+    points.map(|e| e.and_then(|(p, _, n, _)| cache.lookup(p, n, Pass::B).map(|l| l.e)))
 }
 
 /// Where the camera rays through the pixels' centres (row-major) and corners (`width + 1` a row)
@@ -311,9 +313,7 @@ pub fn unchanged_pixels(
         .into_par_iter()
         .map(|i| {
             let p = &points[i];
-            ((reached[i] || !keep[i]) && p.iter().any(Option::is_some)).then(|| {
-                p.map(|e| e.and_then(|(p, _, n, _)| cache.lookup(p, n, Pass::B).map(|l| l.e)))
-            })
+            ((reached[i] || !keep[i]) && p.iter().any(Option::is_some)).then(|| light_at(p, cache))
         })
         .collect();
     let then = &shaded.light;
