@@ -66,6 +66,28 @@ pub struct Estimate {
     pub half_thickness: f32,
     /// Radius of the disc the estimate divided by (0 when none was searched).
     pub radius: f32,
+    /// What the sums were divided by: `π r²` times the part of the disc that is surface (and the
+    /// cone filter's norm); 0 where the disc was not measured (no photon found).
+    pub area: f32,
+    /// The squared distance (as [`dist2`]) the photons summed lie below: the k-th photon's, which
+    /// marks the radius and is not summed, or `max_radius²` (0 when none was searched).
+    pub within2: f32,
+}
+
+/// Whether photon `ph`, within the search radius of a query at `p` facing `n`, counts in its estimate:
+/// it arrived from the side `n` faces, on a surface facing within ~60° of `n`, and within
+/// `max_height` of the query's tangent plane.
+pub fn counts_at(ph: &Photon, p: Vec3, n: Vec3, max_height: f32) -> bool {
+    ph.wi.dot(n) > 0.0
+        && ph.normal.dot(n) > MIN_NORMAL_COS
+        && (ph.pos - p).dot(n).abs() <= max_height
+}
+
+/// Squared distance from `q` to `p` as the kd-tree computes it, `(dx² + dy²) + dz²`: a photon is
+/// within a search of radius `r` when this is below `r²`.
+pub fn dist2(p: Vec3, q: Vec3) -> f32 {
+    let d = p - q;
+    (d.x * d.x + d.y * d.y) + d.z * d.z
 }
 
 /// Photons and the kd-tree over their positions (tree index i = `photons[i]`), and for a map searched
@@ -341,12 +363,8 @@ impl PhotonMap {
                 cov.measure(p, n, r, DISC_HALF_THICKNESS * r)
             };
             let max_height = disc.half_thickness.min(DISC_HALF_THICKNESS * r);
-            let counted = |nb: &&Neighbor| {
-                let ph = &self.photons[nb.index as usize];
-                ph.wi.dot(n) > 0.0
-                    && ph.normal.dot(n) > MIN_NORMAL_COS
-                    && (ph.pos - p).dot(n).abs() <= max_height
-            };
+            let counted =
+                |nb: &&Neighbor| counts_at(&self.photons[nb.index as usize], p, n, max_height);
             // The k-th photon only marks the radius: the disc's inside holds k − 1 photons of a uniform
             // density, and counting the one on its rim biases the estimate up by k / (k − 1) (+1 % at
             // k = 100; with the old dark bias at edges gone, this showed on every box scene).
@@ -377,6 +395,11 @@ impl PhotonMap {
                     hit_max_radius,
                     half_thickness: max_height,
                     radius: r,
+                    area: if found.is_empty() { 0.0 } else { norm * area },
+                    within2: match found.last() {
+                        Some(last) if !hit_max_radius => last.dist2,
+                        _ => max_radius * max_radius,
+                    },
                 },
                 sums.map(|sum| sum / (norm * area)),
             )

@@ -27,6 +27,7 @@ use photon::{Estimate, PhotonMap};
 use rayon::prelude::*;
 
 use super::coverage::SceneCoverage;
+use super::texel_track::{DiscChange, Track, Tracks};
 use crate::geometry::{Geometry, Hit};
 use crate::light::LightSample;
 use crate::material::Bsdf;
@@ -78,8 +79,12 @@ pub struct IrradianceAtlas {
     /// The side of a texel (coarser on triangles too long for [`MAX_TEXELS_PER_AXIS`]).
     spacing: f32,
     estimated: AtomicU64,
-    /// Texels holding a value carried from the frame before ([`IrradianceAtlas::carried`]).
+    /// Texels holding a value carried from the frame before ([`IrradianceAtlas::carried`]), and
+    /// those of them whose photons changed.
     carried: u64,
+    updated: u64,
+    /// In a sequence's frames: what each estimated texel's value was made of, for the next frame.
+    tracks: Option<Tracks>,
 }
 
 /// A triangle's texels: square cells of side `cell` along its longest edge PQ (u) and across it toward
@@ -411,8 +416,10 @@ pub struct AtlasStats {
     /// Texels of the scene (estimated or not).
     pub slots: u64,
     pub estimates: u64,
-    /// Texels whose value the frame before of a sequence estimated (see [`IrradianceAtlas::carried`]).
+    /// Texels whose value the frame before of a sequence estimated (see [`IrradianceAtlas::carried`]),
+    /// and those of them whose photons changed.
     pub carried: u64,
+    pub updated: u64,
     /// Caustic estimates made at texel middles ([`IrradianceAtlas::caustic`]).
     pub caustic_estimates: u64,
     /// Estimated texels whose direct light varies across them: their readers shade it at their own point.
@@ -470,49 +477,76 @@ impl IrradianceAtlas {
             spacing,
             estimated: AtomicU64::new(0),
             carried: 0,
+            updated: 0,
+            tracks: None,
         }
+    }
+
+    /// The atlas keeping what each texel's value is made of, so that the next frame of a sequence
+    /// can carry it ([`Self::carried`]).
+    pub fn tracking(mut self) -> Self {
+        self.tracks = Some(Tracks::new());
+        self
     }
 
     /// The atlas of the next frame of a sequence over `geometry` (the same triangles, some of them
     /// moved), with this one's texels: a texel estimated here keeps its value where its triangle did
-    /// not move and `keep(texel middle, reach)` finds that nothing its value depends on
-    /// changed within `reach` of the middle (its photons, the geometry its estimate's disc probes, its
-    /// lights' shadow rays); every other texel is estimated again when a ray reaches it. Its caustic
-    /// slots, if any, start empty.
+    /// not move and `keep(texel middle, reach)` finds that neither the geometry its estimate's disc
+    /// probes nor its lights' shadow rays changed within `reach` of the middle; its value then moves
+    /// by `change(middle, normal, squared radius, half thickness)`, the photons that entered its
+    /// disc less those that left (see [`Track`]). Every other texel is estimated again when a ray reaches it.
+    /// Its caustic slots, if any, start empty. The next atlas keeps tracks too.
     pub fn carried(
         self,
         geometry: &Geometry,
         keep: impl Fn(Vec3, f32) -> bool + Sync,
+        change: impl Fn(Vec3, Vec3, f32, f32) -> DiscChange + Sync,
     ) -> IrradianceAtlas {
         let mut next = Self::of_grids(
             grids(geometry, self.spacing),
             self.spacing,
             self.k,
             self.max_radius,
-        );
+        )
+        .tracking();
+        let Some(tracks) = self.tracks else {
+            return next;
+        };
         if next.grids.len() != self.grids.len() {
             return next;
         }
-        let kept: Vec<Vec<(u32, TexelIrradiance)>> = (0..self.grids.len())
+        let tracks = tracks.by_slot(self.slots.len());
+        let kept: Vec<Vec<(u32, Track, bool)>> = (0..self.grids.len())
             .into_par_iter()
             .map(|tri| {
                 let ((grid, first), (now, at)) = (self.grids[tri], next.grids[tri]);
                 if grid != now {
                     return Vec::new();
                 }
+                let ng = geometry.triangles[tri].ng;
                 let side = grid.nu as u32 * grid.nv as u32;
                 (0..2 * side)
                     .filter_map(|s| {
-                        let value = *self.slots[(first + s) as usize].get()?;
+                        let track = tracks[(first + s) as usize]?;
                         let (i, j) = ((s % side) % grid.nu as u32, (s % side) / grid.nu as u32);
-                        keep(grid.middle(i, j), grid.cell * SQRT_2).then_some((at + s, value))
+                        let middle = grid.middle(i, j);
+                        if !keep(middle, grid.cell * SQRT_2) {
+                            return None;
+                        }
+                        let n = if s < side { ng } else { -ng };
+                        let d = change(middle, n, track.within2, track.half_thickness);
+                        let moved = d != DiscChange::default();
+                        Some((at + s, track.updated(d)?, moved))
                     })
                     .collect()
             })
             .collect();
-        for (slot, value) in kept.into_iter().flatten() {
-            next.slots[slot as usize] = OnceLock::from(value);
+        let next_tracks = next.tracks.as_ref().expect("tracking");
+        for (slot, track, moved) in kept.into_iter().flatten() {
+            next.slots[slot as usize] = OnceLock::from(track.texel());
+            next_tracks.push(slot, track);
             next.carried += 1;
+            next.updated += moved as u64;
         }
         next
     }
@@ -569,16 +603,16 @@ impl IrradianceAtlas {
         self.read_given(cov, global, texel, None)
     }
 
-    /// [`read`](Self::read), given the irradiance of the texel's photons that are not direct and of the
-    /// indirect ones when the caller has estimated them over the texel's neighbourhood already (the
-    /// glossy texels do: one search then serves both). The same sums either way, so the value does not
-    /// depend on who reaches the texel first.
+    /// [`read`](Self::read), given the estimate of the texel's photons that are not direct (its `e`)
+    /// and the irradiance of the indirect ones when the caller has made it over the texel's
+    /// neighbourhood already (the glossy texels do: one search then serves both). The same sums either
+    /// way, so the value does not depend on who reaches the texel first.
     pub fn read_given(
         &self,
         cov: &SceneCoverage,
         global: &PhotonMap,
         texel: Texel,
-        given: Option<(Vec3, Vec3)>,
+        given: Option<(Estimate, Vec3)>,
     ) -> TexelIrradiance {
         let Texel {
             index,
@@ -593,10 +627,8 @@ impl IrradianceAtlas {
             let t = &scene.geometry.triangles[tri as usize];
             let n = if front { t.ng } else { -t.ng };
             let middle = grid.middle(i, j);
-            let (e_not_direct, e_indirect) = given.unwrap_or_else(|| {
-                let (est, e_indirect) =
-                    global.irradiance_not_direct(middle, n, self.k, self.max_radius, cov);
-                (est.e, e_indirect)
+            let (est, e_indirect) = given.unwrap_or_else(|| {
+                global.irradiance_not_direct(middle, n, self.k, self.max_radius, cov)
             });
             self.estimated.fetch_add(1, Ordering::Relaxed);
             let area = direct_irradiance(scene, tri, middle, n, index as u64, false, true);
@@ -605,19 +637,31 @@ impl IrradianceAtlas {
                 texel_albedo(scene, tri, grid, i, j, index as u64) / std::f32::consts::PI;
             if edge {
                 self.edges.fetch_add(1, Ordering::Relaxed);
-                TexelIrradiance {
-                    radiance: albedo_pi * (area + e_not_direct),
-                    e_indirect,
-                    albedo_pi,
-                }
-            } else {
-                TexelIrradiance {
-                    radiance: albedo_pi * (delta + area + e_not_direct),
-                    e_indirect,
-                    albedo_pi: Vec3::ZERO,
-                }
             }
+            let track = Track {
+                e_not_direct: est.e,
+                e_indirect,
+                light: if edge { area } else { delta + area },
+                albedo_pi,
+                edge,
+                within2: est.within2,
+                half_thickness: est.half_thickness,
+                area: est.area,
+                n: est.n_found,
+                n0: est.n_found,
+            };
+            if let Some(tracks) = &self.tracks {
+                tracks.push(index, track);
+            }
+            track.texel()
         })
+    }
+
+    /// What texel `texel`'s value is made of, where the atlas keeps it.
+    #[cfg(test)]
+    pub(crate) fn track(&self, texel: &Texel) -> Option<Track> {
+        let tracks = self.tracks.as_ref()?;
+        tracks.find(texel.index)
     }
 
     pub fn stats(&self) -> AtlasStats {
@@ -625,6 +669,7 @@ impl IrradianceAtlas {
             slots: self.slots.len() as u64,
             estimates: self.estimated.load(Ordering::Relaxed),
             carried: self.carried,
+            updated: self.updated,
             caustic_estimates: self.caustic_estimated.load(Ordering::Relaxed),
             edges: self.edges.load(Ordering::Relaxed),
             memory_bytes: (self.slots.len() * std::mem::size_of::<OnceLock<TexelIrradiance>>()

@@ -14,7 +14,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::OnceLock;
 
 use glam::Vec3;
-use photon::PhotonMap;
+use photon::{Estimate, PhotonMap};
 
 use super::atlas::{IrradianceAtlas, Texel};
 use super::coverage::SceneCoverage;
@@ -167,7 +167,7 @@ impl GlossyTexels {
             let side = if front { ng } else { -ng };
             let (k, max_radius) = atlas.search();
             // The atlas texel's irradiance is summed over the same photons: one search for both.
-            let (_, sums) =
+            let (est, sums) =
                 global.projected(atlas.middle(&texel), side, k, max_radius, cov, |ph| {
                     let mut y = [0.0f32; SUMS];
                     let at = if ph.direct { LEN } else { 0 };
@@ -179,7 +179,11 @@ impl GlossyTexels {
                     y[SUMS - 1] = ph.indirect as u32 as f32;
                     y
                 });
-            atlas.read_given(cov, global, texel, Some((sums[SUMS - 2], sums[SUMS - 1])));
+            let not_direct = Estimate {
+                e: sums[SUMS - 2],
+                ..est
+            };
+            atlas.read_given(cov, global, texel, Some((not_direct, sums[SUMS - 1])));
             let mut g = [Vec3::ZERO; 2 * LEN + 3];
             g.copy_from_slice(&sums[..2 * LEN + 3]);
             Box::new(Baked::new(&g))

@@ -14,6 +14,7 @@ use super::coverage::SceneCoverage;
 use super::glossy_texels::GlossyTexels;
 use super::photon_scene::PhotonView;
 use super::settings::PhotonSettings;
+use super::texel_track::DiscChange;
 use super::volume_grid::{Photons, Surroundings, VolumeGrid};
 use crate::counters::SampleCounters;
 use crate::error::Result;
@@ -309,6 +310,11 @@ impl<'a> PhotonData<'a> {
         self.maps
     }
 
+    /// The irradiance atlas keeping what its texels are made of, for a sequence's next frame.
+    pub fn track_atlas(&mut self) {
+        self.surfaces.atlas = self.surfaces.atlas.take().map(IrradianceAtlas::tracking);
+    }
+
     /// The maps and the irradiance atlas as the render left them (a sequence's next frame carries
     /// the atlas's texels where nothing changed: [`Self::carry_atlas`]).
     pub fn into_maps_and_atlas(self) -> (PhotonMaps, Option<IrradianceAtlas>) {
@@ -316,17 +322,19 @@ impl<'a> PhotonData<'a> {
     }
 
     /// The atlas of the frame before (`before`, over the same triangles) in place of this one's empty
-    /// atlas, with the texels `keep` keeps (see [`IrradianceAtlas::carried`]).
+    /// atlas, with the texels `keep` keeps, moved by the `change` of their photons (see
+    /// [`IrradianceAtlas::carried`]).
     pub fn carry_atlas(
         &mut self,
         before: IrradianceAtlas,
         keep: impl Fn(Vec3, f32) -> bool + Sync,
+        change: impl Fn(Vec3, Vec3, f32, f32) -> DiscChange + Sync,
     ) {
         if self.surfaces.atlas.is_none() {
             return;
         }
         let scene = self.coverage.0;
-        let atlas = before.carried(&scene.geometry, keep);
+        let atlas = before.carried(&scene.geometry, keep, change);
         let atlas = if self.maps.caustic.is_some() {
             atlas.with_caustic()
         } else {

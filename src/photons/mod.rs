@@ -9,6 +9,7 @@ mod lookup;
 pub mod media_cache;
 mod photon_scene;
 mod settings;
+pub(crate) mod texel_track;
 pub mod volume_grid;
 
 pub use glossy_texels::TEXEL_BYTES as GLOSSY_TEXEL_BYTES;

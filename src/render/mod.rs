@@ -107,7 +107,7 @@ pub struct Carry<'a> {
     /// The atlas, photons and photon drift of the frame before (a new scene's first frame), and
     /// this scene's photons and drift (for the next).
     atlas_before: Option<atlas_carry::AtlasBefore>,
-    atlas_next: Option<(atlas_carry::PhotonKeys, atlas_carry::Drift)>,
+    atlas_next: Option<atlas_carry::PhotonKeys>,
     /// The pixels the sequence's moving meshes may cover while its camera stays, with that camera
     /// ([`frame_pixels::sequence_window`]): held to the finer noise target from the first frame on.
     moving_window: Option<(Camera, tiles::Window)>,
@@ -182,6 +182,9 @@ pub fn render_frame<'a>(
         }
         stats.photons = Some(s);
         let mut data = build_maps(scene, &plan, traced.maps);
+        if temporal && scene.settings.icache.temporal {
+            data.track_atlas();
+        }
         if let (true, Some(before), Some(change)) =
             (temporal, carry.atlas_before.take(), &carry.change)
         {

@@ -8,7 +8,7 @@
 use std::ops::RangeInclusive;
 use std::sync::atomic::AtomicBool;
 
-use super::atlas_carry::{AtlasBefore, Drift, PhotonKeys};
+use super::atlas_carry::{AtlasBefore, PhotonKeys};
 use super::temporal::Moved;
 use super::{render_frame, Carry, FrameStats, Options, RenderOutput, RenderStats};
 use crate::error::Result;
@@ -139,17 +139,13 @@ impl Handoff {
         // The temporal cache's frames carry the atlas (see `render_frame`).
         let temporal = carry.photon_paths.is_some();
         let atlas = carry.photons.filter(|_| temporal).and_then(|p| {
-            let radius = p.settings().max_radius_global;
             let (maps, atlas) = p.into_maps_and_atlas();
-            let (keys, drift) = carry.atlas_next.or_else(|| {
-                let keys = PhotonKeys::of(maps.global.as_ref()?.photons());
-                let drift = Drift::new(scene, radius, &keys);
-                Some((keys, drift))
-            })?;
+            let keys = carry
+                .atlas_next
+                .or_else(|| Some(PhotonKeys::of(maps.global.as_ref()?.photons())))?;
             Some(AtlasBefore {
                 atlas: atlas?,
                 keys,
-                drift,
             })
         });
         Handoff {

@@ -418,6 +418,12 @@ impl RenderStats {
                     "photons.atlas_carried",
                     s.carried,
                 );
+                r.count(
+                    "Photons",
+                    "… of them moved by the photons that entered or left their disc",
+                    "photons.atlas_updated",
+                    s.updated,
+                );
             }
             r.count(
                 "Photons",
