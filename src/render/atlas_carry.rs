@@ -323,21 +323,12 @@ mod tests {
     /// (within rounding), most of them moved by the photons that changed; none lies near the ball.
     #[test]
     fn a_carried_texel_sums_the_new_frames_photons_in_its_disc() {
-        use std::path::Path;
         use std::sync::atomic::AtomicBool;
 
         use crate::photons::coverage::SceneCoverage;
         use crate::photons::PhotonSettings;
-        use crate::scene;
 
-        let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-        let anim = scene::load_animation(&root.join("scenes/anim-ball.toml"))
-            .unwrap()
-            .unwrap();
-        let (before, after) = (
-            scene::load_frame(&anim, 10).unwrap(),
-            scene::load_frame(&anim, 11).unwrap(),
-        );
+        let (anim, before, after) = super::super::photons::anim_ball_frames(10, 11);
         let settings = PhotonSettings::resolve(&before);
         let cancel = AtomicBool::new(false);
         let (maps, s0, _) = PhotonData::trace(

@@ -145,27 +145,33 @@ pub fn build_maps<'a>(scene: &'a Scene, plan: &Plan, maps: PhotonMaps) -> Photon
     PhotonData::new(maps, plan.photons.clone(), scene)
 }
 
+/// anim-ball's animation and the scenes of its frames `a` and `b` (tests of what a frame takes from
+/// the one before).
+#[cfg(test)]
+pub(super) fn anim_ball_frames(a: u32, b: u32) -> (crate::scene::Animation, Scene, Scene) {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let anim = crate::scene::load_animation(&root.join("scenes/anim-ball.toml"))
+        .unwrap()
+        .unwrap();
+    let (before, after) = (
+        crate::scene::load_frame(&anim, a).unwrap(),
+        crate::scene::load_frame(&anim, b).unwrap(),
+    );
+    (anim, before, after)
+}
+
 #[cfg(test)]
 mod tests {
-    use std::path::Path;
     use std::sync::atomic::AtomicBool;
 
     use crate::photons::{PhotonData, PhotonSettings};
-    use crate::scene;
 
     /// anim-ball's frames 10 and 11: the ball moved a step. Frame 11 traced over frame 10's paths,
     /// copying those whose segments pass the ball's spheres (before and after) by, equals frame 11
     /// traced in full over the same paths, photon for photon; and most paths are copied.
     #[test]
     fn copied_paths_give_the_photons_a_full_retrace_gives() {
-        let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-        let anim = scene::load_animation(&root.join("scenes/anim-ball.toml"))
-            .unwrap()
-            .unwrap();
-        let (before, after) = (
-            scene::load_frame(&anim, 10).unwrap(),
-            scene::load_frame(&anim, 11).unwrap(),
-        );
+        let (anim, before, after) = super::anim_ball_frames(10, 11);
         let settings = PhotonSettings::resolve(&before);
         let cancel = AtomicBool::new(false);
         let first = photon::Over {
