@@ -104,8 +104,11 @@ pub struct Carry<'a> {
     /// nothing moved touched).
     photon_paths: Option<photon::MapPaths>,
     photon_log: Option<(photon::PathLog, (glam::Vec3, glam::Vec3))>,
-    /// The atlas, photons and photon drift of the frame before (a new scene's first frame), and
-    /// this scene's photons and drift (for the next).
+    /// Whether the sequence moves a mesh (with the temporal cache): its frames' atlases keep what
+    /// their texels are made of, for the next scene's first frame to carry them. The atlas and
+    /// photons of the frame before (a new scene's first frame), and this scene's photons (for the
+    /// next).
+    track_atlas: bool,
     atlas_before: Option<atlas_carry::AtlasBefore>,
     atlas_next: Option<atlas_carry::PhotonKeys>,
     /// The pixels the sequence's moving meshes may cover while its camera stays, with that camera
@@ -182,7 +185,7 @@ pub fn render_frame<'a>(
         }
         stats.photons = Some(s);
         let mut data = build_maps(scene, &plan, traced.maps);
-        if temporal && scene.settings.icache.temporal {
+        if temporal && carry.track_atlas {
             data.track_atlas();
         }
         if let (true, Some(before), Some(change)) =

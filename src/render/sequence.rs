@@ -50,6 +50,8 @@ pub fn render_sequence(
     } else {
         None
     };
+    let track_atlas = first_scene.settings.icache.temporal
+        && (first..last).any(|f| !anim.moved_meshes(f, f + 1).is_empty());
     let mut loaded = Some(first_scene);
     let mut f = first;
     let mut handoff: Option<Handoff> = None;
@@ -66,6 +68,7 @@ pub fn render_sequence(
                 ..Carry::default()
             },
         };
+        carry.track_atlas = track_atlas;
         let mut prev: Option<(RenderOutput, RenderStats)> = None;
         // What changed from frame f − 1 to f, within this scene.
         let mut change = None;
