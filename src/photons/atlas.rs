@@ -527,7 +527,7 @@ impl IrradianceAtlas {
                 let side = grid.nu as u32 * grid.nv as u32;
                 (0..2 * side)
                     .filter_map(|s| {
-                        let track = tracks[(first + s) as usize]?;
+                        let track = tracks.get(first + s)?;
                         let (i, j) = ((s % side) % grid.nu as u32, (s % side) / grid.nu as u32);
                         let middle = grid.middle(i, j);
                         if !keep(middle, grid.cell * SQRT_2) {
@@ -541,13 +541,14 @@ impl IrradianceAtlas {
                     .collect()
             })
             .collect();
-        let next_tracks = next.tracks.as_ref().expect("tracking");
+        let next_tracks = Tracks::new();
         for (slot, track, moved) in kept.into_iter().flatten() {
             next.slots[slot as usize] = OnceLock::from(track.texel());
             next_tracks.push(slot, track);
             next.carried += 1;
             next.updated += moved as u64;
         }
+        next.tracks = Some(next_tracks);
         next
     }
 

@@ -113,20 +113,37 @@ impl Tracks {
         list.iter().find(|(s, _)| *s == slot).map(|(_, t)| *t)
     }
 
-    /// Every track, indexed by slot (`slots` of them).
-    pub fn by_slot(self, slots: usize) -> Vec<Option<Track>> {
-        let mut out = vec![None; slots];
+    /// Every track, found by slot (`slots` of them): 4 bytes a slot, not a track's 70.
+    pub fn by_slot(self, slots: usize) -> BySlot {
+        let mut found = BySlot {
+            index: vec![u32::MAX; slots],
+            tracks: Vec::new(),
+        };
         for shard in self.0 {
             let list = shard
                 .into_inner()
                 .unwrap_or_else(|poisoned| poisoned.into_inner());
             for (slot, track) in list {
-                if let Some(o) = out.get_mut(slot as usize) {
-                    *o = Some(track);
+                if let Some(i) = found.index.get_mut(slot as usize) {
+                    *i = found.tracks.len() as u32;
+                    found.tracks.push(track);
                 }
             }
         }
-        out
+        found
+    }
+}
+
+/// The tracks of a frame, found by slot ([`Tracks::by_slot`]).
+pub(crate) struct BySlot {
+    index: Vec<u32>,
+    tracks: Vec<Track>,
+}
+
+impl BySlot {
+    pub fn get(&self, slot: u32) -> Option<Track> {
+        let i = *self.index.get(slot as usize)?;
+        self.tracks.get(i as usize).copied()
     }
 }
 
@@ -191,8 +208,8 @@ mod tests {
             tracks.push(slot, Track { n: slot, ..track() });
         }
         let by = tracks.by_slot(80);
-        assert_eq!(by.iter().filter(|t| t.is_some()).count(), 3);
-        assert_eq!(by[70].map(|t| t.n), Some(70));
-        assert!(by[4].is_none());
+        assert_eq!((0..80).filter(|&s| by.get(s).is_some()).count(), 3);
+        assert_eq!(by.get(70).map(|t| t.n), Some(70));
+        assert!(by.get(4).is_none());
     }
 }
