@@ -735,6 +735,8 @@ impl PmContext<'_> {
         let keys = [self.seed, 0x6a7e, seed, round as u64];
         let mut rng = Rng::new(hash_keys(if round == 0 { &keys[..3] } else { &keys }));
         let mut rays = 0u64;
+        // Σ 1 / light_distance over the rays, for the harmonic mean in media.
+        let mut inv_light_distance = 0.0f64;
         // In a scene with media, the medium on the gather's side of the surface.
         let medium = self
             .scene
@@ -774,6 +776,7 @@ impl PmContext<'_> {
                     } else {
                         Vec3::ZERO
                     };
+                    inv_light_distance += 1.0 / end.light_distance(lit) as f64;
                     GatherRay {
                         radiance: (lit + end.scattered).max(Vec3::ZERO),
                         distance: end.distance,
@@ -790,6 +793,12 @@ impl PmContext<'_> {
                 }
             },
         );
+        let mut result = result;
+        if medium.is_some() && inv_light_distance > 0.0 {
+            // The record's radius from where the light comes from; the translational gradient keeps
+            // the surfaces' distances (Ward's formula is about the edges of what the rays hit).
+            result.r_harmonic = (result.n_rays as f64 / inv_light_distance) as f32;
+        }
         if let Some((_, g)) = sh.as_mut() {
             // Cosine-distributed rays: each stands for π/N of ∫ L·cos θ·Y dω.
             let w = PI / result.n_rays.max(1) as f32;
@@ -821,9 +830,11 @@ impl PmContext<'_> {
         rays: &mut u64,
     ) -> GatherEnd {
         const MAX_SPECULAR: u32 = 4;
-        let mut scattered = Vec3::ZERO;
+        let (mut scattered, mut nearness) = (Vec3::ZERO, 0.0);
         let mut in_scatter = |o: Vec3, len: f32, m: &crate::medium::Medium, tr: Vec3| {
-            scattered += self.in_scattered(o, dir, len, m, tr, rng);
+            let (l, near) = self.in_scattered(from.p, (o, dir), len, m, tr, rng);
+            scattered += l;
+            nearness += near;
         };
         let o0 = spawn_clear(from, dir);
         let (first, mut beta, mut medium) = match medium {
@@ -845,6 +856,7 @@ impl PmContext<'_> {
         let Some(first) = first else {
             return GatherEnd {
                 scattered,
+                nearness,
                 ..GatherEnd::MISS
             };
         };
@@ -858,6 +870,7 @@ impl PmContext<'_> {
                     hit: gather_hit(&hit, &frame, bsdf, -d),
                     weight: beta,
                     scattered,
+                    nearness,
                     distance,
                 };
             }
@@ -879,7 +892,10 @@ impl PmContext<'_> {
                     // there too.
                     let chain = beta;
                     let in_scatter = |o: Vec3, len: f32, m: &crate::medium::Medium, tr: Vec3| {
-                        scattered += self.in_scattered(o, s.wi, len, m, chain * tr, rng);
+                        let (l, near) =
+                            self.in_scattered(from.p, (o, s.wi), len, m, chain * tr, rng);
+                        scattered += l;
+                        nearness += near;
                     };
                     self.scene
                         .intersect_through(spawn(&hit, s.wi), s.wi, medium, rays, in_scatter)
@@ -901,6 +917,7 @@ impl PmContext<'_> {
         GatherEnd {
             distance,
             scattered,
+            nearness,
             ..GatherEnd::MISS
         }
     }
@@ -910,17 +927,19 @@ impl PmContext<'_> {
     /// of up to [`MARCH_POINTS`] equal parts of the stretch, about a lattice cell long (one point for
     /// `pm-fg`). A single point along the whole stretch rarely lands in a narrow beam and then counts
     /// it many times over: with it, the records' gathers under a spot in fog were twice as noisy.
+    /// Also returns Σ luminance / distance from `from` (the gather's point) over that light, each point
+    /// at least a lattice cell away ([`GatherEnd::light_distance`]).
     fn in_scattered(
         &self,
-        o: Vec3,
-        d: Vec3,
+        from: Vec3,
+        (o, d): (Vec3, Vec3),
         len: f32,
         m: &crate::medium::Medium,
         weight: Vec3,
         rng: &mut Rng,
-    ) -> Vec3 {
+    ) -> (Vec3, f32) {
         if !(len.is_finite() && m.sigma_s != Vec3::ZERO) {
-            return Vec3::ZERO;
+            return (Vec3::ZERO, 0.0);
         }
         // `pm-fg` gathers at every sample: its pixels average the single points' noise.
         let most = match self.source {
@@ -930,12 +949,15 @@ impl PmContext<'_> {
         let cell = self.photons.volume_grid().map_or(len, |g| g.cell());
         let parts = ((len / cell).ceil() as usize).clamp(1, most);
         let step = len / parts as f32;
-        let mut sum = Vec3::ZERO;
+        let (mut sum, mut near) = (Vec3::ZERO, 0.0);
         for i in 0..parts {
             let t = (i as f32 + rng.uniform()) * step;
-            sum += m.transmittance(t) * self.photons.gather_volume_radiance(o + d * t, d, m.g);
+            let x = o + d * t;
+            let l = weight * m.transmittance(t) * self.photons.gather_volume_radiance(x, d, m.g);
+            sum += l;
+            near += pmbase::luminance(l) / (x - from).length().max(cell);
         }
-        weight * sum * step
+        (sum * step, near * step)
     }
 }
 
@@ -967,10 +989,25 @@ struct GatherEnd {
     weight: Vec3,
     /// Radiance participating media scatter into the ray before its first surface.
     scattered: Vec3,
+    /// Σ luminance / distance from the gather's point over the light the media scatter into the ray
+    /// (each part at least a lattice cell away): where that light comes from, for the ray's distance.
+    nearness: f32,
     distance: f32,
 }
 
 impl GatherEnd {
+    /// The distance the ray's light comes from, for the record's radius and translational gradient:
+    /// its surface's, or with light scattered in by a medium, the luminance-weighted harmonic mean of
+    /// the surface's (lit by `lit`) and the scattering's distances. In fog the light on a ceiling
+    /// comes from the fog just below it, not from the wall a gather ray ends on.
+    fn light_distance(&self, lit: Vec3) -> f32 {
+        let (surface, scattered) = (pmbase::luminance(lit), pmbase::luminance(self.scattered));
+        if scattered <= 0.0 || !(self.nearness > 0.0) {
+            return self.distance;
+        }
+        (surface + scattered) / (surface / self.distance + self.nearness)
+    }
+
     const MISS: GatherEnd = GatherEnd {
         hit: GatherHit {
             tri: 0,
@@ -980,6 +1017,7 @@ impl GatherEnd {
         },
         weight: Vec3::ZERO,
         scattered: Vec3::ZERO,
+        nearness: 0.0,
         distance: f32::INFINITY,
     };
 }

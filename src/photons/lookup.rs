@@ -15,7 +15,7 @@ use super::glossy_texels::GlossyTexels;
 use super::photon_scene::PhotonView;
 use super::settings::PhotonSettings;
 use super::texel_track::DiscChange;
-use super::volume_grid::{Photons, Surroundings, VolumeGrid};
+use super::volume_grid::{MediaRecord, Photons, Surroundings, VolumeGrid};
 use crate::counters::SampleCounters;
 use crate::error::Result;
 use crate::geometry::Hit;
@@ -136,9 +136,34 @@ impl<'a> PhotonData<'a> {
     /// `g`), all volume photons counted (single scattering included): the volume grid's.
     pub fn gather_volume_radiance(&self, x: Vec3, d: Vec3, g: f32) -> Vec3 {
         match (&self.media.volume_grid, &self.maps.volume) {
-            (Some(grid), Some(map)) => grid.radiance(map, x, d, g),
+            (Some(grid), Some(map)) => grid.radiance(x, d, g, &|p| self.lattice_record(map, p)),
             _ => Vec3::ZERO,
         }
+    }
+
+    /// The volume lattice's record at `p`: the estimate over all volume photons (with its gradient),
+    /// fitted over what `p` sees as a camera ray's step is; `None` where `p` lies in no scattering
+    /// medium, or sees no photon (inside an occluder, behind a wall).
+    fn lattice_record(&self, map: &PhotonMap, p: Vec3) -> Option<MediaRecord> {
+        let scene = self.coverage.0;
+        let media = scene.media.as_ref()?;
+        let scatters = scene
+            .medium(media.medium_at(p))
+            .is_some_and(|m| m.sigma_s.max_element() > 0.0);
+        if !scatters {
+            return None;
+        }
+        let around = self.volume_view(p);
+        let est = super::volume_grid::estimate_within(
+            map,
+            p,
+            (self.settings.lookup, self.settings.max_radius_volume),
+            Photons::All,
+            true,
+            around.as_ref(),
+            None,
+        );
+        (est.rec.s[0].max_element() > 0.0).then_some(est.rec)
     }
 
     /// In-scattered radiance σs·Li at `x` toward a ray travelling along `d` (asymmetry `g`) from the
@@ -274,7 +299,6 @@ impl<'a> PhotonData<'a> {
         let volume_grid = match (&maps.volume, &scene.media) {
             (Some(_), Some(m)) => Some(VolumeGrid::new(
                 m.bounds(),
-                settings.lookup,
                 settings.max_radius_volume,
                 scene.settings.icache.media_gradients(),
             )),

@@ -1,7 +1,8 @@
 //! Pass A of the media radiance cache for `pm` (Jarosz, Donner, Zwicker & Jensen 2008): the points
 //! where camera rays of a pixel lattice cross a medium (through invisible boundaries, glass and
 //! mirrors), and the record made at such a point — the volume photon map's estimate of the light
-//! scattered more than once, its gradient, and its validity radius.
+//! scattered more than once (over the photons its radius holds, [`REACH_KERNEL`]), its gradient, and
+//! its validity radius.
 //!
 //! Around each record 96 rays ([`Surroundings`]) measure the distance to the first surface; with
 //! `[render.icache] media_visibility` the estimate also leaves out photons behind occluders and is
@@ -55,6 +56,11 @@ const KERNEL_REACH: f32 = 1.0;
 const MAX_ANGLE: f32 = 0.15;
 /// R is at least this many lattice spacings (pixels × stride) at the record's point.
 const LATTICE_REACH: f32 = 1.5;
+/// A record's value is estimated over a kernel this share of R wide (with k scaled by the volume),
+/// where that is wider than the k nearest photons reach;
+const REACH_KERNEL: f32 = 0.7;
+/// over this many photons at most.
+const MAX_REACH_K: usize = 16_000;
 
 /// Pixel lattice spacing for a `width` × `height` image.
 pub fn lattice_stride(width: u32, height: u32) -> u32 {
@@ -219,7 +225,7 @@ pub fn media_record(
     let mut radius = p
         .max_radius
         .min(HARMONIC_SCALE * walls.harmonic_mean(p.max_radius));
-    let lum = |v: Vec3| v.dot(Vec3::new(0.2126, 0.7152, 0.0722));
+    let lum = pmbase::luminance;
     let grad = Vec3::new(
         lum(rec.grad[0][0]),
         lum(rec.grad[0][1]),
@@ -232,13 +238,32 @@ pub fn media_record(
     radius = radius
         .max(KERNEL_REACH * r_kernel)
         .max(LATTICE_REACH * stride as f32 * p.pixel_world);
+    // The value estimated again over about as many photons as the record's reach holds: with the k
+    // nearest alone most photons counted in no record, and each record's noise was shared by all the
+    // image it covers. The gradient stays the first estimate's (over twice its kernel).
+    let reach = REACH_KERNEL * radius / r_kernel.max(1e-12);
+    let (value, ratio) = if reach > 1.0 {
+        let k_reach = ((k as f32 * reach.powi(3)) as usize).clamp(k, MAX_REACH_K);
+        let wide = estimate_within(
+            map,
+            p.pos,
+            (k_reach, cap),
+            photons.camera_photons(),
+            false,
+            around.as_ref(),
+            Some((p.dir, p.g)),
+        );
+        (wide.rec.s, wide.phase_ratio)
+    } else {
+        (rec.s, est.phase_ratio)
+    };
     VolumeRecord {
         pos: p.pos,
         radius,
-        value: rec.s,
+        value,
         grad: rec.grad,
         dir: p.dir,
-        ratio: est.phase_ratio,
+        ratio,
     }
 }
 

@@ -1,7 +1,9 @@
 //! The volume photon map's in-scattered light for final-gather rays: records created lazily at the
 //! points of a lattice over the media and interpolated between the eight around a point with gradient
 //! extrapolation (so that a record is a function of its lattice point alone and images do not depend
-//! on the thread count). Camera rays read the adaptive media radiance cache instead (`media_cache`,
+//! on the thread count). A lattice point outside the media, or inside an occluder, has no record: its
+//! kernel would hold the light of the medium beyond a wall, read low, and the reads near every wall
+//! (where final-gather rays start) would blend it in; the reads weigh the records that are there. Camera rays read the adaptive media radiance cache instead (`media_cache`,
 //! Jarosz, Donner, Zwicker & Jensen 2008); both use this module's estimate.
 //!
 //! A record holds, from a smooth-kernel estimate over all volume photons within the k-th neighbour's
@@ -42,14 +44,12 @@ pub struct VolumeGrid {
     lo: Vec3,
     cell: f32,
     dims: UVec3,
-    all: Vec<OnceLock<MediaRecord>>,
+    all: Vec<OnceLock<Option<MediaRecord>>>,
     /// What the centre of each cell of a coarser lattice sees (measured lazily, for
     /// [`VolumeGrid::surroundings`]), and that lattice's cell size and dimensions.
     seen: Vec<OnceLock<Seen>>,
     seen_cell: f32,
     seen_dims: UVec3,
-    k: usize,
-    max_radius: f32,
     /// Extrapolate each record by its gradient (`[render.icache] media_gradients`).
     gradients: bool,
 }
@@ -58,7 +58,7 @@ impl VolumeGrid {
     /// A lattice over `bounds` with records about half the estimate's radius cap apart (about the mean
     /// k-NN radius). A coarser lattice is faster and fine for smooth fog, but a narrow beam and its
     /// volume caustic come out too bright: a lattice cannot be coarse where the light is concentrated.
-    pub fn new(bounds: (Vec3, Vec3), k: usize, max_radius: f32, gradients: bool) -> VolumeGrid {
+    pub fn new(bounds: (Vec3, Vec3), max_radius: f32, gradients: bool) -> VolumeGrid {
         let extent = (bounds.1 - bounds.0).max(Vec3::splat(1e-6));
         let mut cell = (0.5 * max_radius).max(extent.max_element() * 1e-3);
         let dims = loop {
@@ -80,8 +80,6 @@ impl VolumeGrid {
             seen: (0..seen_n).map(|_| OnceLock::new()).collect(),
             seen_cell,
             seen_dims,
-            k,
-            max_radius,
             gradients,
         }
     }
@@ -92,19 +90,27 @@ impl VolumeGrid {
     }
 
     /// σs·Li toward a ray travelling along `d` at `x` in a medium of asymmetry `g`: all the light the
-    /// medium scatters (for final-gather rays).
-    pub fn radiance(&self, map: &PhotonMap, x: Vec3, d: Vec3, g: f32) -> Vec3 {
-        phase_moments(self.interpolate(map, x), d, g)
+    /// medium scatters (for final-gather rays). `record(p)` makes the record at lattice point p
+    /// (`None` where p is outside the media or sees no photon).
+    pub fn radiance(
+        &self,
+        x: Vec3,
+        d: Vec3,
+        g: f32,
+        record: &dyn Fn(Vec3) -> Option<MediaRecord>,
+    ) -> Vec3 {
+        phase_moments(self.interpolate(x, record), d, g)
     }
 
-    /// The moments at `x`: the eight records around it, trilinearly weighted, each extrapolated to `x`
-    /// by its gradient.
-    fn interpolate(&self, map: &PhotonMap, x: Vec3) -> [Vec3; 4] {
+    /// The moments at `x`: the records among the eight lattice points around it, trilinearly weighted
+    /// (the weights of those there summed to one), each extrapolated to `x` by its gradient.
+    fn interpolate(&self, x: Vec3, record: &dyn Fn(Vec3) -> Option<MediaRecord>) -> [Vec3; 4] {
         let f = (x - self.lo) / self.cell - 0.5;
         let max = self.dims.as_ivec3() - IVec3::ONE;
         let base = f.floor().as_ivec3();
         let t = (f - base.as_vec3()).clamp(Vec3::ZERO, Vec3::ONE);
         let mut out = [Vec3::ZERO; 4];
+        let mut weight = 0.0;
         for corner in 0..8 {
             let o = IVec3::new(corner & 1, (corner >> 1) & 1, (corner >> 2) & 1);
             let c = (base + o).clamp(IVec3::ZERO, max);
@@ -115,7 +121,10 @@ impl VolumeGrid {
                 continue;
             }
             let centre = self.lo + (c.as_vec3() + 0.5) * self.cell;
-            let rec = self.record(map, c.as_uvec3(), centre);
+            let Some(rec) = self.record(c.as_uvec3(), centre, record) else {
+                continue;
+            };
+            weight += w;
             let dx = x - centre;
             for m in 0..4 {
                 let mut v = rec.s[m];
@@ -125,13 +134,21 @@ impl VolumeGrid {
                 out[m] += v * w;
             }
         }
+        if weight > 0.0 {
+            out.iter_mut().for_each(|v| *v /= weight);
+        }
         out
     }
 
-    fn record(&self, map: &PhotonMap, c: UVec3, centre: Vec3) -> MediaRecord {
+    /// The record at lattice point `c` (centre `centre`), made by `record` the first time it is read.
+    fn record(
+        &self,
+        c: UVec3,
+        centre: Vec3,
+        record: &dyn Fn(Vec3) -> Option<MediaRecord>,
+    ) -> Option<MediaRecord> {
         let i = ((c.z * self.dims.y + c.y) * self.dims.x + c.x) as usize;
-        *self.all[i]
-            .get_or_init(|| estimate(map, centre, self.k, self.max_radius, Photons::All, true).0)
+        *self.all[i].get_or_init(|| record(centre))
     }
 
     /// What `x` sees around it, for an estimate's fit: `None` where no surface lies within `r` of it.
@@ -1120,8 +1137,9 @@ mod tests {
     #[test]
     fn interpolated_records_follow_a_linear_density_and_gradients_help() {
         let map = slanted_map();
-        let with = VolumeGrid::new((Vec3::ZERO, Vec3::ONE), 1000, 0.4, true);
-        let without = VolumeGrid::new((Vec3::ZERO, Vec3::ONE), 1000, 0.4, false);
+        let with = VolumeGrid::new((Vec3::ZERO, Vec3::ONE), 0.4, true);
+        let without = VolumeGrid::new((Vec3::ZERO, Vec3::ONE), 0.4, false);
+        let record = |c: Vec3| Some(estimate(&map, c, 1000, 0.4, Photons::All, true).0);
         // Against the full estimate at points between lattice records, inside (away from the faces).
         let (mut err_with, mut err_without) = (0.0f32, 0.0f32);
         let mut rng = Rng::new(5);
@@ -1132,8 +1150,8 @@ mod tests {
                 0.3 + 0.4 * rng.uniform(),
             );
             let truth = estimate(&map, x, 1000, 0.4, Photons::All, true).0.s[0].x;
-            err_with += (with.interpolate(&map, x)[0].x - truth).abs() / truth;
-            err_without += (without.interpolate(&map, x)[0].x - truth).abs() / truth;
+            err_with += (with.interpolate(x, &record)[0].x - truth).abs() / truth;
+            err_without += (without.interpolate(x, &record)[0].x - truth).abs() / truth;
         }
         assert!(
             err_with / 200.0 < 0.05,
