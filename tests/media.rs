@@ -476,8 +476,7 @@ fn every_method_agrees_with_mitsuba_in_the_fogged_cornell_box() {
 /// Mitsuba 3 reference (`volpath`, 16384 spp; a noisy one, relMSE 0.048 per pixel: the caustic light
 /// reaches it only when a path hits the small lamp through the glass). At 64 fixed samples (the light
 /// seen through the sphere is heavy-tailed; adaptive sampling's stopping rule biases it): measured pm
-/// +1.9 %, pm-fg +0.7 % (+3.3 % and +2.2 % before the volume caustic map; seeds 1–3 move pm's mean by
-/// up to 3.5 %: the photon maps' noise). Our `path` is too noisy here for a test (1024 spp: −6 %, 2048:
+/// +2.3 %, pm-fg +1.9 % (seeds 1–4 move pm's mean between +1.0 and +3.0 %: the photon maps' noise). Our `path` is too noisy here for a test (1024 spp: −6 %, 2048:
 /// −1.7 %).
 #[test]
 fn photon_methods_agree_with_mitsuba_on_the_volume_caustic() {
