@@ -101,11 +101,12 @@ fn file_len(path: Option<&Path>) -> u64 {
         .map_or(0, |m| m.len())
 }
 
-/// What the render will need, item by item (name, bytes).
-/// A media record in its lazily filled slot.
-const MEDIA_RECORD_BYTES: u64 =
-    std::mem::size_of::<std::sync::OnceLock<crate::photons::volume_grid::MediaRecord>>() as u64;
+/// A volume-lattice record in its lazily filled slot (none where the lattice point has no record).
+const MEDIA_RECORD_BYTES: u64 = std::mem::size_of::<
+    std::sync::OnceLock<Option<crate::photons::volume_grid::MediaRecord>>,
+>() as u64;
 
+/// What the render will need, item by item (name, bytes).
 pub fn estimate(scene: &Scene, plan: &Plan, opts: &Options) -> Vec<(String, u64)> {
     let pixels = plan.width as u64 * plan.height as u64;
     let photon_method = plan.method != Method::Path;
