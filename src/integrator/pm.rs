@@ -996,8 +996,8 @@ struct GatherEnd {
 }
 
 impl GatherEnd {
-    /// The distance the ray's light comes from, for the record's radius and translational gradient:
-    /// its surface's, or with light scattered in by a medium, the luminance-weighted harmonic mean of
+    /// The distance the ray's light comes from, for the record's radius (Ward's harmonic mean): its
+    /// surface's, or with light scattered in by a medium, the luminance-weighted harmonic mean of
     /// the surface's (lit by `lit`) and the scattering's distances. In fog the light on a ceiling
     /// comes from the fog just below it, not from the wall a gather ray ends on.
     fn light_distance(&self, lit: Vec3) -> f32 {
