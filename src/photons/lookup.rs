@@ -15,7 +15,7 @@ use super::glossy_texels::GlossyTexels;
 use super::photon_scene::PhotonView;
 use super::settings::PhotonSettings;
 use super::texel_track::DiscChange;
-use super::volume_grid::{MediaRecord, Photons, Surroundings, VolumeGrid};
+use super::volume_grid::{LatticeRecord, Photons, Surroundings, VolumeGrid, LATTICE_WALLS};
 use crate::counters::SampleCounters;
 use crate::error::Result;
 use crate::geometry::Hit;
@@ -136,15 +136,18 @@ impl<'a> PhotonData<'a> {
     /// `g`), all volume photons counted (single scattering included): the volume grid's.
     pub fn gather_volume_radiance(&self, x: Vec3, d: Vec3, g: f32) -> Vec3 {
         match (&self.media.volume_grid, &self.maps.volume) {
-            (Some(grid), Some(map)) => grid.radiance(x, d, g, &|p| self.lattice_record(map, p)),
+            (Some(grid), Some(map)) => {
+                grid.radiance(x, d, g, &|p| self.lattice_record(map, p, grid.cell()))
+            }
             _ => Vec3::ZERO,
         }
     }
 
     /// The volume lattice's record at `p`: the estimate over all volume photons (with its gradient),
-    /// fitted over what `p` sees as a camera ray's step is; `None` where `p` lies in no scattering
-    /// medium, or sees no photon (inside an occluder, behind a wall).
-    fn lattice_record(&self, map: &PhotonMap, p: Vec3) -> Option<MediaRecord> {
+    /// fitted over what `p` sees as a camera ray's step is, and the occluders within reach of the
+    /// reads that use it (a lattice cell's diagonal); `None` where `p` lies in no scattering medium,
+    /// or sees no photon (inside an occluder, behind a wall).
+    fn lattice_record(&self, map: &PhotonMap, p: Vec3, cell: f32) -> Option<LatticeRecord> {
         let scene = self.coverage.0;
         let media = scene.media.as_ref()?;
         let scatters = scene
@@ -163,7 +166,12 @@ impl<'a> PhotonData<'a> {
             around.as_ref(),
             None,
         );
-        (est.rec.s[0].max_element() > 0.0).then_some(est.rec)
+        (est.rec.s[0].max_element() > 0.0).then(|| LatticeRecord {
+            rec: est.rec,
+            walls: around.map_or([(Vec3::ZERO, f32::INFINITY); LATTICE_WALLS], |a| {
+                a.occluders(cell * 3f32.sqrt())
+            }),
+        })
     }
 
     /// In-scattered radiance σs·Li at `x` toward a ray travelling along `d` (asymmetry `g`) from the

@@ -3,7 +3,8 @@
 //! extrapolation (so that a record is a function of its lattice point alone and images do not depend
 //! on the thread count). A lattice point outside the media, or inside an occluder, has no record: its
 //! kernel would hold the light of the medium beyond a wall, read low, and the reads near every wall
-//! (where final-gather rays start) would blend it in; the reads weigh the records that are there. Camera rays read the adaptive media radiance cache instead (`media_cache`,
+//! (where final-gather rays start) would blend it in; the reads weigh the records that are there and
+//! on their side of the occluders near them ([`LatticeRecord`]). Camera rays read the adaptive media radiance cache instead (`media_cache`,
 //! Jarosz, Donner, Zwicker & Jensen 2008); both use this module's estimate.
 //!
 //! A record holds, from a smooth-kernel estimate over all volume photons within the k-th neighbour's
@@ -28,6 +29,25 @@ pub struct MediaRecord {
     pub grad: [[Vec3; 3]; 4],
 }
 
+/// Occluder planes a [`LatticeRecord`] keeps, at most.
+pub const LATTICE_WALLS: usize = 4;
+
+/// A lattice record and the planes of the occluders near its point (unit normal facing away from the
+/// point, distance; nearest first, the distance infinite past the last): a read from beyond one of
+/// them — the other side of a glass wall or a column — leaves the record out.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LatticeRecord {
+    pub rec: MediaRecord,
+    pub walls: [(Vec3, f32); LATTICE_WALLS],
+}
+
+impl LatticeRecord {
+    /// Whether a point `offset` from the record's lies on its side of every occluder it keeps.
+    fn reaches(&self, offset: Vec3) -> bool {
+        self.walls.iter().all(|&(n, h)| n.dot(offset) <= h)
+    }
+}
+
 /// The sets of photons an estimate sums.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Photons {
@@ -44,7 +64,7 @@ pub struct VolumeGrid {
     lo: Vec3,
     cell: f32,
     dims: UVec3,
-    all: Vec<OnceLock<Option<MediaRecord>>>,
+    all: Vec<OnceLock<Option<LatticeRecord>>>,
     /// What the centre of each cell of a coarser lattice sees (measured lazily, for
     /// [`VolumeGrid::surroundings`]), and that lattice's cell size and dimensions.
     seen: Vec<OnceLock<Seen>>,
@@ -97,20 +117,22 @@ impl VolumeGrid {
         x: Vec3,
         d: Vec3,
         g: f32,
-        record: &dyn Fn(Vec3) -> Option<MediaRecord>,
+        record: &dyn Fn(Vec3) -> Option<LatticeRecord>,
     ) -> Vec3 {
         phase_moments(self.interpolate(x, record), d, g)
     }
 
-    /// The moments at `x`: the records among the eight lattice points around it, trilinearly weighted
-    /// (the weights of those there summed to one), each extrapolated to `x` by its gradient.
-    fn interpolate(&self, x: Vec3, record: &dyn Fn(Vec3) -> Option<MediaRecord>) -> [Vec3; 4] {
+    /// The moments at `x`: the records among the eight lattice points around it that `x` is not
+    /// beyond an occluder from (all of them if it is beyond every one's), trilinearly weighted (the
+    /// weights of those used summed to one), each extrapolated to `x` by its gradient.
+    fn interpolate(&self, x: Vec3, record: &dyn Fn(Vec3) -> Option<LatticeRecord>) -> [Vec3; 4] {
         let f = (x - self.lo) / self.cell - 0.5;
         let max = self.dims.as_ivec3() - IVec3::ONE;
         let base = f.floor().as_ivec3();
         let t = (f - base.as_vec3()).clamp(Vec3::ZERO, Vec3::ONE);
-        let mut out = [Vec3::ZERO; 4];
-        let mut weight = 0.0;
+        // [0]: the records `x` reaches; [1]: all there.
+        let mut out = [[Vec3::ZERO; 4]; 2];
+        let mut weight = [0.0; 2];
         for corner in 0..8 {
             let o = IVec3::new(corner & 1, (corner >> 1) & 1, (corner >> 2) & 1);
             let c = (base + o).clamp(IVec3::ZERO, max);
@@ -121,21 +143,32 @@ impl VolumeGrid {
                 continue;
             }
             let centre = self.lo + (c.as_vec3() + 0.5) * self.cell;
-            let Some(rec) = self.record(c.as_uvec3(), centre, record) else {
+            let Some(lr) = self.record(c.as_uvec3(), centre, record) else {
                 continue;
             };
-            weight += w;
             let dx = x - centre;
+            let reached = lr.reaches(dx);
             for m in 0..4 {
-                let mut v = rec.s[m];
+                let mut v = lr.rec.s[m];
                 if self.gradients {
-                    v += rec.grad[m][0] * dx.x + rec.grad[m][1] * dx.y + rec.grad[m][2] * dx.z;
+                    v += lr.rec.grad[m][0] * dx.x
+                        + lr.rec.grad[m][1] * dx.y
+                        + lr.rec.grad[m][2] * dx.z;
                 }
-                out[m] += v * w;
+                out[1][m] += v * w;
+                if reached {
+                    out[0][m] += v * w;
+                }
+            }
+            weight[1] += w;
+            if reached {
+                weight[0] += w;
             }
         }
-        if weight > 0.0 {
-            out.iter_mut().for_each(|v| *v /= weight);
+        let pick = if weight[0] > 0.0 { 0 } else { 1 };
+        let mut out = out[pick];
+        if weight[pick] > 0.0 {
+            out.iter_mut().for_each(|v| *v /= weight[pick]);
         }
         out
     }
@@ -145,8 +178,8 @@ impl VolumeGrid {
         &self,
         c: UVec3,
         centre: Vec3,
-        record: &dyn Fn(Vec3) -> Option<MediaRecord>,
-    ) -> Option<MediaRecord> {
+        record: &dyn Fn(Vec3) -> Option<LatticeRecord>,
+    ) -> Option<LatticeRecord> {
         let i = ((c.z * self.dims.y + c.y) * self.dims.x + c.x) as usize;
         *self.all[i].get_or_init(|| record(centre))
     }
@@ -444,6 +477,23 @@ impl Surroundings {
             f2 += c2 * cw;
         }
         (f0, f1, f2)
+    }
+
+    /// The planes of the occluders seen within `reach` (unit normal facing away from the point,
+    /// distance), nearest first, at most [`LATTICE_WALLS`]; the distance infinite past the last.
+    pub(crate) fn occluders(&self, reach: f32) -> [(Vec3, f32); LATTICE_WALLS] {
+        let mut near: Vec<(Vec3, f32)> = self
+            .planes()
+            .into_iter()
+            .filter(|&(_, h, solid)| solid && h < reach)
+            .map(|(n, h, _)| (n, h))
+            .collect();
+        near.sort_by(|a, b| a.1.total_cmp(&b.1));
+        let mut out = [(Vec3::ZERO, f32::INFINITY); LATTICE_WALLS];
+        for (o, p) in out.iter_mut().zip(near) {
+            *o = p;
+        }
+        out
     }
 
     /// The distinct planes of the surfaces seen, each as its unit normal facing away from the point,
@@ -1139,7 +1189,12 @@ mod tests {
         let map = slanted_map();
         let with = VolumeGrid::new((Vec3::ZERO, Vec3::ONE), 0.4, true);
         let without = VolumeGrid::new((Vec3::ZERO, Vec3::ONE), 0.4, false);
-        let record = |c: Vec3| Some(estimate(&map, c, 1000, 0.4, Photons::All, true).0);
+        let record = |c: Vec3| {
+            Some(LatticeRecord {
+                rec: estimate(&map, c, 1000, 0.4, Photons::All, true).0,
+                walls: [(Vec3::ZERO, f32::INFINITY); LATTICE_WALLS],
+            })
+        };
         // Against the full estimate at points between lattice records, inside (away from the faces).
         let (mut err_with, mut err_without) = (0.0f32, 0.0f32);
         let mut rng = Rng::new(5);

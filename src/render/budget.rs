@@ -103,7 +103,7 @@ fn file_len(path: Option<&Path>) -> u64 {
 
 /// A volume-lattice record in its lazily filled slot (none where the lattice point has no record).
 const MEDIA_RECORD_BYTES: u64 = std::mem::size_of::<
-    std::sync::OnceLock<Option<crate::photons::volume_grid::MediaRecord>>,
+    std::sync::OnceLock<Option<crate::photons::volume_grid::LatticeRecord>>,
 >() as u64;
 
 /// What the render will need, item by item (name, bytes).
