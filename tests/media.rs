@@ -473,10 +473,11 @@ fn every_method_agrees_with_mitsuba_in_the_fogged_cornell_box() {
 }
 
 /// The snooted lamp through a glass sphere in fog (the beam and the volume caustic) against its
-/// Mitsuba 3 reference (`volpath`, 16384 spp; a noisy one, relMSE 0.048 per pixel: the caustic light
+/// Mitsuba 3 reference (`volpath`, 65536 spp; a noisy one, relMSE 0.014 per pixel: the caustic light
 /// reaches it only when a path hits the small lamp through the glass). At 64 fixed samples (the light
 /// seen through the sphere is heavy-tailed; adaptive sampling's stopping rule biases it): measured pm
-/// +2.3 %, pm-fg +1.9 % (seeds 1–4 move pm's mean between +1.0 and +3.0 %: the photon maps' noise). Our `path` is too noisy here for a test (1024 spp: −6 %, 2048:
+/// −0.11 %, pm-fg −0.26 % (seeds 1–4 move pm's mean between −0.14 and +1.13 %: the photon maps'
+/// noise; the reference's image mean has a standard error of 0.55 % of its own). Our `path` is too noisy here for a test (1024 spp: −6 %, 2048:
 /// −1.7 %).
 #[test]
 fn photon_methods_agree_with_mitsuba_on_the_volume_caustic() {
@@ -790,9 +791,9 @@ fn timed_render(
 /// `pm` with its defaults is more accurate than `path` in the same wall time
 /// on both shipped fog scenes. `path` is timed at 8 and 24 spp (a fixed cost plus a cost per sample)
 /// and rendered at the count that fits `pm`'s time; both against the Mitsuba references by pixel relMSE.
-/// Measured (chart of 2026-11-24): fog-cornell pm 0.00285 in 3.6 s against path's 0.0074; fog-spot pm
-/// 0.056 (the reference's own noise is 0.048) against path's ~5 at any budget under 10 s (the lamp seen
-/// through the sphere). Slow: `make test-slow`.
+/// Measured (chart of 2026-11-27): fog-cornell pm 0.00129 in 4.1 s against path's 0.0090; fog-spot pm
+/// 0.0147 (the reference's own noise is 0.0144) against path's ~1.5 at any budget under 10 s (the lamp
+/// seen through the sphere). Slow: `make test-slow`.
 #[test]
 #[ignore = "slow: make test-slow"]
 fn pm_beats_path_at_equal_time_in_both_fog_scenes() {
