@@ -1219,6 +1219,55 @@ mod tests {
         );
     }
 
+    /// A wall at x = 0.5 (an occluder) with light 1 on its left and 9 on its right: a read leaves out
+    /// the records on the wall's other side, and the lattice points without a record, so that a read
+    /// beside the wall gets its own side's light; with every record on the other side it takes them all.
+    #[test]
+    fn reads_leave_out_records_beyond_an_occluder_and_points_without_one() {
+        let grid = VolumeGrid::new((Vec3::ZERO, Vec3::ONE), 0.2, false);
+        let side = |v: f32, n: Vec3, h: f32| LatticeRecord {
+            rec: MediaRecord {
+                s: [Vec3::splat(v), Vec3::ZERO, Vec3::ZERO, Vec3::ZERO],
+                grad: [[Vec3::ZERO; 3]; 4],
+            },
+            walls: [
+                (n, h),
+                (Vec3::ZERO, f32::INFINITY),
+                (Vec3::ZERO, f32::INFINITY),
+                (Vec3::ZERO, f32::INFINITY),
+            ],
+        };
+        let record = |c: Vec3| {
+            if c.y > 0.9 {
+                return None; // a point outside the medium
+            }
+            Some(if c.x < 0.5 {
+                side(1.0, Vec3::X, 0.5 - c.x)
+            } else {
+                side(9.0, -Vec3::X, c.x - 0.5)
+            })
+        };
+        let left = grid.interpolate(Vec3::new(0.47, 0.5, 0.5), &record)[0].x;
+        let right = grid.interpolate(Vec3::new(0.53, 0.5, 0.5), &record)[0].x;
+        assert_eq!((left, right), (1.0, 9.0));
+        // Beside the points without a record, the others' weights still sum to one.
+        assert_eq!(
+            grid.interpolate(Vec3::new(0.2, 0.92, 0.5), &record)[0].x,
+            1.0
+        );
+        // Without the walls the two sides blend.
+        let blind = |c: Vec3| {
+            record(c).map(|mut r| {
+                r.walls[0] = (Vec3::ZERO, f32::INFINITY);
+                r
+            })
+        };
+        let blended = VolumeGrid::new((Vec3::ZERO, Vec3::ONE), 0.2, false)
+            .interpolate(Vec3::new(0.47, 0.5, 0.5), &blind)[0]
+            .x;
+        assert!(blended > 1.5 && blended < 8.5, "{blended}");
+    }
+
     /// The phase of the moments: Henyey–Greenstein's exactly for light from one direction, isotropic
     /// for light from all directions alike, never negative, and over all directions of travel the
     /// in-scattered power S0 (checked by a Fibonacci-sphere quadrature).
