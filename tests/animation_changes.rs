@@ -242,7 +242,7 @@ fn refused(d: &Path, args: &[&str]) -> String {
 // Lights that change: every frame is the still of its light.
 
 /// A point light keyed from white to orange at about the same luminance (frames 0–2): `pm`'s
-/// frame 2 has each channel's image mean within 1 % of the still render of frame 2's colour.
+/// frame 2 has each channel's image mean within 0.1 % of the still render of frame 2's colour.
 #[test]
 fn a_light_changing_colour_at_constant_luminance_matches_its_still() {
     let orange = [1.5, 0.9018, 0.5];
@@ -266,17 +266,18 @@ fn a_light_changing_colour_at_constant_luminance_matches_its_still() {
     let diff = mean_diff(frame, still);
     eprintln!("[colour] pm frame 2 vs still: {}", percents(diff));
     // With a frame's irradiance gathered anew wherever the light changed, the frame is the still
-    // (the photons and the records' places are the same); the stale records left red 15 % low and
-    // blue 46 % high.
+    // (the photons and the records' places are the same): 0.00 % at seeds 0–9, and on SSE4.2's and
+    // AVX-512's ray kernels. The stale records left red 15 % low and blue 46 % high; hits measured by
+    // Embree's AVX2 kernels (before they were measured from the triangle's corners) +1.30 %.
     assert!(
-        diff.abs().max_element() <= 0.01,
+        diff.abs().max_element() <= 0.001,
         "frame 2's means differ from its still's by {}",
         percents(diff)
     );
 }
 
 /// A point light dimmed by 15 % from frame 0 to frame 4: each of `pm`'s frames 1–4 has each
-/// channel's image mean within 1 % of the still render of its intensity.
+/// channel's image mean within 0.1 % of the still render of its intensity.
 #[test]
 fn a_dimming_light_matches_its_still_at_every_frame() {
     let at = |f: u32| -> [f32; 3] { [1.0 - 0.15 * f as f32 / 4.0; 3] };
@@ -308,11 +309,13 @@ fn a_dimming_light_matches_its_still_at_every_frame() {
             worst = (f, diff.abs().max_element());
         }
     }
+    // Every frame is its still: 0.00 % at seeds 0–9, and on SSE4.2's and AVX-512's ray kernels.
     // Records that kept their value where the change looked like the gathers' noise left frames 1
     // and 3 1.6 % bright here (frame 4 of the probe's scene 1.9 %; here frames 2 and 4 gathered
-    // anew, the change since the kept value having grown past the noise).
+    // anew, the change since the kept value having grown past the noise); hits measured by Embree's
+    // AVX2 kernels (before they were measured from the triangle's corners) +1.30 %.
     assert!(
-        worst.1 <= 0.01,
+        worst.1 <= 0.001,
         "frame {}'s mean differs from its still's by {:.2} %",
         worst.0,
         worst.1 * 100.0

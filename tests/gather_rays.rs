@@ -93,10 +93,14 @@ fn rays_follow_what_the_gathers_see() {
 
 /// A dark room lit through a small spot-lit patch (image mean 0.018): its gathers see the patch in a
 /// few rays each (their own noise 10–30 %), which an absolute floor of the relMSE called calm (predicted
-/// 7e-5, 250 rays) while the image mean came out +0.6 %, +1.1 % (seeds 0, 1; worst channel +1.1 %,
-/// +1.5 %) against Mitsuba. The floor scales with the image's brightness: 1000 rays, and the mean
-/// within +0.2 %, +0.2 % (worst channel +0.5 %, +0.6 %). The choice does not depend on the lights' scale
-/// in a dark image: the spot at half its intensity predicts the same noise.
+/// 7e-5, 250 rays). The floor scales with the image's brightness: 1000 rays at every seed, which is
+/// what catches that defect. Against Mitsuba, luminance mean over the reference's, seeds 0–7: with
+/// 1000 rays +0.34…+1.02 % (mean +0.51 %, one seed's standard deviation 0.24 %, worst channel
+/// +1.24 %); with 250 rays (the defect) +0.68 % in the mean, standard deviation 0.61 %: the defect
+/// shows in the spread more than in the mean. The bounds: each seed's worst channel within 2 %, the
+/// mean of seeds 0–3 within 1 % (0.5 % above the measured mean, four of its standard deviations). The
+/// choice does not depend on the lights' scale in a dark image: the spot at half its intensity
+/// predicts the same noise.
 #[test]
 fn a_dark_scene_chooses_its_rays_as_a_bright_one_would() {
     let d = tempfile::tempdir().unwrap();
@@ -104,28 +108,28 @@ fn a_dark_scene_chooses_its_rays_as_a_bright_one_would() {
     let reference = read(&repo().join("tests/reference/dark-spot-room-path.exr"));
     let r = mean(&reference);
     let lum = |v: glam::Vec3| 0.2126 * v.x + 0.7152 * v.y + 0.0722 * v.z;
+    let seeds = [0, 1, 2, 3];
     let mut ratio_sum = 0.0;
     let mut predicted = 0.0;
-    for seed in [0, 1] {
+    for seed in seeds {
         let (out, stats) = render(scene, [64, 64], seed, &[], d.path(), &format!("s{seed}"));
         let g = &stats["gather"];
-        assert_eq!(g["rays_chosen"].as_u64(), Some(1000), "{g}");
-        predicted = g["predicted_noise"].as_f64().unwrap();
+        assert_eq!(g["rays_chosen"].as_u64(), Some(1000), "seed {seed}: {g}");
+        if seed == 1 {
+            predicted = g["predicted_noise"].as_f64().unwrap();
+        }
         let m = mean(&read(&out));
         let worst = (m / r - glam::Vec3::ONE).abs().max_element();
         eprintln!(
             "[gather rays] dark room seed {seed}: mean / reference {}",
             m / r
         );
-        assert!(worst < 0.01, "seed {seed}: mean {m} against {r}");
+        assert!(worst < 0.02, "seed {seed}: mean {m} against {r}");
         ratio_sum += lum(m) / lum(r);
     }
-    assert!(
-        (ratio_sum / 2.0 - 1.0).abs() < 0.005,
-        "mean ratio {}",
-        ratio_sum / 2.0
-    );
-    // The same room with the spot at half its intensity (seed 1, as the last render above).
+    let ratio = ratio_sum / seeds.len() as f32;
+    assert!((ratio - 1.0).abs() < 0.01, "mean ratio {ratio}");
+    // The same room with the spot at half its intensity (seed 1, as `predicted` above).
     let text = std::fs::read_to_string(repo().join(scene))
         .unwrap()
         .replace(

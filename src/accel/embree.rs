@@ -3,11 +3,27 @@
 //! One of the root crate's three FFI modules (with `io::oiio` and `signal`). [`Bvh`] owns the device
 //! and the scene and releases them on drop; queries take `&self` and are safe to call from many
 //! threads (Embree's committed scenes are read-only).
+//!
+//! Embree chooses its kernels by the CPU's instruction set at run time, and its kernels differ in the
+//! last bits of a hit's distance and barycentrics (they divide by an approximate reciprocal, whose
+//! bits also differ between CPU vendors). So Embree only *finds* the triangle a ray meets; the hit's
+//! distance and barycentrics are measured again here, in f64 from the triangle's corners, which every
+//! IEEE machine computes to the same bits. What stays CPU-dependent is which triangle Embree reports
+//! where a ray meets an edge or two surfaces at one distance, and occlusion on such ties
+//! (`docs/determinism.md`). [`ISA_VARIABLE`] forces Embree's kernels, to run as another CPU would.
 #![allow(non_camel_case_types)]
 
+use std::ffi::CString;
 use std::os::raw::{c_char, c_uint, c_void};
 
 use glam::Vec3;
+
+/// The environment variable that forces Embree's instruction set (`sse2`, `sse4.2`, `avx`, `avx2` or
+/// `avx512`), as a machine without the newer ones would run; unset, Embree takes the CPU's best.
+pub const ISA_VARIABLE: &str = "PMRENDER_EMBREE_ISA";
+
+/// The instruction sets [`ISA_VARIABLE`] may name, as Embree 3's `isa=` configuration spells them.
+const ISAS: [&str; 5] = ["sse2", "sse4.2", "avx", "avx2", "avx512"];
 
 type RTCDevice = *mut c_void;
 type RTCScene = *mut c_void;
@@ -135,10 +151,12 @@ pub struct RawHit {
     pub v: f32,
 }
 
-/// An Embree BVH over one triangle soup.
+/// An Embree BVH over one triangle soup, with the corners of its triangles to measure hits by.
 pub struct Bvh {
     device: RTCDevice,
     scene: RTCScene,
+    corners: Vec<[Vec3; 3]>,
+    isa: &'static str,
 }
 
 // SAFETY: a committed Embree scene is immutable and Embree documents concurrent rtcIntersect1 /
@@ -152,20 +170,97 @@ pub enum BvhError {
     Device(u32),
     #[error("Embree failed to build the scene (error code {0})")]
     Build(u32),
+    #[error(
+        "PMRENDER_EMBREE_ISA={0:?} is not an instruction set Embree knows: set it to sse2, sse4.2, \
+         avx, avx2 or avx512, or unset it"
+    )]
+    Isa(String),
+    #[error("PMRENDER_EMBREE_ISA={0:?}: this CPU cannot run Embree's kernels for it (unset it)")]
+    IsaUnsupported(String),
+}
+
+impl From<BvhError> for crate::error::Error {
+    /// A forced instruction set is the user's setting (exit status 2); the rest are Embree's failures.
+    fn from(e: BvhError) -> Self {
+        match e {
+            BvhError::Isa(_) | BvhError::IsaUnsupported(_) => Self::Input(e.to_string()),
+            _ => crate::error::runtime(e),
+        }
+    }
+}
+
+/// The instruction sets Embree's kernels are pinned to when none is forced, the first this CPU runs:
+/// AVX2 (every x86-64 CPU since 2013–2015, Intel and AMD alike), else SSE4.2. Left to itself Embree
+/// would take AVX-512 where a CPU has it, and its AVX-512 and AVX2 kernels find different triangles
+/// on edges, which changes every pixel of a large scene through the photons and the caches. AVX2 costs
+/// nothing against AVX-512 on Sibenik, SSE4.2 about 20 % (`docs/determinism.md`).
+const PINNED: [&str; 2] = ["avx2", "sse4.2"];
+
+/// A device running the `forced` instruction set, else the first of [`PINNED`] this CPU runs, else
+/// Embree's own choice (a CPU that is not x86-64); with the name of what it runs.
+///
+/// # Safety
+/// Calls into Embree; the device returned is the caller's to release.
+unsafe fn new_device(forced: Option<&'static str>) -> Result<(RTCDevice, &'static str), BvhError> {
+    let config = |isa: &str| CString::new(format!("isa={isa}")).expect("no NUL in a listed name");
+    if let Some(isa) = forced {
+        let device = rtcNewDevice(config(isa).as_ptr());
+        return match device.is_null() {
+            true => Err(BvhError::IsaUnsupported(isa.to_string())),
+            false => Ok((device, isa)),
+        };
+    }
+    for isa in PINNED {
+        let device = rtcNewDevice(config(isa).as_ptr());
+        if !device.is_null() {
+            return Ok((device, isa));
+        }
+    }
+    let device = rtcNewDevice(std::ptr::null());
+    match device.is_null() {
+        true => Err(BvhError::Device(rtcGetDeviceError(std::ptr::null_mut()))),
+        false => Ok((device, "Embree's choice")),
+    }
+}
+
+/// The instruction set [`ISA_VARIABLE`] forces, if it is set.
+fn forced_isa() -> Result<Option<&'static str>, BvhError> {
+    let Some(isa) = std::env::var_os(ISA_VARIABLE) else {
+        return Ok(None);
+    };
+    match ISAS.iter().copied().find(|known| isa == *known) {
+        Some(known) => Ok(Some(known)),
+        None => Err(BvhError::Isa(isa.to_string_lossy().into_owned())),
+    }
 }
 
 impl Bvh {
     /// Builds the BVH. `positions` are the vertices, `triangles` index into them (already validated).
     pub fn build(positions: &[Vec3], triangles: &[[u32; 3]]) -> Result<Bvh, BvhError> {
+        Self::build_on(positions, triangles, forced_isa()?)
+    }
+
+    /// [`build`](Self::build) on Embree's kernels for `isa` (`None`: the pinned ones).
+    fn build_on(
+        positions: &[Vec3],
+        triangles: &[[u32; 3]],
+        isa: Option<&'static str>,
+    ) -> Result<Bvh, BvhError> {
         // SAFETY: every pointer passed to Embree is either one it returned or a buffer it allocated for
         // us with exactly the size we write; errors are checked after each phase.
         unsafe {
-            let device = rtcNewDevice(std::ptr::null());
-            if device.is_null() {
-                return Err(BvhError::Device(rtcGetDeviceError(std::ptr::null_mut())));
-            }
+            let (device, isa) = new_device(isa)?;
             let scene = rtcNewScene(device);
-            let bvh = Bvh { device, scene };
+            let corners = triangles
+                .iter()
+                .map(|t| t.map(|i| positions[i as usize]))
+                .collect();
+            let bvh = Bvh {
+                device,
+                scene,
+                corners,
+                isa,
+            };
             rtcSetSceneFlags(scene, RTC_SCENE_FLAG_ROBUST);
             rtcSetSceneBuildQuality(scene, RTC_BUILD_QUALITY_HIGH);
             if !triangles.is_empty() {
@@ -209,6 +304,11 @@ impl Bvh {
             }
             Ok(bvh)
         }
+    }
+
+    /// The instruction set Embree's kernels run (one of [`ISAS`], or "Embree's choice").
+    pub fn isa(&self) -> &'static str {
+        self.isa
     }
 
     fn context() -> RTCIntersectContext {
@@ -262,12 +362,47 @@ impl Bvh {
         };
         // SAFETY: scene is committed; ctx and rh are valid, aligned and live for the call.
         unsafe { rtcIntersect1(self.scene, &mut ctx, &mut rh) };
-        (rh.hit.geom_id != RTC_INVALID_GEOMETRY_ID).then_some(RawHit {
-            t: rh.ray.tfar,
-            prim: rh.hit.prim_id,
-            u: rh.hit.u,
-            v: rh.hit.v,
+        (rh.hit.geom_id != RTC_INVALID_GEOMETRY_ID).then(|| {
+            self.measured(
+                origin,
+                dir,
+                RawHit {
+                    t: rh.ray.tfar,
+                    prim: rh.hit.prim_id,
+                    u: rh.hit.u,
+                    v: rh.hit.v,
+                },
+            )
         })
+    }
+
+    /// `hit` with its distance and barycentrics measured again from its triangle's corners in f64
+    /// (Möller–Trumbore; the same bits on every IEEE machine, unlike Embree's kernels), the
+    /// barycentrics kept inside the triangle; Embree's own where the ray runs in the triangle's plane.
+    fn measured(&self, origin: Vec3, dir: Vec3, hit: RawHit) -> RawHit {
+        let [a, b, c] = self.corners[hit.prim as usize].map(|p| p.as_dvec3());
+        let (o, d) = (origin.as_dvec3(), dir.as_dvec3());
+        let (e1, e2) = (b - a, c - a);
+        let p = d.cross(e2);
+        let det = e1.dot(p);
+        let s = o - a;
+        let q = s.cross(e1);
+        let (t, u, v) = (e2.dot(q) / det, s.dot(p) / det, d.dot(q) / det);
+        if !(t.is_finite() && u.is_finite() && v.is_finite()) {
+            return hit;
+        }
+        let (u, v) = (u.clamp(0.0, 1.0), v.clamp(0.0, 1.0));
+        let (u, v) = if u + v > 1.0 {
+            (u / (u + v), v / (u + v))
+        } else {
+            (u, v)
+        };
+        RawHit {
+            t: t as f32,
+            u: u as f32,
+            v: v as f32,
+            ..hit
+        }
     }
 
     /// The closest hit of each of up to 8 rays that start close together and run alike (the probes of a
@@ -307,12 +442,18 @@ impl Bvh {
         // SAFETY: scene is committed; `valid` and `rh` are 32-byte aligned, laid out as Embree's int[8]
         // and RTCRayHit8, and live for the call; lanes past `rays.len()` are marked invalid.
         unsafe { rtcIntersect8(valid.0.as_ptr(), self.scene, &mut ctx, &mut rh) };
-        for i in 0..rays.len() {
-            out[i] = (rh.geom_id[i] != RTC_INVALID_GEOMETRY_ID).then_some(RawHit {
-                t: rh.tfar[i],
-                prim: rh.prim_id[i],
-                u: rh.u[i],
-                v: rh.v[i],
+        for (i, r) in rays.iter().enumerate() {
+            out[i] = (rh.geom_id[i] != RTC_INVALID_GEOMETRY_ID).then(|| {
+                self.measured(
+                    r.origin,
+                    r.dir,
+                    RawHit {
+                        t: rh.tfar[i],
+                        prim: rh.prim_id[i],
+                        u: rh.u[i],
+                        v: rh.v[i],
+                    },
+                )
             });
         }
     }
@@ -333,6 +474,96 @@ impl Drop for Bvh {
         unsafe {
             rtcReleaseScene(self.scene);
             rtcReleaseDevice(self.device);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Vertices, triangles over them, and rays (origin, unit direction).
+    type Soup = (Vec<Vec3>, Vec<[u32; 3]>, Vec<(Vec3, Vec3)>);
+
+    /// A few thousand small triangles in a unit box, from a fixed LCG, and rays through it.
+    fn soup() -> Soup {
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut next = move || {
+            state = state
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1_442_695_040_888_963_407);
+            (state >> 40) as f32 / (1u64 << 24) as f32
+        };
+        let mut positions = Vec::new();
+        let mut triangles = Vec::new();
+        for i in 0..3000u32 {
+            let c = Vec3::new(next(), next(), next());
+            for _ in 0..3 {
+                positions.push(c + 0.1 * Vec3::new(next() - 0.5, next() - 0.5, next() - 0.5));
+            }
+            triangles.push([3 * i, 3 * i + 1, 3 * i + 2]);
+        }
+        let rays = (0..20_000)
+            .map(|_| {
+                let o = Vec3::new(next(), next(), -1.0);
+                let to = Vec3::new(next(), next(), 2.0);
+                (o, (to - o).normalize())
+            })
+            .collect();
+        (positions, triangles, rays)
+    }
+
+    /// Embree's kernels for different instruction sets find the same triangles (but on ties), and a
+    /// hit on the same triangle has the same bits of distance and barycentrics whichever found it.
+    #[test]
+    fn a_hit_has_the_same_bits_whatever_instruction_set_found_it() {
+        let (positions, triangles, rays) = soup();
+        let pinned = Bvh::build_on(&positions, &triangles, None).unwrap();
+        let mut compared = 0;
+        for isa in ["sse4.2", "avx2", "avx512"] {
+            // An instruction set this CPU lacks is not compared.
+            let Ok(other) = Bvh::build_on(&positions, &triangles, Some(isa)) else {
+                continue;
+            };
+            compared += 1;
+            let (mut same_prim, mut hits) = (0, 0);
+            for &(o, d) in &rays {
+                let (a, b) = (pinned.intersect(o, d, 10.0), other.intersect(o, d, 10.0));
+                let Some(a) = a else { continue };
+                hits += 1;
+                let Some(b) = b.filter(|b| b.prim == a.prim) else {
+                    continue;
+                };
+                same_prim += 1;
+                assert_eq!(
+                    (a.t.to_bits(), a.u.to_bits(), a.v.to_bits()),
+                    (b.t.to_bits(), b.u.to_bits(), b.v.to_bits()),
+                    "{isa}: {a:?} against {b:?}"
+                );
+            }
+            assert!(hits > 10_000, "{hits}");
+            assert!(
+                same_prim * 1000 >= hits * 999,
+                "{isa}: {same_prim} of {hits}"
+            );
+        }
+        assert!(compared >= 2, "only {compared} instruction sets ran here");
+    }
+
+    /// A measured hit lies on its triangle's plane and within it: the barycentric point is the ray's
+    /// point at `t` to a few ulps of the scene.
+    #[test]
+    fn a_measured_hit_is_where_the_ray_meets_the_triangle() {
+        let (positions, triangles, rays) = soup();
+        let bvh = Bvh::build_on(&positions, &triangles, None).unwrap();
+        for &(o, d) in &rays {
+            let Some(h) = bvh.intersect(o, d, 10.0) else {
+                continue;
+            };
+            let [a, b, c] = triangles[h.prim as usize].map(|i| positions[i as usize]);
+            let bary = a * (1.0 - h.u - h.v) + b * h.u + c * h.v;
+            assert!(h.u >= 0.0 && h.v >= 0.0 && h.u + h.v <= 1.0, "{h:?}");
+            assert!((bary - (o + d * h.t)).length() < 1e-5, "{h:?}");
         }
     }
 }

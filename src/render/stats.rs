@@ -174,6 +174,8 @@ pub struct Setup {
     pub n_triangles: u64,
     pub n_degenerate: u64,
     pub n_lights: u64,
+    /// The instruction set Embree's kernels run: renders match across machines that run the same.
+    pub ray_isa: &'static str,
 }
 
 /// The photon maps, traced or loaded, and the settings they are read with.
@@ -252,6 +254,7 @@ impl RenderStats {
             n_triangles: scene.geometry.triangles.len() as u64,
             n_degenerate: scene.geometry.n_degenerate as u64,
             n_lights: scene.lights.len() as u64,
+            ray_isa: scene.bvh.isa(),
         };
         RenderStats {
             setup,
@@ -383,6 +386,12 @@ impl RenderStats {
             self.setup.n_degenerate,
         );
         r.count("Scene", "Lights", "scene.lights", self.setup.n_lights);
+        r.text(
+            "Scene",
+            "Ray kernels (Embree's instruction set)",
+            "scene.ray_isa",
+            self.setup.ray_isa,
+        );
         r.bytes(
             "Memory",
             "Peak resident set",

@@ -688,7 +688,9 @@ pub(super) mod tests {
         ] {
             let hit = surface_at(&scene, &rec(pos, normal));
             let hit = hit.unwrap_or_else(|| panic!("no surface for the record at {pos}"));
-            assert_eq!(hit.p, pos);
+            // The record's point, to a millionth of the 2-unit room: the hit straight below a record
+            // is measured from the wall's corners, whose last bit need not be the record's.
+            assert!((hit.p - pos).length() < 2e-6, "{} for {pos}", hit.p);
             assert!(hit.ng.dot(normal).abs() > 0.99, "{:?} at {pos}", hit.ng);
         }
     }

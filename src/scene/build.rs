@@ -15,7 +15,7 @@ use super::settings::{camera, settings};
 use super::{limits, mtl, obj, Scene};
 use crate::accel::embree::Bvh;
 use crate::camera::Camera;
-use crate::error::{at_line, in_file, relative_to, runtime, Result};
+use crate::error::{at_line, in_file, relative_to, Result};
 use crate::geometry::{Geometry, Triangle};
 use crate::light::Lights;
 use crate::material::{Bsdf, Material};
@@ -179,8 +179,7 @@ fn build(path: &Path, text: &str, desc: &SceneFile) -> Result<Scene> {
     let bvh = Bvh::build(
         &geometry.positions,
         &geometry.triangles.iter().map(|t| t.v).collect::<Vec<_>>(),
-    )
-    .map_err(runtime)?;
+    )?;
     let specular: Vec<[u32; 3]> = geometry
         .triangles
         .iter()
@@ -190,7 +189,7 @@ fn build(path: &Path, text: &str, desc: &SceneFile) -> Result<Scene> {
     let specular_bvh = if specular.is_empty() {
         None
     } else {
-        Some(Bvh::build(&geometry.positions, &specular).map_err(runtime)?)
+        Some(Bvh::build(&geometry.positions, &specular)?)
     };
     let fingerprint = fingerprint(&geometry, &materials, &textures, &lights, media.as_ref());
     let texel_density = super::texel_densities(&geometry, &materials, &textures);

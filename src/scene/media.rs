@@ -18,7 +18,7 @@ use rayon::prelude::*;
 use super::context::Ctx;
 use super::file::SceneFile;
 use crate::accel::embree::Bvh;
-use crate::error::{at_line, runtime, Result};
+use crate::error::{at_line, Result};
 use crate::geometry::Geometry;
 use crate::light::Light;
 use crate::material::Material;
@@ -221,7 +221,7 @@ pub(super) fn media(
         .enumerate()
         .flat_map(|(i, b)| std::iter::repeat_n(i as u32, b.tris.len()))
         .collect();
-    let boundary_bvh = Bvh::build(&geo.positions, &boundary_tris).map_err(runtime)?;
+    let boundary_bvh = Bvh::build(&geo.positions, &boundary_tris)?;
     let innermost = |p: Vec3, skip: Option<usize>| {
         innermost_by_bvh(&boundaries, &boundary_bvh, &boundary_of, p, skip)
     };

@@ -17,7 +17,7 @@ use rayon::prelude::*;
 
 use super::{Boundary, PARITY_DIR};
 use crate::accel::embree::Bvh;
-use crate::error::{runtime, Result};
+use crate::error::Result;
 use crate::geometry::Geometry;
 use crate::scene::context::Ctx;
 use crate::scene::file::SceneFile;
@@ -78,7 +78,7 @@ impl Solid {
             })
             .collect();
         Ok(Solid {
-            bvh: Bvh::build(&positions, &indices).map_err(runtime)?,
+            bvh: Bvh::build(&positions, &indices)?,
             lo,
             hi,
             eps: 1e-4 * scale,
