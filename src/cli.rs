@@ -120,7 +120,7 @@ struct RenderArgs {
     /// No progress bar.
     #[arg(long)]
     quiet: bool,
-    /// Save the photon maps (and precomputed irradiance) for later renders of the same scene.
+    /// Save the photon maps for later renders of the same scene.
     #[arg(long)]
     save_photons: Option<PathBuf>,
     /// Use photon maps saved by --save-photons instead of tracing them.

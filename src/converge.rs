@@ -22,7 +22,7 @@ pub fn rel_mse(img: &Image, reference: &Image) -> f64 {
     for (a, r) in img.pixels.iter().zip(&reference.pixels) {
         for c in 0..3 {
             let (a, r) = (a[c] as f64, r[c] as f64);
-            s += (a - r).powi(2) / (r * r + 0.01);
+            s += (a - r).powi(2) / (r * r + pmbase::REL_MSE_FLOOR);
         }
     }
     s / (3.0 * img.pixels.len().max(1) as f64)
@@ -43,7 +43,7 @@ pub fn rel_mse_change(i_t: &Image, i_s: &Image, r_t: &Image, r_s: &Image) -> f64
             let d_i = a_t[c] as f64 - a_s[c] as f64;
             let d_r = b_t[c] as f64 - b_s[c] as f64;
             let level = 0.5 * (b_t[c] as f64 + b_s[c] as f64);
-            s += (d_i - d_r).powi(2) / (level * level + 0.01);
+            s += (d_i - d_r).powi(2) / (level * level + pmbase::REL_MSE_FLOOR);
         }
     }
     s / (3.0 * i_t.pixels.len().max(1) as f64)

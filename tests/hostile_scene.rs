@@ -684,24 +684,11 @@ fn photon_and_cache_files_with_bad_values_are_refused() {
         photon::file::read_maps(&photons, fp).is_ok()
             && icache::IrradianceCache::from_bytes(&cache, fp).is_ok()
     );
-    // Files written now hold no precomputed irradiance points (the render bakes an atlas instead), but
-    // files of earlier versions do: the same maps with points added, as those wrote them.
-    let photons = {
-        let loaded = photon::file::read_maps(&photons, fp).unwrap();
-        let global = loaded.maps.global.as_ref().unwrap();
-        let (pre, _) =
-            photon::PrecomputedIrradiance::build(global, 4, 50, 0.5, &photon::map::FullDisc)
-                .unwrap();
-        let mut bytes = Vec::new();
-        photon::file::write_maps(&mut bytes, &loaded.info, &loaded.maps, Some(&pre)).unwrap();
-        bytes
-    };
-    // Photon layout (version 5): 160-byte header (max radius at 104), then pos, wi, power, normal, kind
-    // (13 f32) of the global, caustic and volume maps, then the irradiance points.
+    // Photon layout (version 5): 160-byte header, then pos, wi, power, normal, kind (13 f32) of the
+    // global, caustic and volume maps.
     let h = 160;
     let n_global = u64::from_le_bytes(photons[80..88].try_into().unwrap()) as usize;
     let n_caustic = u64::from_le_bytes(photons[88..96].try_into().unwrap()) as usize;
-    let first_point = h + 52 * (n_global + n_caustic);
     let photon_cases = [
         (h + 24, f32::NAN, "power"),
         (h + 28, -1.0, "power"),
@@ -711,11 +698,6 @@ fn photon_and_cache_files_with_bad_values_are_refused() {
         (h + 12, f32::NAN, "direction"),
         (h, f32::NAN, "position"),
         (h + 48, 0.5, "kind"),
-        (first_point + 24, f32::NAN, "irradiance"),
-        (first_point + 28, -3.0, "irradiance"),
-        (first_point + 40, f32::NAN, "indirect irradiance"),
-        (104, f32::NAN, "max radius"),
-        (104, -1.0, "max radius"),
     ];
     for (at, value, expect) in photon_cases {
         let bad = patched(&photons, &[(at, value)], 8);

@@ -579,7 +579,7 @@ fn sealed_box(y0: f32) -> (Render, Render, Render) {
 /// i. A point light sealed inside a closed diffuse box; the camera outside must see a black box (the walls
 /// have no thickness: photons stored on their inside must not be seen from outside).
 /// Box floating 0.3 above the floor: `pm`, `photons` and `path` must all be exactly black. This was a bug
-/// the suite found (`PrecomputedIrradiance::lookup` accepted the nearest point on its normal alone, so
+/// the suite found (the precomputed irradiance's lookup, since replaced by the atlas, accepted the nearest point on its normal alone, so
 /// final-gather rays hitting the floor under the box read the irradiance of the box's inside bottom face
 /// 0.3 above it and the box glowed, up to 2.7 W/(m²·sr)); fixed with a tangent-plane distance test.
 /// Box resting on the floor: its bottom is coplanar with the floor, so photons inside lie in the floor's

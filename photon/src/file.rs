@@ -1,16 +1,16 @@
-//! Photon-map files: the global and caustic maps (and optionally the precomputed irradiance) with the
-//! trace parameters, so that another render of the same scene can skip the photon pass.
+//! Photon-map files: the global, caustic and volume maps with the trace parameters, so that another
+//! render of the same scene can skip the photon pass.
 //!
 //! Layout (little-endian): magic `PMPHOTON`, version u32, flags u32, then u64s — scene fingerprint,
 //! seed, target global, target caustic, max paths, paths emitted, global paths, caustic paths, number of
-//! global photons, caustic photons, irradiance points — then the precomputed max radius f32 and 4 zero
-//! bytes, then (version 5) six u64s for participating media — target volume, target volume caustic,
+//! global photons, caustic photons, irradiance points — then a max radius f32 and 4 zero bytes, then (version 5) six u64s for participating media — target volume, target volume caustic,
 //! volume paths, volume caustic paths, number of volume photons, volume caustic photons — (160-byte
 //! header; version 4 files, 112 bytes without the media words, are still read); then the photons
 //! (13 f32 each: pos, wi, power, normal, kind: 0 caustic, 1 indirect, 2 direct) of the global, caustic,
-//! volume and volume caustic maps (a volume photon's normal is zero) and the irradiance points (13 f32:
-//! pos, normal, e, e_indirect, half_thickness); then an FNV-1a 64 checksum of everything between the
-//! magic and it.
+//! volume and volume caustic maps (a volume photon's normal is zero) and the irradiance points (13 f32
+//! each); then an FNV-1a 64 checksum of everything between the magic and it. Irradiance points (a
+//! precomputed irradiance the renderer no longer makes: it bakes an atlas) are never written, and
+//! skipped where a file of an earlier release holds them (their count 0, the max radius 0).
 //! Loading checks magic, version, that the counts match the file length, the checksum (streamed from
 //! the disk: all three before allocating; allocations that fail are errors, not aborts), then the scene fingerprint, then every value: positions finite, directions and normals unit
 //! length, power and irradiance finite and non-negative, the max radius positive (a file edited with its
@@ -31,7 +31,6 @@ use pmbase::container::{
 
 use crate::error::{Error, Result};
 use crate::map::{Photon, PhotonMap};
-use crate::precomputed::{IrradiancePoint, PrecomputedIrradiance};
 use crate::trace::{PhotonMaps, PhotonTargets, TraceStats};
 
 pub const MAGIC: [u8; 8] = *b"PMPHOTON";
@@ -113,16 +112,10 @@ impl Plausible {
 pub struct LoadedMaps {
     pub info: MapsInfo,
     pub maps: PhotonMaps,
-    pub precomputed: Option<PrecomputedIrradiance>,
 }
 
 /// Writes the file format to `w`.
-pub fn write_maps<W: Write>(
-    w: W,
-    info: &MapsInfo,
-    maps: &PhotonMaps,
-    precomputed: Option<&PrecomputedIrradiance>,
-) -> std::io::Result<()> {
+pub fn write_maps<W: Write>(w: W, info: &MapsInfo, maps: &PhotonMaps) -> std::io::Result<()> {
     let mut h = FORMAT.writer(w, VERSION)?;
     let global = maps.global.as_ref().map_or(&[][..], |m| m.photons());
     let caustic = maps.caustic.as_ref().map_or(&[][..], |m| m.photons());
@@ -131,10 +124,8 @@ pub fn write_maps<W: Write>(
         .volume_caustic
         .as_ref()
         .map_or(&[][..], |m| m.photons());
-    let points = precomputed.map_or(&[][..], |p| p.points());
     let flags = maps.global.as_ref().map_or(0, |_| HAS_GLOBAL)
         | maps.caustic.as_ref().map_or(0, |_| HAS_CAUSTIC)
-        | precomputed.map_or(0, |_| HAS_PRECOMPUTED)
         | maps.volume.as_ref().map_or(0, |_| HAS_VOLUME)
         | maps
             .volume_caustic
@@ -153,11 +144,11 @@ pub fn write_maps<W: Write>(
         info.n_caustic_paths,
         global.len() as u64,
         caustic.len() as u64,
-        points.len() as u64,
+        0,
     ] {
         h.write_all(&v.to_le_bytes())?;
     }
-    h.write_all(&precomputed.map_or(0.0f32, |p| p.max_radius()).to_le_bytes())?;
+    h.write_all(&0.0f32.to_le_bytes())?;
     h.write_all(&[0u8; 4])?;
     for v in [
         t.volume as u64,
@@ -185,10 +176,6 @@ pub fn write_maps<W: Write>(
             .to_le_bytes(),
         )?;
     }
-    for pt in points {
-        write_vecs(&mut h, &[pt.pos, pt.normal, pt.e, pt.e_indirect])?;
-        h.write_all(&pt.half_thickness.to_le_bytes())?;
-    }
     h.finish()?.flush()
 }
 
@@ -201,12 +188,7 @@ fn write_vecs<W: Write>(w: &mut W, vs: &[Vec3]) -> std::io::Result<()> {
 }
 
 /// Saves to `path` (through a temporary file renamed into place).
-pub fn save(
-    path: &Path,
-    info: &MapsInfo,
-    maps: &PhotonMaps,
-    precomputed: Option<&PrecomputedIrradiance>,
-) -> Result<()> {
+pub fn save(path: &Path, info: &MapsInfo, maps: &PhotonMaps) -> Result<()> {
     let io = |source| Error::Io {
         path: path.to_path_buf(),
         source,
@@ -214,7 +196,7 @@ pub fn save(
     let mut tmp = path.as_os_str().to_owned();
     tmp.push(".tmp");
     let file = File::create(&tmp).map_err(io)?;
-    write_maps(BufWriter::new(file), info, maps, precomputed).map_err(io)?;
+    write_maps(BufWriter::new(file), info, maps).map_err(io)?;
     std::fs::rename(&tmp, path).map_err(io)
 }
 
@@ -255,7 +237,6 @@ struct Header {
     flags: u32,
     /// The 11 words of version 4, then the 6 media words of version 5 (zero in a version-4 file).
     words: [u64; 17],
-    max_radius: f32,
     /// Where the photons start: [`HEADER_BYTES`], or [`HEADER_BYTES_V4`].
     len: usize,
 }
@@ -289,17 +270,11 @@ impl Header {
         let flags = r.u32();
         let mut words = [0u64; 17];
         words[..11].iter_mut().for_each(|w| *w = r.u64());
-        let max_radius = r.f32();
-        r.skip(4); // zero
+        r.skip(8); // an earlier release's max radius of its irradiance points, and zero
         if len == HEADER_BYTES {
             words[11..].iter_mut().for_each(|w| *w = r.u64());
         }
-        Ok(Header {
-            flags,
-            words,
-            max_radius,
-            len,
-        })
+        Ok(Header { flags, words, len })
     }
 
     /// Photons of the global, caustic, volume and volume caustic maps, and irradiance points.
@@ -374,23 +349,6 @@ fn photon_problem(ph: &Photon, flag: f32, map: MapKind, plausible: &Plausible) -
         return None;
     };
     Some(why.to_string())
-}
-
-/// Why a precomputed irradiance point read from a file cannot be used.
-fn point_problem(p: &IrradiancePoint) -> Option<&'static str> {
-    if !p.pos.is_finite() {
-        Some("position is not finite")
-    } else if !is_unit(p.normal) {
-        Some("normal is not a unit vector")
-    } else if !(p.e.is_finite() && p.e.min_element() >= 0.0) {
-        Some("irradiance is not finite and non-negative")
-    } else if !(p.e_indirect.is_finite() && p.e_indirect.min_element() >= 0.0) {
-        Some("indirect irradiance is not finite and non-negative")
-    } else if !(p.half_thickness.is_finite() && p.half_thickness > 0.0) {
-        Some("slab half-thickness is not a positive number")
-    } else {
-        None
-    }
 }
 
 /// Parses a whole file held in memory, with no bound on its photons but their values being finite.
@@ -487,36 +445,7 @@ pub fn read_maps_within(
         n_volume_caustic,
         kind(true, info.n_volume_caustic_paths),
     )?;
-    let mut points: Vec<IrradiancePoint> = Vec::new();
-    points
-        .try_reserve_exact(n_points as usize)
-        .map_err(|_| Error::OutOfMemory {
-            bytes: n_points.saturating_mul(std::mem::size_of::<IrradiancePoint>() as u64),
-        })?;
-    points.extend((0..n_points).map(|_| {
-        let mut v = || Vec3::new(next(), next(), next());
-        let (pos, normal, e, e_indirect) = (v(), v(), v(), v());
-        IrradiancePoint {
-            pos,
-            normal,
-            e,
-            e_indirect,
-            half_thickness: next(),
-        }
-    }));
-    if let Some((index, why)) = points
-        .iter()
-        .enumerate()
-        .find_map(|(i, p)| point_problem(p).map(|w| (i, w)))
-    {
-        return Err(Error::Corrupt(format!("irradiance point {index}: {why}")));
-    }
-    if flag(HAS_PRECOMPUTED) && !(header.max_radius.is_finite() && header.max_radius > 0.0) {
-        return Err(Error::Corrupt(format!(
-            "precomputed max radius {} is not a positive number",
-            header.max_radius
-        )));
-    }
+    // What follows is an earlier release's irradiance points (covered by the checksum), unused.
     let corrupt = |e: Error| Error::Corrupt(format!("cannot rebuild a kd-tree: {e}"));
     let map = |present: bool, photons: Vec<Photon>| -> Result<Option<PhotonMap>> {
         if present {
@@ -531,14 +460,5 @@ pub fn read_maps_within(
         volume: map(flag(HAS_VOLUME), volume)?,
         volume_caustic: map(flag(HAS_VOLUME_CAUSTIC), volume_caustic)?,
     };
-    let precomputed = if flag(HAS_PRECOMPUTED) {
-        Some(PrecomputedIrradiance::from_points(points, header.max_radius).map_err(corrupt)?)
-    } else {
-        None
-    };
-    Ok(LoadedMaps {
-        info,
-        maps,
-        precomputed,
-    })
+    Ok(LoadedMaps { info, maps })
 }

@@ -1,5 +1,5 @@
 //! Photon pass: emission and tracing of photons, global and caustic photon maps over FLANN kd-trees,
-//! density estimates and precomputed irradiance.
+//! density estimates.
 //!
 //! `flann` is the only module with `unsafe` (FFI): the crate denies it, `flann` alone allows it, and
 //! every other module forbids it.
@@ -12,8 +12,6 @@ pub mod file;
 mod flann;
 pub mod map;
 pub mod pathlog;
-mod pointtree;
-mod precomputed;
 pub mod reach;
 pub mod sampling;
 pub mod trace;
@@ -23,7 +21,6 @@ pub use file::{LoadedMaps, MapsInfo, Plausible};
 pub use flann::{KdTree, Neighbor};
 pub use map::{Coverage, Estimate, Filter, FullDisc, Photon, PhotonMap};
 pub use pathlog::{PathLog, Reuse};
-pub use precomputed::{IrradiancePoint, PrecomputeStats, PrecomputedIrradiance};
 pub use trace::{
     retrace_photons, trace_photons_cancellable, EmittedRay, MapPaths, Over, PhotonMaps,
     PhotonScene, PhotonTargets, Propagation, Scatter, SurfaceHit, TraceStats,

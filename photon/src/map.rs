@@ -215,23 +215,6 @@ impl PhotonMap {
         })
     }
 
-    /// [`irradiance`](Self::irradiance) and [`irradiance_indirect`](Self::irradiance_indirect) from one
-    /// search: `(full, indirect only)`.
-    pub(crate) fn irradiance_and_indirect(
-        &self,
-        p: Vec3,
-        n: Vec3,
-        k: usize,
-        max_radius: f32,
-        cov: &dyn Coverage,
-    ) -> (Estimate, Vec3) {
-        let (est, [full, indirect]) =
-            self.estimate_sums(p, n, k, max_radius, Filter::None, cov, |ph| {
-                [ph.power, if ph.indirect { ph.power } else { Vec3::ZERO }]
-            });
-        (Estimate { e: full, ..est }, indirect)
-    }
-
     /// Irradiance from the photons that are not direct (caustic and indirect ones) and from the
     /// indirect ones only, over the neighbourhood of [`irradiance`](Self::irradiance): the parts of the
     /// irradiance that a caller computing direct light itself still needs from the map.

@@ -6,7 +6,7 @@ use std::sync::atomic::AtomicBool;
 
 use common::*;
 use photon::file::{load, read_maps, read_maps_within, save, write_maps, Plausible};
-use photon::{trace_photons_cancellable, Error, MapsInfo, PhotonTargets, PrecomputedIrradiance};
+use photon::{trace_photons_cancellable, Error, MapsInfo, PhotonTargets};
 
 const FINGERPRINT: u64 = 0xFEED_F00D_1234_5678;
 
@@ -22,12 +22,9 @@ fn encoded() -> (Vec<u8>, MapsInfo) {
     let (maps, stats) =
         trace_photons_cancellable(&scene, &targets, 5, &|_, _| {}, &AtomicBool::new(false))
             .unwrap();
-    let (pre, _) =
-        PrecomputedIrradiance::build(maps.global.as_ref().unwrap(), 4, 50, 0.5, &photon::FullDisc)
-            .unwrap();
     let info = MapsInfo::new(FINGERPRINT, 5, targets, &stats);
     let mut bytes = Vec::new();
-    write_maps(&mut bytes, &info, &maps, Some(&pre)).unwrap();
+    write_maps(&mut bytes, &info, &maps).unwrap();
     // The decoded maps must equal what was written.
     let loaded = read_maps(&bytes, FINGERPRINT).unwrap();
     assert_eq!(loaded.info, info);
@@ -39,7 +36,6 @@ fn encoded() -> (Vec<u8>, MapsInfo) {
         loaded.maps.caustic.unwrap().photons(),
         maps.caustic.unwrap().photons()
     );
-    assert_eq!(loaded.precomputed.unwrap().points(), pre.points());
     (bytes, info)
 }
 
@@ -48,7 +44,7 @@ fn round_trip_through_a_file() {
     let (bytes, info) = encoded();
     let loaded = read_maps(&bytes, FINGERPRINT).unwrap();
     let path = std::env::temp_dir().join(format!("photon-files-test-{}.pmap", std::process::id()));
-    save(&path, &info, &loaded.maps, loaded.precomputed.as_ref()).unwrap();
+    save(&path, &info, &loaded.maps).unwrap();
     assert_eq!(std::fs::read(&path).unwrap(), bytes);
     let again = load(&path, FINGERPRINT, &Plausible::ANY).unwrap();
     assert_eq!(again.info, info);
@@ -162,7 +158,7 @@ fn with_volume_maps() -> (Vec<u8>, MapsInfo, photon::PhotonMaps) {
     };
     let info = MapsInfo::new(FINGERPRINT, 7, targets, &stats);
     let mut bytes = Vec::new();
-    write_maps(&mut bytes, &info, &maps, None).unwrap();
+    write_maps(&mut bytes, &info, &maps).unwrap();
     (bytes, info, maps)
 }
 
@@ -235,10 +231,6 @@ fn a_version_4_file_is_still_read() {
         a.maps.caustic.unwrap().photons(),
         b.maps.caustic.unwrap().photons()
     );
-    assert_eq!(
-        a.precomputed.unwrap().points(),
-        b.precomputed.unwrap().points()
-    );
     assert!(a.maps.volume.is_none() && a.maps.volume_caustic.is_none());
 }
 
@@ -270,4 +262,36 @@ fn photons_beyond_what_the_scene_allows_are_refused() {
             "{value} at {at}"
         );
     }
+}
+
+/// A file of an earlier release holding precomputed irradiance points (flag 4, their count in the
+/// header's eleventh word, 13 f32 each after the photons) loads with the same maps, its points skipped.
+#[test]
+fn a_file_with_an_earlier_releases_irradiance_points_is_read() {
+    let (now, info) = encoded();
+    let mut old = now[..now.len() - 8].to_vec();
+    let flags = u32::from_le_bytes(old[12..16].try_into().unwrap()) | 4;
+    old[12..16].copy_from_slice(&flags.to_le_bytes());
+    old[96..104].copy_from_slice(&2u64.to_le_bytes());
+    old[104..108].copy_from_slice(&0.5f32.to_le_bytes());
+    for x in (0..26).map(|i| i as f32 * 0.25) {
+        old.extend_from_slice(&x.to_le_bytes());
+    }
+    let sum = fnv(&old[8..]);
+    old.extend_from_slice(&sum.to_le_bytes());
+    let (a, b) = (
+        read_maps(&old, FINGERPRINT).unwrap(),
+        read_maps(&now, FINGERPRINT).unwrap(),
+    );
+    assert_eq!(a.info, info);
+    assert_eq!(
+        a.maps.global.unwrap().photons(),
+        b.maps.global.unwrap().photons()
+    );
+    // Its length must still match its counts.
+    let short = [&old[..old.len() - 12], &old[old.len() - 8..]].concat();
+    assert!(matches!(
+        read_maps(&short, FINGERPRINT),
+        Err(Error::BadLength { .. })
+    ));
 }

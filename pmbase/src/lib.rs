@@ -12,6 +12,10 @@ mod summable;
 
 use glam::Vec3;
 
+/// The floor of the squared reference value in the relMSE, (x − r)² / (r² + `REL_MSE_FLOOR`): every
+/// accuracy figure is measured with it, and the noise estimates that predict those figures use it too.
+pub const REL_MSE_FLOOR: f64 = 0.01;
+
 /// Rec. 709 luminance of a linear RGB value.
 #[inline]
 pub fn luminance(c: Vec3) -> f32 {

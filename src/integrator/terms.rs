@@ -109,7 +109,7 @@ impl Terms {
 }
 
 /// Layers at most (every optional one present).
-const MAX_LAYERS: usize = 8;
+pub(crate) const MAX_LAYERS: usize = 8;
 
 /// One sample's value per image layer, without an allocation: `len` of them (the photon-map methods'
 /// terms, see [`Layout`]; `path`'s one radiance).

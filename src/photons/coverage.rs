@@ -32,7 +32,7 @@ pub struct SceneCoverage<'a>(pub &'a Scene);
 
 /// Surfaces counted along one probe: thin layers closer than the slab (slats, fins) are each surface
 /// photons land on, so every one the probe crosses counts, not only the first.
-const MAX_LAYERS: u32 = 8;
+const MAX_PROBE_SURFACES: u32 = 8;
 
 impl SceneCoverage<'_> {
     /// Distance from `p` to the nearest other surface straight above or below it (along ±`n`), up to
@@ -57,7 +57,7 @@ impl SceneCoverage<'_> {
     /// underside crosses a face no photon from above can land on.
     fn layers(&self, o: Vec3, d: Vec3, length: f32, n: Vec3) -> f32 {
         let (mut t0, mut area) = (0.0f32, 0.0f32);
-        for layer in 0..MAX_LAYERS {
+        for layer in 0..MAX_PROBE_SURFACES {
             let from = o + t0 * d;
             let Some(raw) = self.0.intersect_solid(from, d, length - t0) else {
                 break;
@@ -105,7 +105,7 @@ impl SceneCoverage<'_> {
             tfar: length,
         }; 8];
         let mut hits = [None; 8];
-        for layer in 0..MAX_LAYERS {
+        for layer in 0..MAX_PROBE_SURFACES {
             let mut kept = 0;
             for start in (0..n_open).step_by(8) {
                 let len = (n_open - start).min(8);

@@ -26,12 +26,9 @@ use crate::integrator::MEMO_BYTES_PER_PIXEL;
 use crate::memory;
 use crate::scene::{Method, Scene};
 
-/// Largest image side (the scene file's limit too).
-pub const MAX_SIDE: u32 = 65_536;
-/// Largest samples-per-pixel count.
-pub const MAX_SPP: u32 = 1 << 20;
+pub use crate::scene::{MAX_SIDE, MAX_SPP};
 /// Peak bytes per stored photon: the photon (56 B) in a growing vector (capacity up to 2×, and the old
-/// buffer during a reallocation), FLANN's copy and tree, and the precomputed irradiance.
+/// buffer during a reallocation), and FLANN's copy and tree.
 pub const PHOTON_PEAK_BYTES: u64 = 240;
 /// Pass-A bytes per pixel: the pixel's range (8 B), the visiting order (8 B), the repair sweeps' flag
 /// (1 B) and its shading points, each kept with the hit its gather starts from (28 + 56 B; allowing 2.8

@@ -6,7 +6,7 @@
 use glam::Vec3;
 use icache::Record;
 
-use super::temporal::luminance;
+use pmbase::luminance;
 
 /// Photon power the global map deposited on surfaces, summed over the cells of a lattice fixed for
 /// the sequence (photons outside it count in its border cells). Where it changed between two frames

@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 
 use glam::Vec3;
 use icache::IrradianceCache;
-use photon::{MapsInfo, PhotonMaps, Plausible, PrecomputedIrradiance};
+use photon::{MapsInfo, PhotonMaps, Plausible};
 
 use crate::camera::Camera;
 use crate::error::{option, Result};
@@ -31,7 +31,6 @@ pub struct FileOptions {
 pub struct PhotonOutput {
     pub info: MapsInfo,
     pub maps: PhotonMaps,
-    pub precomputed: Option<PrecomputedIrradiance>,
 }
 
 /// How far above the lights' total power (its largest channel) one photon path's power may be. The
@@ -58,8 +57,7 @@ pub fn save_photons(set: &mut OutputSet, path: &Path, p: &PhotonOutput) -> Resul
     set.stage(path, |tmp| {
         let file = std::fs::File::create(tmp).map_err(|e| e.to_string())?;
         let mut w = std::io::BufWriter::new(file);
-        photon::file::write_maps(&mut w, &p.info, &p.maps, p.precomputed.as_ref())
-            .map_err(|e| e.to_string())?;
+        photon::file::write_maps(&mut w, &p.info, &p.maps).map_err(|e| e.to_string())?;
         std::io::Write::flush(&mut w).map_err(|e| e.to_string())
     })
 }

@@ -11,7 +11,9 @@ use rayon::prelude::*;
 
 use icache::{IrradianceCache, Pass};
 
-use super::temporal::{luminance, Moved, SceneChange};
+use pmbase::luminance;
+
+use super::temporal::{Moved, SceneChange};
 use super::tiles::Window;
 use crate::camera::Camera;
 use crate::error::{Error, Result};

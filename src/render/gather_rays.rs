@@ -46,7 +46,7 @@ pub const NOISE_TARGET: f64 = 1e-4;
 /// Most pixels [`predicted_noise`] looks at.
 const NOISE_PIXELS: u32 = 4096;
 /// Floor of the squared radiance in [`predicted_noise`]'s relative variance, as in the relMSE.
-const REL_FLOOR: f64 = 0.01;
+const REL_FLOOR: f64 = pmbase::REL_MSE_FLOOR;
 /// Mean radiance (luminance over the lattice) below which the floor scales with the image's brightness
 /// squared, so that the choice no longer depends on the lights' scale. Of the shipped and test scenes,
 /// only two spot-lit fog scenes (their light is mostly in the fog) fall a little below, and keep their

@@ -85,7 +85,6 @@ pub struct RenderOutput {
 pub struct Carry<'a> {
     photons: Option<PhotonData<'a>>,
     photon_info: Option<photon::MapsInfo>,
-    precomputed: Option<photon::PrecomputedIrradiance>,
     cache: Option<icache::IrradianceCache>,
     chosen_rays: Option<usize>,
     radiance: Option<RadianceCache>,
@@ -131,7 +130,6 @@ pub fn render(
         .map(|(p, info)| files::PhotonOutput {
             info,
             maps: p.into_maps(),
-            precomputed: carry.precomputed,
         });
     Ok((out, stats))
 }
@@ -195,7 +193,6 @@ pub fn render_frame<'a>(
         }
         carry.photons = Some(data);
         carry.photon_info = traced.info;
-        carry.precomputed = traced.precomputed;
     }
     let photons = carry.photons.as_ref();
     interrupted(cancel)?;

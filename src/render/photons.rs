@@ -6,7 +6,7 @@ use std::path::Path;
 use std::sync::atomic::AtomicBool;
 use std::time::Instant;
 
-use photon::{MapsInfo, PhotonMaps, PrecomputedIrradiance};
+use photon::{MapsInfo, PhotonMaps};
 
 use super::files::{self, FileOptions};
 use super::stats::PhotonStats;
@@ -19,9 +19,6 @@ use crate::scene::Scene;
 /// Photon maps traced or loaded.
 pub struct Maps {
     pub maps: PhotonMaps,
-    /// Precomputed irradiance points from a file of an earlier version, kept for `--save-photons` (the
-    /// render reads the atlas).
-    pub precomputed: Option<PrecomputedIrradiance>,
     /// There when the maps were traced and `--save-photons` or `--dump-photons` asks for them.
     pub info: Option<MapsInfo>,
     /// The trace's paths, when asked for (an animation's next frame copies those nothing touched).
@@ -62,16 +59,8 @@ pub fn trace_photons(
             &trace,
         )
     });
-    let stats = photon_stats(plan, time_s, false, trace, None);
-    Ok((
-        Maps {
-            maps,
-            precomputed: None,
-            info,
-            log,
-        },
-        stats,
-    ))
+    let stats = photon_stats(plan, time_s, false, trace);
+    Ok((Maps { maps, info, log }, stats))
 }
 
 /// The maps of a `--save-photons` file of the same scene, instead of `trace_photons`.
@@ -104,15 +93,10 @@ pub fn load_photons(scene: &Scene, plan: &Plan, path: &Path) -> Result<(Maps, Ph
         volume_caustic_memory_bytes: bytes(volume_caustic),
         ..Default::default()
     };
-    let precomputed = loaded
-        .precomputed
-        .as_ref()
-        .map(|p| (p.points().len() as u64, p.memory_bytes() as u64));
-    let stats = photon_stats(plan, time_s, true, trace, precomputed);
+    let stats = photon_stats(plan, time_s, true, trace);
     Ok((
         Maps {
             maps: loaded.maps,
-            precomputed: loaded.precomputed,
             info: None,
             log: None,
         },
@@ -120,19 +104,12 @@ pub fn load_photons(scene: &Scene, plan: &Plan, path: &Path) -> Result<(Maps, Ph
     ))
 }
 
-fn photon_stats(
-    plan: &Plan,
-    time_s: f64,
-    loaded: bool,
-    trace: photon::TraceStats,
-    precomputed: Option<(u64, u64)>,
-) -> PhotonStats {
+fn photon_stats(plan: &Plan, time_s: f64, loaded: bool, trace: photon::TraceStats) -> PhotonStats {
     let s = &plan.photons;
     PhotonStats {
         time_s,
         loaded,
         trace,
-        precomputed,
         lookup: s.lookup,
         max_radius_global: s.max_radius_global,
         max_radius_caustic: s.max_radius_caustic,

@@ -185,8 +185,6 @@ pub struct PhotonStats {
     pub time_s: f64,
     pub loaded: bool,
     pub trace: photon::TraceStats,
-    /// Precomputed irradiance points kept from a photon file of an earlier version: (points, bytes).
-    pub precomputed: Option<(u64, u64)>,
     pub lookup: usize,
     pub max_radius_global: f32,
     pub max_radius_caustic: f32,
@@ -681,7 +679,6 @@ fn photon_rows(r: &mut Report, p: &PhotonStats) {
         "photons.caustic_memory_bytes",
         s.caustic_memory_bytes,
     );
-    let precomputed_bytes = p.precomputed.map_or(0, |(_, bytes)| bytes);
     if p.max_radius_volume > 0.0 {
         r.count(
             "Photons",
@@ -727,8 +724,7 @@ fn photon_rows(r: &mut Report, p: &PhotonStats) {
         s.global_memory_bytes
             + s.caustic_memory_bytes
             + s.volume_memory_bytes
-            + s.volume_caustic_memory_bytes
-            + precomputed_bytes,
+            + s.volume_caustic_memory_bytes,
     );
     r.count(
         "Photons",
@@ -755,14 +751,6 @@ fn photon_rows(r: &mut Report, p: &PhotonStats) {
         "photons.max_radius_caustic",
         p.max_radius_caustic as f64,
     );
-    if let Some((points, _)) = p.precomputed {
-        r.count(
-            "Photons",
-            "Precomputed irradiance points",
-            "photons.precomputed",
-            points,
-        );
-    }
 }
 
 fn cache_rows(

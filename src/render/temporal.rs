@@ -42,6 +42,7 @@ use std::collections::HashMap;
 
 use glam::{Mat3, Mat4, Vec3};
 use icache::{IrradianceCache, NewRecord, Record, ShadingPoint};
+use pmbase::luminance;
 use rayon::prelude::*;
 
 use super::deposits::{sees_changed_light, Deposits};
@@ -239,10 +240,6 @@ fn span_px(r: &Record, cam: &Camera) -> f32 {
 
 fn key(p: Vec3) -> [u32; 3] {
     p.to_array().map(f32::to_bits)
-}
-
-pub(super) fn luminance(e: Vec3) -> f32 {
-    e.dot(Vec3::new(0.2126, 0.7152, 0.0722))
 }
 
 impl Mover {

@@ -33,7 +33,7 @@ use rayon::prelude::*;
 use crate::counters::SampleCounters;
 use crate::error::{Error, Result};
 use crate::integrator::pm::AREA_LIGHT_SAMPLES;
-use crate::integrator::terms::LayerValues;
+use crate::integrator::terms::{LayerValues, MAX_LAYERS};
 use crate::integrator::{sanitize, LightPoints, PixelMemo, Stratified};
 use crate::io::output::Image;
 
@@ -200,7 +200,7 @@ pub const MIN_ADAPTIVE_SPP: u32 = 4;
 /// Samples per group of strata.
 const GROUP: u32 = 4;
 /// Floor of the squared mean in the relative variance, as in the relMSE of the accuracy figures.
-const REL_FLOOR: f64 = 0.01;
+const REL_FLOOR: f64 = pmbase::REL_MSE_FLOOR;
 
 /// Where a sample falls: its offset in the pixel, and a second point of the unit square for the
 /// first glossy lobe it samples ([`lobe_point`]).
@@ -389,9 +389,6 @@ struct TileState {
     /// This round's pixels that missed, as they stood before it (when the sampler adds records).
     redo: Vec<Redo>,
 }
-
-/// Layers a pixel's state before a round can hold (the photon-map methods have 5, or 7 with media).
-const MAX_LAYERS: usize = 8;
 
 /// A pixel as it stood before a round in which some sample missed, to take the round again.
 struct Redo {

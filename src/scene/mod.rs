@@ -23,7 +23,9 @@ pub use build::{
     check_sequence, frame_camera, frame_view, load, load_animation, load_frame, mesh_transform,
 };
 pub use media::{Media, MAX_SIGMA};
-pub use settings::{FillMode, IcacheSettings, PhotonConfig, MAX_PHOTONS, SPACING_REFERENCE_SIDE};
+pub use settings::{
+    FillMode, IcacheSettings, PhotonConfig, MAX_PHOTONS, MAX_SIDE, MAX_SPP, SPACING_REFERENCE_SIDE,
+};
 
 use crate::accel::embree::Bvh;
 use crate::camera::Camera;

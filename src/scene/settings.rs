@@ -14,11 +14,12 @@ use super::{Method, RenderSettings, METHODS};
 use crate::camera::Camera;
 use crate::error::Result;
 
-/// Largest `spp` and `max_depth`.
-pub(crate) const MAX_SPP: i64 = 1 << 20;
+/// Largest samples-per-pixel count (the scene's `spp`, `--spp`, `--aa-spp`).
+pub const MAX_SPP: u32 = 1 << 20;
+/// Largest `max_depth`.
 pub(crate) const MAX_DEPTH: i64 = 1024;
-/// Largest image side.
-pub(crate) const MAX_SIDE: i64 = 65536;
+/// Largest image side (the scene's and `--width`, `--height`).
+pub const MAX_SIDE: u32 = 65_536;
 /// Largest photon count (and lookup k, and photons per atlas texel).
 pub const MAX_PHOTONS: i64 = 100_000_000;
 
@@ -172,7 +173,7 @@ pub(super) fn camera(cx: &Ctx, desc: &SceneFile) -> Result<Camera> {
         ));
     }
     for (k, v) in [("width", c.width), ("height", c.height)] {
-        if !(1..=MAX_SIDE).contains(&v) {
+        if !(1..=i64::from(MAX_SIDE)).contains(&v) {
             return Err(cx.err("camera", 0, k, format!("{v} must be in 1..={MAX_SIDE}")));
         }
     }
@@ -210,13 +211,13 @@ pub(super) fn settings(cx: &Ctx, desc: &SceneFile) -> Result<RenderSettings> {
         None => None,
     };
     let spp = match r.spp {
-        Some(s) if !(1..=MAX_SPP).contains(&s) => {
+        Some(s) if !(1..=i64::from(MAX_SPP)).contains(&s) => {
             return Err(cx.err("render", 0, "spp", format!("{s} must be in 1..={MAX_SPP}")))
         }
         s => s.map(|s| s as u32),
     };
     let aa_spp = match r.aa_spp {
-        Some(s) if !(1..=MAX_SPP).contains(&s) => {
+        Some(s) if !(1..=i64::from(MAX_SPP)).contains(&s) => {
             return Err(cx.err(
                 "render",
                 0,
