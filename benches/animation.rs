@@ -11,7 +11,7 @@ use std::time::Instant;
 use pmrender::converge::{rel_mse, temporal_rel_mse};
 use pmrender::io::output::{read_layer, Image};
 use pmrender::render::sequence::render_sequence;
-use pmrender::render::{render, NoProgress, Options};
+use pmrender::render::{render_seen_by, NoProgress, Options};
 use pmrender::scene::{self, Animation};
 
 /// The sequence's beauty images over `frames` and its seconds (`temporal = false` in `opts` is not
@@ -58,14 +58,17 @@ fn independent(
                     &own
                 }
             };
-            let o = Options {
-                camera: Some(scene::frame_camera(anim, f).expect("camera")),
-                ..opts.clone()
-            };
-            render(scene, &o, &NoProgress, &AtomicBool::new(false))
-                .expect("render")
-                .0
-                .beauty
+            let camera = scene::frame_camera(anim, f).expect("camera");
+            render_seen_by(
+                scene,
+                opts,
+                Some(&camera),
+                &NoProgress,
+                &AtomicBool::new(false),
+            )
+            .expect("render")
+            .0
+            .beauty
         })
         .collect();
     (images, t.elapsed().as_secs_f64())

@@ -122,7 +122,9 @@ fn material_mask(scene: &Scene, name: &str, size: (u32, u32)) -> Vec<bool> {
         height: Some(size.1),
         ..Default::default()
     };
-    let camera = pmrender::render::plan(scene, &opts).expect("plan").camera;
+    let camera = pmrender::render::plan(scene, &opts, None)
+        .expect("plan")
+        .camera;
     (0..size.1)
         .flat_map(|y| (0..size.0).map(move |x| (x, y)))
         .map(|(x, y)| {

@@ -241,8 +241,6 @@ fn options(a: &RenderArgs) -> Result<Options> {
         max_memory,
         seed: a.seed,
         crop,
-        camera: None,
-        frame: None,
         files: FileOptions {
             save_photons: a.save_photons.clone(),
             load_photons: a.load_photons.clone(),

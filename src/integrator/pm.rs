@@ -12,7 +12,7 @@ use icache::media::MediaCache;
 use icache::{IrradianceCache, Pass};
 use photon::sampling::{hash_keys, Rng};
 
-use super::media;
+use super::in_scatter;
 use super::radiance_cache::RadianceCache;
 use super::terms::Terms;
 use crate::counters::SampleCounters;
@@ -168,12 +168,12 @@ impl PmContext<'_> {
         };
         let t_end = hit.map_or(f32::INFINITY, |h| h.t - t0);
         let (single, multiple) = if t_end.is_finite() {
-            let sources = media::Sources {
+            let sources = in_scatter::Sources {
                 scene: self.scene,
                 photons: self.photons,
                 media_cache: self.media_cache,
             };
-            media::in_scattered(&sources, o + d * t0, d, t_end, medium, m, rng, c)
+            in_scatter::in_scattered(&sources, o + d * t0, d, t_end, medium, m, rng, c)
         } else {
             (Vec3::ZERO, Vec3::ZERO)
         };

@@ -15,7 +15,7 @@ use super::glossy_texels::GlossyTexels;
 use super::photon_scene::PhotonView;
 use super::settings::PhotonSettings;
 use super::texel_track::DiscChange;
-use super::volume_grid::{LatticeRecord, Photons, Surroundings, VolumeGrid, LATTICE_WALLS};
+use super::volume_lattice::{LatticeRecord, Photons, Surroundings, VolumeGrid, LATTICE_WALLS};
 use crate::counters::SampleCounters;
 use crate::error::Result;
 use crate::geometry::Hit;
@@ -157,7 +157,7 @@ impl<'a> PhotonData<'a> {
             return None;
         }
         let around = self.volume_view(p);
-        let est = super::volume_grid::estimate_within(
+        let est = super::volume_lattice::estimate_within(
             map,
             p,
             (self.settings.lookup, self.settings.max_radius_volume),
@@ -240,7 +240,7 @@ impl<'a> PhotonData<'a> {
             c.photon_estimates += 1;
             let (k, cap) = (self.settings.lookup, self.settings.max_radius_volume);
             let around = self.volume_view(x);
-            let est = super::volume_grid::estimate_within(
+            let est = super::volume_lattice::estimate_within(
                 map,
                 x,
                 (k, cap),
@@ -252,7 +252,7 @@ impl<'a> PhotonData<'a> {
             ratio = est.phase_ratio;
             est.rec.s
         });
-        super::volume_grid::phase_moments(s, d, g) * ratio
+        super::volume_lattice::phase_moments(s, d, g) * ratio
     }
 
     /// What a volume estimate at `x` fits its kernel over (`None`: the whole kernel, or visibility
@@ -263,7 +263,7 @@ impl<'a> PhotonData<'a> {
         if !scene.settings.icache.media_visibility() {
             return None;
         }
-        let measure = |p: Vec3| super::media_cache::surroundings(scene, p).0;
+        let measure = |p: Vec3| super::media_fill::surroundings(scene, p).0;
         match &self.media.volume_grid {
             Some(grid) => grid.surroundings(x, self.settings.max_radius_volume, measure, |a, b| {
                 scene.segment_clear(a, b)

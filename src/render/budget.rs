@@ -100,7 +100,7 @@ fn file_len(path: Option<&Path>) -> u64 {
 
 /// A volume-lattice record in its lazily filled slot (none where the lattice point has no record).
 const MEDIA_RECORD_BYTES: u64 = std::mem::size_of::<
-    std::sync::OnceLock<Option<crate::photons::volume_grid::LatticeRecord>>,
+    std::sync::OnceLock<Option<crate::photons::volume_lattice::LatticeRecord>>,
 >() as u64;
 
 /// What the render will need, item by item (name, bytes).
@@ -165,27 +165,7 @@ pub fn estimate(scene: &Scene, plan: &Plan, opts: &Options) -> Vec<(String, u64)
             ));
         }
         if scene.media.is_some() {
-            // The final-gather rays' lattice of at most MAX_RECORDS (a record and its lock), and for `pm`
-            // the media cache's records (each with a few index entries) and pass A's points.
-            items.push((
-                "media records".into(),
-                crate::photons::volume_grid::MAX_RECORDS * MEDIA_RECORD_BYTES,
-            ));
-            // What the cells of the estimates' coarse lattice see, once measured.
-            items.push((
-                "media surroundings".into(),
-                crate::photons::volume_grid::MAX_SEEN_CELLS
-                    * (std::mem::size_of::<crate::photons::volume_grid::Surroundings>() as u64
-                        + 16),
-            ));
-            if plan.method == Method::Pm {
-                let cache = icache::media::MAX_RECORDS as u64
-                    * (std::mem::size_of::<icache::media::VolumeRecord>() as u64 + 64);
-                // Points are gathered with a sort key, then copied out: both lists at the peak.
-                let point = std::mem::size_of::<icache::media::MediaPoint>() as u64;
-                let points = crate::photons::media_cache::MAX_POINTS as u64 * (2 * point + 4);
-                items.push(("media radiance cache".into(), cache + points));
-            }
+            items.extend(media_items(plan));
         }
     }
     let memos = pixels.saturating_mul(MEMO_BYTES_PER_PIXEL);
@@ -204,6 +184,33 @@ pub fn estimate(scene: &Scene, plan: &Plan, opts: &Options) -> Vec<(String, u64)
         items.push((name, cache.max(memos)));
     } else if plan.method == Method::Photons {
         items.push(("shading memos".into(), memos));
+    }
+    items
+}
+
+/// The media's items: the final-gather rays' lattice, what its cells see, and `pm`'s media
+/// radiance cache.
+fn media_items(plan: &Plan) -> Vec<(String, u64)> {
+    let mut items = Vec::new();
+    // The final-gather rays' lattice of at most MAX_RECORDS (a record and its lock), and for `pm`
+    // the media cache's records (each with a few index entries) and pass A's points.
+    items.push((
+        "media records".into(),
+        crate::photons::volume_lattice::MAX_RECORDS * MEDIA_RECORD_BYTES,
+    ));
+    // What the cells of the estimates' coarse lattice see, once measured.
+    items.push((
+        "media surroundings".into(),
+        crate::photons::volume_lattice::MAX_SEEN_CELLS
+            * (std::mem::size_of::<crate::photons::volume_lattice::Surroundings>() as u64 + 16),
+    ));
+    if plan.method == Method::Pm {
+        let cache = icache::media::MAX_RECORDS as u64
+            * (std::mem::size_of::<icache::media::VolumeRecord>() as u64 + 64);
+        // Points are gathered with a sort key, then copied out: both lists at the peak.
+        let point = std::mem::size_of::<icache::media::MediaPoint>() as u64;
+        let points = crate::photons::media_fill::MAX_POINTS as u64 * (2 * point + 4);
+        items.push(("media radiance cache".into(), cache + points));
     }
     items
 }

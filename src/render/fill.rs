@@ -17,7 +17,7 @@ use crate::geometry::Hit;
 use crate::integrator::cache_fill::{gather_record, shading_hits};
 use crate::integrator::pm::{IndirectSource, PmContext};
 use crate::integrator::radiance_cache::RadianceCache;
-use crate::photons::media_cache;
+use crate::photons::media_fill;
 use crate::photons::PhotonData;
 use crate::progress::Progress;
 use crate::scene::{FillMode, Scene};
@@ -53,23 +53,9 @@ pub fn fill_cache(
     cancel: &AtomicBool,
 ) -> Result<(CacheFill, CacheFillStats)> {
     let t = Instant::now();
-    let FillLight {
-        photons,
-        media_cache,
-        radiance,
-    } = light;
+    let radiance = light.radiance;
     let foreign = earlier.as_ref().map_or(0, |(_, n)| *n);
-    let ctx = PmContext {
-        radiance,
-        foreign,
-        ..plan.pm_context(
-            scene,
-            photons,
-            media_cache,
-            IndirectSource::PhotonMap,
-            cancel,
-        )
-    };
+    let ctx = fill_context(scene, plan, light, foreign, cancel);
     let (lo, hi) = scene.bounds;
     // Records of earlier frames cover what they cover; pass A adds records only where they do not.
     let mut cache = match earlier {
@@ -107,19 +93,11 @@ pub fn fill_cache(
             );
             cache.end_stage();
             if plan.choose_rays {
-                let noise = gather_rays::predicted_noise(&ctx, &plan.camera, &cache, w, h);
-                let rounds = gather_rays::rounds_for(noise);
-                if rounds > 1 {
-                    counters += gather_rays::refine_records(
-                        &ctx,
-                        &plan.camera,
-                        &mut cache,
-                        rounds,
-                        progress,
-                        cancel,
-                    );
+                let (choice, refined) = choose_rays(&ctx, plan, &mut cache, progress, cancel);
+                if let Some(c) = refined {
+                    counters += c;
                 }
-                rays_choice = Some((noise, rounds));
+                rays_choice = Some(choice);
             }
             (fill, counters, None)
         }
@@ -159,6 +137,45 @@ pub fn fill_cache(
     ))
 }
 
+/// The integrator pass A's gathers run: reading the photon maps, the media cache and the glossy
+/// radiance cache of `light`, the cache's first `foreign` records made for other views.
+fn fill_context<'a>(
+    scene: &'a Scene,
+    plan: &Plan,
+    light: FillLight<'a>,
+    foreign: usize,
+    cancel: &'a AtomicBool,
+) -> PmContext<'a> {
+    PmContext {
+        radiance: light.radiance,
+        foreign,
+        ..plan.pm_context(
+            scene,
+            light.photons,
+            light.media_cache,
+            IndirectSource::PhotonMap,
+            cancel,
+        )
+    }
+}
+
+/// The rays `pm`'s gathers take, chosen after pass A ([`gather_rays`]): the noise its records
+/// predict at the base rays and the rounds that make it (the records gathering the further rounds
+/// now), with those rounds' counters.
+fn choose_rays(
+    ctx: &PmContext,
+    plan: &Plan,
+    cache: &mut IrradianceCache,
+    progress: &dyn Progress,
+    cancel: &AtomicBool,
+) -> ((f64, u32), Option<crate::counters::SampleCounters>) {
+    let noise = gather_rays::predicted_noise(ctx, &plan.camera, cache, plan.width, plan.height);
+    let rounds = gather_rays::rounds_for(noise);
+    let refined = (rounds > 1)
+        .then(|| gather_rays::refine_records(ctx, &plan.camera, cache, rounds, progress, cancel));
+    ((noise, rounds), refined)
+}
+
 /// A `--save-cache` file of the same scene, instead of `fill_cache` (pass B only).
 pub fn load_cache(scene: &Scene, path: &Path) -> Result<(CacheFill, CacheFillStats)> {
     let cache = files::load_cache(path, scene.fingerprint)?;
@@ -191,10 +208,10 @@ pub fn fill_media_cache(
     };
     let (lo, hi) = media.bounds();
     let mut cache = MediaCache::new(lo, hi, scene.settings.icache.media_gradients());
-    let stride = media_cache::lattice_stride(plan.width, plan.height);
-    let points = media_cache::media_points(scene, &plan.camera, plan.width, plan.height, stride);
+    let stride = media_fill::lattice_stride(plan.width, plan.height);
+    let points = media_fill::media_points(scene, &plan.camera, plan.width, plan.height, stride);
     progress.start("media cache", points.len() as u64);
-    let estimate = |p: &MediaPoint| media_cache::media_record(scene, photons, p, stride);
+    let estimate = |p: &MediaPoint| media_fill::media_record(scene, photons, p, stride);
     let stats = icache::media::fill_media(
         &mut cache,
         &points,

@@ -51,12 +51,6 @@ pub struct Plan {
     pub choose_rays: bool,
     /// A window held to a lower noise target ([`Sampling::finer`]); `None` in a still.
     pub finer: Option<(Window, f32)>,
-    /// Pixels (row-major) whose value a sequence's frame takes from the frame before, unsampled.
-    pub kept: Option<Vec<bool>>,
-    /// With `kept`: the samples each pixel took when last shaded ([`super::tiles::Canvas::kept_samples`]).
-    pub kept_samples: Option<Vec<u32>>,
-    /// With `kept`: the pixels shaded again with the samples they took ([`super::tiles::Canvas::repeat`]).
-    pub repeat: Option<Vec<bool>>,
 }
 
 /// Default noise target of the photon-map methods (chosen from the speed×accuracy chart; README).
@@ -119,7 +113,9 @@ pub(super) fn method(scene: &Scene, opts: &Options) -> Method {
     opts.method.or(scene.settings.method).unwrap_or(Method::Pm)
 }
 
-pub fn plan(scene: &Scene, opts: &Options) -> Result<Plan> {
+/// The settings of a render of `scene` by `opts`, seen by `camera` (a sequence's frame's), else by the
+/// scene's.
+pub fn plan(scene: &Scene, opts: &Options, camera: Option<&Camera>) -> Result<Plan> {
     let method = method(scene, opts);
     check_photon_files(method, &opts.files)?;
     let spp = opts.spp.or(scene.settings.spp).unwrap_or(match method {
@@ -174,9 +170,7 @@ pub fn plan(scene: &Scene, opts: &Options) -> Result<Plan> {
         width,
         height,
         window,
-        camera: opts
-            .camera
-            .as_ref()
+        camera: camera
             .unwrap_or(&scene.camera)
             .with_resolution(width, height),
         photons: PhotonSettings::resolve(scene),
@@ -192,9 +186,6 @@ pub fn plan(scene: &Scene, opts: &Options) -> Result<Plan> {
         },
         choose_rays,
         finer: None,
-        kept: None,
-        kept_samples: None,
-        repeat: None,
     })
 }
 

@@ -28,10 +28,29 @@ use gather::GatherParams;
 use icache::media::MediaCache;
 use icache::{IrradianceCache, ShadingPoint};
 
-/// `n_layers` images of the plan's window, by `sampler`, and the samples each pixel took (row-major,
-/// 0 where it took none). `cancel` is read before every sample.
+/// Pixels a sequence's frame takes from the frame before rather than shading them anew (none in a
+/// still): see [`Canvas`]'s fields of the same names.
+#[derive(Clone, Copy)]
+pub struct KeptPixels<'a> {
+    pub kept: Option<&'a [bool]>,
+    pub kept_samples: Option<&'a [u32]>,
+    pub repeat: Option<&'a [bool]>,
+}
+
+impl KeptPixels<'_> {
+    /// Every pixel shaded anew.
+    pub const NONE: KeptPixels<'static> = KeptPixels {
+        kept: None,
+        kept_samples: None,
+        repeat: None,
+    };
+}
+
+/// `n_layers` images of the plan's window but the pixels `kept` marks, by `sampler`, and the samples
+/// each pixel took (row-major, 0 where it took none). `cancel` is read before every sample.
 pub fn shade(
     plan: &Plan,
+    kept: KeptPixels,
     n_layers: usize,
     sampler: &mut dyn Sampler,
     progress: &dyn Progress,
@@ -46,9 +65,9 @@ pub fn shade(
         sampling: plan.sampling(),
         seed: plan.seed,
         n_layers,
-        kept: plan.kept.as_deref(),
-        kept_samples: plan.kept_samples.as_deref(),
-        repeat: plan.repeat.as_deref(),
+        kept: kept.kept,
+        kept_samples: kept.kept_samples,
+        repeat: kept.repeat,
     };
     let (layers, mut counters, samples, per_pixel) =
         render_tiles(&canvas, sampler, &|n| progress.set(n), cancel)?;

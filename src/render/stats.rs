@@ -89,42 +89,40 @@ fn frame_rows(r: &mut Report, f: &FrameStats) {
         );
     }
     if let Some(t) = &f.temporal {
-        r.count(
-            "Sequence",
-            "Records kept as they were (temporal gradient)",
-            "frame.records_kept",
-            t.n_kept,
-        );
-        r.count(
-            "Sequence",
-            "Records gathered again in place (expired or near a change)",
-            "frame.records_regathered",
-            t.n_regathered,
-        );
-        r.count(
-            "Sequence",
-            "Records replaced (changed beyond their noise)",
-            "frame.records_replaced",
-            t.n_replaced,
-        );
-        r.count(
-            "Sequence",
-            "Records moved with their mesh and replaced by a new gather",
-            "frame.records_moved",
-            t.n_moved,
-        );
-        r.count(
-            "Sequence",
-            "Records carried along with their mesh, irradiance kept",
-            "frame.records_carried",
-            t.n_carried,
-        );
-        r.count(
-            "Sequence",
-            "Records dropped (their surface moved)",
-            "frame.records_gone",
-            t.n_gone,
-        );
+        for (title, key, n) in [
+            (
+                "Records kept as they were (temporal gradient)",
+                "frame.records_kept",
+                t.n_kept,
+            ),
+            (
+                "Records gathered again in place (expired or near a change)",
+                "frame.records_regathered",
+                t.n_regathered,
+            ),
+            (
+                "Records replaced (changed beyond their noise)",
+                "frame.records_replaced",
+                t.n_replaced,
+            ),
+            (
+                "Records moved with their mesh and replaced by a new gather",
+                "frame.records_moved",
+                t.n_moved,
+            ),
+            (
+                "Records carried along with their mesh, irradiance kept",
+                "frame.records_carried",
+                t.n_carried,
+            ),
+            (
+                "Records dropped (their surface moved)",
+                "frame.records_gone",
+                t.n_gone,
+            ),
+        ] {
+            r.count("Sequence", title, key, n);
+        }
         r.seconds(
             "Time",
             "Temporal update of the records",
@@ -159,7 +157,27 @@ pub struct FrameStats {
     /// Of the kept pixels, those whose indirect light was scaled to the cached light's change.
     pub n_pixels_relit: u64,
     /// After a mesh or light changed: what the temporal update did to the records.
-    pub temporal: Option<super::temporal::TemporalStats>,
+    pub temporal: Option<TemporalStats>,
+}
+
+/// What the update did, for the frame's statistics.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct TemporalStats {
+    /// Records whose irradiance stayed (or followed its temporal gradient).
+    pub n_kept: u64,
+    /// Records gathered again in place.
+    pub n_regathered: u64,
+    /// Of those, the ones whose change was beyond their noise: replaced by the new gather.
+    pub n_replaced: u64,
+    /// Records whose surface moved away.
+    pub n_gone: u64,
+    /// Of the replaced, those that moved with their mesh.
+    pub n_moved: u64,
+    /// Records carried along with their mesh that kept their irradiance (not due, or gathered
+    /// within their noise): it follows their temporal gradient.
+    pub n_carried: u64,
+    /// Seconds the update took (its gathers, mostly).
+    pub update_s: f64,
 }
 
 /// The plan and the scene, as reported.
@@ -190,6 +208,54 @@ pub struct PhotonStats {
     pub max_radius_caustic: f32,
     /// Zero without media.
     pub max_radius_volume: f32,
+}
+
+/// The irradiance atlas's rows.
+fn atlas_rows(r: &mut Report, s: &AtlasStats) {
+    r.count(
+        "Photons",
+        "Irradiance atlas texels",
+        "photons.atlas_texels",
+        s.slots,
+    );
+    r.count(
+        "Photons",
+        "Irradiance atlas texels estimated",
+        "photons.atlas_estimates",
+        s.estimates,
+    );
+    if s.carried > 0 {
+        r.count(
+            "Photons",
+            "Irradiance atlas texels carried from the frame before",
+            "photons.atlas_carried",
+            s.carried,
+        );
+        r.count(
+            "Photons",
+            "… of them moved by the photons that entered or left their disc",
+            "photons.atlas_updated",
+            s.updated,
+        );
+    }
+    r.count(
+        "Photons",
+        "Edge texels (direct light shaded where each ray lands)",
+        "photons.atlas_edge_texels",
+        s.edges,
+    );
+    r.count(
+        "Photons",
+        "Caustic estimates at texel middles (smooth caustics)",
+        "photons.caustic_texel_estimates",
+        s.caustic_estimates,
+    );
+    r.bytes(
+        "Photons",
+        "Memory, irradiance atlas",
+        "photons.atlas_memory_bytes",
+        s.memory_bytes,
+    );
 }
 
 /// Pass A, or the cache loaded instead.
@@ -371,19 +437,17 @@ impl RenderStats {
             "rare.zero_pdf",
             c.zero_pdf,
         );
-        r.count(
-            "Scene",
-            "Triangles",
-            "scene.triangles",
-            self.setup.n_triangles,
-        );
-        r.count(
-            "Scene",
-            "Degenerate triangles dropped",
-            "scene.degenerate_triangles",
-            self.setup.n_degenerate,
-        );
-        r.count("Scene", "Lights", "scene.lights", self.setup.n_lights);
+        for (title, key, n) in [
+            ("Triangles", "scene.triangles", self.setup.n_triangles),
+            (
+                "Degenerate triangles dropped",
+                "scene.degenerate_triangles",
+                self.setup.n_degenerate,
+            ),
+            ("Lights", "scene.lights", self.setup.n_lights),
+        ] {
+            r.count("Scene", title, key, n);
+        }
         r.text(
             "Scene",
             "Ray kernels (Embree's instruction set)",
@@ -406,50 +470,7 @@ impl RenderStats {
     fn photon_method_rows(&self, r: &mut Report) {
         let (shade, fill) = (&self.shade.counters, self.fill_counters());
         if let Some(s) = &self.atlas {
-            r.count(
-                "Photons",
-                "Irradiance atlas texels",
-                "photons.atlas_texels",
-                s.slots,
-            );
-            r.count(
-                "Photons",
-                "Irradiance atlas texels estimated",
-                "photons.atlas_estimates",
-                s.estimates,
-            );
-            if s.carried > 0 {
-                r.count(
-                    "Photons",
-                    "Irradiance atlas texels carried from the frame before",
-                    "photons.atlas_carried",
-                    s.carried,
-                );
-                r.count(
-                    "Photons",
-                    "… of them moved by the photons that entered or left their disc",
-                    "photons.atlas_updated",
-                    s.updated,
-                );
-            }
-            r.count(
-                "Photons",
-                "Edge texels (direct light shaded where each ray lands)",
-                "photons.atlas_edge_texels",
-                s.edges,
-            );
-            r.count(
-                "Photons",
-                "Caustic estimates at texel middles (smooth caustics)",
-                "photons.caustic_texel_estimates",
-                s.caustic_estimates,
-            );
-            r.bytes(
-                "Photons",
-                "Memory, irradiance atlas",
-                "photons.atlas_memory_bytes",
-                s.memory_bytes,
-            );
+            atlas_rows(r, s);
         }
         if let Some((estimated, cells)) = self.volume_grid {
             r.count(
@@ -488,6 +509,24 @@ impl RenderStats {
                 &self.shade,
             );
         }
+        self.gather_rows(r, &fill, shade);
+        r.count(
+            "Rays",
+            "Rays while shading (camera, bounce, shadow, pass-B gathers)",
+            "rays.shade",
+            shade.rays + shade.shadow_rays,
+        );
+        r.count(
+            "Photons",
+            "k-NN estimates while rendering (caustic, indirect)",
+            "photons.estimates",
+            fill.photon_estimates + shade.photon_estimates,
+        );
+    }
+
+    /// The final gathers' rows: gathers and rays in the fill and the shading, the rays chosen, the
+    /// gathers' own noise.
+    fn gather_rows(&self, r: &mut Report, fill: &SampleCounters, shade: &SampleCounters) {
         r.count(
             "Final gather",
             "Gathers",
@@ -550,18 +589,6 @@ impl RenderStats {
                 p90 as f64,
             );
         }
-        r.count(
-            "Rays",
-            "Rays while shading (camera, bounce, shadow, pass-B gathers)",
-            "rays.shade",
-            shade.rays + shade.shadow_rays,
-        );
-        r.count(
-            "Photons",
-            "k-NN estimates while rendering (caustic, indirect)",
-            "photons.estimates",
-            fill.photon_estimates + shade.photon_estimates,
-        );
     }
 
     /// Rays of the cache fill and the shading; their rate over the time of those two phases (the photon
@@ -680,42 +707,7 @@ fn photon_rows(r: &mut Report, p: &PhotonStats) {
         s.caustic_memory_bytes,
     );
     if p.max_radius_volume > 0.0 {
-        r.count(
-            "Photons",
-            "Volume photons stored",
-            "photons.volume_stored",
-            s.n_volume_stored,
-        );
-        r.count(
-            "Photons",
-            "Volume caustic photons stored (L S+ V)",
-            "photons.volume_caustic_stored",
-            s.n_volume_caustic_stored,
-        );
-        r.bytes(
-            "Photons",
-            "Memory, volume caustic map",
-            "photons.volume_caustic_memory_bytes",
-            s.volume_caustic_memory_bytes,
-        );
-        r.bytes(
-            "Photons",
-            "Memory, volume map",
-            "photons.volume_memory_bytes",
-            s.volume_memory_bytes,
-        );
-        r.number(
-            "Photons",
-            "Max radius (volume)",
-            "photons.max_radius_volume",
-            p.max_radius_volume as f64,
-        );
-        r.count(
-            "Photons",
-            "Global or volume map stopped by its path budget",
-            "photons.media_cut",
-            s.n_media_cut,
-        );
+        volume_photon_rows(r, p);
     }
     r.bytes(
         "Photons",
@@ -726,19 +718,21 @@ fn photon_rows(r: &mut Report, p: &PhotonStats) {
             + s.volume_memory_bytes
             + s.volume_caustic_memory_bytes,
     );
-    r.count(
-        "Photons",
-        "Paths dropped (non-finite)",
-        "rare.photon_paths_dropped",
-        s.n_paths_dropped,
-    );
-    r.count(
-        "Photons",
-        "Caustic map stopped by its path budget",
-        "photons.caustic_cut",
-        s.n_caustic_cut,
-    );
-    r.count("Photons", "Lookup k", "photons.lookup", p.lookup as u64);
+    for (title, key, n) in [
+        (
+            "Paths dropped (non-finite)",
+            "rare.photon_paths_dropped",
+            s.n_paths_dropped,
+        ),
+        (
+            "Caustic map stopped by its path budget",
+            "photons.caustic_cut",
+            s.n_caustic_cut,
+        ),
+        ("Lookup k", "photons.lookup", p.lookup as u64),
+    ] {
+        r.count("Photons", title, key, n);
+    }
     r.number(
         "Photons",
         "Max radius (global)",
@@ -753,6 +747,47 @@ fn photon_rows(r: &mut Report, p: &PhotonStats) {
     );
 }
 
+/// The volume photon maps' rows (scenes with media).
+fn volume_photon_rows(r: &mut Report, p: &PhotonStats) {
+    let s = &p.trace;
+    r.count(
+        "Photons",
+        "Volume photons stored",
+        "photons.volume_stored",
+        s.n_volume_stored,
+    );
+    r.count(
+        "Photons",
+        "Volume caustic photons stored (L S+ V)",
+        "photons.volume_caustic_stored",
+        s.n_volume_caustic_stored,
+    );
+    r.bytes(
+        "Photons",
+        "Memory, volume caustic map",
+        "photons.volume_caustic_memory_bytes",
+        s.volume_caustic_memory_bytes,
+    );
+    r.bytes(
+        "Photons",
+        "Memory, volume map",
+        "photons.volume_memory_bytes",
+        s.volume_memory_bytes,
+    );
+    r.number(
+        "Photons",
+        "Max radius (volume)",
+        "photons.max_radius_volume",
+        p.max_radius_volume as f64,
+    );
+    r.count(
+        "Photons",
+        "Global or volume map stopped by its path budget",
+        "photons.media_cut",
+        s.n_media_cut,
+    );
+}
+
 fn cache_rows(
     r: &mut Report,
     s: &CacheStats,
@@ -760,73 +795,62 @@ fn cache_rows(
     gather_rays: u64,
     shade: &ShadeStats,
 ) {
-    r.count(
-        "Irradiance cache",
-        "Records created in pass A",
-        "icache.records_pass_a",
-        s.records_pass_a,
-    );
-    r.count(
-        "Irradiance cache",
-        "Records created in pass B (for missed samples)",
-        "icache.records_pass_b",
-        s.records_pass_b,
-    );
-    r.count(
-        "Irradiance cache",
-        "Pass-B rounds that made records",
-        "icache.rounds_with_records",
-        shade.grown.rounds,
-    );
-    r.count(
-        "Irradiance cache",
-        "Pass-B samples taken again with the new records",
-        "icache.samples_redone",
-        shade.samples.redone,
-    );
-    r.count(
-        "Irradiance cache",
-        "Pass-B pixel rounds taken again",
-        "icache.pixel_rounds_redone",
-        shade.samples.redone_pixels,
-    );
-    r.count("Irradiance cache", "Lookups", "icache.lookups", s.lookups);
-    r.count(
-        "Irradiance cache",
-        "Pass-B lookups",
-        "icache.lookups_pass_b",
-        s.lookups_pass_b,
-    );
-    r.count(
-        "Irradiance cache",
-        "Pass-B misses (no record interpolates)",
-        "icache.misses_pass_b",
-        s.misses_pass_b,
-    );
-    r.count(
-        "Irradiance cache",
-        "Pass-B misses extrapolated across normals",
-        "icache.extrapolated_pass_b",
-        s.extrapolated_pass_b,
-    );
-    r.count(
-        "Irradiance cache",
-        "Pass-B misses gathered (no record at all)",
-        "icache.gathered_pass_b",
-        s.gathered_pass_b,
-    );
-    r.count(
-        "Irradiance cache",
-        "Pass-B lookups from one record",
-        "icache.single_record_pass_b",
-        s.single_record_pass_b,
-    );
-    r.count(
-        "Irradiance cache",
-        "Pass-B lookups reused within a pixel",
-        "icache.reused_pass_b",
-        s.reused_pass_b,
-    );
+    for (title, key, n) in [
+        (
+            "Records created in pass A",
+            "icache.records_pass_a",
+            s.records_pass_a,
+        ),
+        (
+            "Records created in pass B (for missed samples)",
+            "icache.records_pass_b",
+            s.records_pass_b,
+        ),
+        (
+            "Pass-B rounds that made records",
+            "icache.rounds_with_records",
+            shade.grown.rounds,
+        ),
+        (
+            "Pass-B samples taken again with the new records",
+            "icache.samples_redone",
+            shade.samples.redone,
+        ),
+        (
+            "Pass-B pixel rounds taken again",
+            "icache.pixel_rounds_redone",
+            shade.samples.redone_pixels,
+        ),
+        ("Lookups", "icache.lookups", s.lookups),
+        ("Pass-B lookups", "icache.lookups_pass_b", s.lookups_pass_b),
+        (
+            "Pass-B misses (no record interpolates)",
+            "icache.misses_pass_b",
+            s.misses_pass_b,
+        ),
+        (
+            "Pass-B misses extrapolated across normals",
+            "icache.extrapolated_pass_b",
+            s.extrapolated_pass_b,
+        ),
+        (
+            "Pass-B misses gathered (no record at all)",
+            "icache.gathered_pass_b",
+            s.gathered_pass_b,
+        ),
+        (
+            "Pass-B lookups from one record",
+            "icache.single_record_pass_b",
+            s.single_record_pass_b,
+        ),
+        (
+            "Pass-B lookups reused within a pixel",
+            "icache.reused_pass_b",
+            s.reused_pass_b,
+        ),
+    ] {
+        r.count("Irradiance cache", title, key, n);
+    }
     r.number(
         "Irradiance cache",
         "Mean usable records per pass-B lookup",
@@ -839,61 +863,58 @@ fn cache_rows(
         "icache.gather_rays",
         gather_rays,
     );
+    spacing_rows(r, s, fill);
+}
+
+/// The irradiance cache's rows on record spacing: radii, what shrank or clamped them, pass A's
+/// lattice, and the cache's memory.
+fn spacing_rows(r: &mut Report, s: &CacheStats, fill: &icache::FillStats) {
     radius_row(r, "Irradiance cache", "icache.radius_px", &s.radius_px);
-    r.count(
-        "Irradiance cache",
-        "Shrunk by neighbor clamping",
-        "icache.shrunk_by_clamping",
-        s.shrunk_by_clamping,
-    );
-    r.count(
-        "Irradiance cache",
-        "Shrunk by the gradient limit",
-        "icache.shrunk_by_gradient",
-        s.shrunk_by_gradient,
-    );
-    r.count(
-        "Irradiance cache",
-        "Shrunk by adaptive caching (halvings)",
-        "icache.shrunk_adaptive",
-        s.shrunk_adaptive,
-    );
-    r.count(
-        "Irradiance cache",
-        "Clamped to min spacing",
-        "icache.clamped_min",
-        s.clamped_min,
-    );
-    r.count(
-        "Irradiance cache",
-        "Clamped to max spacing",
-        "icache.clamped_max",
-        s.clamped_max,
-    );
-    r.count(
-        "Irradiance cache",
-        "Pass-A pixel lattice (every n-th pixel in x and y)",
-        "icache.pass_a_stride",
-        fill.pass_a_stride as u64,
-    );
-    r.count(
-        "Irradiance cache",
-        "Pass-A pixels skipped between covered lattice pixels",
-        "icache.pass_a_pixels_skipped",
-        fill.n_pixels_skipped,
-    );
-    r.count(
-        "Irradiance cache",
-        "Pass-A waves",
-        "icache.waves",
-        fill.n_waves,
-    );
-    r.count(
-        "Irradiance cache",
-        "Points left uncovered after pass A",
-        "icache.uncovered_after_fill",
-        fill.n_uncovered_after,
-    );
+    for (title, key, n) in [
+        (
+            "Shrunk by neighbor clamping",
+            "icache.shrunk_by_clamping",
+            s.shrunk_by_clamping,
+        ),
+        (
+            "Shrunk by the gradient limit",
+            "icache.shrunk_by_gradient",
+            s.shrunk_by_gradient,
+        ),
+        (
+            "Shrunk by adaptive caching (halvings)",
+            "icache.shrunk_adaptive",
+            s.shrunk_adaptive,
+        ),
+        (
+            "Clamped to min spacing",
+            "icache.clamped_min",
+            s.clamped_min,
+        ),
+        (
+            "Clamped to max spacing",
+            "icache.clamped_max",
+            s.clamped_max,
+        ),
+        (
+            "Pass-A pixel lattice (every n-th pixel in x and y)",
+            "icache.pass_a_stride",
+            fill.pass_a_stride as u64,
+        ),
+        (
+            "Pass-A pixels skipped between covered lattice pixels",
+            "icache.pass_a_pixels_skipped",
+            fill.n_pixels_skipped,
+        ),
+        ("Pass-A waves", "icache.waves", fill.n_waves),
+        (
+            "Points left uncovered after pass A",
+            "icache.uncovered_after_fill",
+            fill.n_uncovered_after,
+        ),
+    ] {
+        r.count("Irradiance cache", title, key, n);
+    }
     r.bytes(
         "Irradiance cache",
         "Memory",

@@ -493,44 +493,14 @@ pub fn render_tiles(
         lobe_points: sampling.lobe_points,
     };
     for (round, &target) in rounds.iter().enumerate() {
-        let active_ref = &active;
-        let sampler_ref: &dyn Sampler = sampler;
-        let counters = tiles
-            .par_iter_mut()
-            // One tile per task: rayon's default splitting leaves ranges of hundreds of tiles that no
-            // thread can steal from, and the rounds of adaptive sampling, whose active pixels cluster
-            // in a few tiles, ended with one thread idle for up to a second (Sibenik 1000²).
-            .with_max_len(1)
-            .map(|t| {
-                let w = t.window;
-                let mut counters = SampleCounters::default();
-                for y in w.y0..w.y1 {
-                    for x in w.x0..w.x1 {
-                        if !active_ref.is(x, y) {
-                            continue;
-                        }
-                        if !round_of.take(
-                            t,
-                            x,
-                            y,
-                            target,
-                            sampler_ref,
-                            keep_redo,
-                            &mut counters,
-                            cancel,
-                        ) {
-                            return counters;
-                        }
-                    }
-                }
-                let n = done.fetch_add(w.n_pixels(), Ordering::Relaxed) + w.n_pixels();
-                progress(n / rounds.len() as u64);
-                counters
-            })
-            .reduce(SampleCounters::default, |mut a, b| {
-                a += b;
-                a
-            });
+        let pass = TilePass {
+            round_of: &round_of,
+            target,
+            keep_redo,
+            done: &done,
+            n_rounds: rounds.len() as u64,
+        };
+        let counters = pass.run(&mut tiles, &active, sampler, progress, cancel);
         total += counters;
         if cancel.load(Ordering::Relaxed) {
             return Err(Error::Interrupted);
@@ -559,18 +529,7 @@ pub fn render_tiles(
             },
         );
         // A pixel that stops sampling needs its memo no more.
-        for t in &mut tiles {
-            let w = t.window;
-            for (k, memo) in t.memos.iter_mut().enumerate() {
-                let (x, y) = (
-                    w.x0 + k as u32 % (w.x1 - w.x0),
-                    w.y0 + k as u32 / (w.x1 - w.x0),
-                );
-                if !active.is(x, y) {
-                    memo.clear();
-                }
-            }
-        }
+        clear_stopped_memos(&mut tiles, &active);
     }
     let mut samples = vec![0u32; (width * canvas.height) as usize];
     let images = images(canvas, &tiles, |i, n, monte_carlo| {
@@ -581,6 +540,82 @@ pub fn render_tiles(
         count.monte_carlo_pixels += monte_carlo as u64;
     });
     Ok((images, total, count, samples))
+}
+
+/// One round of samples over the tiles: each active pixel's samples up to `target`.
+struct TilePass<'a> {
+    round_of: &'a RoundSpec,
+    target: u32,
+    /// Whether pixels whose samples missed keep their state to take the round again.
+    keep_redo: bool,
+    /// Pixels done over all rounds (for progress), and the rounds.
+    done: &'a AtomicU64,
+    n_rounds: u64,
+}
+
+impl TilePass<'_> {
+    /// Takes the round in parallel, one tile per task; the sample counters summed.
+    fn run(
+        &self,
+        tiles: &mut [TileState],
+        active: &Active,
+        sampler: &dyn Sampler,
+        progress: &(dyn Fn(u64) + Sync),
+        cancel: &AtomicBool,
+    ) -> SampleCounters {
+        tiles
+            .par_iter_mut()
+            // One tile per task: rayon's default splitting leaves ranges of hundreds of tiles that no
+            // thread can steal from, and the rounds of adaptive sampling, whose active pixels cluster
+            // in a few tiles, ended with one thread idle for up to a second (Sibenik 1000²).
+            .with_max_len(1)
+            .map(|t| {
+                let w = t.window;
+                let mut counters = SampleCounters::default();
+                for y in w.y0..w.y1 {
+                    for x in w.x0..w.x1 {
+                        if !active.is(x, y) {
+                            continue;
+                        }
+                        if !self.round_of.take(
+                            t,
+                            x,
+                            y,
+                            self.target,
+                            sampler,
+                            self.keep_redo,
+                            &mut counters,
+                            cancel,
+                        ) {
+                            return counters;
+                        }
+                    }
+                }
+                let n = self.done.fetch_add(w.n_pixels(), Ordering::Relaxed) + w.n_pixels();
+                progress(n / self.n_rounds);
+                counters
+            })
+            .reduce(SampleCounters::default, |mut a, b| {
+                a += b;
+                a
+            })
+    }
+}
+
+/// Clears the memo of every pixel of `tiles` that `active` no longer marks.
+fn clear_stopped_memos(tiles: &mut [TileState], active: &Active) {
+    for t in tiles.iter_mut() {
+        let w = t.window;
+        for (k, memo) in t.memos.iter_mut().enumerate() {
+            let (x, y) = (
+                w.x0 + k as u32 % (w.x1 - w.x0),
+                w.y0 + k as u32 / (w.x1 - w.x0),
+            );
+            if !active.is(x, y) {
+                memo.clear();
+            }
+        }
+    }
 }
 
 /// The window cut into tiles of [`TILE`]² pixels, none sampled yet.

@@ -93,7 +93,7 @@ impl IcacheSettings {
 
     /// Whether volume estimates along camera rays (the media cache's records; `photons` and `pm-fg`
     /// at each step) leave out photons behind occluders and fit the power over
-    /// the kernel's visible part (`volume_grid::estimate_within`): a plain kernel near a wall or a
+    /// the kernel's visible part (`volume_lattice::estimate_within`): a plain kernel near a wall or a
     /// medium's boundary counts the empty side and reads low.
     pub(crate) fn media_visibility(&self) -> bool {
         self.media_visibility

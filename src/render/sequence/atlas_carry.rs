@@ -20,7 +20,7 @@ use photon::map::{counts_at, dist2, Photon};
 use photon::sampling::hash_keys;
 use rayon::prelude::*;
 
-use super::frame_pixels::{shadow_ends, sphere_meets_cone};
+use super::kept_pixels::{shadow_ends, sphere_meets_cone};
 use super::temporal::SceneChange;
 use crate::photons::atlas::IrradianceAtlas;
 use crate::photons::texel_track::DiscChange;
@@ -328,7 +328,7 @@ mod tests {
         use crate::photons::coverage::SceneCoverage;
         use crate::photons::PhotonSettings;
 
-        let (anim, before, after) = super::super::photons::anim_ball_frames(10, 11);
+        let (anim, before, after) = crate::render::photons::anim_ball_frames(10, 11);
         let settings = PhotonSettings::resolve(&before);
         let cancel = AtomicBool::new(false);
         let (maps, s0, _) = PhotonData::trace(

@@ -24,7 +24,7 @@
 use glam::Vec3;
 use icache::media::{MediaPoint, VolumeRecord};
 
-use super::volume_grid::{estimate_within, Surroundings};
+use super::volume_lattice::{estimate_within, Surroundings};
 use super::PhotonData;
 use crate::camera::Camera;
 use crate::geometry::spawn;

@@ -45,13 +45,13 @@ use icache::{IrradianceCache, NewRecord, Record, ShadingPoint};
 use pmbase::luminance;
 use rayon::prelude::*;
 
-use super::deposits::{sees_changed_light, Deposits};
-use super::FrameStats;
+use super::light_change::{sees_changed_light, Deposits};
 use crate::camera::Camera;
 use crate::error::{runtime, Result};
 use crate::geometry::Hit;
 use crate::integrator::cache_fill::gather_record;
 use crate::integrator::pm::PmContext;
+use crate::render::stats::{FrameStats, TemporalStats};
 use crate::scene::Scene;
 
 /// Relative change of its irradiance a record may build up before it is gathered again.
@@ -172,26 +172,6 @@ pub struct Updated {
     pub cache: IrradianceCache,
     pub stats: TemporalStats,
     pub changed: Vec<(Vec3, f32)>,
-}
-
-/// What the update did, for the frame's statistics.
-#[derive(Clone, Copy, Debug, Default)]
-pub struct TemporalStats {
-    /// Records whose irradiance stayed (or followed its temporal gradient).
-    pub n_kept: u64,
-    /// Records gathered again in place.
-    pub n_regathered: u64,
-    /// Of those, the ones whose change was beyond their noise: replaced by the new gather.
-    pub n_replaced: u64,
-    /// Records whose surface moved away.
-    pub n_gone: u64,
-    /// Of the replaced, those that moved with their mesh.
-    pub n_moved: u64,
-    /// Records carried along with their mesh that kept their irradiance (not due, or gathered
-    /// within their noise): it follows their temporal gradient.
-    pub n_carried: u64,
-    /// Seconds the update took (its gathers, mostly).
-    pub update_s: f64,
 }
 
 /// What becomes of a record: its life, the hit to gather from (when due) and its new place (when it
@@ -360,6 +340,52 @@ impl Lifespans {
     }
 
     /// The cache of the frame before, made valid for `frame` of `ctx.scene` (see the module header).
+    /// What becomes of record `r` at `frame` after `change`: `None` when its surface is gone, else its
+    /// life, the hit to gather from when it is due, its new place when it moved with its mesh, and
+    /// whether a known cause (a mover near, changed light in sight, its own move) made it due.
+    fn fate_of(
+        &self,
+        scene: &Scene,
+        r: &Record,
+        frame: u32,
+        change: &SceneChange,
+        movers: &[Mover],
+        (changes, cell): (&[(Vec3, Vec3)], f32),
+    ) -> Option<Fate> {
+        let life = self.by_pos.get(&key(r.pos)).copied().unwrap_or(Life {
+            made: frame.saturating_sub(1),
+            due: frame,
+            e: r.e,
+            de_dt: Vec3::ZERO,
+            quiet: 0,
+            measured: true,
+            slides: false,
+        });
+        let Some(hit) = surface_at(scene, r) else {
+            // Carried along with its mesh: what lit it moved relative to it at the rate
+            // its last gathers measured, so it is due like any other record; and what it
+            // sees changed for a known reason (it moved), so its gather is always taken.
+            let (moved, hit) = carried_along(scene, r, &change.rigid)?;
+            let due = frame >= life.due || change.lights;
+            return Some((life, due.then_some(hit), Some(moved), true));
+        };
+        // Where no moved mesh is near, the light changes only through the photons that
+        // meet one: a new record's rate is measured with its first lifespan's change.
+        let due_at = if life.measured {
+            life.due
+        } else {
+            life.made + MAX_LIFESPAN
+        };
+        // A glossy lobe's light changes (n + 2) / 2 times as much as the irradiance.
+        let tolerance = match scene.material(&hit).bsdf {
+            crate::material::Bsdf::Glossy { exponent, .. } => TOLERANCE * 2.0 / (exponent + 2.0),
+            _ => TOLERANCE,
+        };
+        let caused = near(r, movers, tolerance) || sees_changed_light(r, changes, cell, tolerance);
+        let due = frame >= due_at || change.lights || caused;
+        Some((life, due.then_some(hit), None, caused))
+    }
+
     pub fn update(
         &mut self,
         ctx: &PmContext,
@@ -378,43 +404,7 @@ impl Lifespans {
         let fate: Vec<Option<Fate>> = cache
             .records()
             .iter()
-            .map(|r| {
-                let life = self.by_pos.get(&key(r.pos)).copied().unwrap_or(Life {
-                    made: frame.saturating_sub(1),
-                    due: frame,
-                    e: r.e,
-                    de_dt: Vec3::ZERO,
-                    quiet: 0,
-                    measured: true,
-                    slides: false,
-                });
-                let Some(hit) = surface_at(scene, r) else {
-                    // Carried along with its mesh: what lit it moved relative to it at the rate
-                    // its last gathers measured, so it is due like any other record; and what it
-                    // sees changed for a known reason (it moved), so its gather is always taken.
-                    let (moved, hit) = carried_along(scene, r, &change.rigid)?;
-                    let due = frame >= life.due || change.lights;
-                    return Some((life, due.then_some(hit), Some(moved), true));
-                };
-                // Where no moved mesh is near, the light changes only through the photons that
-                // meet one: a new record's rate is measured with its first lifespan's change.
-                let due_at = if life.measured {
-                    life.due
-                } else {
-                    life.made + MAX_LIFESPAN
-                };
-                // A glossy lobe's light changes (n + 2) / 2 times as much as the irradiance.
-                let tolerance = match scene.material(&hit).bsdf {
-                    crate::material::Bsdf::Glossy { exponent, .. } => {
-                        TOLERANCE * 2.0 / (exponent + 2.0)
-                    }
-                    _ => TOLERANCE,
-                };
-                let caused =
-                    near(r, &movers, tolerance) || sees_changed_light(r, &changes, cell, tolerance);
-                let due = frame >= due_at || change.lights || caused;
-                Some((life, due.then_some(hit), None, caused))
-            })
+            .map(|r| self.fate_of(scene, r, frame, change, &movers, (&changes, cell)))
             .collect();
         let due: Vec<usize> = (0..fate.len())
             .filter(|&i| matches!(fate[i], Some((_, Some(_), _, _))))
@@ -438,115 +428,20 @@ impl Lifespans {
         let mut lives = HashMap::with_capacity(fate.len());
         for (&i, new) in due.iter().zip(gathered) {
             let (old, _, moved, caused) = fate[i].expect("due records have a fate");
-            let age = frame.saturating_sub(old.made).max(1);
-            let de_dt = (new.e - old.e) / age as f32;
-            let level = luminance(new.e).max(luminance(old.e)).max(1e-12);
-            // Per channel (a light that changes colour may keep its luminance), against the value
-            // the record has now.
-            let now = old.at(frame);
-            let moved_by = (new.e - now).abs().max_element() / level;
-            let noise = 2.0 * new.rel_err.max(cache.records()[i].rel_err);
-            let within = moved_by <= noise.max(0.25 * TOLERANCE);
             let known = change.lights || caused;
-            // A record due only because its lifespan ended changed for no known reason: its light
-            // drifts as the photons that meet the movers change, slowly. Taking the new gather at
-            // once would make the drift a pop where nothing happened, keeping the old one would
-            // let it build up into one: the record slides from its value to the new gather over its
-            // next lifespan, so that the image follows the drift a little each frame. That
-            // lifespan is the frames the drift takes to reach [`TOLERANCE`]; where the gather
-            // differs within twice the gathers' own noise (or a quarter of [`TOLERANCE`]) the record
-            // is quiet, and it may double, up to [`MAX_QUIET_LIFESPAN`]: records far from what moves
-            // are seldom gathered. One whose last gather was taken for a known reason first goes
-            // back to it when within that noise (the change its gradient measured has stopped).
-            // After a light changed (every record and the photons of every path change), where a
-            // record was due for a known reason (a mover near, light that changed in sight, or it
-            // moved with its mesh), or one that had not slid differs by more than its noise, it
-            // takes its new gather: its gather has the same rays as before, what differs is the
-            // light.
-            let quiet = (2 * old.quiet).clamp(MAX_LIFESPAN, MAX_QUIET_LIFESPAN);
-            let life = if !known && (old.slides || !old.measured) {
-                let most = if within { quiet } else { MAX_LIFESPAN };
-                let span = ((TOLERANCE * age as f32 / moved_by.max(1e-12)) as u32).clamp(1, most);
-                Life {
-                    made: frame,
-                    due: frame + span,
-                    e: now,
-                    de_dt: (new.e - now) / span as f32,
-                    quiet: if within { span } else { 0 },
-                    measured: true,
-                    slides: true,
-                }
-            } else if !known && within {
-                Life {
-                    due: frame + quiet,
-                    de_dt: Vec3::ZERO,
-                    quiet,
-                    measured: true,
-                    slides: true,
-                    ..old
-                }
-            } else {
-                // Per channel, as the change: a light keyed to another hue at the same luminance
-                // changes its records' colour, which their gradient goes on changing until due.
-                let rate = de_dt.abs().max_element() / level;
-                let lifespan = ((TOLERANCE / rate) as u32).clamp(1, MAX_LIFESPAN);
+            let rel_err = cache.records()[i].rel_err;
+            let (life, replace) = next_life(&old, &new, frame, known, rel_err);
+            if replace {
                 replaced[i] = Some(new);
                 if moved.is_some() {
                     stats.n_moved += 1;
                 }
-                Life {
-                    made: frame,
-                    due: frame + lifespan,
-                    e: new.e,
-                    de_dt,
-                    quiet: 0,
-                    measured: true,
-                    slides: false,
-                }
-            };
+            }
             lives.insert(key(new_pos(&cache.records()[i], moved)), life);
         }
-        // Where the cached light changed: records gone, replaced, or following their gradient.
-        let mut changed = Vec::new();
-        let max_spacing_px = cache.params().max_spacing_px
-            * if cache.params().adaptive.is_some() {
-                2.0
-            } else {
-                1.0
-            };
-        let (mut cache, _) = cache
-            .rebuilt(scene.bounds, |i, mut r| {
-                let Some((life, _, moved, _)) = fate[i] else {
-                    changed.push((r.pos, r.r_clamped));
-                    return None;
-                };
-                if let Some(m) = moved {
-                    changed.push((r.pos, r.r_clamped));
-                    changed.push((m.pos, r.pixel_world * max_spacing_px));
-                    if replaced[i].is_some() {
-                        return None;
-                    }
-                    let life = *lives.entry(key(m.pos)).or_insert(life);
-                    stats.n_carried += 1;
-                    return Some(Record {
-                        e: life.at(frame),
-                        ..m
-                    });
-                }
-                let life = *lives.entry(key(r.pos)).or_insert(life);
-                if replaced[i].is_some() {
-                    // Its new gather may reach as far as any record there.
-                    changed.push((r.pos, r.pixel_world * max_spacing_px));
-                } else if life.de_dt != Vec3::ZERO {
-                    changed.push((r.pos, r.r_clamped));
-                }
-                if replaced[i].is_some() {
-                    return None;
-                }
-                r.e = life.at(frame);
-                Some(r)
-            })
-            .map_err(runtime)?;
+        let (mut cache, changed) = rebuilt(
+            cache, scene, &fate, &replaced, &mut lives, frame, &mut stats,
+        )?;
         stats.n_gone = fate.iter().filter(|f| f.is_none()).count() as u64;
         stats.n_regathered = due.len() as u64;
         for new in replaced.into_iter().flatten() {
@@ -565,6 +460,130 @@ impl Lifespans {
             changed,
         })
     }
+}
+
+/// The cache after an update: records whose surface is gone or whose new gather replaces them
+/// dropped, carried records at their new place, the others at their life's value at `frame`; with
+/// where the cached light changed (spheres: centre, reach).
+fn rebuilt(
+    cache: IrradianceCache,
+    scene: &Scene,
+    fate: &[Option<Fate>],
+    replaced: &[Option<NewRecord>],
+    lives: &mut HashMap<[u32; 3], Life>,
+    frame: u32,
+    stats: &mut TemporalStats,
+) -> Result<(IrradianceCache, Vec<(Vec3, f32)>)> {
+    // Where the cached light changed: records gone, replaced, or following their gradient.
+    let mut changed = Vec::new();
+    let max_spacing_px = cache.params().max_spacing_px
+        * if cache.params().adaptive.is_some() {
+            2.0
+        } else {
+            1.0
+        };
+    let (cache, _) = cache
+        .rebuilt(scene.bounds, |i, mut r| {
+            let Some((life, _, moved, _)) = fate[i] else {
+                changed.push((r.pos, r.r_clamped));
+                return None;
+            };
+            if let Some(m) = moved {
+                changed.push((r.pos, r.r_clamped));
+                changed.push((m.pos, r.pixel_world * max_spacing_px));
+                if replaced[i].is_some() {
+                    return None;
+                }
+                let life = *lives.entry(key(m.pos)).or_insert(life);
+                stats.n_carried += 1;
+                return Some(Record {
+                    e: life.at(frame),
+                    ..m
+                });
+            }
+            let life = *lives.entry(key(r.pos)).or_insert(life);
+            if replaced[i].is_some() {
+                // Its new gather may reach as far as any record there.
+                changed.push((r.pos, r.pixel_world * max_spacing_px));
+            } else if life.de_dt != Vec3::ZERO {
+                changed.push((r.pos, r.r_clamped));
+            }
+            if replaced[i].is_some() {
+                return None;
+            }
+            r.e = life.at(frame);
+            Some(r)
+        })
+        .map_err(runtime)?;
+    Ok((cache, changed))
+}
+
+/// A due record's next life from its new gather `new` at `frame` (`known`: due for a known cause;
+/// `rel_err`: its last gather's noise), and whether the new gather replaces it.
+fn next_life(old: &Life, new: &NewRecord, frame: u32, known: bool, rel_err: f32) -> (Life, bool) {
+    let age = frame.saturating_sub(old.made).max(1);
+    let de_dt = (new.e - old.e) / age as f32;
+    let level = luminance(new.e).max(luminance(old.e)).max(1e-12);
+    // Per channel (a light that changes colour may keep its luminance), against the value
+    // the record has now.
+    let now = old.at(frame);
+    let moved_by = (new.e - now).abs().max_element() / level;
+    let noise = 2.0 * new.rel_err.max(rel_err);
+    let within = moved_by <= noise.max(0.25 * TOLERANCE);
+    // A record due only because its lifespan ended changed for no known reason: its light
+    // drifts as the photons that meet the movers change, slowly. Taking the new gather at
+    // once would make the drift a pop where nothing happened, keeping the old one would
+    // let it build up into one: the record slides from its value to the new gather over its
+    // next lifespan, so that the image follows the drift a little each frame. That
+    // lifespan is the frames the drift takes to reach [`TOLERANCE`]; where the gather
+    // differs within twice the gathers' own noise (or a quarter of [`TOLERANCE`]) the record
+    // is quiet, and it may double, up to [`MAX_QUIET_LIFESPAN`]: records far from what moves
+    // are seldom gathered. One whose last gather was taken for a known reason first goes
+    // back to it when within that noise (the change its gradient measured has stopped).
+    // After a light changed (every record and the photons of every path change), where a
+    // record was due for a known reason (a mover near, light that changed in sight, or it
+    // moved with its mesh), or one that had not slid differs by more than its noise, it
+    // takes its new gather: its gather has the same rays as before, what differs is the
+    // light.
+    let quiet = (2 * old.quiet).clamp(MAX_LIFESPAN, MAX_QUIET_LIFESPAN);
+    let life = if !known && (old.slides || !old.measured) {
+        let most = if within { quiet } else { MAX_LIFESPAN };
+        let span = ((TOLERANCE * age as f32 / moved_by.max(1e-12)) as u32).clamp(1, most);
+        Life {
+            made: frame,
+            due: frame + span,
+            e: now,
+            de_dt: (new.e - now) / span as f32,
+            quiet: if within { span } else { 0 },
+            measured: true,
+            slides: true,
+        }
+    } else if !known && within {
+        Life {
+            due: frame + quiet,
+            de_dt: Vec3::ZERO,
+            quiet,
+            measured: true,
+            slides: true,
+            ..*old
+        }
+    } else {
+        // Per channel, as the change: a light keyed to another hue at the same luminance
+        // changes its records' colour, which their gradient goes on changing until due.
+        let rate = de_dt.abs().max_element() / level;
+        let lifespan = ((TOLERANCE / rate) as u32).clamp(1, MAX_LIFESPAN);
+        let life = Life {
+            made: frame,
+            due: frame + lifespan,
+            e: new.e,
+            de_dt,
+            quiet: 0,
+            measured: true,
+            slides: false,
+        };
+        return (life, true);
+    };
+    (life, false)
 }
 
 /// The surface a record was made on, hit again from just above it along its normal; `None` when it

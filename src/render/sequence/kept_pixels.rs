@@ -14,11 +14,11 @@ use icache::{IrradianceCache, Pass};
 use pmbase::luminance;
 
 use super::temporal::{Moved, SceneChange};
-use super::tiles::Window;
 use crate::camera::Camera;
 use crate::error::{Error, Result};
 use crate::geometry::Frame;
 use crate::progress::Progress;
+use crate::render::tiles::Window;
 use crate::scene::{frame_view, Animation, Scene};
 
 /// The pixels whose camera rays may meet a moved mesh, before or after its step (its bounding
@@ -231,78 +231,9 @@ pub fn unchanged_pixels(
     }
     let (w, h) = (cam.width, cam.height);
     let movers: Vec<(Vec3, f32)> = change.moved.iter().flat_map(|m| m.spheres).collect();
-    let ends = shadow_ends(scene);
     let points = pixel_points(scene, cam, window, &mut shaded.rays);
-    // A pixel's samples leave the eye within about a pixel of its centre's ray (a pixel's angle at
-    // the image's middle, more than anywhere else): in the window, a pixel keeps its value only when
-    // that cone passes every moved mesh before and after its step.
-    let pixel_angle = 2.0 * (cam.fov_deg().to_radians() * 0.5).tan() / h as f32;
-    let far = cam.eye.distance((scene.bounds.0 + scene.bounds.1) * 0.5) + scene.diagonal();
-    let mut keep: Vec<bool> = (0..w * h)
-        .into_par_iter()
-        .map(|i| {
-            let (x, y) = (i % w, i / w);
-            if x >= window.x0 && x < window.x1 && y >= window.y0 && y < window.y1 {
-                let end = cam.eye + cam.ray(x as f32 + 0.5, y as f32 + 0.5) * far;
-                if movers
-                    .iter()
-                    .any(|&(c, r)| sphere_meets_cone(c, r, cam.eye, end, far * pixel_angle))
-                {
-                    return false;
-                }
-            }
-            // The pixel's samples land within about a pixel of its points: each mover is widened
-            // by that.
-            points[i as usize]
-                .iter()
-                .flatten()
-                .all(|&(p, pixel, _, _)| {
-                    !ends.iter().any(|end| {
-                        let (c_l, r_l) = end.seen_from(p);
-                        movers
-                            .iter()
-                            .any(|&(c, r)| sphere_meets_cone(c, r + pixel, p, c_l, r_l))
-                    })
-                })
-        })
-        .collect();
-    // The changed records' pixel rectangles (around or behind the eye, a record may reach
-    // anywhere), then row by row in parallel the pixels whose points one of them reaches.
-    let rects: Vec<(Window, Vec3, f32)> = changed
-        .iter()
-        .map(|&(c, reach)| {
-            let rect = sphere_pixels(cam, c, reach)
-                .map_or(Window::full(w, h), |(lo, hi)| pixel_window(cam, lo, hi));
-            (rect, c, reach)
-        })
-        .collect();
-    // Each kept pixel looks for the changed records near its points in a lattice of their spheres
-    // (widened by the largest pixel), and takes a record where its pixel is in the record's rectangle.
-    let widest = points
-        .par_iter()
-        .flat_map_iter(|p| p.iter().flatten().map(|e| e.1))
-        .reduce(|| 0.0, f32::max);
-    let bins = SphereBins::new(rects.iter().map(|&(_, c, reach)| (c, reach + widest)));
-    let mut reached = vec![false; (w * h) as usize];
-    reached
-        .par_chunks_mut(w as usize)
-        .zip(keep.par_chunks(w as usize))
-        .enumerate()
-        .for_each(|(y, (row, kept))| {
-            let y = y as u32;
-            for x in (0..w).filter(|&x| kept[x as usize]) {
-                row[x as usize] =
-                    points[(y * w + x) as usize]
-                        .iter()
-                        .flatten()
-                        .any(|&(p, pixel, _, _)| {
-                            bins.any_near(p, |j| {
-                                let (rect, c, reach) = &rects[j as usize];
-                                rect.contains(x, y) && p.distance(*c) < reach + pixel
-                            })
-                        });
-            }
-        });
+    let mut keep = clear_of_movers(scene, cam, window, &movers, &points);
+    let reached = reached_by(cam, changed, &points, &keep);
     if shaded.light.len() != keep.len() {
         shaded.light = vec![[None; 5]; keep.len()];
     }
@@ -377,6 +308,101 @@ pub fn unchanged_pixels(
         repeat,
         relight,
     })
+}
+
+/// The pixels that may keep their value for the movers' sake: outside `window`, or inside it where
+/// the pixel's cone of camera rays passes every moved mesh (`movers`' spheres, before and after the
+/// step); and in either case where no shadow ray from its `points` to a light meets one.
+fn clear_of_movers(
+    scene: &Scene,
+    cam: &Camera,
+    window: Window,
+    movers: &[(Vec3, f32)],
+    points: &[[End; 5]],
+) -> Vec<bool> {
+    let (w, h) = (cam.width, cam.height);
+    let ends = shadow_ends(scene);
+    // A pixel's samples leave the eye within about a pixel of its centre's ray (a pixel's angle at
+    // the image's middle, more than anywhere else): in the window, a pixel keeps its value only when
+    // that cone passes every moved mesh before and after its step.
+    let pixel_angle = 2.0 * (cam.fov_deg().to_radians() * 0.5).tan() / h as f32;
+    let far = cam.eye.distance((scene.bounds.0 + scene.bounds.1) * 0.5) + scene.diagonal();
+    (0..w * h)
+        .into_par_iter()
+        .map(|i| {
+            let (x, y) = (i % w, i / w);
+            if x >= window.x0 && x < window.x1 && y >= window.y0 && y < window.y1 {
+                let end = cam.eye + cam.ray(x as f32 + 0.5, y as f32 + 0.5) * far;
+                if movers
+                    .iter()
+                    .any(|&(c, r)| sphere_meets_cone(c, r, cam.eye, end, far * pixel_angle))
+                {
+                    return false;
+                }
+            }
+            // The pixel's samples land within about a pixel of its points: each mover is widened
+            // by that.
+            points[i as usize]
+                .iter()
+                .flatten()
+                .all(|&(p, pixel, _, _)| {
+                    !ends.iter().any(|end| {
+                        let (c_l, r_l) = end.seen_from(p);
+                        movers
+                            .iter()
+                            .any(|&(c, r)| sphere_meets_cone(c, r + pixel, p, c_l, r_l))
+                    })
+                })
+        })
+        .collect()
+}
+
+/// The pixels `keep` marks whose points a changed record (`changed`: centre, reach) reaches.
+fn reached_by(
+    cam: &Camera,
+    changed: &[(Vec3, f32)],
+    points: &[[End; 5]],
+    keep: &[bool],
+) -> Vec<bool> {
+    // The changed records' pixel rectangles (around or behind the eye, a record may reach
+    // anywhere), then row by row in parallel the pixels whose points one of them reaches.
+    let (w, h) = (cam.width, cam.height);
+    let rects: Vec<(Window, Vec3, f32)> = changed
+        .iter()
+        .map(|&(c, reach)| {
+            let rect = sphere_pixels(cam, c, reach)
+                .map_or(Window::full(w, h), |(lo, hi)| pixel_window(cam, lo, hi));
+            (rect, c, reach)
+        })
+        .collect();
+    // Each kept pixel looks for the changed records near its points in a lattice of their spheres
+    // (widened by the largest pixel), and takes a record where its pixel is in the record's rectangle.
+    let widest = points
+        .par_iter()
+        .flat_map_iter(|p| p.iter().flatten().map(|e| e.1))
+        .reduce(|| 0.0, f32::max);
+    let bins = SphereBins::new(rects.iter().map(|&(_, c, reach)| (c, reach + widest)));
+    let mut reached = vec![false; (w * h) as usize];
+    reached
+        .par_chunks_mut(w as usize)
+        .zip(keep.par_chunks(w as usize))
+        .enumerate()
+        .for_each(|(y, (row, kept))| {
+            let y = y as u32;
+            for x in (0..w).filter(|&x| kept[x as usize]) {
+                row[x as usize] =
+                    points[(y * w + x) as usize]
+                        .iter()
+                        .flatten()
+                        .any(|&(p, pixel, _, _)| {
+                            bins.any_near(p, |j| {
+                                let (rect, c, reach) = &rects[j as usize];
+                                rect.contains(x, y) && p.distance(*c) < reach + pixel
+                            })
+                        });
+            }
+        });
+    reached
 }
 
 /// The factor by which pixel `i`'s light changed, per channel, when it changed evenly: beside an
