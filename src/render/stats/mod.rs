@@ -1,0 +1,261 @@
+//! The render's statistics: one typed struct with a part per phase, each part the second half of its
+//! phase's `(output, stats)` (threads' counts merged with rayon inside the phase, no shared counter),
+//! turned into report rows in one place, [`RenderStats::report`].
+
+use std::time::Instant;
+
+use icache::media::MediaCache;
+use icache::{CacheStats, IrradianceCache};
+
+use super::tiles::{GrowStats, SampleCount};
+use super::Plan;
+use crate::counters::SampleCounters;
+use crate::integrator::radiance_cache::{RadianceCache, RadianceCacheStats};
+use crate::photons::atlas::AtlasStats;
+use crate::photons::PhotonData;
+use crate::scene::{Method, Scene};
+use crate::stats::{peak_rss_bytes, Report};
+
+mod cache_rows;
+mod photon_rows;
+mod report;
+
+use cache_rows::*;
+use photon_rows::*;
+
+/// What a render did, phase by phase.
+#[derive(Clone)]
+pub struct RenderStats {
+    pub setup: Setup,
+    /// `trace_photons` (or `load_photons`); `None` for `path`.
+    pub photons: Option<PhotonStats>,
+    /// `fill_cache` (or a loaded cache); `pm` only.
+    pub fill: Option<CacheFillStats>,
+    pub shade: ShadeStats,
+    /// The irradiance atlas after shading (it fills lazily, in the cache fill and the shading).
+    pub atlas: Option<AtlasStats>,
+    /// The volume grid's (estimated, all) cells after shading, with media.
+    pub volume_grid: Option<(usize, usize)>,
+    /// `pm`'s media radiance-cache fill (scenes with media).
+    pub media_fill: Option<icache::media::MediaFillStats>,
+    /// The media cache's (records, memory bytes).
+    pub media_cache: Option<(u64, u64)>,
+    /// The cache after shading; records loaded from a file are not counted as made in pass B.
+    pub cache: Option<CacheStats>,
+    /// Glossy surfaces: the radiance cache and the gather rays' texel harmonics.
+    pub glossy: Option<GlossyStats>,
+    /// A frame of a sequence: what it reused from the frames before.
+    pub frame: Option<FrameStats>,
+    /// Seconds from the plan to the end of shading.
+    pub total_s: f64,
+    /// Set by `write_outputs`.
+    pub write_outputs_s: Option<f64>,
+    pub peak_rss_bytes: u64,
+}
+
+/// What a frame of a sequence reused.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct FrameStats {
+    pub frame: u32,
+    /// The photon maps were traced for an earlier frame (nothing that emits or reflects light moved).
+    pub photons_reused: bool,
+    /// Irradiance-cache records of earlier frames kept for this one.
+    pub n_records_reused: u64,
+    /// Records of earlier frames dropped as too coarse for this frame's view, or out of view for long.
+    pub n_records_dropped: u64,
+    /// Records after this frame (reused and made).
+    pub n_records_after: u64,
+    /// Nothing changed since the frame before: its image is this frame's.
+    pub image_reused: bool,
+    /// Pixels taken from the frame before, unsampled (nothing they show changed).
+    pub n_pixels_kept: u64,
+    /// Of the kept pixels, those whose indirect light was scaled to the cached light's change.
+    pub n_pixels_relit: u64,
+    /// After a mesh or light changed: what the temporal update did to the records.
+    pub temporal: Option<TemporalStats>,
+}
+
+/// What the update did, for the frame's statistics.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct TemporalStats {
+    /// Records whose irradiance stayed (or followed its temporal gradient).
+    pub n_kept: u64,
+    /// Records gathered again in place.
+    pub n_regathered: u64,
+    /// Of those, the ones whose change was beyond their noise: replaced by the new gather.
+    pub n_replaced: u64,
+    /// Records whose surface moved away.
+    pub n_gone: u64,
+    /// Of the replaced, those that moved with their mesh.
+    pub n_moved: u64,
+    /// Records carried along with their mesh that kept their irradiance (not due, or gathered
+    /// within their noise): it follows their temporal gradient.
+    pub n_carried: u64,
+    /// Seconds the update took (its gathers, mostly).
+    pub update_s: f64,
+}
+
+/// The plan and the scene, as reported.
+#[derive(Clone)]
+pub struct Setup {
+    pub method: Method,
+    pub width: u32,
+    pub height: u32,
+    pub spp: u32,
+    pub aa_spp: u32,
+    pub noise: f32,
+    pub n_triangles: u64,
+    pub n_degenerate: u64,
+    pub n_lights: u64,
+    /// The instruction set Embree's kernels run: renders match across machines that run the same.
+    pub ray_isa: &'static str,
+}
+
+/// The photon maps, traced or loaded, and the settings they are read with.
+#[derive(Clone)]
+pub struct PhotonStats {
+    /// Seconds to trace the maps, or to load them (`loaded`).
+    pub time_s: f64,
+    pub loaded: bool,
+    pub trace: photon::TraceStats,
+    pub lookup: usize,
+    pub max_radius_global: f32,
+    pub max_radius_caustic: f32,
+    /// Zero without media.
+    pub max_radius_volume: f32,
+}
+
+/// Pass A, or the cache loaded instead.
+#[derive(Clone, Default)]
+pub struct CacheFillStats {
+    /// Seconds to fill; `None` when the cache was loaded.
+    pub time_s: Option<f64>,
+    pub one_pass: bool,
+    pub fill: icache::FillStats,
+    /// The fill's final gathers (their rays).
+    pub counters: SampleCounters,
+    pub n_loaded: u64,
+    /// With rays chosen by `pm` (`render::gather_rays`): the predicted relative variance the pass-A
+    /// gathers' noise gives the pixels (at one round), and the rounds chosen.
+    pub rays_choice: Option<(f64, u32)>,
+}
+
+/// Every pixel's samples.
+#[derive(Clone, Default)]
+pub struct ShadeStats {
+    pub time_s: f64,
+    pub counters: SampleCounters,
+    pub samples: SampleCount,
+    /// Records made between rounds for samples that found none.
+    pub grown: GrowStats,
+}
+
+impl RenderStats {
+    /// What a user should hear about a render that succeeded on legal input but is likely not what
+    /// they meant; the binary prints each on stderr.
+    pub fn warnings(&self) -> Vec<String> {
+        let mut out = Vec::new();
+        if let Some(p) = self.photons.as_ref().filter(|p| !p.loaded) {
+            let t = &p.trace;
+            let stored = t.n_global_stored
+                + t.n_caustic_stored
+                + t.n_volume_stored
+                + t.n_volume_caustic_stored;
+            if stored == 0 {
+                out.push(format!(
+                    "no photon was stored after {} paths (no light reaches a surface or medium \
+                     where photons are kept: a fog too dense to cross?): what method {} reads from \
+                     the photon maps — indirect light, caustics, light scattered in media — is black",
+                    t.n_paths_emitted,
+                    self.setup.method.name()
+                ));
+            }
+        }
+        out
+    }
+
+    pub fn new(scene: &Scene, plan: &Plan) -> RenderStats {
+        let setup = Setup {
+            method: plan.method,
+            width: plan.width,
+            height: plan.height,
+            spp: plan.spp,
+            aa_spp: plan.aa_spp,
+            noise: plan.noise,
+            n_triangles: scene.geometry.triangles.len() as u64,
+            n_degenerate: scene.geometry.n_degenerate as u64,
+            n_lights: scene.lights.len() as u64,
+            ray_isa: scene.bvh.isa(),
+        };
+        RenderStats {
+            setup,
+            photons: None,
+            fill: None,
+            shade: ShadeStats::default(),
+            atlas: None,
+            volume_grid: None,
+            media_fill: None,
+            media_cache: None,
+            cache: None,
+            glossy: None,
+            frame: None,
+            total_s: 0.0,
+            write_outputs_s: None,
+            peak_rss_bytes: 0,
+        }
+    }
+
+    /// What is read once the phases are done: the atlas and the cache as shading left them, the time
+    /// since `start`, the peak memory.
+    pub fn finish(
+        &mut self,
+        start: Instant,
+        photons: Option<&PhotonData>,
+        media_cache: Option<&MediaCache>,
+        cache: Option<&IrradianceCache>,
+        radiance: Option<&RadianceCache>,
+    ) {
+        self.atlas = photons.and_then(|p| p.atlas()).map(|a| a.stats());
+        let texels = photons.and_then(|p| p.glossy_texel_stats());
+        if texels.is_some() || radiance.is_some() {
+            self.glossy = Some(GlossyStats {
+                radiance: radiance.map(|r| r.stats()).unwrap_or_default(),
+                texels: texels.unwrap_or_default(),
+            });
+        }
+        self.volume_grid = photons.and_then(|p| p.volume_grid()).map(|g| g.filled());
+        self.media_cache = media_cache.map(|c| (c.len() as u64, c.memory_bytes() as u64));
+        let fill = self.fill.as_ref();
+        self.cache = cache.map(|c| {
+            let mut s = CacheStats::collect(
+                c,
+                &fill.map(|f| f.fill).unwrap_or_default(),
+                &self.shade.counters.lookups,
+            );
+            let n_loaded = fill.map_or(0, |f| f.n_loaded);
+            s.records_pass_b -= n_loaded.min(s.records_pass_b);
+            s
+        });
+        self.total_s = start.elapsed().as_secs_f64();
+        self.peak_rss_bytes = peak_rss_bytes();
+    }
+
+    /// Counters of every phase that traces rays from the camera's view: the cache fill and the shading.
+    fn counters(&self) -> SampleCounters {
+        let mut c = self.shade.counters;
+        c += self.fill_counters();
+        c
+    }
+
+    fn fill_counters(&self) -> SampleCounters {
+        self.fill.as_ref().map(|f| f.counters).unwrap_or_default()
+    }
+}
+
+/// Glossy surfaces' statistics: the radiance cache's, and the gather rays' texel harmonics
+/// ((estimated, bytes)).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct GlossyStats {
+    pub radiance: RadianceCacheStats,
+    pub texels: (u64, u64),
+}
