@@ -123,50 +123,7 @@ pub fn estimate(scene: &Scene, plan: &Plan, opts: &Options) -> Vec<(String, u64)
         image,
     )];
     if photon_method {
-        let photons = match &opts.files.load_photons {
-            Some(p) => file_len(Some(p)).saturating_mul(3),
-            None => {
-                let s = &plan.photons;
-                (s.global as u64
-                    + s.caustic as u64
-                    + s.volume as u64
-                    + s.volume_caustic as u64
-                    + 4 * photon::trace::MAX_DEPTH as u64)
-                    .saturating_mul(PHOTON_PEAK_BYTES)
-            }
-        };
-        let name = match &opts.files.load_photons {
-            Some(p) => format!("photon maps from {} (--load-photons)", p.display()),
-            None => "photon maps".into(),
-        };
-        items.push((name, photons));
-        // The irradiance atlas: at most MAX_TEXEL_SLOTS slots (and as many caustic slots with a caustic
-        // map), and a grid per triangle.
-        let slot =
-            std::mem::size_of::<std::sync::OnceLock<crate::photons::atlas::TexelIrradiance>>()
-                as u64;
-        let caustic_slot = std::mem::size_of::<std::sync::OnceLock<(glam::Vec3, bool)>>() as u64;
-        let slot_bytes = if plan.photons.caustic > 0 {
-            slot + caustic_slot
-        } else {
-            slot
-        };
-        let atlas = crate::photons::atlas::MAX_TEXEL_SLOTS * slot_bytes
-            + scene.geometry.triangles.len() as u64 * 64;
-        items.push(("irradiance atlas".into(), atlas));
-        if scene.has_glossy() {
-            // Glossy texels: a slot per texel, and the harmonics of those rays reach (about two per
-            // pixel on an all-glossy Sponza; counted as four).
-            let texels = crate::photons::atlas::MAX_TEXEL_SLOTS;
-            let estimated = texels.min(4 * pixels);
-            items.push((
-                "glossy texels".into(),
-                texels * 16 + estimated * crate::photons::GLOSSY_TEXEL_BYTES,
-            ));
-        }
-        if scene.media.is_some() {
-            items.extend(media_items(plan));
-        }
+        items.extend(photon_items(scene, plan, opts, pixels));
     }
     let memos = pixels.saturating_mul(MEMO_BYTES_PER_PIXEL);
     if plan.method == Method::Pm {
@@ -184,6 +141,56 @@ pub fn estimate(scene: &Scene, plan: &Plan, opts: &Options) -> Vec<(String, u64)
         items.push((name, cache.max(memos)));
     } else if plan.method == Method::Photons {
         items.push(("shading memos".into(), memos));
+    }
+    items
+}
+
+/// The photon-map methods' items: the maps (traced or loaded), the irradiance atlas, the glossy
+/// texels and the media's records, for an image of `pixels`.
+fn photon_items(scene: &Scene, plan: &Plan, opts: &Options, pixels: u64) -> Vec<(String, u64)> {
+    let mut items = Vec::new();
+    let photons = match &opts.files.load_photons {
+        Some(p) => file_len(Some(p)).saturating_mul(3),
+        None => {
+            let s = &plan.photons;
+            (s.global as u64
+                + s.caustic as u64
+                + s.volume as u64
+                + s.volume_caustic as u64
+                + 4 * photon::trace::MAX_DEPTH as u64)
+                .saturating_mul(PHOTON_PEAK_BYTES)
+        }
+    };
+    let name = match &opts.files.load_photons {
+        Some(p) => format!("photon maps from {} (--load-photons)", p.display()),
+        None => "photon maps".into(),
+    };
+    items.push((name, photons));
+    // The irradiance atlas: at most MAX_TEXEL_SLOTS slots (and as many caustic slots with a caustic
+    // map), and a grid per triangle.
+    let slot =
+        std::mem::size_of::<std::sync::OnceLock<crate::photons::atlas::TexelIrradiance>>() as u64;
+    let caustic_slot = std::mem::size_of::<std::sync::OnceLock<(glam::Vec3, bool)>>() as u64;
+    let slot_bytes = if plan.photons.caustic > 0 {
+        slot + caustic_slot
+    } else {
+        slot
+    };
+    let atlas = crate::photons::atlas::MAX_TEXEL_SLOTS * slot_bytes
+        + scene.geometry.triangles.len() as u64 * 64;
+    items.push(("irradiance atlas".into(), atlas));
+    if scene.has_glossy() {
+        // Glossy texels: a slot per texel, and the harmonics of those rays reach (about two per
+        // pixel on an all-glossy Sponza; counted as four).
+        let texels = crate::photons::atlas::MAX_TEXEL_SLOTS;
+        let estimated = texels.min(4 * pixels);
+        items.push((
+            "glossy texels".into(),
+            texels * 16 + estimated * crate::photons::GLOSSY_TEXEL_BYTES,
+        ));
+    }
+    if scene.media.is_some() {
+        items.extend(media_items(plan));
     }
     items
 }

@@ -118,8 +118,20 @@ pub fn fill_cache(
     if let Some(r) = radiance {
         r.attach(&cache);
     }
+    Ok(filled(cache, one_pass, (fill, counters), rays_choice, t))
+}
+
+/// The filled cache with its one-pass order and the rays chosen, and the fill's statistics (begun at
+/// `start`).
+fn filled(
+    cache: IrradianceCache,
+    one_pass: Option<OnePassFill>,
+    (fill, counters): (icache::FillStats, crate::counters::SampleCounters),
+    rays_choice: Option<(f64, u32)>,
+    start: Instant,
+) -> (CacheFill, CacheFillStats) {
     let stats = CacheFillStats {
-        time_s: Some(t.elapsed().as_secs_f64()),
+        time_s: Some(start.elapsed().as_secs_f64()),
         one_pass: one_pass.is_some(),
         fill,
         counters,
@@ -127,14 +139,14 @@ pub fn fill_cache(
         rays_choice,
     };
     let chosen_rays = rays_choice.map(|(_, rounds)| gather_rays::rays_for_rounds(rounds));
-    Ok((
+    (
         CacheFill {
             cache,
             one_pass,
             chosen_rays,
         },
         stats,
-    ))
+    )
 }
 
 /// The integrator pass A's gathers run: reading the photon maps, the media cache and the glossy

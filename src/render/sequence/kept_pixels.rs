@@ -239,7 +239,6 @@ pub fn unchanged_pixels(
     }
     // A pixel that nothing but its cached light changed for is relit (`relight`) or, where the
     // light changed unevenly beside an edge, takes its samples again (`repeat`).
-    let edge_near = edge_neighbours(&points, w, h);
     // The light now at the points of each pixel a changed record reaches, and of those shaded
     // again (what they are shaded with).
     let now: Vec<Option<[Option<Vec3>; 5]>> = (0..keep.len())
@@ -249,7 +248,37 @@ pub fn unchanged_pixels(
             ((reached[i] || !keep[i]) && p.iter().any(Option::is_some)).then(|| light_at(p, cache))
         })
         .collect();
-    let then = &shaded.light;
+    let decided = decide(&points, &keep, &now, &shaded.light, (w, h));
+    let mut repeat = vec![false; keep.len()];
+    let mut relight: Vec<Option<Vec3>> = vec![None; keep.len()];
+    for (i, (k, r, l)) in decided.into_iter().enumerate() {
+        keep[i] = k;
+        repeat[i] = r;
+        relight[i] = l;
+        if let Some(n) = now[i] {
+            if !k || l.is_some() {
+                shaded.light[i] = n;
+            }
+        }
+    }
+    Some(Unchanged {
+        keep,
+        repeat,
+        relight,
+    })
+}
+
+/// Each pixel's fate from the light at its points `now` against what it was shaded with (`then`):
+/// (kept, shaded again with the samples it took, the factor relighting its indirect light). Pixels
+/// beside an edge are relit only where the light changed evenly across them.
+fn decide(
+    points: &[[End; 5]],
+    keep: &[bool],
+    now: &[Option<[Option<Vec3>; 5]>],
+    then: &[[Option<Vec3>; 5]],
+    (w, h): (u32, u32),
+) -> Vec<(bool, bool, Option<Vec3>)> {
+    let edge_near = edge_neighbours(points, w, h);
     // Per channel, the factor by which the light at pixel i's centre changed: 1 where no changed
     // record reaches, `None` where it is not known (no hit, a channel that was dark, a pixel shaded
     // again for a mover).
@@ -260,7 +289,7 @@ pub fn unchanged_pixels(
             Some(n) => n[0].zip(then[i][0]).and_then(|(a, b)| light_ratio(a, b)),
         }
     };
-    let decided: Vec<(bool, bool, Option<Vec3>)> = (0..keep.len())
+    (0..keep.len())
         .into_par_iter()
         .map(|i| {
             let Some(n) = now[i].as_ref().filter(|_| keep[i]) else {
@@ -290,24 +319,7 @@ pub fn unchanged_pixels(
                 None => (false, true, None),
             }
         })
-        .collect();
-    let mut repeat = vec![false; keep.len()];
-    let mut relight: Vec<Option<Vec3>> = vec![None; keep.len()];
-    for (i, (k, r, l)) in decided.into_iter().enumerate() {
-        keep[i] = k;
-        repeat[i] = r;
-        relight[i] = l;
-        if let Some(n) = now[i] {
-            if !k || l.is_some() {
-                shaded.light[i] = n;
-            }
-        }
-    }
-    Some(Unchanged {
-        keep,
-        repeat,
-        relight,
-    })
+        .collect()
 }
 
 /// The pixels that may keep their value for the movers' sake: outside `window`, or inside it where

@@ -14,8 +14,11 @@
 //! while the camera stays), `atlas_carry` (atlas texels carried from the frame before).
 
 mod atlas_carry;
+mod frame_photons;
 mod kept_pixels;
 mod light_change;
+mod reuse;
+mod scene_change;
 mod temporal;
 
 use std::ops::RangeInclusive;
@@ -44,6 +47,7 @@ use crate::progress::Progress;
 use crate::scene::{self, Animation, Method, Scene};
 use atlas_carry::{AtlasBefore, PhotonKeys};
 use kept_pixels::ShadedLight;
+use reuse::{reused_image_stats, Earlier, Kept};
 use temporal::{Lifespans, Moved, SceneChange};
 
 /// Renders `frames` of `anim`, handing each frame to `on_frame` as soon as it is done (the caller
@@ -63,19 +67,8 @@ pub fn render_sequence(
     progress.start("checking frames", (last - first + 1) as u64);
     scene::check_sequence(anim, frames.clone(), &first_scene, progress, cancel)?;
     progress.finish();
-    // Only `pm`'s temporal cache shades the movers' pixels at a finer target.
-    let pm = super::plan::method(&first_scene, opts) == Method::Pm;
-    let moving_window = if pm && first_scene.settings.icache.temporal {
-        let size = (
-            opts.width.unwrap_or(first_scene.camera.width),
-            opts.height.unwrap_or(first_scene.camera.height),
-        );
-        kept_pixels::sequence_window(anim, &first_scene, frames.clone(), size, progress, cancel)?
-    } else {
-        None
-    };
-    let track_atlas = first_scene.settings.icache.temporal
-        && (first..last).any(|f| !anim.moved_meshes(f, f + 1).is_empty());
+    let (moving_window, track_atlas) =
+        sequence_settings(anim, &first_scene, frames.clone(), opts, progress, cancel)?;
     let mut loaded = Some(first_scene);
     let mut f = first;
     let mut left: Option<Sequence> = None;
@@ -140,6 +133,34 @@ pub fn render_sequence(
     Ok(())
 }
 
+/// What holds for the whole sequence: the window its moving meshes may cover while the camera stays
+/// (`pm`'s temporal cache shades it finer from the first frame on), and whether it moves a mesh (its
+/// frames' atlases then keep what their texels are made of).
+fn sequence_settings(
+    anim: &Animation,
+    first_scene: &Scene,
+    frames: RangeInclusive<u32>,
+    opts: &Options,
+    progress: &dyn Progress,
+    cancel: &AtomicBool,
+) -> Result<(Option<(Camera, Window)>, bool)> {
+    let (first, last) = (*frames.start(), *frames.end());
+    // Only `pm`'s temporal cache shades the movers' pixels at a finer target.
+    let pm = super::plan::method(first_scene, opts) == Method::Pm;
+    let moving_window = if pm && first_scene.settings.icache.temporal {
+        let size = (
+            opts.width.unwrap_or(first_scene.camera.width),
+            opts.height.unwrap_or(first_scene.camera.height),
+        );
+        kept_pixels::sequence_window(anim, first_scene, frames.clone(), size, progress, cancel)?
+    } else {
+        None
+    };
+    let track_atlas = first_scene.settings.icache.temporal
+        && (first..last).any(|f| !anim.moved_meshes(f, f + 1).is_empty());
+    Ok((moving_window, track_atlas))
+}
+
 /// What a sequence's frames leave to the next frame, in the same scene or the next one (after a
 /// mesh or a light changed): the caches, the frame before's view, layers and samples, the photon
 /// paths, and what changed. The photon maps belong to one scene: the loop over its frames holds them.
@@ -199,58 +220,6 @@ impl Sequence {
         }
     }
 
-    /// Frame `f` of `anim` begins `scene` (a mesh or a light changed since frame `f − 1`): what
-    /// changed, from where each mesh was.
-    fn next_scene(&mut self, anim: &Animation, scene: &Scene, f: u32) {
-        let mut moved = Vec::new();
-        let mut rigid = Vec::new();
-        // A mesh that emits and moved is a light that changed.
-        let mut lights = anim.lights_changed(f - 1, f);
-        for m in anim.moved_meshes(f - 1, f) {
-            lights |= scene.mesh_emits(m);
-            if let (Some(before), Some(after)) = (
-                self.mesh_spheres.get(m).copied().flatten(),
-                scene.mesh_sphere(m),
-            ) {
-                let step = match (
-                    scene::mesh_transform(anim, f - 1, m),
-                    scene::mesh_transform(anim, f, m),
-                ) {
-                    (Some(t0), Some(t1)) => Some(t1 * t0.inverse()),
-                    _ => None,
-                };
-                moved.push(Moved::new(before, after, step));
-                if let Some(step) = step {
-                    rigid.push((before, step));
-                }
-            }
-        }
-        self.change = Some(SceneChange {
-            moved,
-            rigid,
-            lights,
-        });
-        self.atlas_next = None;
-    }
-
-    /// `scene`'s last frame is done: its atlas (with the temporal cache) and where its meshes were
-    /// are kept for the next scene's first frame.
-    fn end_scene(&mut self, maps: Option<PhotonData>, scene: &Scene) {
-        let temporal = self.photon_paths.is_some();
-        let next = self.atlas_next.take();
-        self.atlas_before = maps.filter(|_| temporal).and_then(|p| {
-            let (maps, atlas) = p.into_maps_and_atlas();
-            let keys = next.or_else(|| Some(PhotonKeys::of(maps.global.as_ref()?.photons())))?;
-            Some(AtlasBefore {
-                atlas: atlas?,
-                keys,
-            })
-        });
-        self.mesh_spheres = (0..scene.mesh_ranges.len())
-            .map(|m| scene.mesh_sphere(m))
-            .collect();
-    }
-
     /// Frame `f`, seen by `camera`: the still's phases over `maps` (traced here on the scene's first
     /// frame) and the caches of the frames before, which it leaves for the next.
     #[allow(clippy::too_many_arguments)]
@@ -294,19 +263,14 @@ impl Sequence {
             }
             _ => None,
         };
-        let (earlier, only, foreign, still_view) = match earlier {
-            Some(e) => (Some((e.cache, e.foreign)), e.only, e.foreign, e.still_view),
-            None => (None, None, 0, None),
-        };
-        let cache = match light {
-            Some(light) => {
+        let (earlier, only, foreign, still_view) = Earlier::parts(earlier);
+        let cache = light
+            .map(|l| {
                 let (files, work) = (&opts.files, (earlier, only));
-                cache_phase(
-                    scene, &plan, files, light, work, &mut stats, progress, cancel,
-                )?
-            }
-            None => None,
-        };
+                cache_phase(scene, &plan, files, l, work, &mut stats, progress, cancel)
+            })
+            .transpose()?
+            .flatten();
         interrupted(cancel)?;
         let mut bake = Bake {
             photons: maps.take(),
@@ -316,11 +280,7 @@ impl Sequence {
             cache,
         };
         let kept = self.kept_pixels(scene, &plan, still_view.zip(only), &bake);
-        let pixels = KeptPixels {
-            kept: kept.as_ref().map(|k| &k.keep[..]),
-            kept_samples: kept.as_ref().and_then(|k| k.samples.as_deref()),
-            repeat: kept.as_ref().map(|k| &k.repeat[..]),
-        };
+        let pixels = Kept::view(kept.as_ref());
         let shaded = shade_bake_foreign(
             scene, &plan, &mut bake, pixels, foreign, &mut stats, progress, cancel,
         );
@@ -417,292 +377,5 @@ impl Sequence {
         self.radiance = bake.radiance;
         self.camera = Some(plan.camera);
         out
-    }
-
-    /// A frame's photon maps: over the paths the sequence's first frame took (the temporal cache's
-    /// frames; `pm-fg` and `photons` render each frame as a still), copying the paths nothing that
-    /// moved touched, and with the atlas texels carried from the scene before.
-    fn frame_photons<'a>(
-        &mut self,
-        scene: &'a Scene,
-        plan: &Plan,
-        opts: &Options,
-        stats: &mut RenderStats,
-        progress: &dyn Progress,
-        cancel: &AtomicBool,
-    ) -> Result<PhotonData<'a>> {
-        let temporal = plan.method == Method::Pm;
-        let (traced, s) = match &opts.files.load_photons {
-            Some(file) => load_photons(scene, plan, file)?,
-            None => self.trace_over_paths(scene, plan, temporal, opts, progress, cancel)?,
-        };
-        self.photon_log = traced.log.map(|log| (log, scene.bounds));
-        if temporal && self.photon_paths.is_none() {
-            self.photon_paths = Some(photon::MapPaths::of(&s.trace));
-        }
-        stats.photons = Some(s);
-        let mut data = build_maps(scene, plan, traced.maps);
-        if temporal && self.track_atlas {
-            data.track_atlas();
-        }
-        let before = self.atlas_before.take();
-        if let (true, Some(before), Some(change)) = (temporal, before, &self.change) {
-            self.atlas_next = atlas_carry::carry_atlas(scene, &mut data, before, change);
-        }
-        Ok(data)
-    }
-
-    /// The trace of a frame: a temporal sequence's over the paths its first frame took, copying
-    /// from the frame before's log the paths no moved mesh's bounding sphere (before or after its
-    /// step) comes near — not after a light changed, nor where the scene's bounds changed (a
-    /// directional light's photons leave a disc over them: every path starts elsewhere).
-    fn trace_over_paths(
-        &self,
-        scene: &Scene,
-        plan: &Plan,
-        temporal: bool,
-        opts: &Options,
-        progress: &dyn Progress,
-        cancel: &AtomicBool,
-    ) -> Result<(super::photons::Maps, PhotonStats)> {
-        let movers: Vec<(Vec3, f32)> = match &self.change {
-            Some(c) if !c.lights => c.moved.iter().flat_map(|m| m.spheres).collect(),
-            _ => Vec::new(),
-        };
-        let margin = 1e-4 * scene.diagonal();
-        let touched = |a: Vec3, b: Vec3| {
-            movers
-                .iter()
-                .any(|&(c, r)| photon::pathlog::segment_meets_sphere(a, b, c, r + margin))
-        };
-        let reuse_ok = temporal && self.change.as_ref().is_some_and(|c| !c.lights);
-        let over = photon::Over {
-            paths: self.photon_paths.filter(|_| temporal),
-            reuse: self
-                .photon_log
-                .as_ref()
-                .filter(|(_, bounds)| reuse_ok && *bounds == scene.bounds)
-                .map(|(log, _)| photon::Reuse {
-                    log,
-                    touched: &touched,
-                }),
-            log: temporal,
-        };
-        trace_photons(scene, plan, over, &opts.files, progress, cancel)
-    }
-
-    /// The records of the frames before, for this frame: updated where a mesh or a light changed
-    /// (the temporal cache), then made fit for this view when the camera moved. Where the camera
-    /// stayed and a mesh moved, pass A visits only the window it changed, held finer.
-    #[allow(clippy::too_many_arguments)]
-    fn earlier_records(
-        &mut self,
-        scene: &Scene,
-        plan: &mut Plan,
-        moving: Option<Window>,
-        light: &FillLight,
-        cancel: &AtomicBool,
-        cache: icache::IrradianceCache,
-        frame: &mut FrameStats,
-    ) -> Result<Earlier> {
-        let same_view = self
-            .camera
-            .as_ref()
-            .is_some_and(|cam| cam.same_view(&plan.camera));
-        let (mut only, mut still_view) = (None, None);
-        let cache = match self.change.take() {
-            Some(change) => {
-                if same_view {
-                    self.shaded_light.note_all(scene, &plan.camera, &cache);
-                }
-                let ctx = PmContext {
-                    radiance: light.radiance,
-                    ..plan.pm_context(
-                        scene,
-                        light.photons,
-                        light.media_cache,
-                        IndirectSource::PhotonMap,
-                        cancel,
-                    )
-                };
-                let temporal::Updated {
-                    cache,
-                    stats,
-                    changed,
-                } = self.lifespans.update(&ctx, cache, &change, frame.frame)?;
-                frame.temporal = Some(stats);
-                if same_view {
-                    only = kept_pixels::screen_window(&change, &plan.camera);
-                    let finer = match (moving, only) {
-                        (Some(m), Some(o)) => Some(m.union(o)),
-                        (m, o) => m.or(o),
-                    };
-                    plan.finer = finer.map(|w| (w, plan.noise * temporal::MOVING_NOISE));
-                    if self.layers.is_some() && plan.window == Window::full(plan.width, plan.height)
-                    {
-                        still_view = Some((change, changed, cache.len()));
-                    }
-                }
-                cache
-            }
-            None => cache,
-        };
-        // Records made for another view: those too coarse for this one are dropped, new ones may
-        // shrink the rest (neighbour clamping), and pass B reads them only where they are in
-        // sight. From the same view they stay as they are, so that where nothing moved the image
-        // does not change.
-        let moved = self
-            .camera
-            .as_ref()
-            .is_some_and(|cam| !cam.same_view(&plan.camera));
-        let (cache, foreign) = if moved {
-            plan.pass_a_gaps_only = scene
-                .settings
-                .icache
-                .pass_a_gaps_only(plan.width, plan.height);
-            let mut c = self.lifespans.for_view(cache, scene, &plan.camera, frame)?;
-            c.thaw();
-            let n = c.len();
-            (c, n)
-        } else {
-            frame.n_records_reused = cache.len() as u64;
-            (cache, 0)
-        };
-        Ok(Earlier {
-            cache,
-            foreign,
-            only,
-            still_view,
-        })
-    }
-
-    /// Where the camera stayed and a mesh moved: the pixels whose light did not change, kept from
-    /// the frame before (and those to repeat or relight); `None` where every pixel is shaded anew.
-    fn kept_pixels(
-        &mut self,
-        scene: &Scene,
-        plan: &Plan,
-        still_view: Option<(StillView, Window)>,
-        bake: &Bake,
-    ) -> Option<Kept> {
-        let kept = match (still_view, &bake.cache) {
-            (Some(((change, mut changed, n_carried), w)), Some(c)) => {
-                // Pass A's new records reach past its window too.
-                changed.extend(
-                    c.cache.records()[n_carried..]
-                        .iter()
-                        .map(|r| (r.pos, r.r_clamped)),
-                );
-                kept_pixels::unchanged_pixels(
-                    scene,
-                    &plan.camera,
-                    &change,
-                    &changed,
-                    w,
-                    &c.cache,
-                    &mut self.shaded_light,
-                )
-                .map(|u| Kept {
-                    keep: u.keep,
-                    repeat: u.repeat,
-                    relight: u.relight,
-                    samples: None,
-                })
-            }
-            _ => None,
-        };
-        match kept {
-            Some(k) => Some(Kept {
-                samples: self.pixel_samples.take(),
-                ..k
-            }),
-            None => {
-                // Every pixel is shaded anew (or the view changed): nothing to compare with.
-                self.shaded_light = ShadedLight::default();
-                None
-            }
-        }
-    }
-}
-
-/// A frame's records of the frames before ([`Sequence::earlier_records`]): how many of the first
-/// were made for other views, the window pass A visits, and what a still view's mesh change did.
-struct Earlier {
-    cache: icache::IrradianceCache,
-    foreign: usize,
-    only: Option<Window>,
-    still_view: Option<StillView>,
-}
-
-/// Where the camera stayed and a mesh moved: what changed, the spheres where the cached light
-/// changed, and how many records the frame before left.
-type StillView = (SceneChange, Vec<(Vec3, f32)>, usize);
-
-/// The pixels a frame takes from the frame before, those it shades again with the samples they
-/// took, the factor relighting each kept pixel's indirect light, and the samples each took.
-struct Kept {
-    keep: Vec<bool>,
-    repeat: Vec<bool>,
-    relight: Vec<Option<Vec3>>,
-    samples: Option<Vec<u32>>,
-}
-
-impl Kept {
-    /// Pastes the kept pixels of `before` (the frame before's layers) into `layers`, relit, with
-    /// their samples, and counts them in `frame`.
-    fn paste(
-        &self,
-        layers: &mut [Image],
-        before: &[Image],
-        samples: &mut [u32],
-        frame: &mut FrameStats,
-    ) {
-        let kept = || self.keep.iter().enumerate().filter(|(_, k)| **k);
-        for (now, then) in layers.iter_mut().zip(before) {
-            for (i, _) in kept() {
-                now.pixels[i] = then.pixels[i];
-            }
-        }
-        let indirect = &mut layers[crate::integrator::terms::INDIRECT_LAYER];
-        for (v, r) in indirect.pixels.iter_mut().zip(&self.relight) {
-            *v *= r.unwrap_or(Vec3::ONE);
-        }
-        if let Some(then) = &self.samples {
-            for (i, _) in kept() {
-                samples[i] = then[i];
-            }
-        }
-        frame.n_pixels_kept = kept().count() as u64;
-        frame.n_pixels_relit = self.relight.iter().flatten().count() as u64;
-    }
-}
-
-/// The statistics of frame `f`, which shows the frame before's image (nothing changed): the frame
-/// before's setup and cache, and no work of its own (no photons traced, no record gathered, no pixel
-/// sampled), so that the sequence's sums count each phase once.
-fn reused_image_stats(before: &RenderStats, f: u32) -> RenderStats {
-    let after = before.frame.map_or(0, |fr| fr.n_records_after);
-    RenderStats {
-        setup: before.setup.clone(),
-        cache: before.cache,
-        frame: Some(FrameStats {
-            frame: f,
-            photons_reused: true,
-            n_records_reused: after,
-            n_records_after: after,
-            image_reused: true,
-            ..Default::default()
-        }),
-        photons: None,
-        fill: None,
-        shade: Default::default(),
-        atlas: None,
-        volume_grid: None,
-        media_fill: None,
-        media_cache: before.media_cache,
-        glossy: None,
-        total_s: 0.0,
-        write_outputs_s: None,
-        peak_rss_bytes: before.peak_rss_bytes,
     }
 }

@@ -46,52 +46,57 @@ pub(super) fn frame_rows(r: &mut Report, f: &FrameStats) {
         );
     }
     if let Some(t) = &f.temporal {
-        for (title, key, n) in [
-            (
-                "Records kept as they were (temporal gradient)",
-                "frame.records_kept",
-                t.n_kept,
-            ),
-            (
-                "Records gathered again in place (expired or near a change)",
-                "frame.records_regathered",
-                t.n_regathered,
-            ),
-            (
-                "Records replaced (changed beyond their noise)",
-                "frame.records_replaced",
-                t.n_replaced,
-            ),
-            (
-                "Records moved with their mesh and replaced by a new gather",
-                "frame.records_moved",
-                t.n_moved,
-            ),
-            (
-                "Records carried along with their mesh, irradiance kept",
-                "frame.records_carried",
-                t.n_carried,
-            ),
-            (
-                "Records dropped (their surface moved)",
-                "frame.records_gone",
-                t.n_gone,
-            ),
-        ] {
-            r.count("Sequence", title, key, n);
-        }
-        r.seconds(
-            "Time",
-            "Temporal update of the records",
-            "time.temporal_update_s",
-            t.update_s,
-        );
+        temporal_rows(r, t);
     }
     r.count(
         "Sequence",
         "Cache records after the frame",
         "frame.records_after",
         f.n_records_after,
+    );
+}
+
+/// What the temporal update did to a frame's records.
+fn temporal_rows(r: &mut Report, t: &TemporalStats) {
+    for (title, key, n) in [
+        (
+            "Records kept as they were (temporal gradient)",
+            "frame.records_kept",
+            t.n_kept,
+        ),
+        (
+            "Records gathered again in place (expired or near a change)",
+            "frame.records_regathered",
+            t.n_regathered,
+        ),
+        (
+            "Records replaced (changed beyond their noise)",
+            "frame.records_replaced",
+            t.n_replaced,
+        ),
+        (
+            "Records moved with their mesh and replaced by a new gather",
+            "frame.records_moved",
+            t.n_moved,
+        ),
+        (
+            "Records carried along with their mesh, irradiance kept",
+            "frame.records_carried",
+            t.n_carried,
+        ),
+        (
+            "Records dropped (their surface moved)",
+            "frame.records_gone",
+            t.n_gone,
+        ),
+    ] {
+        r.count("Sequence", title, key, n);
+    }
+    r.seconds(
+        "Time",
+        "Temporal update of the records",
+        "time.temporal_update_s",
+        t.update_s,
     );
 }
 
@@ -143,6 +148,29 @@ pub(super) fn atlas_rows(r: &mut Report, s: &AtlasStats) {
     );
 }
 
+/// The photon trace's time and the maps' memory.
+fn trace_cost_rows(r: &mut Report, s: &photon::TraceStats) {
+    r.seconds("Photons", "Trace time", "photons.trace_s", s.trace_s);
+    r.seconds(
+        "Photons",
+        "Build time (kd-trees)",
+        "photons.build_s",
+        s.global_build_s + s.caustic_build_s + s.volume_build_s,
+    );
+    r.bytes(
+        "Photons",
+        "Memory, global map",
+        "photons.global_memory_bytes",
+        s.global_memory_bytes,
+    );
+    r.bytes(
+        "Photons",
+        "Memory, caustic map",
+        "photons.caustic_memory_bytes",
+        s.caustic_memory_bytes,
+    );
+}
+
 pub(super) fn photon_rows(r: &mut Report, p: &PhotonStats) {
     if p.loaded {
         r.seconds("Time", "Load photons", "time.load_photons_s", p.time_s);
@@ -176,25 +204,7 @@ pub(super) fn photon_rows(r: &mut Report, p: &PhotonStats) {
         "photons.caustic_stored",
         s.n_caustic_stored,
     );
-    r.seconds("Photons", "Trace time", "photons.trace_s", s.trace_s);
-    r.seconds(
-        "Photons",
-        "Build time (kd-trees)",
-        "photons.build_s",
-        s.global_build_s + s.caustic_build_s + s.volume_build_s,
-    );
-    r.bytes(
-        "Photons",
-        "Memory, global map",
-        "photons.global_memory_bytes",
-        s.global_memory_bytes,
-    );
-    r.bytes(
-        "Photons",
-        "Memory, caustic map",
-        "photons.caustic_memory_bytes",
-        s.caustic_memory_bytes,
-    );
+    trace_cost_rows(r, s);
     if p.max_radius_volume > 0.0 {
         volume_photon_rows(r, p);
     }
