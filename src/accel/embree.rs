@@ -11,12 +11,12 @@
 //! IEEE machine computes to the same bits. What stays CPU-dependent is which triangle Embree reports
 //! where a ray meets an edge or two surfaces at one distance, and occlusion on such ties
 //! (`docs/determinism.md`). [`ISA_VARIABLE`] forces Embree's kernels, to run as another CPU would.
-#![allow(non_camel_case_types)]
 
 use std::ffi::CString;
-use std::os::raw::{c_char, c_uint, c_void};
 
 use glam::Vec3;
+
+use super::embree_sys::*;
 
 /// The environment variable that forces Embree's instruction set (`sse2`, `sse4.2`, `avx`, `avx2` or
 /// `avx512`), as a machine without the newer ones would run; unset, Embree takes the CPU's best.
@@ -25,81 +25,6 @@ pub const ISA_VARIABLE: &str = "PMRENDER_EMBREE_ISA";
 /// The instruction sets [`ISA_VARIABLE`] may name, as Embree 3's `isa=` configuration spells them.
 const ISAS: [&str; 5] = ["sse2", "sse4.2", "avx", "avx2", "avx512"];
 
-type RTCDevice = *mut c_void;
-type RTCScene = *mut c_void;
-type RTCGeometry = *mut c_void;
-
-const RTC_GEOMETRY_TYPE_TRIANGLE: c_uint = 0;
-const RTC_BUFFER_TYPE_INDEX: c_uint = 0;
-const RTC_BUFFER_TYPE_VERTEX: c_uint = 1;
-const RTC_FORMAT_UINT3: c_uint = 0x5003;
-const RTC_FORMAT_FLOAT3: c_uint = 0x9003;
-const RTC_SCENE_FLAG_ROBUST: c_uint = 1 << 2;
-const RTC_BUILD_QUALITY_HIGH: c_uint = 2;
-const RTC_INVALID_GEOMETRY_ID: c_uint = u32::MAX;
-
-#[repr(C)]
-struct RTCIntersectContext {
-    flags: c_uint,
-    filter: *const c_void,
-    inst_id: [c_uint; 1],
-}
-
-#[repr(C, align(16))]
-#[derive(Clone, Copy)]
-struct RTCRay {
-    org: [f32; 3],
-    tnear: f32,
-    dir: [f32; 3],
-    time: f32,
-    tfar: f32,
-    mask: c_uint,
-    id: c_uint,
-    flags: c_uint,
-}
-
-#[repr(C, align(16))]
-#[derive(Clone, Copy)]
-struct RTCHit {
-    ng: [f32; 3],
-    u: f32,
-    v: f32,
-    prim_id: c_uint,
-    geom_id: c_uint,
-    inst_id: [c_uint; 1],
-}
-
-#[repr(C, align(16))]
-struct RTCRayHit {
-    ray: RTCRay,
-    hit: RTCHit,
-}
-
-/// Rays and hits of a packet of 8 (Embree's `RTCRayHit8`, structure of arrays).
-#[repr(C, align(32))]
-struct RTCRayHit8 {
-    org: [[f32; 8]; 3],
-    tnear: [f32; 8],
-    dir: [[f32; 8]; 3],
-    time: [f32; 8],
-    tfar: [f32; 8],
-    mask: [c_uint; 8],
-    id: [c_uint; 8],
-    flags: [c_uint; 8],
-    ng: [[f32; 8]; 3],
-    u: [f32; 8],
-    v: [f32; 8],
-    prim_id: [c_uint; 8],
-    geom_id: [c_uint; 8],
-    inst_id: [[c_uint; 8]; 1],
-}
-
-#[repr(C, align(32))]
-struct Valid8([i32; 8]);
-
-/// Context flag: the rays of a packet start close together and run alike.
-const RTC_INTERSECT_CONTEXT_FLAG_COHERENT: c_uint = 1;
-
 /// One ray of a packet: origin, direction, and the range (tnear, tfar) its hit must lie in.
 #[derive(Clone, Copy, Debug)]
 pub struct PacketRay {
@@ -107,38 +32,6 @@ pub struct PacketRay {
     pub dir: Vec3,
     pub tnear: f32,
     pub tfar: f32,
-}
-
-#[link(name = "embree3")]
-extern "C" {
-    fn rtcNewDevice(config: *const c_char) -> RTCDevice;
-    fn rtcReleaseDevice(device: RTCDevice);
-    fn rtcGetDeviceError(device: RTCDevice) -> c_uint;
-    fn rtcNewScene(device: RTCDevice) -> RTCScene;
-    fn rtcReleaseScene(scene: RTCScene);
-    fn rtcSetSceneFlags(scene: RTCScene, flags: c_uint);
-    fn rtcSetSceneBuildQuality(scene: RTCScene, quality: c_uint);
-    fn rtcNewGeometry(device: RTCDevice, ty: c_uint) -> RTCGeometry;
-    fn rtcSetNewGeometryBuffer(
-        geometry: RTCGeometry,
-        ty: c_uint,
-        slot: c_uint,
-        format: c_uint,
-        byte_stride: usize,
-        item_count: usize,
-    ) -> *mut c_void;
-    fn rtcCommitGeometry(geometry: RTCGeometry);
-    fn rtcAttachGeometry(scene: RTCScene, geometry: RTCGeometry) -> c_uint;
-    fn rtcReleaseGeometry(geometry: RTCGeometry);
-    fn rtcCommitScene(scene: RTCScene);
-    fn rtcIntersect1(scene: RTCScene, context: *mut RTCIntersectContext, rayhit: *mut RTCRayHit);
-    fn rtcIntersect8(
-        valid: *const i32,
-        scene: RTCScene,
-        context: *mut RTCIntersectContext,
-        rayhit: *mut RTCRayHit8,
-    );
-    fn rtcOccluded1(scene: RTCScene, context: *mut RTCIntersectContext, ray: *mut RTCRay);
 }
 
 /// A closest hit: distance along the ray, triangle index, barycentrics and the unnormalised geometric

@@ -1,2 +1,3 @@
 //! Ray-tracing acceleration (Embree 3).
 pub mod embree;
+mod embree_sys;

@@ -3,144 +3,20 @@
 //! outside what their moves changed the pixels kept from the frame before unsampled, and among the
 //! rest those whose cached light alone changed, shaded again with the very samples they took.
 
-use std::ops::RangeInclusive;
-use std::sync::atomic::{AtomicBool, Ordering};
-
-use glam::{Mat4, Vec2, Vec3};
+use glam::Vec3;
 use rayon::prelude::*;
 
 use icache::{IrradianceCache, Pass};
 
 use pmbase::luminance;
 
-use super::temporal::{Moved, SceneChange};
+pub(super) use super::cones::*;
+use super::pixel_ends::*;
+pub(super) use super::screen::*;
+use super::temporal::SceneChange;
 use crate::camera::Camera;
-use crate::error::{Error, Result};
-use crate::geometry::Frame;
-use crate::progress::Progress;
 use crate::render::tiles::Window;
-use crate::scene::{frame_view, Animation, Scene};
-
-/// The pixels whose camera rays may meet a moved mesh, before or after its step (its bounding
-/// spheres' projections, with a margin); `None` when that may be anywhere (a sphere around or behind
-/// the eye).
-pub fn screen_window(change: &SceneChange, cam: &Camera) -> Option<Window> {
-    let mut lo = Vec2::splat(f32::INFINITY);
-    let mut hi = Vec2::splat(f32::NEG_INFINITY);
-    for &(c, r) in change.moved.iter().flat_map(|m| &m.spheres) {
-        let (a, b) = sphere_pixels(cam, c, r)?;
-        lo = lo.min(a);
-        hi = hi.max(b);
-    }
-    Some(pixel_window(cam, lo, hi))
-}
-
-/// The pixels where the meshes that move over `frames` of `anim` may be seen while the camera (at
-/// `width` × `height`) stays as in the first of them: the union of each step's [`screen_window`],
-/// up to the first frame whose view differs, with that camera. `None` when no mesh moves before then,
-/// or where one may be seen anywhere. `scene` is the first frame's. A phase of its own: one frame's
-/// description read per frame, `cancel` read before each.
-pub fn sequence_window(
-    anim: &Animation,
-    scene: &Scene,
-    frames: RangeInclusive<u32>,
-    (width, height): (u32, u32),
-    progress: &dyn Progress,
-    cancel: &AtomicBool,
-) -> Result<Option<(Camera, Window)>> {
-    let first = *frames.start();
-    let (cam, placed_first) = frame_view(anim, first)?;
-    let cam = cam.with_resolution(width, height);
-    let spheres: Vec<Option<(Vec3, f32)>> = (0..scene.mesh_ranges.len())
-        .map(|m| scene.mesh_sphere(m))
-        .collect();
-    // Mesh m's bounding sphere where placement `t` puts it: the first frame's, carried along.
-    let sphere = |m: usize, t: Option<Mat4>| -> Option<(Vec3, f32)> {
-        let (c, r) = spheres.get(m).copied().flatten()?;
-        let t = t? * placed_first.get(m).copied().flatten()?.inverse();
-        let stretch = [t.x_axis, t.y_axis, t.z_axis]
-            .iter()
-            .map(|a| a.truncate().length())
-            .fold(0.0, f32::max);
-        Some((t.transform_point3(c), r * stretch))
-    };
-    progress.start("moving pixels", frames.clone().count() as u64);
-    let mut before = placed_first.clone();
-    let mut union: Option<Window> = None;
-    for (i, f) in frames.enumerate().skip(1) {
-        if cancel.load(Ordering::Relaxed) {
-            return Err(Error::Interrupted);
-        }
-        progress.set(i as u64);
-        let (view, placed) = frame_view(anim, f)?;
-        if !view.with_resolution(width, height).same_view(&cam) {
-            break;
-        }
-        let mut moved = Vec::new();
-        for (m, (&b, &a)) in before.iter().zip(&placed).enumerate() {
-            if b == a {
-                continue;
-            }
-            match (sphere(m, b), sphere(m, a)) {
-                (Some(b), Some(a)) => moved.push(Moved::new(b, a, None)),
-                _ => {
-                    progress.finish();
-                    return Ok(None);
-                }
-            }
-        }
-        before = placed;
-        if moved.is_empty() {
-            continue;
-        }
-        let change = SceneChange {
-            moved,
-            ..Default::default()
-        };
-        let Some(w) = screen_window(&change, &cam) else {
-            progress.finish();
-            return Ok(None);
-        };
-        union = Some(union.map_or(w, |u| u.union(w)));
-    }
-    progress.finish();
-    Ok(union.map(|w| (cam, w)))
-}
-
-/// The pixel box a sphere may cover on screen (`None` when it surrounds or lies behind the eye): its
-/// radius at its nearest depth, widened for the off-axis stretch.
-fn sphere_pixels(cam: &Camera, c: Vec3, r: f32) -> Option<(Vec2, Vec2)> {
-    let depth = (c - cam.eye).dot(cam.forward());
-    if depth <= 2.0 * r {
-        return None;
-    }
-    let (x, y) = cam.project(c)?;
-    let px_per_unit = cam.height as f32 / (2.0 * (cam.fov_deg().to_radians() * 0.5).tan());
-    let reach = 2.0 * r * px_per_unit / (depth - r) + 2.0;
-    Some((
-        Vec2::new(x - reach, y - reach),
-        Vec2::new(x + reach, y + reach),
-    ))
-}
-
-/// The image's pixels within [lo, hi] (empty when lo > hi).
-fn pixel_window(cam: &Camera, lo: Vec2, hi: Vec2) -> Window {
-    if lo.x > hi.x || lo.y > hi.y {
-        return Window {
-            x0: 0,
-            y0: 0,
-            x1: 0,
-            y1: 0,
-        };
-    }
-    let clamp = |v: f32, max: u32| v.clamp(0.0, max as f32) as u32;
-    Window {
-        x0: clamp(lo.x.floor(), cam.width),
-        y0: clamp(lo.y.floor(), cam.height),
-        x1: clamp(hi.x.ceil() + 1.0, cam.width),
-        y1: clamp(hi.y.ceil() + 1.0, cam.height),
-    }
-}
+use crate::scene::Scene;
 
 /// The cached irradiance at each pixel's centre hit and, on a depth edge, at its corners' hits (where
 /// its camera rays end), when the pixel was last shaded, while the camera stays: a pixel that a
@@ -175,13 +51,6 @@ fn light_at(points: &[End; 5], cache: &IrradianceCache) -> [Option<Vec3>; 5] {
     points.map(|e| e.and_then(|(p, _, n, _)| cache.lookup(p, n, Pass::B).map(|l| l.e)))
 }
 
-/// Where the camera rays through the pixels' centres (row-major) and corners (`width + 1` a row)
-/// end.
-struct CameraEnds {
-    centres: Vec<End>,
-    corners: Vec<End>,
-}
-
 /// How far, per channel and relative to its value (at least 5 % of the luminance), the cached light
 /// at a pixel's points may move from what the pixel was shaded with while the pixel keeps its value
 /// where it cannot be relit (its light changed unevenly beside an edge); beyond it the pixel is
@@ -191,16 +60,6 @@ struct CameraEnds {
 /// noise (flicker). Compared with what the pixel was shaded with, not with the frame before, so a slow
 /// drift does not accumulate.
 const LIGHT_TOLERANCE: f32 = 0.005;
-
-/// A pixel whose corner rays end this much nearer or farther than its centre's (relative), or on a
-/// surface turned by more than this cosine, or one where some hit and some miss, is on an edge: its
-/// centre does not speak for all of it, and its corners are tested too.
-const EDGE_DEPTH: f32 = 0.05;
-const EDGE_COS: f32 = 0.95;
-
-/// Where a camera ray ends: the point, the world size of a pixel there, the shading normal toward
-/// the eye, and the distance.
-type End = Option<(Vec3, f32, Vec3, f32)>;
 
 /// The pixels a frame may take from the frame before (the camera stayed, a mesh moved, no light
 /// changed): outside the moved meshes' window, or inside it where the pixel's cone of camera rays
@@ -464,28 +323,6 @@ fn even_ratio(
         .then_some(own / n_own as f32)
 }
 
-/// Whether each pixel or one of its eight neighbours lies on a depth edge (has its corners among its
-/// points): next to an edge the cached light changes across a pixel (records are small there, and a
-/// record's cover may end inside it), and the change at its centre is not the pixel's.
-fn edge_neighbours(points: &[[End; 5]], w: u32, h: u32) -> Vec<bool> {
-    let edge = |x: i64, y: i64| {
-        x >= 0
-            && y >= 0
-            && x < w as i64
-            && y < h as i64
-            && points[(y * w as i64 + x) as usize][1..]
-                .iter()
-                .any(Option::is_some)
-    };
-    (0..(w * h) as i64)
-        .into_par_iter()
-        .map(|i| {
-            let (x, y) = (i % w as i64, i / w as i64);
-            (-1..=1).any(|dy| (-1..=1).any(|dx| edge(x + dx, y + dy)))
-        })
-        .collect()
-}
-
 /// Per channel, the factor `now` / `then` by which a pixel's indirect light is scaled when only its
 /// cached irradiance changed; `None` where a channel was dark and is not (nothing to scale).
 fn light_ratio(now: Vec3, then: Vec3) -> Option<Vec3> {
@@ -498,75 +335,6 @@ fn light_ratio(now: Vec3, then: Vec3) -> Option<Vec3> {
         }
     }
     r.is_finite().then_some(r)
-}
-
-/// Each pixel's points: where its centre's camera ray ends, then on a depth edge (see [`EDGE_DEPTH`])
-/// where its corners' do (corner rays are shared between neighbouring pixels). With `rays` from the
-/// frame before (same camera), only the rays through `window` — where a moved mesh may be seen,
-/// before or after its step — are traced again: nothing else moved.
-fn pixel_points(
-    scene: &Scene,
-    cam: &Camera,
-    window: Window,
-    rays: &mut Option<CameraEnds>,
-) -> Vec<[End; 5]> {
-    let (w, h) = (cam.width, cam.height);
-    let end_at = |x: f32, y: f32| -> End {
-        let d = cam.ray(x, y);
-        scene.intersect(cam.eye, d).map(|hit| {
-            let n = Frame::new(&hit, -d).n;
-            (hit.p, cam.pixel_world(d, hit.t, hit.ns.dot(d)), n, hit.t)
-        })
-    };
-    // Whether pixel (x, y), or with `rim` 1 corner (x, y), lies in the window.
-    let inside = |x: u32, y: u32, rim: u32| {
-        x >= window.x0 && x < window.x1 + rim && y >= window.y0 && y < window.y1 + rim
-    };
-    let fresh = rays
-        .as_ref()
-        .is_none_or(|r| r.centres.len() != (w * h) as usize);
-    let ends = rays.get_or_insert_with(|| CameraEnds {
-        centres: Vec::new(),
-        corners: Vec::new(),
-    });
-    if fresh {
-        ends.centres = vec![None; (w * h) as usize];
-        ends.corners = vec![None; ((w + 1) * (h + 1)) as usize];
-    }
-    ends.centres.par_iter_mut().enumerate().for_each(|(i, e)| {
-        let (x, y) = (i as u32 % w, i as u32 / w);
-        if fresh || inside(x, y, 0) {
-            *e = end_at(x as f32 + 0.5, y as f32 + 0.5);
-        }
-    });
-    ends.corners.par_iter_mut().enumerate().for_each(|(i, e)| {
-        let (x, y) = (i as u32 % (w + 1), i as u32 / (w + 1));
-        if fresh || inside(x, y, 1) {
-            *e = end_at(x as f32, y as f32);
-        }
-    });
-    let (centres, corners) = (&ends.centres, &ends.corners);
-    (0..w * h)
-        .into_par_iter()
-        .map(|i| {
-            let (x, y) = (i % w, i / w);
-            let c = centres[i as usize];
-            let at = |dx: u32, dy: u32| corners[((y + dy) * (w + 1) + x + dx) as usize];
-            let k = [at(0, 0), at(1, 0), at(0, 1), at(1, 1)];
-            let edge = k.iter().any(|e| match (c, e) {
-                (Some((_, _, n0, t0)), Some((_, _, n, t))) => {
-                    (t - t0).abs() > EDGE_DEPTH * t0 || n.dot(n0) < EDGE_COS
-                }
-                (None, None) => false,
-                _ => true,
-            });
-            if edge {
-                [c, k[0], k[1], k[2], k[3]]
-            } else {
-                [c, None, None, None, None]
-            }
-        })
-        .collect()
 }
 
 /// Whether two irradiances agree within [`LIGHT_TOLERANCE`] in every channel.
@@ -586,169 +354,12 @@ pub struct Unchanged {
     pub relight: Vec<Option<Vec3>>,
 }
 
-/// Where a light's shadow rays from a point end.
-#[derive(Clone, Copy)]
-pub(super) enum ShadowEnd {
-    /// A ball every shadow ray ends in (centre, radius): all emissive triangles as one, a point or
-    /// spot light.
-    Ball(Vec3, f32),
-    /// Far along a directional light's reverse direction from the point itself: its shadow rays are
-    /// parallel (this offset).
-    Along(Vec3),
-}
-
-impl ShadowEnd {
-    /// The ball the shadow rays from `p` end in.
-    pub(super) fn seen_from(self, p: Vec3) -> (Vec3, f32) {
-        match self {
-            ShadowEnd::Ball(c, r) => (c, r),
-            ShadowEnd::Along(offset) => (p + offset, 0.0),
-        }
-    }
-}
-
-/// Where the lights' shadow rays end.
-pub(super) fn shadow_ends(scene: &Scene) -> Vec<ShadowEnd> {
-    let mut out = Vec::new();
-    let (lo, hi) = scene.bounds;
-    let far = (hi - lo).length() * 4.0 + 1.0;
-    let mut area: Option<(Vec3, Vec3)> = None;
-    for l in &scene.lights.lights {
-        match *l {
-            crate::light::Light::Area { tri, .. } => {
-                for k in scene.geometry.triangles[tri as usize].v {
-                    let p = scene.geometry.positions[k as usize];
-                    area = Some(area.map_or((p, p), |(a, b)| (a.min(p), b.max(p))));
-                }
-            }
-            crate::light::Light::Point { pos, .. } | crate::light::Light::Spot { pos, .. } => {
-                out.push(ShadowEnd::Ball(pos, 0.0))
-            }
-            crate::light::Light::Directional { dir, .. } => out.push(ShadowEnd::Along(-dir * far)),
-        }
-    }
-    if let Some((a, b)) = area {
-        out.push(ShadowEnd::Ball((a + b) * 0.5, (b - a).length() * 0.5));
-    }
-    out
-}
-
-/// Whether the sphere (c, r) meets the cone from apex `p` to the ball (c_l, r_l): the rays from a
-/// point to a light's ball (shadow rays), or a pixel's camera rays. The cone's cross-section at
-/// t ∈ [0, 1] is the ball (p + t (c_l − p), t r_l): narrow at `p`, as wide as the ball at its end (a
-/// mover near the floor and a light at the ceiling shade only the floor points whose narrow end of the
-/// cone it crosses). The sphere meets it when g(t) = |c − p − t d| − t r_l falls below r for some t; g
-/// is convex, its minimum found in closed form.
-pub(super) fn sphere_meets_cone(c: Vec3, r: f32, p: Vec3, c_l: Vec3, r_l: f32) -> bool {
-    let d = c_l - p;
-    let len = d.length();
-    if !(len > 0.0) {
-        return c.distance(p) < r + r_l;
-    }
-    let w = c - p;
-    let along = w.dot(d) / len;
-    let across = (w.length_squared() - along * along).max(0.0).sqrt();
-    let k = r_l / len;
-    // g'(t) = 0 where (along − t len) = −k across / √(1 − k²); past k ≥ 1 g only falls.
-    let t = if k >= 1.0 {
-        1.0
-    } else {
-        ((along + k * across / (1.0 - k * k).sqrt()) / len).clamp(0.0, 1.0)
-    };
-    w.distance(d * t) - t * r_l < r
-}
-
-/// Spheres binned in a uniform lattice over their bounds, each in every cell its bounding box meets:
-/// the spheres that may hold a point are those of its cell.
-struct SphereBins {
-    lo: Vec3,
-    cell: f32,
-    dims: [usize; 3],
-    /// Per cell, its spheres' slice of `ids` (`start[c]..start[c + 1]`).
-    start: Vec<u32>,
-    ids: Vec<u32>,
-}
-
-/// Cells of a [`SphereBins`] lattice, at most.
-const MAX_BIN_CELLS: f32 = 32_768.0;
-
-impl SphereBins {
-    fn new(spheres: impl Iterator<Item = (Vec3, f32)>) -> SphereBins {
-        let spheres: Vec<(Vec3, f32)> = spheres
-            .filter(|(c, r)| c.is_finite() && r.is_finite())
-            .collect();
-        let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
-        for &(c, r) in &spheres {
-            lo = lo.min(c - r);
-            hi = hi.max(c + r);
-        }
-        let extent = (hi - lo).max(Vec3::splat(1e-6));
-        // Cells about the mean sphere's diameter, fewer than MAX_BIN_CELLS.
-        let mean = spheres.iter().map(|s| 2.0 * s.1).sum::<f32>() / spheres.len().max(1) as f32;
-        let cell = mean
-            .max((extent.x * extent.y * extent.z / MAX_BIN_CELLS).cbrt())
-            .max(1e-6);
-        let dims = (extent / cell).ceil().max(Vec3::ONE).as_uvec3();
-        let dims = [dims.x as usize, dims.y as usize, dims.z as usize];
-        let cell_of = |p: Vec3| {
-            let c = ((p - lo) / cell).floor().max(Vec3::ZERO).as_uvec3();
-            [
-                (c.x as usize).min(dims[0] - 1),
-                (c.y as usize).min(dims[1] - 1),
-                (c.z as usize).min(dims[2] - 1),
-            ]
-        };
-        let index = |c: [usize; 3]| (c[2] * dims[1] + c[1]) * dims[0] + c[0];
-        let mut per_cell: Vec<Vec<u32>> = vec![Vec::new(); dims[0] * dims[1] * dims[2]];
-        for (id, &(c, r)) in spheres.iter().enumerate() {
-            let (a, b) = (cell_of(c - r), cell_of(c + r));
-            for z in a[2]..=b[2] {
-                for y in a[1]..=b[1] {
-                    for x in a[0]..=b[0] {
-                        per_cell[index([x, y, z])].push(id as u32);
-                    }
-                }
-            }
-        }
-        let mut start = Vec::with_capacity(per_cell.len() + 1);
-        let mut ids = Vec::new();
-        for c in per_cell {
-            start.push(ids.len() as u32);
-            ids.extend(c);
-        }
-        start.push(ids.len() as u32);
-        SphereBins {
-            lo,
-            cell,
-            dims,
-            start,
-            ids,
-        }
-    }
-
-    /// Whether `test` holds for one of the spheres whose bounding box may hold `p`.
-    fn any_near(&self, p: Vec3, mut test: impl FnMut(u32) -> bool) -> bool {
-        let f = (p - self.lo) / self.cell;
-        let top = Vec3::new(
-            self.dims[0] as f32,
-            self.dims[1] as f32,
-            self.dims[2] as f32,
-        );
-        if !(f.cmpge(Vec3::ZERO).all() && f.cmple(top).all()) {
-            return false;
-        }
-        let c = f.min(top - 1.0).as_uvec3();
-        let i = (c.z as usize * self.dims[1] + c.y as usize) * self.dims[0] + c.x as usize;
-        self.ids[self.start[i] as usize..self.start[i + 1] as usize]
-            .iter()
-            .any(|&id| test(id))
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::render::sequence::temporal::Moved;
     use std::path::Path;
+    use std::sync::atomic::AtomicBool;
 
     /// An edge pixel (centre and four corners) in a 3×3 image is relit by the mean change at its
     /// points when its own and its neighbours' changes agree within four times the tolerance, and shaded

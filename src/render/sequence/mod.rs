@@ -14,11 +14,15 @@
 //! while the camera stays), `atlas_carry` (atlas texels carried from the frame before).
 
 mod atlas_carry;
+mod cones;
 mod frame_photons;
 mod kept_pixels;
 mod light_change;
+mod pixel_ends;
+mod record_life;
 mod reuse;
 mod scene_change;
+mod screen;
 mod temporal;
 
 use std::ops::RangeInclusive;
