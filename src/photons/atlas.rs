@@ -27,6 +27,7 @@ use photon::{Estimate, PhotonMap};
 use rayon::prelude::*;
 
 use super::coverage::SceneCoverage;
+pub use super::texel_track::TexelIrradiance;
 use super::texel_track::{DiscChange, Track, Tracks};
 use crate::geometry::{Geometry, Hit};
 use crate::light::LightSample;
@@ -42,20 +43,6 @@ pub const MAX_TEXEL_SLOTS: u64 = 4 << 20;
 /// A texel's caustic estimate serves the whole texel when its disc's radius is at least this many texels
 /// (see [`IrradianceAtlas::caustic`]).
 pub const CAUSTIC_TEXEL_REACH: f32 = 2.0;
-
-/// What a texel holds: the diffuse radiance it reflects (its mean diffuse albedo / π × all of its
-/// irradiance, direct from shadow rays and the rest from photons), and the irradiance of its indirect
-/// photons only.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct TexelIrradiance {
-    pub radiance: Vec3,
-    pub e_indirect: Vec3,
-    /// Zero, except on an edge texel — one whose direct light from the point, spot and directional lights
-    /// varies across it by more than [`EDGE_CONTRAST`] (a shadow's edge crosses it, or a light's falloff
-    /// is steep there): its mean albedo / π, and `radiance` leaves that direct light out; the reader
-    /// adds `albedo_pi` × that light at its own point ([`direct_at`]).
-    pub albedo_pi: Vec3,
-}
 
 /// The direct light of the point, spot and directional lights at point `p` of the `front` or back side of
 /// triangle `tri`: what a reader of an edge texel multiplies by its `albedo_pi`.

@@ -13,7 +13,19 @@ use std::sync::Mutex;
 
 use glam::Vec3;
 
-use super::atlas::TexelIrradiance;
+/// What a texel holds: the diffuse radiance it reflects (its mean diffuse albedo / π × all of its
+/// irradiance, direct from shadow rays and the rest from photons), and the irradiance of its indirect
+/// photons only.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TexelIrradiance {
+    pub radiance: Vec3,
+    pub e_indirect: Vec3,
+    /// Zero, except on an edge texel — one whose direct light from the point, spot and directional lights
+    /// varies across it by more than [`EDGE_CONTRAST`](super::atlas::EDGE_CONTRAST) (a shadow's edge crosses it, or a light's falloff
+    /// is steep there): its mean albedo / π, and `radiance` leaves that direct light out; the reader
+    /// adds `albedo_pi` × that light at its own point ([`direct_at`](super::atlas::direct_at)).
+    pub albedo_pi: Vec3,
+}
 
 /// A texel's estimate, in parts.
 #[derive(Clone, Copy, Debug, PartialEq)]

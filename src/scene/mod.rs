@@ -4,6 +4,7 @@ pub mod animation;
 mod build;
 mod context;
 pub(crate) mod file;
+mod icache_settings;
 pub(crate) mod input;
 mod lights;
 pub mod limits;
@@ -22,10 +23,9 @@ pub use animation::{Animation, Change};
 pub use build::{
     check_sequence, frame_camera, frame_view, load, load_animation, load_frame, mesh_transform,
 };
+pub use icache_settings::{FillMode, IcacheSettings, SPACING_REFERENCE_SIDE};
 pub use media::{Media, MAX_SIGMA};
-pub use settings::{
-    FillMode, IcacheSettings, PhotonConfig, MAX_PHOTONS, MAX_SIDE, MAX_SPP, SPACING_REFERENCE_SIDE,
-};
+pub use settings::{PhotonConfig, MAX_PHOTONS, MAX_SIDE, MAX_SPP};
 
 use crate::accel::embree::Bvh;
 use crate::camera::Camera;

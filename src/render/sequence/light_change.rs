@@ -117,8 +117,8 @@ pub(super) fn sees_changed_light(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::render::sequence::record_life::TOLERANCE;
     use crate::render::sequence::temporal::tests::record;
-    use crate::render::sequence::temporal::TOLERANCE;
 
     #[test]
     fn records_see_deposits_that_changed_in_their_sky_and_not_a_mover_passing_by() {

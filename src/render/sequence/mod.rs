@@ -51,7 +51,7 @@ use crate::progress::Progress;
 use crate::scene::{self, Animation, Method, Scene};
 use atlas_carry::{AtlasBefore, PhotonKeys};
 use kept_pixels::ShadedLight;
-use reuse::{reused_image_stats, Earlier, Kept};
+use reuse::{reused_image_stats, Kept};
 use temporal::{Lifespans, Moved, SceneChange};
 
 /// Renders `frames` of `anim`, handing each frame to `on_frame` as soon as it is done (the caller
@@ -261,13 +261,8 @@ impl Sequence {
             media_cache: media_cache.as_ref(),
             radiance: radiance.as_ref(),
         });
-        let earlier = match (self.cache.take(), &light) {
-            (Some(c), Some(light)) => {
-                Some(self.earlier_records(scene, &mut plan, moving, light, cancel, c, &mut frame)?)
-            }
-            _ => None,
-        };
-        let (earlier, only, foreign, still_view) = Earlier::parts(earlier);
+        let (earlier, only, foreign, still_view) =
+            self.earlier(scene, &mut plan, moving, light.as_ref(), cancel, &mut frame)?;
         let cache = light
             .map(|l| {
                 let (files, work) = (&opts.files, (earlier, only));

@@ -7,18 +7,26 @@ use glam::{Mat3, Mat4, Vec3};
 use icache::{IrradianceCache, NewRecord, Record};
 use pmbase::luminance;
 
-use super::temporal::{key, Moved, MAX_LIFESPAN, MAX_QUIET_LIFESPAN, TOLERANCE};
 use crate::error::{runtime, Result};
 use crate::geometry::Hit;
 use crate::render::stats::TemporalStats;
 use crate::scene::Scene;
 
-/// A moved mesh as a bounding sphere: where it is, how large, how far it moved.
-#[derive(Clone, Copy)]
-pub(super) struct Mover {
-    pub(super) center: Vec3,
-    pub(super) radius: f32,
-    pub(super) step: f32,
+/// Relative change of its irradiance a record may build up before it is gathered again.
+pub(super) const TOLERANCE: f32 = 0.02;
+
+/// Most frames between two gathers of a record whose light changed at its last gather (Gautron's
+/// δt_max), and the first lifespan of a new record no moved mesh is near.
+pub(super) const MAX_LIFESPAN: u32 = 8;
+
+/// Most frames between two gathers of a record whose light did not change: each gather that finds
+/// no change doubles its lifespan, up to this. Where nothing moves near a record, its light changes
+/// only through the photons that meet the moved meshes; a moved mesh that comes near makes it due
+/// at once ([`near`]).
+pub(super) const MAX_QUIET_LIFESPAN: u32 = 32;
+
+pub(super) fn key(p: Vec3) -> [u32; 3] {
+    p.to_array().map(f32::to_bits)
 }
 
 /// A record's life: when it was last gathered, to what, how fast it changes, when it is due again.
@@ -81,17 +89,6 @@ pub(super) fn carried_along(
         }
         surface_at(scene, &moved).map(|hit| (moved, hit))
     })
-}
-
-impl Mover {
-    /// A mesh's bounding spheres before and after its step, each moving by that step.
-    pub(super) fn pair(m: &Moved) -> [Mover; 2] {
-        m.spheres.map(|(center, radius)| Mover {
-            center,
-            radius,
-            step: m.step,
-        })
-    }
 }
 
 /// The cache after an update: records whose surface is gone or whose new gather replaces them
@@ -243,18 +240,5 @@ pub(super) fn surface_at(scene: &Scene, r: &Record) -> Option<Hit> {
         [t, -t, b, -b]
             .into_iter()
             .find_map(|side| from(r.pos + side * lift).map(|hit| Hit { p: r.pos, ..hit }))
-    })
-}
-
-/// Whether a moved mesh is near enough to the record for its step to change the record's irradiance
-/// by more than `tolerance` of it: a sphere of radius r at distance d covers about r²/d² of the sky, and
-/// a step s changes that by about 2r²s/d³.
-pub(super) fn near(r: &Record, movers: &[Mover], tolerance: f32) -> bool {
-    movers.iter().any(|m| {
-        let to = m.center - r.pos;
-        let d = to.length();
-        d <= m.radius
-            || (to.dot(r.normal) > -m.radius
-                && 2.0 * m.radius * m.radius * m.step > tolerance * d * d * d)
     })
 }

@@ -4,6 +4,26 @@
 use super::*;
 
 impl Sequence {
+    /// The frame's records of the frames before ([`Self::earlier_records`]) in their parts (none
+    /// without photon maps: the cache is dropped).
+    pub(super) fn earlier(
+        &mut self,
+        scene: &Scene,
+        plan: &mut Plan,
+        moving: Option<Window>,
+        light: Option<&FillLight>,
+        cancel: &AtomicBool,
+        frame: &mut FrameStats,
+    ) -> Result<EarlierParts> {
+        let earlier = match (self.cache.take(), light) {
+            (Some(c), Some(light)) => {
+                Some(self.earlier_records(scene, plan, moving, light, cancel, c, frame)?)
+            }
+            _ => None,
+        };
+        Ok(Earlier::parts(earlier))
+    }
+
     /// The records of the frames before, for this frame: updated where a mesh or a light changed
     /// (the temporal cache), then made fit for this view when the camera moved. Where the camera
     /// stayed and a mesh moved, pass A visits only the window it changed, held finer.

@@ -53,16 +53,6 @@ use crate::integrator::pm::PmContext;
 use crate::render::stats::{FrameStats, TemporalStats};
 use crate::scene::Scene;
 
-/// Relative change of its irradiance a record may build up before it is gathered again.
-pub(super) const TOLERANCE: f32 = 0.02;
-/// Most frames between two gathers of a record whose light changed at its last gather (Gautron's
-/// δt_max), and the first lifespan of a new record no moved mesh is near.
-pub(super) const MAX_LIFESPAN: u32 = 8;
-/// Most frames between two gathers of a record whose light did not change: each gather that finds
-/// no change doubles its lifespan, up to this. Where nothing moves near a record, its light changes
-/// only through the photons that meet the moved meshes; a moved mesh that comes near makes it due
-/// at once ([`near`]).
-pub(super) const MAX_QUIET_LIFESPAN: u32 = 32;
 /// The noise target where something moved, as a fraction of the frame's: a pixel's Monte Carlo noise
 /// there differs from frame to frame (its samples meet other things), and is seen as flicker.
 pub const MOVING_NOISE: f32 = 0.5;
@@ -145,10 +135,6 @@ fn span_px(r: &Record, cam: &Camera) -> f32 {
     let dist = to.length();
     let dir = to / dist;
     r.r_clamped / cam.pixel_world(dir, dist, r.normal.dot(dir))
-}
-
-pub(super) fn key(p: Vec3) -> [u32; 3] {
-    p.to_array().map(f32::to_bits)
 }
 
 impl Lifespans {
@@ -378,6 +364,38 @@ impl Lifespans {
             changed,
         })
     }
+}
+
+/// A moved mesh as a bounding sphere: where it is, how large, how far it moved.
+#[derive(Clone, Copy)]
+pub(super) struct Mover {
+    pub(super) center: Vec3,
+    pub(super) radius: f32,
+    pub(super) step: f32,
+}
+
+impl Mover {
+    /// A mesh's bounding spheres before and after its step, each moving by that step.
+    pub(super) fn pair(m: &Moved) -> [Mover; 2] {
+        m.spheres.map(|(center, radius)| Mover {
+            center,
+            radius,
+            step: m.step,
+        })
+    }
+}
+
+/// Whether a moved mesh is near enough to the record for its step to change the record's irradiance
+/// by more than `tolerance` of it: a sphere of radius r at distance d covers about r²/d² of the sky, and
+/// a step s changes that by about 2r²s/d³.
+pub(super) fn near(r: &Record, movers: &[Mover], tolerance: f32) -> bool {
+    movers.iter().any(|m| {
+        let to = m.center - r.pos;
+        let d = to.length();
+        d <= m.radius
+            || (to.dot(r.normal) > -m.radius
+                && 2.0 * m.radius * m.radius * m.step > tolerance * d * d * d)
+    })
 }
 
 #[cfg(test)]

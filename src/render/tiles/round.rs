@@ -24,7 +24,41 @@ pub(super) struct RoundSpec {
     pub(super) lobe_points: bool,
 }
 
+impl Redo {
+    /// Pixel `k` of tile `t` as it stands, to take a round again from.
+    fn of(t: &TileState, k: usize) -> Redo {
+        let mut layers = [Vec3::ZERO; MAX_LAYERS];
+        for (l, layer) in layers.iter_mut().zip(&t.layers) {
+            *l = layer[k];
+        }
+        Redo {
+            k,
+            sums: t.pixels[k].clone(),
+            layers,
+            memo_len: t.memos[k].len(),
+            counters: SampleCounters::default(),
+            missed: Vec::new(),
+        }
+    }
+}
+
 impl RoundSpec {
+    /// Where sample `n` of pixel `pixel` falls, `uv` its own random numbers for an offset outside a
+    /// whole group.
+    fn sample_point(&self, pixel: u64, n: u32, (u, v): (f32, f32)) -> SamplePoint {
+        SamplePoint {
+            offset: offset(self.seed, pixel, n, self.spp, u, v),
+            points: Stratified {
+                lobe: if self.lobe_points {
+                    lobe_point(self.seed, pixel, n, self.spp)
+                } else {
+                    [0.5, 0.5]
+                },
+                light: light_points(self.seed, pixel, n, self.spp),
+            },
+        }
+    }
+
     /// Pixel (x, y) of tile `t` takes samples until it has `target`; with `keep_redo`, a pixel whose
     /// samples missed keeps its state from before them (and their counters) in `t.redo` instead of
     /// adding the counters to `counters`. False when `cancel` stopped it.
@@ -42,20 +76,7 @@ impl RoundSpec {
     ) -> bool {
         let w = t.window;
         let k = ((y - w.y0) * (w.x1 - w.x0) + (x - w.x0)) as usize;
-        let before = keep_redo.then(|| {
-            let mut layers = [Vec3::ZERO; MAX_LAYERS];
-            for (l, layer) in layers.iter_mut().zip(&t.layers) {
-                *l = layer[k];
-            }
-            Redo {
-                k,
-                sums: t.pixels[k].clone(),
-                layers,
-                memo_len: t.memos[k].len(),
-                counters: SampleCounters::default(),
-                missed: Vec::new(),
-            }
-        });
+        let before = keep_redo.then(|| Redo::of(t, k));
         let mut own = SampleCounters::default();
         let mut missed = Vec::new();
         let pixel = y as u64 * self.width as u64 + x as u64;
@@ -70,18 +91,8 @@ impl RoundSpec {
             }
             let mut rng = Rng::new(hash_keys(&[self.seed, pixel, px.n as u64]));
             let (u, v) = (rng.uniform(), rng.uniform());
-            let off = offset(self.seed, pixel, px.n, self.spp, u, v);
-            let at = SamplePoint {
-                offset: off,
-                points: Stratified {
-                    lobe: if self.lobe_points {
-                        lobe_point(self.seed, pixel, px.n, self.spp)
-                    } else {
-                        [0.5, 0.5]
-                    },
-                    light: light_points(self.seed, pixel, px.n, self.spp),
-                },
-            };
+            let at = self.sample_point(pixel, px.n, (u, v));
+            let off = at.offset;
             let (misses, monte_carlo) = (own.lookups.n_misses, own.monte_carlo);
             let values = sampler.sample(x, y, at, memo, &mut rng, &mut own, keep_redo);
             px.monte_carlo |= own.monte_carlo > monte_carlo;
