@@ -37,11 +37,12 @@ pub struct Media {
     camera: AtomicU16,
     /// The medium each light emits into (indexed as `Lights::lights`).
     pub lights: Vec<MediumId>,
-    /// The boundary meshes, and a BVH of their triangles alone, for [`Media::medium_at`].
+    /// The boundary meshes, and a BVH of their triangles alone ([`Media::first_boundary`]).
     boundaries: Vec<Boundary>,
     boundary_bvh: Bvh,
-    /// Per triangle of `boundary_bvh`: its boundary mesh, and its index among the scene's triangles.
-    boundary_of: Vec<u32>,
+    /// One BVH per boundary mesh, for the parity rays of [`Media::medium_at`] ([`Parity`]).
+    parity: Parity,
+    /// Per triangle of `boundary_bvh`: its index among the scene's triangles.
     triangle_of: Vec<u32>,
     bounds: (Vec3, Vec3),
 }
@@ -114,26 +115,39 @@ impl Media {
     /// The medium at point `p` (not on a boundary): the innermost boundary mesh around it, found by the
     /// parity of a ray's crossings with each boundary mesh (through the boundaries' own BVH).
     pub(crate) fn medium_at(&self, p: Vec3) -> MediumId {
-        innermost_by_bvh(
-            &self.boundaries,
-            &self.boundary_bvh,
-            &self.boundary_of,
-            p,
-            None,
-        )
+        innermost_by_bvh(&self.boundaries, &self.parity, p, None)
     }
 }
 
 /// The medium of the smallest boundary mesh (other than `skip`) around `p`, by the parity of a ray's
-/// crossings with each boundary mesh through their BVH; vacuum if none.
+/// crossings with each boundary mesh through its BVH; vacuum if none.
 fn innermost_by_bvh(
     boundaries: &[Boundary],
-    bvh: &Bvh,
-    boundary_of: &[u32],
+    parity: &Parity,
     p: Vec3,
     skip: Option<usize>,
 ) -> MediumId {
-    innermost_along(boundaries, bvh, boundary_of, p, PARITY_DIR, skip)
+    innermost_along(boundaries, parity, p, PARITY_DIR, skip)
+}
+
+/// One BVH per boundary mesh. Two media that share a face have two coincident triangles there, one
+/// of each boundary; a ray through one BVH of them all meets only one of the two (which one, the
+/// kernels decide on the tie: AVX2's and SSE4.2's chose differently) and stepped past both, so the
+/// other boundary's parity came out wrong: `pm`'s gathers started in the wrong medium next to the
+/// shared face (touching-media 2.3–2.6 % dark on SSE4.2). Within one closed mesh no faces coincide.
+struct Parity(Vec<Bvh>);
+
+impl Parity {
+    fn build(geo: &Geometry, boundaries: &[Boundary]) -> Result<Parity> {
+        boundaries
+            .iter()
+            .map(|b| {
+                let tris: Vec<[u32; 3]> = b.tris.clone().map(|t| geo.triangles[t].v).collect();
+                Ok(Bvh::build(&geo.positions, &tris)?)
+            })
+            .collect::<Result<Vec<_>>>()
+            .map(Parity)
+    }
 }
 
 /// The direction of parity rays: off every axis, so that it runs along no face of an axis-aligned box.
@@ -142,13 +156,12 @@ const PARITY_DIR: Vec3 = Vec3::new(0.5711, 0.6353, 0.5198);
 /// [`innermost_by_bvh`] with the parity ray along `d` (need not be unit length).
 fn innermost_along(
     boundaries: &[Boundary],
-    bvh: &Bvh,
-    boundary_of: &[u32],
+    parity: &Parity,
     p: Vec3,
     d: Vec3,
     skip: Option<usize>,
 ) -> MediumId {
-    let inside = containing(boundaries.len(), bvh, boundary_of, p, d);
+    let inside = containing(boundaries, parity, p, d);
     (0..boundaries.len())
         .filter(|&b| inside[b] && Some(b) != skip)
         .min_by(|&a, &b| boundaries[a].volume.total_cmp(&boundaries[b].volume))
@@ -157,26 +170,29 @@ fn innermost_along(
 
 /// Which of the `n_boundaries` boundary meshes contain `p`, by the parity of a ray's crossings with
 /// each along `d` (need not be unit length).
-fn containing(n_boundaries: usize, bvh: &Bvh, boundary_of: &[u32], p: Vec3, d: Vec3) -> Vec<bool> {
-    {
-        let d = d.normalize();
-        let mut inside = vec![false; n_boundaries];
-        let mut o = p;
-        // Every crossing counts: a ray crosses each boundary face at most once.
-        for _ in 0..=boundary_of.len() {
-            let Some(raw) = bvh.intersect(o, d, f32::INFINITY) else {
-                break;
-            };
-            let b = boundary_of[raw.prim as usize] as usize;
-            inside[b] = !inside[b];
-            let q = o + d * raw.t;
-            o = crate::geometry::offset_origin(q, d);
-            if (o - q).dot(d) <= 0.0 {
-                o = q + d * (q.abs().max_element() * 1e-6).max(1e-6);
+fn containing(boundaries: &[Boundary], parity: &Parity, p: Vec3, d: Vec3) -> Vec<bool> {
+    let d = d.normalize();
+    boundaries
+        .iter()
+        .zip(&parity.0)
+        .map(|(b, bvh)| {
+            let mut inside = false;
+            let mut o = p;
+            // Every crossing counts: a ray crosses each face at most once.
+            for _ in 0..=b.tris.len() {
+                let Some(raw) = bvh.intersect(o, d, f32::INFINITY) else {
+                    break;
+                };
+                inside = !inside;
+                let q = o + d * raw.t;
+                o = crate::geometry::offset_origin(q, d);
+                if (o - q).dot(d) <= 0.0 {
+                    o = q + d * (q.abs().max_element() * 1e-6).max(1e-6);
+                }
             }
-        }
-        inside
-    }
+            inside
+        })
+        .collect()
 }
 
 /// One closed boundary mesh.
@@ -216,16 +232,10 @@ pub(super) fn media(
         .iter()
         .map(|&t| geo.triangles[t as usize].v)
         .collect();
-    let boundary_of: Vec<u32> = boundaries
-        .iter()
-        .enumerate()
-        .flat_map(|(i, b)| std::iter::repeat_n(i as u32, b.tris.len()))
-        .collect();
     let boundary_bvh = Bvh::build(&geo.positions, &boundary_tris)?;
-    let innermost = |p: Vec3, skip: Option<usize>| {
-        innermost_by_bvh(&boundaries, &boundary_bvh, &boundary_of, p, skip)
-    };
-    check_nesting(cx, desc, geo, &boundaries, &boundary_bvh, &boundary_of)?;
+    let parity = Parity::build(geo, &boundaries)?;
+    let innermost = |p: Vec3, skip: Option<usize>| innermost_by_bvh(&boundaries, &parity, p, skip);
+    check_nesting(cx, desc, geo, &boundaries, &parity)?;
     overlap::check_overlaps(cx, desc, geo, &boundaries)?;
     // Each boundary mesh's outside: the innermost other boundary containing a point just inside it;
     // face by face where other boundaries could meet it (two media sharing a face).
@@ -237,7 +247,7 @@ pub(super) fn media(
                 return outside;
             }
             let (p, away) = point_outside(geo, t, b.outward);
-            innermost_along(&boundaries, &boundary_bvh, &boundary_of, p, away, Some(bi))
+            innermost_along(&boundaries, &parity, p, away, Some(bi))
         };
         let outsides: Vec<MediumId> = b.tris.clone().into_par_iter().map(face_outside).collect();
         for (t, outside) in b.tris.clone().zip(outsides) {
@@ -276,7 +286,7 @@ pub(super) fn media(
         lights,
         boundaries,
         boundary_bvh,
-        boundary_of,
+        parity,
         triangle_of,
         bounds,
     }))
@@ -396,20 +406,13 @@ fn check_nesting(
     desc: &SceneFile,
     geo: &Geometry,
     boundaries: &[Boundary],
-    bvh: &Bvh,
-    boundary_of: &[u32],
+    parity: &Parity,
 ) -> Result<()> {
     // Per boundary: the boundaries around a point just inside it (itself included).
     let around: Vec<Vec<usize>> = boundaries
         .par_iter()
         .map(|b| {
-            let inside = containing(
-                boundaries.len(),
-                bvh,
-                boundary_of,
-                point_inside(geo, b),
-                PARITY_DIR,
-            );
+            let inside = containing(boundaries, parity, point_inside(geo, b), PARITY_DIR);
             (0..boundaries.len()).filter(|&a| inside[a]).collect()
         })
         .collect();
