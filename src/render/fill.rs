@@ -32,6 +32,7 @@ pub struct CacheFill {
 }
 
 /// What the fill's gathers read: the photon maps, the media cache, and the radiance cache they add to.
+#[derive(Clone, Copy)]
 pub struct FillLight<'a> {
     pub photons: &'a PhotonData<'a>,
     pub media_cache: Option<&'a MediaCache>,
@@ -151,7 +152,7 @@ fn filled(
 
 /// The integrator pass A's gathers run: reading the photon maps, the media cache and the glossy
 /// radiance cache of `light`, the cache's first `foreign` records made for other views.
-fn fill_context<'a>(
+pub(crate) fn fill_context<'a>(
     scene: &'a Scene,
     plan: &Plan,
     light: FillLight<'a>,

@@ -43,7 +43,6 @@ use super::{
 };
 use crate::camera::Camera;
 use crate::error::Result;
-use crate::integrator::pm::{IndirectSource, PmContext};
 use crate::integrator::radiance_cache::RadianceCache;
 use crate::io::output::Image;
 use crate::photons::PhotonData;

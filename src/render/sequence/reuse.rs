@@ -48,16 +48,7 @@ impl Sequence {
                 if same_view {
                     self.shaded_light.note_all(scene, &plan.camera, &cache);
                 }
-                let ctx = PmContext {
-                    radiance: light.radiance,
-                    ..plan.pm_context(
-                        scene,
-                        light.photons,
-                        light.media_cache,
-                        IndirectSource::PhotonMap,
-                        cancel,
-                    )
-                };
+                let ctx = crate::render::fill::fill_context(scene, plan, *light, 0, cancel);
                 let temporal::Updated {
                     cache,
                     stats,
