@@ -130,11 +130,11 @@ fn innermost_by_bvh(
     innermost_along(boundaries, parity, p, PARITY_DIR, skip)
 }
 
-/// One BVH per boundary mesh. Two media that share a face have two coincident triangles there, one
-/// of each boundary; a ray through one BVH of them all meets only one of the two (which one, the
-/// kernels decide on the tie: AVX2's and SSE4.2's chose differently) and stepped past both, so the
-/// other boundary's parity came out wrong: `pm`'s gathers started in the wrong medium next to the
-/// shared face (touching-media 2.3–2.6 % dark on SSE4.2). Within one closed mesh no faces coincide.
+/// One BVH per boundary mesh, so that each boundary's crossings are counted on their own. Two media
+/// that share a face have two coincident triangles there, one of each boundary; a ray through one BVH
+/// of them all meets only one of the two (which one, Embree's kernels decide on the tie) and steps
+/// past both, and the other boundary's parity comes out wrong. Within one closed mesh no faces
+/// coincide.
 struct Parity(Vec<Bvh>);
 
 impl Parity {
