@@ -4,8 +4,10 @@ CARGO ?= cargo
 DEB_PACKAGES := libembree-dev libflann-dev libopenimageio-dev libopenexr-dev pkg-config g++ liblz4-dev
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 BIN := target/release/pmrender
+PYTHON ?= python3
+VENV := .venv
 
-.PHONY: deps build lint render test test-isa test-slow bench chart fuzz clean
+.PHONY: deps build lint render test test-isa test-slow bench chart fuzz clean venv pytest
 
 deps:
 	@missing=""; for p in $(DEB_PACKAGES); do dpkg -s $$p >/dev/null 2>&1 || missing="$$missing $$p"; done; \
@@ -36,6 +38,16 @@ render: deps build
 
 test: build
 	$(CARGO) test --release --workspace
+	$(MAKE) pytest
+
+# The Python module installed as a user installs it (`pip install .`), into the project's own virtual
+# environment with its test dependencies; then its pytest suite, which compares it with the binary.
+venv:
+	@[ -x $(VENV)/bin/python ] || $(PYTHON) -m venv $(VENV)
+	$(VENV)/bin/pip install -q --disable-pip-version-check '.[test]'
+
+pytest: build venv
+	PMRENDER_BIN=$(BIN) $(VENV)/bin/python -m pytest -q python/tests
 
 # The suite as a machine without AVX2 runs it: Embree's ray kernels forced to SSE4.2 (ISA=avx512
 # where the CPU has it), so that a bound set from one machine's noise fails here, not on another's.

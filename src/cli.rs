@@ -248,6 +248,7 @@ fn options(a: &RenderArgs) -> Result<Options> {
             save_cache: a.save_cache.clone(),
             load_cache: a.load_cache.clone(),
             cache_image: a.cache_image.clone(),
+            keep_maps: false,
         },
     })
 }
@@ -378,7 +379,7 @@ fn render_command(a: RenderArgs, cancel: &AtomicBool) -> Result<()> {
         save_cache: a.save_cache.clone(),
         cache_image: a.cache_image.clone(),
     };
-    let report = write_outputs(&paths, &scene, &out, stats, cancel)?;
+    let report = write_outputs(&paths, scene.fingerprint, &out, stats, cancel)?;
     if a.stats.is_some() {
         eprint!("{}", report.table());
     }
@@ -482,7 +483,7 @@ fn converge_command(a: ConvergeArgs) -> Result<()> {
             counts: &counts,
             reference: &a.reference,
             method,
-            out_dir: &a.output,
+            out_dir: Some(&a.output),
         };
         converge(&mut scene, &study, &opts, &bar, &signal::CANCEL)
     })?;

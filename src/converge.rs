@@ -143,12 +143,12 @@ pub struct Study<'a> {
     /// The reference image (an EXR; its `caustic` and `indirect` layers are used when present).
     pub reference: &'a Path,
     pub method: Method,
-    /// Where `converge.md`, `converge.json` and `converge.png` are written.
-    pub out_dir: &'a Path,
+    /// Where `converge.md`, `converge.json` and `converge.png` are written (`None`: only returned).
+    pub out_dir: Option<&'a Path>,
 }
 
 /// Renders at each of the study's counts and writes `converge.md`, `converge.json` and
-/// `converge.png` into its `out_dir`. `cancel` interrupts the renders (`Interrupted`, nothing
+/// `converge.png` into its `out_dir` (if any). `cancel` interrupts the renders (`Interrupted`, nothing
 /// written).
 pub fn converge(
     scene: &mut Scene,
@@ -218,13 +218,15 @@ pub fn converge(
         spp,
         reference_noise: reference_noise(reference),
     };
-    write_outputs(
-        &rows,
-        ref_terms.iter().any(Option::is_some),
-        &setting,
-        out_dir,
-        cancel,
-    )?;
+    if let Some(out_dir) = out_dir {
+        write_outputs(
+            &rows,
+            ref_terms.iter().any(Option::is_some),
+            &setting,
+            out_dir,
+            cancel,
+        )?;
+    }
     Ok(rows)
 }
 

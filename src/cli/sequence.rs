@@ -273,16 +273,23 @@ pub(super) fn render_animation(
     patterns.check(a, &frames, &bar, cancel)?;
     let start = Instant::now();
     let mut summary = Vec::new();
-    let mut on_frame = |f: u32, scene: &_, out: &_, stats: &pmrender::render::RenderStats| {
-        signal::arm(false);
-        let written = write_outputs(&patterns.at(f), scene, out, stats.clone(), cancel);
-        signal::arm(true);
-        written?;
-        summary.push(frame_summary(f, stats));
-        bar.bar.inc(1);
-        bar.frame.store(f + 1, Ordering::Relaxed);
-        Ok(())
-    };
+    let mut on_frame =
+        |f: u32, scene: &pmrender::scene::Scene, out: &_, stats: &pmrender::render::RenderStats| {
+            signal::arm(false);
+            let written = write_outputs(
+                &patterns.at(f),
+                scene.fingerprint,
+                out,
+                stats.clone(),
+                cancel,
+            );
+            signal::arm(true);
+            written?;
+            summary.push(frame_summary(f, stats));
+            bar.bar.inc(1);
+            bar.frame.store(f + 1, Ordering::Relaxed);
+            Ok(())
+        };
     signal::arm(true);
     let result =
         pool.install(|| render_sequence(anim, frames.clone(), opts, &bar, cancel, &mut on_frame));

@@ -103,6 +103,15 @@ impl RadianceCache {
             .insert(key, coefficients.into());
     }
 
+    /// The coefficients made so far, by the bits of their record's position, in the order of those bits
+    /// (a bake keeps them: see `render::baked`).
+    pub fn coefficients(&self) -> Vec<([u32; 3], Arc<[Vec3]>)> {
+        let made = self.made.lock().unwrap_or_else(|e| e.into_inner());
+        let mut all: Vec<_> = made.iter().map(|(k, c)| (*k, c.clone())).collect();
+        all.sort_unstable_by_key(|(k, _)| *k);
+        all
+    }
+
     /// Before the next frame of a sequence fills the irradiance cache: the coefficients made so far stay,
     /// to be attached again to the records that remain.
     pub fn next_frame(&mut self) {

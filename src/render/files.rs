@@ -25,6 +25,15 @@ pub struct FileOptions {
     pub save_cache: Option<PathBuf>,
     pub load_cache: Option<PathBuf>,
     pub cache_image: Option<PathBuf>,
+    /// Keep the traced photon maps in the output though no file names them (a bake kept by the caller).
+    pub keep_maps: bool,
+}
+
+impl FileOptions {
+    /// Whether the traced maps outlive the render (a file saves them or the caller keeps them).
+    pub fn keeps_maps(&self) -> bool {
+        self.keep_maps || self.save_photons.is_some() || self.dump_photons.is_some()
+    }
 }
 
 /// Traced photon maps kept for `--save-photons` / `--dump-photons`, written with the other outputs.

@@ -5,6 +5,7 @@
 //! sequence's frames ([`sequence`]) run the same phases, with what the frame before left attached
 //! between them.
 
+pub mod baked;
 pub mod budget;
 pub mod files;
 pub mod fill;
@@ -33,7 +34,7 @@ pub use crate::progress::{NoProgress, Progress};
 use crate::scene::{Method, Scene};
 use fill::{fill_cache, load_cache, CacheFill, FillLight};
 use photons::{build_maps, load_photons, trace_photons};
-pub use plan::{plan, Plan, DEFAULT_NOISE};
+pub use plan::{method, plan, Plan, DEFAULT_NOISE};
 use shade::{beauty, sampler, shade, KeptPixels, Lighting};
 pub use stats::{FrameStats, RenderStats};
 use tiles::Window;
@@ -111,17 +112,31 @@ pub fn render_seen_by(
     let plan = plan(scene, opts, camera)?;
     budget::check(scene, &plan, opts)?;
     let mut stats = RenderStats::new(scene, &plan);
-    let mut bake = bake(scene, &plan, &opts.files, &mut stats, progress, cancel)?;
+    let bake = bake(scene, &plan, &opts.files, &mut stats, progress, cancel)?;
+    shade_and_finish(scene, &plan, bake, stats, start, progress, cancel)
+}
+
+/// The still's phases after the bake: shading, the beauty and its layers, the statistics (begun at
+/// `start`), the output.
+fn shade_and_finish(
+    scene: &Scene,
+    plan: &Plan,
+    mut bake: Bake,
+    mut stats: RenderStats,
+    start: Instant,
+    progress: &dyn Progress,
+    cancel: &AtomicBool,
+) -> Result<(RenderOutput, RenderStats)> {
     let (layers, _) = shade_bake(
         scene,
-        &plan,
+        plan,
         &mut bake,
         KeptPixels::NONE,
         &mut stats,
         progress,
         cancel,
     )?;
-    let images = beauty(&plan, crate::integrator::terms::Layout::of(scene), layers);
+    let images = beauty(plan, crate::integrator::terms::Layout::of(scene), layers);
     stats.finish(
         start,
         bake.photons.as_ref(),
@@ -129,7 +144,7 @@ pub fn render_seen_by(
         bake.cache.as_ref().map(|c| &c.cache),
         bake.radiance.as_ref(),
     );
-    Ok((bake.into_output(images, plan.camera), stats))
+    Ok((bake.into_output(images, plan.camera.clone()), stats))
 }
 
 /// The bake of a still: the photon maps traced (every path anew) or loaded, then the media cache,

@@ -50,7 +50,7 @@ pub fn trace_photons(
     )?;
     progress.finish();
     let time_s = t.elapsed().as_secs_f64();
-    let keep = files.save_photons.is_some() || files.dump_photons.is_some();
+    let keep = files.keeps_maps();
     let info = keep.then(|| {
         MapsInfo::new(
             scene.fingerprint,
@@ -67,7 +67,16 @@ pub fn trace_photons(
 pub fn load_photons(scene: &Scene, plan: &Plan, path: &Path) -> Result<(Maps, PhotonStats)> {
     let t = Instant::now();
     let loaded = files::load_photons(path, scene)?;
-    let time_s = t.elapsed().as_secs_f64();
+    Ok(loaded_photons(plan, loaded, t))
+}
+
+/// Maps read from a file or a bake (since `start`), with their statistics.
+pub(crate) fn loaded_photons(
+    plan: &Plan,
+    loaded: photon::LoadedMaps,
+    start: Instant,
+) -> (Maps, PhotonStats) {
+    let time_s = start.elapsed().as_secs_f64();
     let m = &loaded.maps;
     let (global, caustic, volume, volume_caustic) = (
         m.global.as_ref(),
@@ -94,14 +103,14 @@ pub fn load_photons(scene: &Scene, plan: &Plan, path: &Path) -> Result<(Maps, Ph
         ..Default::default()
     };
     let stats = photon_stats(plan, time_s, true, trace);
-    Ok((
+    (
         Maps {
             maps: loaded.maps,
             info: None,
             log: None,
         },
         stats,
-    ))
+    )
 }
 
 fn photon_stats(plan: &Plan, time_s: f64, loaded: bool, trace: photon::TraceStats) -> PhotonStats {

@@ -109,7 +109,7 @@ impl Plan {
 }
 
 /// The method `opts` or else the scene asks for (`pm` by default).
-pub(super) fn method(scene: &Scene, opts: &Options) -> Method {
+pub fn method(scene: &Scene, opts: &Options) -> Method {
     opts.method.or(scene.settings.method).unwrap_or(Method::Pm)
 }
 

@@ -11,7 +11,6 @@ use super::{RenderOutput, RenderStats};
 use crate::error::{Error, Result};
 use crate::io::atomic::OutputSet;
 use crate::io::output::{stage_exr, stage_png, Layers};
-use crate::scene::Scene;
 use crate::stats::Report;
 
 /// Where each output goes (`None`: not wanted).
@@ -26,11 +25,11 @@ pub struct OutputPaths {
     pub cache_image: Option<PathBuf>,
 }
 
-/// Writes every output, all or nothing; returns the report of `stats` with this phase's time added (the
+/// Writes every output, all or nothing (a saved cache marked with the scene's `fingerprint`); returns the report of `stats` with this phase's time added (the
 /// one saved as `--stats`). `cancel` is read between files.
 pub fn write_outputs(
     paths: &OutputPaths,
-    scene: &Scene,
+    fingerprint: u64,
     out: &RenderOutput,
     mut stats: RenderStats,
     cancel: &AtomicBool,
@@ -62,7 +61,7 @@ pub fn write_outputs(
         None => {}
         Some(c) => {
             if let Some(p) = &paths.save_cache {
-                save_cache(&mut set, p, c, scene.fingerprint)?;
+                save_cache(&mut set, p, c, fingerprint)?;
                 interrupted()?;
             }
             if let Some(p) = &paths.cache_image {

@@ -56,11 +56,11 @@ impl Method {
     }
 
     /// Whether the method traces photon maps (every method but `path`).
-    pub(crate) fn uses_photon_maps(self) -> bool {
+    pub fn uses_photon_maps(self) -> bool {
         self != Method::Path
     }
 
-    pub(crate) fn name(self) -> &'static str {
+    pub fn name(self) -> &'static str {
         match self {
             Method::Path => "path",
             Method::Pm => "pm",

@@ -1,0 +1,225 @@
+//! `render` and what it returns: the beauty and its layers as float32 buffers, the statistics as
+//! the `--stats` JSON, and `write` for the command line's outputs.
+
+use std::path::PathBuf;
+use std::sync::atomic::AtomicBool;
+
+use pmrender::io::output::Image;
+use pmrender::render::outputs::{check_distinct, check_output, scene_inputs, Output};
+use pmrender::render::write::{write_outputs, OutputPaths};
+use pmrender::render::{RenderOutput, RenderStats};
+use pyo3::prelude::*;
+use pyo3::types::PyByteArray;
+
+use crate::bake::Bake;
+use crate::errors::{bad_arg, to_py};
+use crate::options::{pool, Settings};
+use crate::run::{detached, still_phases};
+use crate::scene::Scene;
+
+/// A finished render.
+#[pyclass(frozen, module = "pmrender")]
+pub struct RenderResult {
+    pub out: RenderOutput,
+    pub stats: RenderStats,
+    /// The scene's fingerprint, marking a saved cache.
+    pub fingerprint: u64,
+    /// The scene file, which no output may replace.
+    pub scene_path: PathBuf,
+}
+
+/// An image's pixels as float32 RGB, row by row from the top (numpy's H×W×3 in C order).
+pub fn pixel_bytes<'py>(py: Python<'py>, img: &Image) -> Bound<'py, PyByteArray> {
+    let mut bytes = Vec::with_capacity(img.pixels.len() * 12);
+    for p in &img.pixels {
+        for c in p.to_array() {
+            bytes.extend(c.to_le_bytes());
+        }
+    }
+    PyByteArray::new(py, &bytes)
+}
+
+#[pymethods]
+impl RenderResult {
+    #[getter]
+    fn width(&self) -> u32 {
+        self.out.beauty.width
+    }
+
+    #[getter]
+    fn height(&self) -> u32 {
+        self.out.beauty.height
+    }
+
+    /// The beauty's pixels (float32 RGB bytes).
+    fn image_bytes<'py>(&self, py: Python<'py>) -> Bound<'py, PyByteArray> {
+        pixel_bytes(py, &self.out.beauty)
+    }
+
+    /// The layers' names, in the EXR's order.
+    fn layer_names(&self) -> Vec<&'static str> {
+        self.out.layers.iter().map(|(n, _)| *n).collect()
+    }
+
+    /// A layer's pixels (float32 RGB bytes).
+    fn layer_bytes<'py>(&self, py: Python<'py>, name: &str) -> PyResult<Bound<'py, PyByteArray>> {
+        let (_, img) = self
+            .out
+            .layers
+            .iter()
+            .find(|(n, _)| *n == name)
+            .ok_or_else(|| bad_arg("name", format!("no layer '{name}'")))?;
+        Ok(pixel_bytes(py, img))
+    }
+
+    /// The statistics as the `--stats` JSON text.
+    fn stats_json(&self) -> PyResult<String> {
+        serde_json::to_string(&self.stats.report().to_json())
+            .map_err(|e| pyo3::exceptions::PyRuntimeError::new_err(e.to_string()))
+    }
+
+    /// Writes the command line's outputs: the layered EXR, and each of the others given.
+    #[pyo3(signature = (path, *, png=None, stats=None, save_cache=None, cache_image=None))]
+    fn write(
+        &self,
+        py: Python<'_>,
+        path: PathBuf,
+        png: Option<PathBuf>,
+        stats: Option<PathBuf>,
+        save_cache: Option<PathBuf>,
+        cache_image: Option<PathBuf>,
+    ) -> PyResult<()> {
+        for (name, p, ext) in [
+            ("path", Some(&path), "exr"),
+            ("png", png.as_ref(), "png"),
+            ("cache_image", cache_image.as_ref(), "png"),
+        ] {
+            if let Some(p) = p {
+                if !p.extension().is_some_and(|e| e.eq_ignore_ascii_case(ext)) {
+                    return Err(bad_arg(
+                        name,
+                        format!("'{}' must end in .{ext}", p.display()),
+                    ));
+                }
+            }
+        }
+        if (save_cache.is_some() || cache_image.is_some()) && self.out.cache.is_none() {
+            return Err(bad_arg(
+                "save_cache",
+                "this render has no irradiance cache (method pm has one)",
+            ));
+        }
+        let mut outputs: Vec<Output> = vec![("path", path.as_path())];
+        for (name, p) in [
+            ("png", &png),
+            ("stats", &stats),
+            ("save_cache", &save_cache),
+            ("cache_image", &cache_image),
+        ] {
+            if let Some(p) = p {
+                outputs.push((name, p.as_path()));
+            }
+        }
+        for (name, p) in &outputs {
+            check_output(name, p).map_err(to_py)?;
+        }
+        check_distinct(&outputs, &scene_inputs(&self.scene_path)).map_err(to_py)?;
+        let paths = OutputPaths {
+            exr: path.clone(),
+            png: png.clone(),
+            stats: stats.clone(),
+            save_photons: None,
+            dump_photons: None,
+            save_cache: save_cache.clone(),
+            cache_image: cache_image.clone(),
+        };
+        let never = AtomicBool::new(false);
+        py.detach(|| {
+            write_outputs(
+                &paths,
+                self.fingerprint,
+                &self.out,
+                self.stats.clone(),
+                &never,
+            )
+        })
+        .map_err(to_py)?;
+        Ok(())
+    }
+}
+
+#[pyfunction]
+#[pyo3(signature = (scene, *, method=None, spp=None, width=None, height=None, seed=None,
+                    threads=None, noise=None, aa_spp=None, crop=None, max_memory=None,
+                    progress=None, bake=None))]
+#[allow(clippy::too_many_arguments)]
+pub fn render(
+    py: Python<'_>,
+    scene: &Scene,
+    method: Option<String>,
+    spp: Option<i64>,
+    width: Option<i64>,
+    height: Option<i64>,
+    seed: Option<u64>,
+    threads: Option<i64>,
+    noise: Option<f64>,
+    aa_spp: Option<i64>,
+    crop: Option<(u32, u32, u32, u32)>,
+    max_memory: Option<String>,
+    progress: Option<Bound<'_, PyAny>>,
+    bake: Option<&Bake>,
+) -> PyResult<RenderResult> {
+    let still = scene.still()?.clone();
+    let mut settings = scene.settings.over(&Settings {
+        method,
+        spp,
+        noise,
+        aa_spp,
+        width,
+        height,
+        seed,
+        crop,
+        max_memory,
+    });
+    if let (Some(b), None) = (bake, &settings.method) {
+        settings.method = Some(b.baked.method.name().to_string());
+    }
+    let opts = settings.options()?;
+    let pool = pool(threads)?;
+    let method = pmrender::render::method(&still, &opts);
+    let phases = still_phases(
+        method == pmrender::scene::Method::Pm,
+        method.uses_photon_maps(),
+        bake.is_some(),
+    );
+    let baked = bake.map(|b| &b.baked);
+    let (out, stats) = detached(py, progress.as_ref(), phases, |watch| {
+        pool.install(|| match baked {
+            Some(b) => {
+                pmrender::render::baked::render_baked(&still, &opts, b, watch, &watch.cancel)
+            }
+            None => pmrender::render::render(&still, &opts, watch, &watch.cancel),
+        })
+    })?;
+    Ok(RenderResult {
+        out,
+        stats,
+        fingerprint: still.fingerprint,
+        scene_path: scene.path.clone(),
+    })
+}
+
+/// An image file's pixels (an EXR's beauty, or its layer `layer`) as (width, height, float32 RGB
+/// bytes).
+#[pyfunction]
+#[pyo3(signature = (path, layer=None))]
+pub fn read_image<'py>(
+    py: Python<'py>,
+    path: PathBuf,
+    layer: Option<String>,
+) -> PyResult<(u32, u32, Bound<'py, PyByteArray>)> {
+    let img = py
+        .detach(|| pmrender::io::output::read_layer(&path, layer.as_deref()))
+        .map_err(|e| pyo3::exceptions::PyValueError::new_err(format!("{}: {e}", path.display())))?;
+    Ok((img.width, img.height, pixel_bytes(py, &img)))
+}
