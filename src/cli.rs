@@ -50,8 +50,8 @@ struct ExportArgs {
     #[arg(long, default_value_t = 1024, allow_negative_numbers = true)]
     spp: i64,
     /// Of an animated scene, the frame to export (default 0).
-    #[arg(long)]
-    frame: Option<u32>,
+    #[arg(long, allow_negative_numbers = true)]
+    frame: Option<i64>,
 }
 
 #[derive(Args)]
@@ -141,9 +141,18 @@ struct RenderArgs {
     /// Memory budget, e.g. 8G or 512M (default: PMRENDER_MAX_MEMORY, else 75 % of the RAM).
     #[arg(long, allow_hyphen_values = true)]
     max_memory: Option<String>,
-    /// An animated scene's frames to render, A..B inclusive (default: all).
-    #[arg(long, value_name = "A..B")]
+    /// An animated scene's frames to render, A..B inclusive (default: all). Each is the frame the
+    /// whole sequence renders: a range starting inside a chunk renders the chunk from its start.
+    #[arg(long, value_name = "A..B", allow_hyphen_values = true)]
     frames: Option<String>,
+    /// Render a still as N bands of rows shaded apart from one bake (pass A over the whole image), as
+    /// a farm's tiles are: the same pixels however the tiles are shared out.
+    #[arg(long, value_name = "N", allow_negative_numbers = true)]
+    tiles: Option<i64>,
+    /// A sequence's chunk length: the temporal cache starts afresh every N frames (default: never),
+    /// so that chunks render apart (on a farm) and still give the same frames.
+    #[arg(long, value_name = "N", allow_negative_numbers = true)]
+    chunk: Option<i64>,
 }
 
 /// The bar on stderr, hidden with --quiet or when stderr is not a terminal.
@@ -240,6 +249,7 @@ fn options(a: &RenderArgs) -> Result<Options> {
         height: in_range("--height", a.height, MAX_SIDE)?,
         max_memory,
         seed: a.seed,
+        chunk: in_range("--chunk", a.chunk, u32::MAX)?,
         crop,
         files: FileOptions {
             save_photons: a.save_photons.clone(),
@@ -345,7 +355,13 @@ fn render_command(a: RenderArgs, cancel: &AtomicBool) -> Result<()> {
     check_extensions(&a)?;
     // No file of ours exists until the outputs are written: a signal may end the process at any time.
     signal::arm(true);
+    if a.tiles.is_some() {
+        check_tiles(&a)?;
+    }
     if let Some(anim) = scene::load_animation(&a.scene)? {
+        if a.tiles.is_some() {
+            return Err(option("--tiles", "is for still scenes"));
+        }
         // Each frame's outputs are checked once the frame numbers are known (`####` may stand in a
         // folder's name).
         let pool = pool(threads)?;
@@ -355,8 +371,13 @@ fn render_command(a: RenderArgs, cancel: &AtomicBool) -> Result<()> {
     signal::arm(false);
     check_outputs(&a)?;
     signal::arm(true);
-    if a.frames.is_some() {
-        return Err(option("--frames", "the scene has no [animation]"));
+    for (opt, given) in [
+        ("--frames", a.frames.is_some()),
+        ("--chunk", a.chunk.is_some()),
+    ] {
+        if given {
+            return Err(option(opt, "the scene has no [animation]"));
+        }
     }
     let scene = scene::load(&a.scene)?;
     let mut inputs = scene_inputs(&a.scene);
@@ -364,7 +385,11 @@ fn render_command(a: RenderArgs, cancel: &AtomicBool) -> Result<()> {
     check_distinct(&outputs(&a), &inputs)?;
     let pool = pool(threads)?;
     let bar = Bar::new(a.quiet);
-    let result = pool.install(|| render::render(&scene, &opts, &bar, cancel));
+    let tiles = in_range("--tiles", a.tiles, MAX_SIDE)?;
+    let result = pool.install(|| match tiles {
+        Some(n) => render::tiled::render_tiled(&scene, &opts, n, &bar, cancel),
+        None => render::render(&scene, &opts, &bar, cancel),
+    });
     signal::arm(false);
     let (out, stats) = result?;
     for w in stats.warnings() {
@@ -386,6 +411,27 @@ fn render_command(a: RenderArgs, cancel: &AtomicBool) -> Result<()> {
     Ok(())
 }
 
+/// `--tiles` renders from a bake of its own: no photon or cache file is read or saved with it.
+fn check_tiles(a: &RenderArgs) -> Result<()> {
+    for (opt, given) in [
+        ("--load-photons", a.load_photons.is_some()),
+        ("--load-cache", a.load_cache.is_some()),
+        ("--save-photons", a.save_photons.is_some()),
+        ("--dump-photons", a.dump_photons.is_some()),
+        ("--save-cache", a.save_cache.is_some()),
+        ("--cache-image", a.cache_image.is_some()),
+        ("--crop", a.crop.is_some()),
+    ] {
+        if given {
+            return Err(option(
+                "--tiles",
+                format!("renders from a bake of its own: leave out {opt}"),
+            ));
+        }
+    }
+    Ok(())
+}
+
 /// Loads a scene while the watchdog may end the process on a signal (a read blocked on a FIFO cannot
 /// poll the flag); nothing has been written yet.
 fn load_interruptible(path: &Path) -> Result<Scene> {
@@ -403,13 +449,13 @@ fn export_scene(a: &ExportArgs) -> Result<Scene> {
         (None, Some(_)) => Err(option("--frame", "the scene has no [animation]")),
         (Some(anim), f) => {
             let f = f.unwrap_or(0);
-            if f >= anim.frames() {
+            if !(0..i64::from(anim.frames())).contains(&f) {
                 return Err(option(
                     "--frame",
                     format!("{f} is outside the sequence 0..={}", anim.frames() - 1),
                 ));
             }
-            scene::load_frame(&anim, f)
+            scene::load_frame(&anim, f as u32)
         }
     });
     signal::arm(false);
@@ -476,6 +522,13 @@ fn converge_command(a: ConvergeArgs) -> Result<()> {
     let threads = thread_count(a.threads)?;
     env_max_memory()?;
     check_output_dir(&a.output)?;
+    // A study of an animated scene would silently be one of its first frame.
+    if scene::load_animation(&a.scene)?.is_some() {
+        return Err(Error::Input(format!(
+            "{}: the scene is animated: converge studies a still scene",
+            a.scene.display()
+        )));
+    }
     let mut scene = load_interruptible(&a.scene)?;
     let bar = Bar::new(a.quiet);
     let rows = pool(threads)?.install(|| {

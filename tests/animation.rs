@@ -598,7 +598,8 @@ fn json(path: &str) -> serde_json::Value {
 #[test]
 fn stats_write_each_frame_and_a_sequence_summary() {
     // Frames 1–2: the camera moves (photons traced once, cache carried over); frame 3 holds still
-    // (nothing changes); frame 4: the cube moves (photons traced again). --frames 1..4.
+    // (nothing changes); frame 4: the cube moves (photons traced again). --frames 1..4, which renders
+    // frame 0 too, unwritten, to reach frame 1 as the whole run does.
     let mut k = Keys::frames(6);
     k.camera = format!(
         "[[camera.key]]\nframe = 1\neye = {}\n[[camera.key]]\nframe = 2\neye = {}\n",
@@ -652,9 +653,12 @@ fn stats_write_each_frame_and_a_sequence_summary() {
             assert!(r.get(key).is_some_and(|v| !v.is_null()), "{key} in {r}");
         }
     }
-    // Frame 2's camera moved over a static scene: its photon maps are frame 1's, its cache carries
-    // frame 1's records. Frame 4's cube moved: its photons are traced again.
-    assert_eq!(rows[0]["photons"], "traced", "{}", rows[0]);
+    // Frame 0, rendered to reach the range (not written), traced the photon maps, and nothing moved
+    // to frame 1: frame 1 reuses them with frame 0's image. Frame 2's camera moved over a static
+    // scene: its photon maps are still frame 0's, its cache carries the records before. Frame 4's cube
+    // moved: its photons are traced again.
+    assert_eq!(rows[0]["photons"], "reused", "{}", rows[0]);
+    assert_eq!(rows[0]["image_reused"], true, "{}", rows[0]);
     assert_ne!(rows[1]["photons"], "traced", "{}", rows[1]);
     assert!(
         rows[1]["records_reused"].as_u64().unwrap() > 0,
@@ -1030,6 +1034,8 @@ fn anim_ball_flicker_against_the_mitsuba_sequence() {
             &hs,
             "--frames",
             &fs,
+            "--chunk",
+            "1",
         ]);
     }
     let ind_s = t.elapsed().as_secs_f64();

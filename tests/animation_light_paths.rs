@@ -1,5 +1,5 @@
 //! Animated scenes where what moves changes light far from itself, each `pm` frame checked against
-//! the still render of that frame (`--frames F..F`, a fresh cache):
+//! the still render of that frame (`--frames F..F --chunk 1`, a fresh cache):
 //!
 //! - a mirror panel turning about its own centre under a spot (its bounding sphere stays put): the
 //!   cached indirect light follows the reflected beam from the green wall to the red one;
@@ -119,7 +119,8 @@ fn frame_and_still(d: &Path, f: u32, extra: &[&str]) -> (String, String) {
     render_ok(d, &args);
     let still = out(d, "still-####.exr");
     let frames = format!("{f}..{f}");
-    render_ok(d, &["-o", &still, "--frames", &frames]);
+    // A chunk of one frame: the frame rendered as a still of its own.
+    render_ok(d, &["-o", &still, "--frames", &frames, "--chunk", "1"]);
     (
         out(d, &format!("f-{f:04}.exr")),
         out(d, &format!("still-{f:04}.exr")),
@@ -490,8 +491,9 @@ fn records_stop_changing_hue_when_the_light_stops() {
 
 /// The anim-ball box lit by a narrow spot at the red wall and a dim point light (`pm` chooses 1000
 /// gather rays here), a ball (scale 0.1) sliding 0.0088 a frame into the spot's beam: frames 54–59
-/// rendered as a sequence of their own. The rays chosen on the first frame were forgotten on the
-/// second, chosen again on the third (pass A's records refined again in rounds), forgotten again…:
+/// rendered as a sequence of their own (a chunk from frame 54). The rays chosen on the first frame
+/// were forgotten on the second, chosen again on the third (pass A's records refined again in
+/// rounds), forgotten again…:
 /// over a long run the red of the `indirect` layer alternated by about 3 % from frame to frame where
 /// the stills change by 0.3 %. Now the first frame alone chooses, and every later frame's gathers
 /// (pass A's and the records' updates) take as many rays as it chose.
@@ -506,7 +508,9 @@ fn every_frame_gathers_with_the_rays_the_first_chose() {
     let (pattern, stats) = (out(d.path(), "f-####.exr"), out(d.path(), "f-####.json"));
     render_ok(
         d.path(),
-        &["-o", &pattern, "--stats", &stats, "--frames", "54..59"],
+        &[
+            "-o", &pattern, "--stats", &stats, "--frames", "54..59", "--chunk", "54",
+        ],
     );
     let gather = |f: u32| json(&out(d.path(), &format!("f-{f:04}.json")))["gather"].clone();
     let chosen = gather(54)["rays_chosen"]

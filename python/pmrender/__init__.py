@@ -38,6 +38,7 @@ __all__ = [
     "render_sequence",
     "converge",
     "read_image",
+    "tile_windows",
 ]
 
 Scene = _native.Scene
@@ -134,6 +135,18 @@ class Bake:
         """Writes the bake as one file (through a temporary file renamed into place)."""
         self._native.save(os.fspath(path))
 
+    def to_bytes(self) -> bytes:
+        """The bake's file as bytes: what ``save`` writes, and what pickling a bake ships."""
+        return self._native.to_bytes()
+
+    @staticmethod
+    def from_bytes(data: bytes) -> "Bake":
+        """A bake from ``to_bytes``'s bytes (checked: a damaged one raises ValueError)."""
+        return Bake(_native.bake_from_bytes(data))
+
+    def __reduce__(self):
+        return (Bake.from_bytes, (self.to_bytes(),))
+
     def __repr__(self) -> str:
         return f"<pmrender.Bake for method {self.method}>"
 
@@ -209,6 +222,7 @@ def render(
     progress: Progress = None,
     *,
     bake: Optional[Bake] = None,
+    tiles: Optional[int] = None,
     aa_spp: Optional[int] = None,
     crop: Optional[Tuple[int, int, int, int]] = None,
     max_memory: Optional[str] = None,
@@ -218,7 +232,9 @@ def render(
     ``method``: ``pm`` (default), ``pm-fg``, ``photons`` or ``path``; ``noise``: adaptive sampling's
     target (0: every pixel takes ``spp``); ``progress``: True for a bar on stderr, or a callable given
     the fraction done (on this thread). With ``bake``, only pass B runs, from the bake's photon maps
-    and caches: the same pixels as the render that would have made it.
+    and caches: the same pixels as the render that would have made it. With ``tiles``, the image is
+    shaded as that many bands of rows apart from one bake, as ``pmrender render --tiles`` and the farm
+    do (see ``tile_windows``).
     """
     if bake is not None and not isinstance(bake, Bake):
         raise ValueError("bake: must come from pmrender.bake or pmrender.load_bake")
@@ -237,6 +253,7 @@ def render(
             max_memory=max_memory,
             progress=_progress(progress),
             bake=None if bake is None else bake._native,
+            tiles=_int("tiles", tiles),
         )
     )
 
@@ -293,13 +310,16 @@ def render_sequence(
     noise: Optional[float] = None,
     progress: Progress = None,
     *,
+    chunk: Optional[int] = None,
     aa_spp: Optional[int] = None,
     max_memory: Optional[str] = None,
 ) -> Iterator[Tuple[int, Result]]:
     """Renders an animated scene's frames (``frames``: consecutive frame numbers, e.g.
     ``range(0, 8)``; default all) with temporal caching, as the CLI does, yielding
     ``(frame, Result)`` as each is done. The next frame renders while you work on this one; leaving
-    the loop early stops the render."""
+    the loop early stops the render. ``chunk``: the temporal cache starts afresh every ``chunk``
+    frames (``pmrender render --chunk``); a range starting inside a chunk renders the chunk from its
+    first frame, so every frame is the one the whole sequence gives."""
     span = None
     if frames is not None:
         fs = list(frames)
@@ -322,6 +342,7 @@ def render_sequence(
         noise=noise,
         aa_spp=_int("aa_spp", aa_spp),
         max_memory=max_memory,
+        chunk=_int("chunk", chunk),
         progress=_progress(progress),
     )
     return ((f, Result(r)) for f, r in native)
@@ -362,3 +383,9 @@ def read_image(path: PathLike, layer: Optional[str] = None) -> np.ndarray:
     (``caustic.R`` ...), as the renderer reads references."""
     width, height, buf = _native.read_image(os.fspath(path), layer)
     return _pixels(buf, width, height)
+
+
+def tile_windows(width: int, height: int, n: int) -> List[Tuple[int, int, int, int]]:
+    """The tiles ``render(tiles=n)`` and the farm split a width×height image into: bands of rows,
+    each ``(x0, y0, x1, y1)``."""
+    return _native.tile_windows(width, height, n)

@@ -40,6 +40,11 @@ impl Bake {
             .transpose()
     }
 
+    /// The bake's file as bytes (to ship it to another process).
+    fn to_bytes<'py>(&self, py: Python<'py>) -> Bound<'py, pyo3::types::PyBytes> {
+        pyo3::types::PyBytes::new(py, &self.baked.to_bytes())
+    }
+
     /// Writes the bake to `path` (all or nothing).
     fn save(&self, py: Python<'_>, path: PathBuf) -> PyResult<()> {
         check_output("path", &path).map_err(to_py)?;
@@ -96,5 +101,12 @@ pub fn bake(
 #[pyfunction]
 pub fn load_bake(py: Python<'_>, path: PathBuf) -> PyResult<Bake> {
     let baked = py.detach(|| Baked::load(&path)).map_err(to_py)?;
+    Ok(Bake { baked, stats: None })
+}
+
+/// A bake from the bytes `Bake.to_bytes` gave.
+#[pyfunction]
+pub fn bake_from_bytes(data: &[u8]) -> PyResult<Bake> {
+    let baked = Baked::from_bytes(data).map_err(pyo3::exceptions::PyValueError::new_err)?;
     Ok(Bake { baked, stats: None })
 }

@@ -28,5 +28,8 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(sequence::render_sequence, m)?)?;
     m.add_function(wrap_pyfunction!(converge::converge, m)?)?;
     m.add_function(wrap_pyfunction!(result::read_image, m)?)?;
+    m.add_function(wrap_pyfunction!(result::write_exr, m)?)?;
+    m.add_function(wrap_pyfunction!(result::tile_windows, m)?)?;
+    m.add_function(wrap_pyfunction!(bake::bake_from_bytes, m)?)?;
     Ok(())
 }

@@ -151,7 +151,7 @@ impl RenderResult {
 #[pyfunction]
 #[pyo3(signature = (scene, *, method=None, spp=None, width=None, height=None, seed=None,
                     threads=None, noise=None, aa_spp=None, crop=None, max_memory=None,
-                    progress=None, bake=None))]
+                    progress=None, bake=None, tiles=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn render(
     py: Python<'_>,
@@ -168,6 +168,7 @@ pub fn render(
     max_memory: Option<String>,
     progress: Option<Bound<'_, PyAny>>,
     bake: Option<&Bake>,
+    tiles: Option<u32>,
 ) -> PyResult<RenderResult> {
     let still = scene.still()?.clone();
     let mut settings = scene.settings.over(&Settings {
@@ -193,12 +194,21 @@ pub fn render(
         bake.is_some(),
     );
     let baked = bake.map(|b| &b.baked);
+    if tiles == Some(0) {
+        return Err(bad_arg("tiles", "0 must be at least 1"));
+    }
+    if tiles.is_some() && baked.is_some() {
+        return Err(bad_arg("tiles", "makes its own bake: leave out bake"));
+    }
     let (out, stats) = detached(py, progress.as_ref(), phases, |watch| {
-        pool.install(|| match baked {
-            Some(b) => {
+        pool.install(|| match (baked, tiles) {
+            (Some(b), _) => {
                 pmrender::render::baked::render_baked(&still, &opts, b, watch, &watch.cancel)
             }
-            None => pmrender::render::render(&still, &opts, watch, &watch.cancel),
+            (None, Some(n)) => {
+                pmrender::render::tiled::render_tiled(&still, &opts, n, watch, &watch.cancel)
+            }
+            (None, None) => pmrender::render::render(&still, &opts, watch, &watch.cancel),
         })
     })?;
     Ok(RenderResult {
@@ -222,4 +232,66 @@ pub fn read_image<'py>(
         .detach(|| pmrender::io::output::read_layer(&path, layer.as_deref()))
         .map_err(|e| pyo3::exceptions::PyValueError::new_err(format!("{}: {e}", path.display())))?;
     Ok((img.width, img.height, pixel_bytes(py, &img)))
+}
+
+/// Pixels given as float32 RGB bytes, checked against the image's size.
+fn image_of(name: &str, width: u32, height: u32, bytes: &[u8]) -> PyResult<Image> {
+    let n = width as usize * height as usize;
+    if bytes.len() != n * 12 {
+        return Err(bad_arg(
+            name,
+            format!(
+                "{} bytes are not {width}×{height} float32 RGB pixels",
+                bytes.len()
+            ),
+        ));
+    }
+    let pixels = bytes
+        .chunks_exact(12)
+        .map(|p| {
+            let c = |i: usize| f32::from_le_bytes([p[i], p[i + 1], p[i + 2], p[i + 3]]);
+            glam::Vec3::new(c(0), c(4), c(8))
+        })
+        .collect();
+    Ok(Image {
+        width,
+        height,
+        pixels,
+    })
+}
+
+/// Writes an image made elsewhere (tiles pasted together) as a render's EXR (beauty and named
+/// layers) and PNG: both or neither.
+#[pyfunction]
+#[pyo3(signature = (path, width, height, beauty, layers, png=None))]
+pub fn write_exr(
+    py: Python<'_>,
+    path: PathBuf,
+    width: u32,
+    height: u32,
+    beauty: Vec<u8>,
+    layers: Vec<(String, Vec<u8>)>,
+    png: Option<PathBuf>,
+) -> PyResult<()> {
+    let beauty = image_of("beauty", width, height, &beauty)?;
+    let named = layers
+        .iter()
+        .map(|(n, b)| Ok((n.as_str(), image_of(n, width, height, b)?)))
+        .collect::<PyResult<Vec<_>>>()?;
+    check_output("path", &path).map_err(to_py)?;
+    if let Some(p) = &png {
+        check_output("png", p).map_err(to_py)?;
+    }
+    let refs: Vec<(&str, &Image)> = named.iter().map(|(n, i)| (*n, i)).collect();
+    py.detach(|| pmrender::render::write::write_images(&path, png.as_deref(), &beauty, &refs))
+        .map_err(to_py)
+}
+
+/// The tiles `render(tiles=n)` and a farm split a width × height image into: (x0, y0, x1, y1) each.
+#[pyfunction]
+pub fn tile_windows(width: u32, height: u32, n: u32) -> Vec<(u32, u32, u32, u32)> {
+    pmrender::render::tiled::tile_windows(width, height, n)
+        .into_iter()
+        .map(|w| (w.x0, w.y0, w.x1, w.y1))
+        .collect()
 }

@@ -119,7 +119,7 @@ fn frame_output(out: &RenderOutput) -> RenderOutput {
 #[pyfunction]
 #[pyo3(signature = (scene, *, frames=None, method=None, spp=None, width=None, height=None,
                     seed=None, threads=None, noise=None, aa_spp=None, max_memory=None,
-                    progress=None))]
+                    chunk=None, progress=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn render_sequence(
     scene: &Scene,
@@ -133,6 +133,7 @@ pub fn render_sequence(
     noise: Option<f64>,
     aa_spp: Option<i64>,
     max_memory: Option<String>,
+    chunk: Option<u32>,
     progress: Option<Py<PyAny>>,
 ) -> PyResult<Frames> {
     let Kind::Animated(anim) = &scene.kind else {
@@ -152,7 +153,10 @@ pub fn render_sequence(
             ),
         ));
     }
-    let opts = scene
+    if chunk == Some(0) {
+        return Err(bad_arg("chunk", "0 must be at least 1"));
+    }
+    let mut opts = scene
         .settings
         .over(&Settings {
             method,
@@ -166,6 +170,7 @@ pub fn render_sequence(
             max_memory,
         })
         .options()?;
+    opts.chunk = chunk;
     if scene.settings.crop.is_some() {
         return Err(bad_arg("crop", "is for still scenes"));
     }

@@ -53,6 +53,13 @@ impl Pattern {
         }
         let start = text.find('#').unwrap_or(0);
         let digits = text[start..].bytes().take_while(|&b| b == b'#').count();
+        // A frame number (a u32) has at most 10 digits; a longer run would only pad it with zeros.
+        if digits > 10 {
+            return Err(option(
+                opt,
+                format!("'{text}' has a run of {digits} #: a frame number takes at most 10"),
+            ));
+        }
         Ok(Pattern {
             opt,
             head: text[..start].to_string(),
@@ -273,6 +280,7 @@ pub(super) fn render_animation(
     patterns.check(a, &frames, &bar, cancel)?;
     let start = Instant::now();
     let mut summary = Vec::new();
+    let mut warned = std::collections::HashSet::new();
     let mut on_frame =
         |f: u32, scene: &pmrender::scene::Scene, out: &_, stats: &pmrender::render::RenderStats| {
             signal::arm(false);
@@ -285,6 +293,12 @@ pub(super) fn render_animation(
             );
             signal::arm(true);
             written?;
+            // Each distinct warning once, with the first frame that gave it.
+            for w in stats.warnings() {
+                if warned.insert(w.clone()) {
+                    eprintln!("pmrender: warning: frame {f}: {w}");
+                }
+            }
             summary.push(frame_summary(f, stats));
             bar.bar.inc(1);
             bar.frame.store(f + 1, Ordering::Relaxed);

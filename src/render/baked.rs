@@ -59,6 +59,12 @@ pub fn bake_apart(
             plan.method.name()
         )));
     }
+    if opts.files.load_photons.is_some() || opts.files.load_cache.is_some() {
+        return Err(Error::Input(
+            "a bake traces its photons and fills its cache: it reads no photon or cache file"
+                .into(),
+        ));
+    }
     budget::check(scene, &plan, opts)?;
     let mut stats = RenderStats::new(scene, &plan);
     let files = super::files::FileOptions {

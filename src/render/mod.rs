@@ -16,6 +16,7 @@ pub mod plan;
 pub mod sequence;
 pub mod shade;
 pub mod stats;
+pub mod tiled;
 pub mod tiles;
 pub mod write;
 
@@ -55,6 +56,9 @@ pub struct Options {
     pub files: files::FileOptions,
     /// Memory budget in bytes (`--max-memory`); see [`budget`].
     pub max_memory: Option<u64>,
+    /// A sequence's chunk length (`--chunk`): each chunk of this many frames starts afresh (see
+    /// [`sequence::render_sequence`]); `None`: the sequence is one chunk.
+    pub chunk: Option<u32>,
 }
 
 /// What a render produced: beauty and the per-term layers of Jensen's split (empty for `path`).

@@ -136,3 +136,23 @@ pub fn write_sequence_summary(
     set.stage_bytes(path, text.as_bytes())?;
     set.commit()
 }
+
+/// Writes an image made elsewhere (a farm's tiles pasted together) as `write_outputs` writes a
+/// render's: the layered EXR, and the PNG if asked, both or neither.
+pub fn write_images(
+    exr: &std::path::Path,
+    png: Option<&std::path::Path>,
+    beauty: &crate::io::output::Image,
+    named: &[(&str, &crate::io::output::Image)],
+) -> Result<()> {
+    let mut set = OutputSet::new();
+    let layers = Layers {
+        beauty,
+        named: named.to_vec(),
+    };
+    stage_exr(&mut set, exr, &layers)?;
+    if let Some(p) = png {
+        stage_png(&mut set, p, beauty)?;
+    }
+    set.commit()
+}

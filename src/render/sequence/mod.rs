@@ -53,8 +53,20 @@ use kept_pixels::ShadedLight;
 use reuse::{reused_image_stats, Kept};
 use temporal::{Lifespans, Moved, SceneChange};
 
+/// The chunk of a sequence of `n` frames that frame `f` belongs to, chunks being `len` frames long
+/// (the last may be shorter): a chunk starts afresh, with nothing from the frames before it.
+pub fn chunk_of(f: u32, len: u32, n: u32) -> RangeInclusive<u32> {
+    let len = len.max(1);
+    let start = f - f % len;
+    start..=start.saturating_add(len - 1).min(n.saturating_sub(1))
+}
+
 /// Renders `frames` of `anim`, handing each frame to `on_frame` as soon as it is done (the caller
-/// writes it). Stops with `Interrupted` soon after `cancel` is set; frames handed over stay handed over.
+/// writes it). The sequence is split into chunks of `opts.chunk` frames (default: one chunk of all),
+/// each rendered from its first frame on as if it were the whole sequence; a range that begins inside
+/// a chunk renders that chunk's earlier frames too, without handing them over, so that every frame is
+/// the one the whole sequence renders. Stops with `Interrupted` soon after `cancel` is set; frames
+/// handed over stay handed over.
 pub fn render_sequence(
     anim: &Animation,
     frames: RangeInclusive<u32>,
@@ -64,14 +76,62 @@ pub fn render_sequence(
     on_frame: &mut dyn FnMut(u32, &Scene, &RenderOutput, &RenderStats) -> Result<()>,
 ) -> Result<()> {
     let (first, last) = (*frames.start(), *frames.end());
+    let (n, len) = (anim.frames(), opts.chunk.unwrap_or(anim.frames()));
+    let replay_from = *chunk_of(first, len, n).start();
     // Whatever a frame's scene would refuse is refused before the first frame is written.
-    let first_scene = scene::load_frame(anim, first)?;
+    let first_scene = scene::load_frame(anim, replay_from)?;
     // Frames where a medium's boundary moved are built to be checked: that can take a while.
-    progress.start("checking frames", (last - first + 1) as u64);
-    scene::check_sequence(anim, frames.clone(), &first_scene, progress, cancel)?;
+    progress.start("checking frames", (last - replay_from + 1) as u64);
+    scene::check_sequence(anim, replay_from..=last, &first_scene, progress, cancel)?;
     progress.finish();
+    let mut loaded = Some(first_scene);
+    let mut start = replay_from;
+    while start <= last {
+        let chunk = chunk_of(start, len, n);
+        let scene = match loaded.take() {
+            Some(s) => s,
+            None => scene::load_frame(anim, start)?,
+        };
+        let upto = last.min(*chunk.end());
+        let mut handed = |f: u32, s: &Scene, out: &RenderOutput, stats: &RenderStats| {
+            if f >= first {
+                on_frame(f, s, out, stats)?;
+            }
+            Ok(())
+        };
+        let span = Chunk {
+            frames: chunk.clone(),
+            upto,
+        };
+        render_chunk(anim, span, scene, opts, progress, cancel, &mut handed)?;
+        match chunk.end().checked_add(1) {
+            Some(next) => start = next,
+            None => break,
+        }
+    }
+    Ok(())
+}
+
+/// The frames of one chunk, and the last of them to render.
+struct Chunk {
+    frames: RangeInclusive<u32>,
+    upto: u32,
+}
+
+/// One chunk's frames up to `span.upto`, from its first, whose scene `first_scene` is.
+fn render_chunk(
+    anim: &Animation,
+    span: Chunk,
+    first_scene: Scene,
+    opts: &Options,
+    progress: &dyn Progress,
+    cancel: &AtomicBool,
+    on_frame: &mut dyn FnMut(u32, &Scene, &RenderOutput, &RenderStats) -> Result<()>,
+) -> Result<()> {
+    let (first, last) = (*span.frames.start(), span.upto);
+    // What holds for the sequence is what holds for the whole chunk, however far it is rendered.
     let (moving_window, track_atlas) =
-        sequence_settings(anim, &first_scene, frames.clone(), opts, progress, cancel)?;
+        sequence_settings(anim, &first_scene, span.frames, opts, progress, cancel)?;
     let mut loaded = Some(first_scene);
     let mut f = first;
     let mut left: Option<Sequence> = None;

@@ -150,6 +150,24 @@ pub struct ShadeStats {
     pub grown: GrowStats,
 }
 
+impl ShadeStats {
+    /// `o`'s samples added to these (another tile's).
+    pub fn add(&mut self, o: &ShadeStats) {
+        self.time_s += o.time_s;
+        self.counters += o.counters;
+        let (s, t) = (&mut self.samples, &o.samples);
+        s.samples += t.samples;
+        s.pixels += t.pixels;
+        s.at_limit += t.at_limit;
+        s.monte_carlo_pixels += t.monte_carlo_pixels;
+        s.redone += t.redone;
+        s.redone_pixels += t.redone_pixels;
+        self.grown.rounds += o.grown.rounds;
+        self.grown.fill += o.grown.fill;
+        self.grown.counters += o.grown.counters;
+    }
+}
+
 impl RenderStats {
     /// What a user should hear about a render that succeeded on legal input but is likely not what
     /// they meant; the binary prints each on stderr.

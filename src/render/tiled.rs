@@ -1,0 +1,132 @@
+//! A still rendered as tiles shaded apart: one bake (the photon maps and pass A over the whole
+//! image, [`baked::bake_apart`]), then each tile shaded from it alone ([`baked::render_baked`] with
+//! the tile as its crop) and pasted into the image. The records pass B makes for a tile serve that
+//! tile only, so a tiled image may differ from the untiled one where pass B made records; but it is
+//! the same whoever shades the tiles, in whatever order — the command line's `--tiles N` and a farm's
+//! tiles give the same pixels by construction.
+
+use std::sync::atomic::AtomicBool;
+
+use super::baked::{bake_apart, render_baked, Baked};
+use super::tiles::Window;
+use super::{Options, RenderOutput, RenderStats};
+use crate::error::{option, Result};
+use crate::io::output::Image;
+use crate::progress::Progress;
+use crate::scene::Scene;
+
+/// The tiles of a `width` × `height` image split `n` ways: bands of whole rows, from the top, their
+/// heights differing by one row at most (no more bands than rows).
+pub fn tile_windows(width: u32, height: u32, n: u32) -> Vec<Window> {
+    let n = n.clamp(1, height.max(1));
+    (0..n)
+        .map(|i| Window {
+            x0: 0,
+            y0: (u64::from(height) * u64::from(i) / u64::from(n)) as u32,
+            x1: width,
+            y1: (u64::from(height) * u64::from(i + 1) / u64::from(n)) as u32,
+        })
+        .collect()
+}
+
+/// Renders `scene` as `n` tiles shaded apart from one bake; the statistics are the bake's, with the
+/// tiles' shading summed.
+pub fn render_tiled(
+    scene: &Scene,
+    opts: &Options,
+    n: u32,
+    progress: &dyn Progress,
+    cancel: &AtomicBool,
+) -> Result<(RenderOutput, RenderStats)> {
+    if opts.crop.is_some() {
+        return Err(option(
+            "--tiles",
+            "renders the whole image: leave out --crop",
+        ));
+    }
+    // `path` has nothing to bake: its tiles are crops of the image.
+    let baked = match super::plan::method(scene, opts).uses_photon_maps() {
+        true => Some(bake_apart(scene, opts, progress, cancel)?),
+        false => None,
+    };
+    let plan = super::plan(scene, opts, None)?;
+    let mut stats = match &baked {
+        Some((_, s)) => s.clone(),
+        None => RenderStats::new(scene, &plan),
+    };
+    let mut image: Option<RenderOutput> = None;
+    for window in tile_windows(plan.width, plan.height, n) {
+        let (tile, s) = match &baked {
+            Some((b, _)) => render_tile(scene, opts, b, window, progress, cancel)?,
+            None => super::render(
+                scene,
+                &Options {
+                    crop: Some(window),
+                    ..opts.clone()
+                },
+                progress,
+                cancel,
+            )?,
+        };
+        stats.shade.add(&s.shade);
+        match &mut image {
+            None => image = Some(tile),
+            Some(out) => paste(out, &tile, window),
+        }
+    }
+    stats.total_s += stats.shade.time_s;
+    // At least one tile: `tile_windows` makes one or more.
+    image
+        .map(|out| (out, stats))
+        .ok_or_else(|| option("--tiles", "no tile"))
+}
+
+/// One tile shaded from `baked`: the image with the tile's pixels set and the others black.
+pub fn render_tile(
+    scene: &Scene,
+    opts: &Options,
+    baked: &Baked,
+    window: Window,
+    progress: &dyn Progress,
+    cancel: &AtomicBool,
+) -> Result<(RenderOutput, RenderStats)> {
+    let opts = Options {
+        crop: Some(window),
+        ..opts.clone()
+    };
+    render_baked(scene, &opts, baked, progress, cancel)
+}
+
+/// `window`'s pixels of `tile` copied into `out` (the beauty and each layer).
+fn paste(out: &mut RenderOutput, tile: &RenderOutput, window: Window) {
+    copy_window(&mut out.beauty, &tile.beauty, window);
+    for ((_, to), (_, from)) in out.layers.iter_mut().zip(&tile.layers) {
+        copy_window(to, from, window);
+    }
+}
+
+fn copy_window(to: &mut Image, from: &Image, w: Window) {
+    let width = to.width as usize;
+    for y in w.y0 as usize..w.y1 as usize {
+        let row = y * width + w.x0 as usize..y * width + w.x1 as usize;
+        to.pixels[row.clone()].copy_from_slice(&from.pixels[row]);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn tiles_cover_every_row_once() {
+        for (h, n) in [(48, 4), (7, 3), (5, 9), (1, 1), (1000, 7)] {
+            let t = tile_windows(64, h, n);
+            assert_eq!(t.len() as u32, n.min(h));
+            assert_eq!(t[0].y0, 0);
+            assert_eq!(t.last().unwrap().y1, h);
+            assert!(t
+                .windows(2)
+                .all(|p| p[0].y1 == p[1].y0 && p[0].y0 < p[0].y1));
+        }
+    }
+}
