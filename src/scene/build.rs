@@ -171,7 +171,7 @@ fn build(path: &Path, text: &str, desc: &SceneFile) -> Result<Scene> {
     }
     let camera = camera(&cx, desc)?;
     let settings = settings(&cx, desc)?;
-    let (geometry, mut materials, tex_paths, emission_at, mesh_tris) = meshes(&cx, desc)?;
+    let (geometry, mut materials, tex_paths, emission_at, mesh_tris, warnings) = meshes(&cx, desc)?;
     let textures = textures(&cx, &mut materials, tex_paths)?;
     let bounds = geometry.bounds();
     let lights = lights(&cx, desc, &geometry, &materials, &emission_at)?;
@@ -208,6 +208,7 @@ fn build(path: &Path, text: &str, desc: &SceneFile) -> Result<Scene> {
         media,
         mesh_ranges: mesh_tris,
         texel_density,
+        warnings,
     })
 }
 
@@ -242,12 +243,15 @@ type Meshes = (
     TexPaths,
     Vec<Origin>,
     Vec<std::ops::Range<usize>>,
+    Vec<String>,
 );
 
 /// Every mesh's triangles (transformed), the materials (MTL, then the scene's overrides), their texture
-/// paths, where each material's emission was set, and each mesh's triangles.
+/// paths, where each material's emission was set, each mesh's triangles, and the warnings about the
+/// assets.
 fn meshes(cx: &Ctx, desc: &SceneFile) -> Result<Meshes> {
     let mut geo = Geometry::default();
+    let mut warnings = Vec::new();
     let mut loaded = LoadedMaterials::default();
     let mut mesh_tris = Vec::with_capacity(desc.mesh.len());
     for (mi, m) in desc.mesh.iter().enumerate() {
@@ -256,19 +260,12 @@ fn meshes(cx: &Ctx, desc: &SceneFile) -> Result<Meshes> {
         let nxf = Mat3::from_mat4(xf).inverse().transpose();
         let path = obj_path(cx, mi, m)?;
         let data = obj::load(&path)?;
-        if let Some((name, line)) = data
-            .undefined
-            .iter()
-            .find(|(name, _)| !desc.materials.contains_key(name))
-        {
-            return Err(at_line(
-                &path,
-                *line,
-                format!(
-                    "usemtl '{name}': no material library of this OBJ defines it (add it to the \
-                     MTL, or a [materials.{name}] table to the scene)"
-                ),
-            ));
+        for (name, line) in &data.undefined {
+            let w = undefined_material_warning(&path, *line, name);
+            // An OBJ placed by several meshes is warned about once.
+            if !desc.materials.contains_key(name) && !warnings.contains(&w) {
+                warnings.push(w);
+            }
         }
         let base = loaded.materials.len();
         loaded.add_mtl(cx, &data, line_of_key(cx.text, "mesh", mi, "obj"));
@@ -310,7 +307,20 @@ fn meshes(cx: &Ctx, desc: &SceneFile) -> Result<Meshes> {
         emission_at,
         ..
     } = loaded;
-    Ok((geo, materials, tex_paths, emission_at, mesh_tris))
+    Ok((geo, materials, tex_paths, emission_at, mesh_tris, warnings))
+}
+
+/// The warning for a `usemtl` name no library of the OBJ defines and the scene file does not either.
+/// An asset as exported may lack a material (McGuire's CornellBox-Glossy.mtl has no `light`, which
+/// its OBJ uses) and every other reader loads it with a default: so it renders, with a word, since a
+/// misspelt name would otherwise render grey unnoticed.
+fn undefined_material_warning(obj: &Path, line: usize, name: &str) -> String {
+    format!(
+        "{}:{line}: usemtl '{name}': no material library of this OBJ defines it; the default \
+         material (diffuse 0.8) stands in (define it in the MTL, or with a [materials.{name}] table \
+         in the scene)",
+        obj.display()
+    )
 }
 
 /// A mesh's `obj` path (relative to the scene file), checked to name a regular file.

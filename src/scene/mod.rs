@@ -129,6 +129,9 @@ pub struct Scene {
     pub mesh_ranges: Vec<std::ops::Range<usize>>,
     /// Per triangle, its material's texels per world unit ([`texel_density`]; 0 without a texture).
     texel_density: Vec<f32>,
+    /// What the loader accepted but a user should hear about (an OBJ's `usemtl` of a material no
+    /// library defines), each naming its file and line; the render's warnings begin with these.
+    pub warnings: Vec<String>,
 }
 
 /// Texels of `texture` per world unit on triangle `tri` of `g`, along the direction where they are
