@@ -18,6 +18,8 @@ pub mod converge;
 #[forbid(unsafe_code)]
 pub mod counters;
 #[forbid(unsafe_code)]
+pub(crate) mod cutout;
+#[forbid(unsafe_code)]
 pub(crate) mod distribution;
 #[forbid(unsafe_code)]
 pub mod error;
