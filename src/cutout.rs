@@ -27,19 +27,29 @@ impl Mask {
     /// Reads a mask from `path`: the alpha channel of a grey+alpha or RGBA image, else the mean of its
     /// colour channels; checked as textures are.
     pub fn load(path: &Path) -> Result<Mask, String> {
+        Self::load_values(path, true)
+    }
+
+    /// One value a texel from `path` (a map of data, as `map_Ns`): with `alpha`, the alpha channel
+    /// where the image has one; else, or without it, the mean of its colour channels.
+    pub fn load_values(path: &Path, alpha: bool) -> Result<Mask, String> {
         let img = decode(path)?;
         let nc = img.channels as usize;
         let alpha = match nc {
-            2 => Some(1),
-            n if n >= 4 => Some(3),
+            2 if alpha => Some(1),
+            n if n >= 4 && alpha => Some(3),
             _ => None,
+        };
+        let n_colour = match nc {
+            1 | 2 => 1,
+            n => n.min(3),
         };
         let values: Vec<f32> = img
             .data
             .chunks_exact(nc)
             .map(|px| match alpha {
                 Some(a) => px[a],
-                None => px.iter().sum::<f32>() / nc as f32,
+                None => px[..n_colour].iter().sum::<f32>() / n_colour as f32,
             })
             .collect();
         if let Some(i) = values.iter().position(|v| !v.is_finite()) {

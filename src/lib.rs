@@ -28,6 +28,8 @@ pub mod export;
 #[forbid(unsafe_code)]
 pub mod geometry;
 #[forbid(unsafe_code)]
+pub(crate) mod gloss_map;
+#[forbid(unsafe_code)]
 pub mod integrator;
 pub mod io;
 #[forbid(unsafe_code)]

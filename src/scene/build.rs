@@ -18,6 +18,7 @@ use crate::camera::Camera;
 use crate::cutout::{Cutouts, Mask};
 use crate::error::{at_line, in_file, relative_to, Result};
 use crate::geometry::{Geometry, Triangle};
+use crate::gloss_map::GlossMaps;
 use crate::light::Lights;
 use crate::material::{Bsdf, Material};
 use crate::texture::{self, Texture};
@@ -177,11 +178,14 @@ fn build(path: &Path, text: &str, desc: &SceneFile) -> Result<Scene> {
         mut materials,
         tex_paths,
         mask_paths,
+        ks_paths,
+        ns_paths,
         emission_at,
         mesh_tris,
         warnings,
     } = meshes(&cx, desc)?;
     let textures = textures(&cx, &mut materials, tex_paths)?;
+    let gloss_maps = gloss_maps(&cx, &materials, ks_paths, ns_paths)?;
     let cutouts = cutouts(&cx, &geometry, &materials, mask_paths)?;
     let bounds = geometry.bounds();
     let lights = lights(&cx, desc, &geometry, &materials, &emission_at)?;
@@ -228,6 +232,7 @@ fn build(path: &Path, text: &str, desc: &SceneFile) -> Result<Scene> {
         media,
         mesh_ranges: mesh_tris,
         texel_density,
+        gloss_maps,
         warnings,
     })
 }
@@ -266,6 +271,9 @@ struct Meshes {
     tex_paths: TexPaths,
     /// Each material's cutout mask (`map_d`).
     mask_paths: TexPaths,
+    /// Each material's glossy maps (`map_Ks`, `map_Ns`).
+    ks_paths: TexPaths,
+    ns_paths: TexPaths,
     emission_at: Vec<Origin>,
     mesh_tris: Vec<std::ops::Range<usize>>,
     warnings: Vec<String>,
@@ -327,6 +335,8 @@ fn meshes(cx: &Ctx, desc: &SceneFile) -> Result<Meshes> {
         materials,
         tex_paths,
         mask_paths,
+        ks_paths,
+        ns_paths,
         emission_at,
         ..
     } = loaded;
@@ -335,6 +345,8 @@ fn meshes(cx: &Ctx, desc: &SceneFile) -> Result<Meshes> {
         materials,
         tex_paths,
         mask_paths,
+        ks_paths,
+        ns_paths,
         emission_at,
         mesh_tris,
         warnings,
@@ -382,6 +394,8 @@ struct LoadedMaterials {
     materials: Vec<Material>,
     tex_paths: TexPaths,
     mask_paths: TexPaths,
+    ks_paths: TexPaths,
+    ns_paths: TexPaths,
     emission_at: Vec<Origin>,
     /// The indices of the materials of each name (several OBJs may use one name).
     by_name: HashMap<String, Vec<usize>>,
@@ -401,6 +415,8 @@ impl LoadedMaterials {
             let in_dir = |t: String| (data.mtl_dir.clone(), t);
             self.tex_paths.push(maps.kd.map(in_dir));
             self.mask_paths.push(maps.d.map(in_dir));
+            self.ks_paths.push(maps.ks.map(in_dir));
+            self.ns_paths.push(maps.ns.map(in_dir));
             self.emission_at.push(
                 data.ke_at
                     .get(&mat.name)
@@ -425,6 +441,8 @@ impl LoadedMaterials {
             });
             self.tex_paths.push(None);
             self.mask_paths.push(None);
+            self.ks_paths.push(None);
+            self.ns_paths.push(None);
             self.emission_at.push((cx.path.to_path_buf(), 1));
             (self.materials.len() - 1) as u32
         })
@@ -607,6 +625,58 @@ fn cutouts(
         Some((i, mask, t.v.map(|k| geo.uvs[k as usize])))
     });
     Ok(Cutouts::new(masks, geo.triangles.len(), masked))
+}
+
+/// Each glossy material's `map_Ks` and `map_Ns` (`None` for a material with neither, or not glossy
+/// once overrides are applied); empty when no material has one.
+fn gloss_maps(
+    cx: &Ctx,
+    materials: &[Material],
+    ks_paths: TexPaths,
+    ns_paths: TexPaths,
+) -> Result<Vec<Option<GlossMaps>>> {
+    let read = |mat: &Material, statement: &str, (dir, name): (PathBuf, String)| {
+        let resolved = texture::resolve(&dir, &name).map_err(|why| {
+            in_file(
+                cx.path,
+                format!("material '{}': {statement} '{}' {why}", mat.name, name),
+            )
+        })?;
+        input::check_regular(&resolved, "texture", MAX_TEXTURE_BYTES)?;
+        Ok::<_, crate::error::Error>(resolved)
+    };
+    let mut maps = Vec::with_capacity(materials.len());
+    for ((mat, ks), ns) in materials.iter().zip(ks_paths).zip(ns_paths) {
+        if !matches!(mat.bsdf, Bsdf::Glossy { .. }) || (ks.is_none() && ns.is_none()) {
+            maps.push(None);
+            continue;
+        }
+        let specular = match ks {
+            Some(k) => {
+                let path = read(mat, "map_Ks", k)?;
+                Some(
+                    Texture::load(&path)
+                        .map_err(|e| in_file(&path, format!("cannot read texture: {e}")))?,
+                )
+            }
+            None => None,
+        };
+        let exponent = match ns {
+            Some(n) => {
+                let path = read(mat, "map_Ns", n)?;
+                Some(
+                    Mask::load_values(&path, false)
+                        .map_err(|e| in_file(&path, format!("cannot read texture: {e}")))?,
+                )
+            }
+            None => None,
+        };
+        maps.push(Some(GlossMaps { specular, exponent }));
+    }
+    if maps.iter().all(Option::is_none) {
+        maps.clear();
+    }
+    Ok(maps)
 }
 
 /// The mean diffuse colour of a textured glossy material over its texture: its `albedo`, for readers

@@ -33,6 +33,9 @@ pub struct MtlMaps {
     pub kd: Option<String>,
     /// `map_d`, a cutout mask (of any material).
     pub d: Option<String>,
+    /// `map_Ks` and `map_Ns`, scales of the glossy lobe's colour and exponent (of glossy materials).
+    pub ks: Option<String>,
+    pub ns: Option<String>,
 }
 
 /// The file a texture statement names, after its options (`-clamp on`, `-bm 0.5`, `-o u v w`, …):
@@ -78,7 +81,7 @@ fn map_path(statement: &Option<String>) -> Option<String> {
 
 /// The MTL mapping: Ke > 0 → emission; illum 3/5 → mirror; 4/6/7 → glass; Ks > 0 with Ns > 1 →
 /// glossy; otherwise diffuse. Returns the material and the image files it reads (`map_Kd` for
-/// diffuse and glossy, `map_d` for any).
+/// diffuse and glossy, `map_d` for any, `map_Ks` and `map_Ns` for glossy once overrides are applied).
 pub fn from_mtl(m: &tobj::Material) -> (Material, MtlMaps) {
     let kd = v3(m.diffuse).unwrap_or(Vec3::splat(0.8));
     let ks = v3(m.specular).unwrap_or(Vec3::ZERO);
@@ -108,6 +111,8 @@ pub fn from_mtl(m: &tobj::Material) -> (Material, MtlMaps) {
             _ => None,
         },
         d: map_path(&m.dissolve_texture),
+        ks: map_path(&m.specular_texture),
+        ns: map_path(&m.shininess_texture),
     };
     (
         Material {
