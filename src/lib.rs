@@ -18,6 +18,8 @@ pub mod converge;
 #[forbid(unsafe_code)]
 pub mod counters;
 #[forbid(unsafe_code)]
+pub(crate) mod cutout;
+#[forbid(unsafe_code)]
 pub(crate) mod distribution;
 #[forbid(unsafe_code)]
 pub mod error;
@@ -25,6 +27,8 @@ pub mod error;
 pub mod export;
 #[forbid(unsafe_code)]
 pub mod geometry;
+#[forbid(unsafe_code)]
+pub(crate) mod gloss_map;
 #[forbid(unsafe_code)]
 pub mod integrator;
 pub mod io;

@@ -70,31 +70,37 @@ pub fn resolve(dir: &Path, name: &str) -> Result<PathBuf, String> {
     }
 }
 
+/// An image's pixels as floats, its size in the header checked against [`MAX_TEXTURE_PIXELS`] and the
+/// memory decoding takes against the address space left (images loaded before it hold theirs) before
+/// any pixel is decoded.
+pub(crate) fn decode(path: &Path) -> Result<oiio::ImageData, String> {
+    let (width, height, channels) = oiio::image_size(path)?;
+    let n_pixels = width as u64 * height as u64;
+    if n_pixels > MAX_TEXTURE_PIXELS || channels == 0 {
+        return Err(format!(
+            "{width}×{height} pixels × {channels} channels: more than the limit of {MAX_TEXTURE_PIXELS} pixels (8192×8192)"
+        ));
+    }
+    // Decoding holds the library's floats and their copy, then the copy, the texels and their
+    // mip levels (a third as many again).
+    let floats = 4 * channels.min(64) as u64;
+    let peak = n_pixels * (2 * floats).max(floats + 16);
+    crate::memory::check_address_space(
+        &format!("decoding its {width}×{height} pixels × {channels} channels"),
+        peak,
+    )?;
+    let img = oiio::read(path)?;
+    if img.channels == 0 {
+        return Err("image has no channels".into());
+    }
+    Ok(img)
+}
+
 impl Texture {
-    /// Loads an 8-bit (sRGB-encoded) or float (linear) image.
-    /// Grey and grey+alpha images are grey (alpha is ignored). The size in the file's header is checked
-    /// against [`MAX_TEXTURE_PIXELS`], and the memory decoding takes against the address space left
-    /// (textures loaded before it hold theirs), before any pixel is decoded.
+    /// Loads an 8-bit (sRGB-encoded) or float (linear) image, checked as [`decode`] checks it.
+    /// Grey and grey+alpha images are grey (alpha is ignored).
     pub fn load(path: &Path) -> Result<Texture, String> {
-        let (width, height, channels) = oiio::image_size(path)?;
-        let n_pixels = width as u64 * height as u64;
-        if n_pixels > MAX_TEXTURE_PIXELS || channels == 0 {
-            return Err(format!(
-                "{width}×{height} pixels × {channels} channels: more than the limit of {MAX_TEXTURE_PIXELS} pixels (8192×8192)"
-            ));
-        }
-        // Decoding holds the library's floats and their copy, then the copy, the texels and their
-        // mip levels (a third as many again).
-        let floats = 4 * channels.min(64) as u64;
-        let peak = n_pixels * (2 * floats).max(floats + 16);
-        crate::memory::check_address_space(
-            &format!("decoding its {width}×{height} pixels × {channels} channels"),
-            peak,
-        )?;
-        let img = oiio::read(path)?;
-        if img.channels == 0 {
-            return Err("image has no channels".into());
-        }
+        let img = decode(path)?;
         let is_float = matches!(
             path.extension()
                 .and_then(|e| e.to_str())
@@ -240,8 +246,11 @@ fn cover(n: u32, m: u32) -> Vec<Vec<(usize, f32)>> {
 }
 
 /// Bilinear lookup in `texels` (`w` × `h`, top row first, wrapping); OBJ's v runs upward, image rows
-/// downward.
-fn bilinear(texels: &[Vec3], w: usize, h: usize, uv: Vec2) -> Vec3 {
+/// downward. Colours and masks (one value a texel) alike.
+pub(crate) fn bilinear<T>(texels: &[T], w: usize, h: usize, uv: Vec2) -> T
+where
+    T: Copy + std::ops::Mul<f32, Output = T> + std::ops::Add<Output = T>,
+{
     // x ∈ [−0.5, w − 0.5] (w − 0.5 at most, or w if the wrap rounds up to 1): the four texels are
     // wrapped by a comparison each, not by an integer division each.
     let x = wrap_unit(uv.x) * w as f32 - 0.5;

@@ -847,35 +847,62 @@ fn unknown_mtl_statements_are_refused() {
     }
 }
 
-/// `usemtl` of a name no library defines gave the default grey without a word (a misspelt name, a
-/// missing `newmtl`): refused at the OBJ's line, unless the scene defines it as `[materials.NAME]` (an
-/// MTL that lacks the light its OBJ uses, as McGuire's CornellBox-Glossy).
+/// `usemtl` of a name no library defines (a misspelt name, a missing `newmtl`, as McGuire's
+/// CornellBox-Glossy.mtl lacks the `light` its OBJ uses) renders with the default material and one
+/// warning naming the OBJ's line, printed under `--quiet` and counted in the statistics; a
+/// `[materials.NAME]` table defines it without a warning.
 #[test]
-fn usemtl_of_an_undefined_material_is_refused() {
-    let lacking_light = ROOM_MTL.replace("newmtl light\nKd 0 0 0\nKe 10 10 10\n", "");
-    refused_room(
-        &lacking_light,
-        ROOM_TOML,
-        &["room.obj:20:", "usemtl 'light'", "[materials.light]"],
-    );
+fn usemtl_of_an_undefined_material_warns_and_takes_the_default() {
     let d = room();
     std::fs::write(
         d.path().join("room.obj"),
         ROOM_OBJ.replace("usemtl wall", "usemtl wal"),
     )
     .unwrap();
-    refused(
-        d.path(),
-        &p(d.path(), "scene.toml"),
-        &[],
-        &["room.obj:14:", "usemtl 'wal'"],
+    let (out, stats) = (p(d.path(), "o.exr"), p(d.path(), "o.json"));
+    let scene = p(d.path(), "scene.toml");
+    let r = run_bounded(
+        &["render", &scene, "-o", &out, "--stats", &stats, "--quiet"],
+        Duration::from_secs(120),
     );
+    let stderr = String::from_utf8_lossy(&r.stderr);
+    assert!(r.status.success(), "{stderr}");
+    let warnings: Vec<&str> = stderr.lines().filter(|l| l.contains("warning")).collect();
+    assert_eq!(warnings.len(), 1, "{stderr}");
+    for e in ["room.obj:14:", "usemtl 'wal'", "default material"] {
+        assert!(warnings[0].contains(e), "'{e}' not in: {stderr}");
+    }
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap();
+    assert_eq!(json["scene"]["warnings"], 1, "{json}");
+    // The default (diffuse 0.8) stood in for the walls' 0.6: brighter.
+    let plain = renders(room().path(), &[]);
+    assert!(mean(&read(Path::new(&out))).x > mean(&plain).x);
+    let lacking_light = ROOM_MTL.replace("newmtl light\nKd 0 0 0\nKe 10 10 10\n", "");
     let defined = format!(
         "{ROOM_TOML}\n[materials.light]\ntype = \"diffuse\"\nalbedo = [0, 0, 0]\nemission = [10, 10, 10]\n"
     );
-    let (a, b) = (
-        renders(room_with(&lacking_light, &defined).path(), &[]),
-        renders(room().path(), &[]),
+    let d = room_with(&lacking_light, &defined);
+    let r = run_bounded(
+        &[
+            "render",
+            &p(d.path(), "scene.toml"),
+            "-o",
+            &p(d.path(), "o.exr"),
+            "--quiet",
+        ],
+        Duration::from_secs(120),
     );
-    assert_eq!(a.pixels, b.pixels);
+    assert!(
+        r.status.success() && r.stderr.is_empty(),
+        "{}",
+        String::from_utf8_lossy(&r.stderr)
+    );
+    assert_eq!(read(&d.path().join("o.exr")).pixels, plain.pixels);
+    // A table of the scene file that no mesh uses stays an error: the scene file is ours to fix.
+    refused_room(
+        ROOM_MTL,
+        &format!("{ROOM_TOML}\n[materials.wal]\ntype = \"diffuse\"\n"),
+        &["scene.toml:", "no mesh uses a material named 'wal'"],
+    );
 }

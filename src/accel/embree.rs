@@ -11,6 +11,9 @@
 //! IEEE machine computes to the same bits. What stays CPU-dependent is which triangle Embree reports
 //! where a ray meets an edge or two surfaces at one distance, and occlusion on such ties
 //! (`docs/determinism.md`). [`ISA_VARIABLE`] forces Embree's kernels, to run as another CPU would.
+//!
+//! A BVH built with a [`Cutout`] has Embree filter functions that reject the hits it cuts away, on
+//! closest-hit and occlusion queries alike; one built without has no filter, and costs what it did.
 
 use std::ffi::CString;
 
@@ -44,12 +47,70 @@ pub struct RawHit {
     pub v: f32,
 }
 
+/// What makes parts of triangles invisible: a hit at barycentrics (u, v) of triangle `prim` that
+/// [`is_cut`](Self::is_cut) is skipped as if the triangle were not there. Called from Embree's
+/// traversal on every thread: it must not panic.
+pub trait Cutout: Send + Sync {
+    fn is_cut(&self, prim: u32, u: f32, v: f32) -> bool;
+}
+
 /// An Embree BVH over one triangle soup, with the corners of its triangles to measure hits by.
 pub struct Bvh {
     device: RTCDevice,
     scene: RTCScene,
-    corners: Vec<[Vec3; 3]>,
+    /// Boxed: the filter functions find it through the geometry's user pointer.
+    tris: Box<Triangles>,
     isa: &'static str,
+}
+
+/// The triangles' corners, and what cuts them away (`None`: no filter).
+struct Triangles {
+    corners: Vec<[Vec3; 3]>,
+    cutout: Option<Box<dyn Cutout>>,
+}
+
+/// Embree's filter function of a BVH with a cutout: rejects each valid hit that the cutout cuts away
+/// at its measured barycentrics (those the hit will be reported with).
+///
+/// # Safety
+/// Embree calls it with `args` valid for the call, `geometry_user_ptr` the geometry's `Triangles`
+/// (alive while the scene is), and `ray`/`hit` laid out as `RTCRayN`/`RTCHitN` of `n` rays.
+unsafe extern "C" fn cutout_filter(args: *const RTCFilterFunctionNArguments) {
+    let args = &*args;
+    let tris = &*(args.geometry_user_ptr as *const Triangles);
+    let Some(cutout) = &tris.cutout else {
+        return;
+    };
+    let n = args.n as usize;
+    let (ray, hit) = (args.ray as *const f32, args.hit as *const f32);
+    for i in 0..n {
+        let valid = args.valid.add(i);
+        if *valid == 0 {
+            continue;
+        }
+        // RTCRayN: org xyz, tnear, dir xyz, time, tfar (the potential hit's distance), …; RTCHitN:
+        // Ng xyz, u, v, primID, ….
+        let at = |p: *const f32, field: usize| *p.add(field * n + i);
+        let origin = Vec3::new(at(ray, 0), at(ray, 1), at(ray, 2));
+        let dir = Vec3::new(at(ray, 4), at(ray, 5), at(ray, 6));
+        let prim = *(hit as *const u32).add(5 * n + i);
+        if prim as usize >= tris.corners.len() {
+            continue;
+        }
+        let h = tris.measured(
+            origin,
+            dir,
+            RawHit {
+                t: at(ray, 8),
+                prim,
+                u: at(hit, 3),
+                v: at(hit, 4),
+            },
+        );
+        if cutout.is_cut(prim, h.u, h.v) {
+            *valid = 0;
+        }
+    }
 }
 
 // SAFETY: a committed Embree scene is immutable and Embree documents concurrent rtcIntersect1 /
@@ -130,13 +191,23 @@ fn forced_isa() -> Result<Option<&'static str>, BvhError> {
 impl Bvh {
     /// Builds the BVH. `positions` are the vertices, `triangles` index into them (already validated).
     pub fn build(positions: &[Vec3], triangles: &[[u32; 3]]) -> Result<Bvh, BvhError> {
-        Self::build_on(positions, triangles, forced_isa()?)
+        Self::build_on(positions, triangles, None, forced_isa()?)
+    }
+
+    /// [`build`](Self::build), the hits `cutout` cuts away skipped by every query.
+    pub fn build_with_cutout(
+        positions: &[Vec3],
+        triangles: &[[u32; 3]],
+        cutout: Box<dyn Cutout>,
+    ) -> Result<Bvh, BvhError> {
+        Self::build_on(positions, triangles, Some(cutout), forced_isa()?)
     }
 
     /// [`build`](Self::build) on Embree's kernels for `isa` (`None`: the pinned ones).
     fn build_on(
         positions: &[Vec3],
         triangles: &[[u32; 3]],
+        cutout: Option<Box<dyn Cutout>>,
         isa: Option<&'static str>,
     ) -> Result<Bvh, BvhError> {
         // SAFETY: every pointer passed to Embree is either one it returned or a buffer it allocated for
@@ -151,7 +222,7 @@ impl Bvh {
             let bvh = Bvh {
                 device,
                 scene,
-                corners,
+                tris: Box::new(Triangles { corners, cutout }),
                 isa,
             };
             rtcSetSceneFlags(scene, RTC_SCENE_FLAG_ROBUST);
@@ -185,6 +256,13 @@ impl Bvh {
                 let is = std::slice::from_raw_parts_mut(ib, triangles.len() * 3);
                 for (i, t) in triangles.iter().enumerate() {
                     is[3 * i..3 * i + 3].copy_from_slice(t);
+                }
+                if bvh.tris.cutout.is_some() {
+                    // The box's address stays fixed while the Bvh (and so the scene) lives.
+                    let user = &*bvh.tris as *const Triangles as *mut std::os::raw::c_void;
+                    rtcSetGeometryUserData(geom, user);
+                    rtcSetGeometryIntersectFilterFunction(geom, Some(cutout_filter));
+                    rtcSetGeometryOccludedFilterFunction(geom, Some(cutout_filter));
                 }
                 rtcCommitGeometry(geom);
                 rtcAttachGeometry(scene, geom);
@@ -256,7 +334,7 @@ impl Bvh {
         // SAFETY: scene is committed; ctx and rh are valid, aligned and live for the call.
         unsafe { rtcIntersect1(self.scene, &mut ctx, &mut rh) };
         (rh.hit.geom_id != RTC_INVALID_GEOMETRY_ID).then(|| {
-            self.measured(
+            self.tris.measured(
                 origin,
                 dir,
                 RawHit {
@@ -267,35 +345,6 @@ impl Bvh {
                 },
             )
         })
-    }
-
-    /// `hit` with its distance and barycentrics measured again from its triangle's corners in f64
-    /// (Möller–Trumbore; the same bits on every IEEE machine, unlike Embree's kernels), the
-    /// barycentrics kept inside the triangle; Embree's own where the ray runs in the triangle's plane.
-    fn measured(&self, origin: Vec3, dir: Vec3, hit: RawHit) -> RawHit {
-        let [a, b, c] = self.corners[hit.prim as usize].map(|p| p.as_dvec3());
-        let (o, d) = (origin.as_dvec3(), dir.as_dvec3());
-        let (e1, e2) = (b - a, c - a);
-        let p = d.cross(e2);
-        let det = e1.dot(p);
-        let s = o - a;
-        let q = s.cross(e1);
-        let (t, u, v) = (e2.dot(q) / det, s.dot(p) / det, d.dot(q) / det);
-        if !(t.is_finite() && u.is_finite() && v.is_finite()) {
-            return hit;
-        }
-        let (u, v) = (u.clamp(0.0, 1.0), v.clamp(0.0, 1.0));
-        let (u, v) = if u + v > 1.0 {
-            (u / (u + v), v / (u + v))
-        } else {
-            (u, v)
-        };
-        RawHit {
-            t: t as f32,
-            u: u as f32,
-            v: v as f32,
-            ..hit
-        }
     }
 
     /// The closest hit of each of up to 8 rays that start close together and run alike (the probes of a
@@ -337,7 +386,7 @@ impl Bvh {
         unsafe { rtcIntersect8(valid.0.as_ptr(), self.scene, &mut ctx, &mut rh) };
         for (i, r) in rays.iter().enumerate() {
             out[i] = (rh.geom_id[i] != RTC_INVALID_GEOMETRY_ID).then(|| {
-                self.measured(
+                self.tris.measured(
                     r.origin,
                     r.dir,
                     RawHit {
@@ -358,6 +407,37 @@ impl Bvh {
         // SAFETY: as in `intersect`; Embree sets tfar to -inf when the ray is occluded.
         unsafe { rtcOccluded1(self.scene, &mut ctx, &mut ray) };
         ray.tfar < 0.0
+    }
+}
+
+impl Triangles {
+    /// `hit` with its distance and barycentrics measured again from its triangle's corners in f64
+    /// (Möller–Trumbore; the same bits on every IEEE machine, unlike Embree's kernels), the
+    /// barycentrics kept inside the triangle; Embree's own where the ray runs in the triangle's plane.
+    fn measured(&self, origin: Vec3, dir: Vec3, hit: RawHit) -> RawHit {
+        let [a, b, c] = self.corners[hit.prim as usize].map(|p| p.as_dvec3());
+        let (o, d) = (origin.as_dvec3(), dir.as_dvec3());
+        let (e1, e2) = (b - a, c - a);
+        let p = d.cross(e2);
+        let det = e1.dot(p);
+        let s = o - a;
+        let q = s.cross(e1);
+        let (t, u, v) = (e2.dot(q) / det, s.dot(p) / det, d.dot(q) / det);
+        if !(t.is_finite() && u.is_finite() && v.is_finite()) {
+            return hit;
+        }
+        let (u, v) = (u.clamp(0.0, 1.0), v.clamp(0.0, 1.0));
+        let (u, v) = if u + v > 1.0 {
+            (u / (u + v), v / (u + v))
+        } else {
+            (u, v)
+        };
+        RawHit {
+            t: t as f32,
+            u: u as f32,
+            v: v as f32,
+            ..hit
+        }
     }
 }
 
@@ -411,11 +491,11 @@ mod tests {
     #[test]
     fn a_hit_has_the_same_bits_whatever_instruction_set_found_it() {
         let (positions, triangles, rays) = soup();
-        let pinned = Bvh::build_on(&positions, &triangles, None).unwrap();
+        let pinned = Bvh::build_on(&positions, &triangles, None, None).unwrap();
         let mut compared = 0;
         for isa in ["sse4.2", "avx2", "avx512"] {
             // An instruction set this CPU lacks is not compared.
-            let Ok(other) = Bvh::build_on(&positions, &triangles, Some(isa)) else {
+            let Ok(other) = Bvh::build_on(&positions, &triangles, None, Some(isa)) else {
                 continue;
             };
             compared += 1;
@@ -450,7 +530,7 @@ mod tests {
     #[test]
     fn a_measured_hit_is_where_the_ray_meets_the_triangle() {
         let (positions, triangles, rays) = soup();
-        let bvh = Bvh::build_on(&positions, &triangles, None).unwrap();
+        let bvh = Bvh::build_on(&positions, &triangles, None, None).unwrap();
         for &(o, d) in &rays {
             let Some(h) = bvh.intersect(o, d, 10.0) else {
                 continue;
@@ -460,5 +540,59 @@ mod tests {
             assert!(h.u >= 0.0 && h.v >= 0.0 && h.u + h.v <= 1.0, "{h:?}");
             assert!((bary - (o + d * h.t)).length() < 1e-5, "{h:?}");
         }
+    }
+
+    /// Cuts away the even triangles, and the half u > v of the odd ones.
+    struct EvenAndHalf;
+
+    impl Cutout for EvenAndHalf {
+        fn is_cut(&self, prim: u32, u: f32, v: f32) -> bool {
+            prim.is_multiple_of(2) || u > v
+        }
+    }
+
+    /// A cut hit is never reported and never occludes, for single rays and packets alike; each ray's hit
+    /// is the closest uncut one of the soup without the filter, found by re-tracing past cut hits.
+    #[test]
+    fn cut_hits_are_skipped_by_every_query() {
+        let (positions, triangles, rays) = soup();
+        let plain = Bvh::build_on(&positions, &triangles, None, None).unwrap();
+        let cut = Bvh::build_on(&positions, &triangles, Some(Box::new(EvenAndHalf)), None).unwrap();
+        let (mut n_hits, mut n_skipped) = (0, 0);
+        for chunk in rays.chunks(8) {
+            let packet: Vec<PacketRay> = chunk
+                .iter()
+                .map(|&(origin, dir)| PacketRay {
+                    origin,
+                    dir,
+                    tnear: 0.0,
+                    tfar: 10.0,
+                })
+                .collect();
+            let mut hits8 = [None; 8];
+            cut.intersect8(&packet, &mut hits8);
+            for (k, &(o, d)) in chunk.iter().enumerate() {
+                // The closest uncut hit, by stepping past cut ones on the unfiltered BVH.
+                let mut t0 = 0.0;
+                let expected = loop {
+                    match plain.intersect_range(o, d, t0, 10.0) {
+                        Some(h) if EvenAndHalf.is_cut(h.prim, h.u, h.v) => {
+                            n_skipped += 1;
+                            t0 = h.t + 1e-5;
+                        }
+                        h => break h,
+                    }
+                };
+                let got = cut.intersect(o, d, 10.0);
+                assert_eq!(got.map(|h| h.prim), expected.map(|h| h.prim), "{o} {d}");
+                assert_eq!(hits8[k].map(|h| h.prim), got.map(|h| h.prim));
+                if let Some(h) = got {
+                    n_hits += 1;
+                    assert!(!EvenAndHalf.is_cut(h.prim, h.u, h.v), "{h:?}");
+                }
+                assert_eq!(cut.occluded(o, d, 10.0), got.is_some());
+            }
+        }
+        assert!(n_hits > 1000 && n_skipped > 1000, "{n_hits} {n_skipped}");
     }
 }

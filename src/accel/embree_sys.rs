@@ -76,6 +76,20 @@ pub(super) struct RTCRayHit8 {
 #[repr(C, align(32))]
 pub(super) struct Valid8(pub(super) [i32; 8]);
 
+/// What Embree hands a geometry's filter function: one potential hit of each of `n` rays (structure
+/// of arrays: `ray` as `RTCRayN`, `hit` as `RTCHitN`); clearing `valid[i]` rejects ray i's hit.
+#[repr(C)]
+pub(super) struct RTCFilterFunctionNArguments {
+    pub(super) valid: *mut i32,
+    pub(super) geometry_user_ptr: *mut c_void,
+    pub(super) context: *mut RTCIntersectContext,
+    pub(super) ray: *mut c_void,
+    pub(super) hit: *mut c_void,
+    pub(super) n: c_uint,
+}
+
+pub(super) type RTCFilterFunctionN = unsafe extern "C" fn(args: *const RTCFilterFunctionNArguments);
+
 /// Context flag: the rays of a packet start close together and run alike.
 pub(super) const RTC_INTERSECT_CONTEXT_FLAG_COHERENT: c_uint = 1;
 
@@ -98,6 +112,15 @@ extern "C" {
         item_count: usize,
     ) -> *mut c_void;
     pub(super) fn rtcCommitGeometry(geometry: RTCGeometry);
+    pub(super) fn rtcSetGeometryUserData(geometry: RTCGeometry, ptr: *mut c_void);
+    pub(super) fn rtcSetGeometryIntersectFilterFunction(
+        geometry: RTCGeometry,
+        filter: Option<RTCFilterFunctionN>,
+    );
+    pub(super) fn rtcSetGeometryOccludedFilterFunction(
+        geometry: RTCGeometry,
+        filter: Option<RTCFilterFunctionN>,
+    );
     pub(super) fn rtcAttachGeometry(scene: RTCScene, geometry: RTCGeometry) -> c_uint;
     pub(super) fn rtcReleaseGeometry(geometry: RTCGeometry);
     pub(super) fn rtcCommitScene(scene: RTCScene);

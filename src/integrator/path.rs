@@ -137,7 +137,7 @@ impl Path {
         c: &mut SampleCounters,
     ) -> bool {
         let d = self.d;
-        let bsdf = &scene.material(hit).bsdf;
+        let bsdf = &scene.bsdf(hit);
         if bsdf.is_null() {
             self.crossings += 1;
             if self.crossings > MAX_NULL_CROSSINGS {
@@ -259,7 +259,7 @@ pub fn direct_light(
     rng: &mut Rng,
     c: &mut SampleCounters,
 ) -> Vec3 {
-    let bsdf = &scene.material(hit).bsdf;
+    let bsdf = &scene.bsdf(hit);
     let u = [rng.uniform(), rng.uniform(), rng.uniform()];
     let Some(ls) = scene.lights.sample(&scene.geometry, hit.p, u) else {
         return Vec3::ZERO;

@@ -216,7 +216,7 @@ impl PmContext<'_> {
             Via::Glossy { .. } => Vec3::ZERO,
         };
         let frame = Frame::new(&hit, wo);
-        let bsdf = &self.scene.material(&hit).bsdf;
+        let bsdf = &self.scene.bsdf(&hit);
         if let (Via::Glossy { .. }, false) = (via, bsdf.is_specular()) {
             // After a glossy reflection the point is not shaded again: its light is read as a
             // final-gather ray reads it (the caller sums the terms).
@@ -864,7 +864,7 @@ impl PmContext<'_> {
         let (mut hit, mut d) = (first, dir);
         for bounce in 0..=MAX_SPECULAR {
             let frame = Frame::new(&hit, -d);
-            let bsdf = &self.scene.material(&hit).bsdf;
+            let bsdf = &self.scene.bsdf(&hit);
             if !bsdf.is_specular() {
                 return GatherEnd {
                     hit: gather_hit(&hit, &frame, bsdf, -d),

@@ -62,10 +62,11 @@ impl RadianceCache {
         let lobes: Vec<_> = scene
             .materials
             .iter()
-            .map(|m| match m.bsdf {
+            .enumerate()
+            .map(|(k, m)| match m.bsdf {
                 Bsdf::Glossy {
                     specular, exponent, ..
-                } if specular != Vec3::ZERO => {
+                } if specular != Vec3::ZERO && !scene.exponent_varies(k) => {
                     let kernel = PhongKernel::new(exponent);
                     kernel.order_for(TOLERANCE)?;
                     Some((kernel, settings.radiance_bands.unwrap_or(sh::MAX_ORDER)))

@@ -67,7 +67,7 @@ impl PhotonScene for PhotonView<'_> {
     fn scatter(&self, h: &SurfaceHit, wo: Vec3, u: [f32; 3]) -> Scatter {
         let hit = self.hit(h);
         let frame = Frame::new(&hit, wo);
-        let bsdf = &self.0.material(&hit).bsdf;
+        let bsdf = &self.0.bsdf(&hit);
         let kd = self.0.albedo(&hit);
         match bsdf.sample(kd, frame.n, wo, frame.front, u, Transport::Importance) {
             Some(s) if s.weight.max_element() > 0.0 && (s.delta || frame.same_side(s.wi)) => {

@@ -15,8 +15,10 @@ use super::settings::{camera, settings};
 use super::{limits, mtl, obj, Scene};
 use crate::accel::embree::Bvh;
 use crate::camera::Camera;
+use crate::cutout::{Cutouts, Mask};
 use crate::error::{at_line, in_file, relative_to, Result};
 use crate::geometry::{Geometry, Triangle};
+use crate::gloss_map::GlossMaps;
 use crate::light::Lights;
 use crate::material::{Bsdf, Material};
 use crate::texture::{self, Texture};
@@ -171,15 +173,38 @@ fn build(path: &Path, text: &str, desc: &SceneFile) -> Result<Scene> {
     }
     let camera = camera(&cx, desc)?;
     let settings = settings(&cx, desc)?;
-    let (geometry, mut materials, tex_paths, emission_at, mesh_tris) = meshes(&cx, desc)?;
+    let Meshes {
+        geo: geometry,
+        mut materials,
+        tex_paths,
+        mask_paths,
+        ks_paths,
+        ns_paths,
+        emission_at,
+        mesh_tris,
+        warnings,
+    } = meshes(&cx, desc)?;
     let textures = textures(&cx, &mut materials, tex_paths)?;
+    let gloss_maps = gloss_maps(&cx, &materials, ks_paths, ns_paths)?;
+    let cutouts = cutouts(&cx, &geometry, &materials, mask_paths)?;
     let bounds = geometry.bounds();
     let lights = lights(&cx, desc, &geometry, &materials, &emission_at)?;
     let media = media(&cx, desc, &geometry, &materials, &mesh_tris, &lights.lights)?;
-    let bvh = Bvh::build(
-        &geometry.positions,
-        &geometry.triangles.iter().map(|t| t.v).collect::<Vec<_>>(),
-    )?;
+    let fingerprint = fingerprint(
+        &geometry,
+        &materials,
+        &textures,
+        cutouts.as_ref(),
+        &lights,
+        media.as_ref(),
+    );
+    let triangles: Vec<[u32; 3]> = geometry.triangles.iter().map(|t| t.v).collect();
+    let bvh = match cutouts {
+        None => Bvh::build(&geometry.positions, &triangles)?,
+        Some(c) => Bvh::build_with_cutout(&geometry.positions, &triangles, Box::new(c))?,
+    };
+    // The specular BVH only tells the photon pass whether a path may reach a mirror or glass at all:
+    // without the cutouts it answers yes a little more often, never wrongly no.
     let specular: Vec<[u32; 3]> = geometry
         .triangles
         .iter()
@@ -191,7 +216,6 @@ fn build(path: &Path, text: &str, desc: &SceneFile) -> Result<Scene> {
     } else {
         Some(Bvh::build(&geometry.positions, &specular)?)
     };
-    let fingerprint = fingerprint(&geometry, &materials, &textures, &lights, media.as_ref());
     let texel_density = super::texel_densities(&geometry, &materials, &textures);
     Ok(Scene {
         path: path.to_path_buf(),
@@ -208,6 +232,8 @@ fn build(path: &Path, text: &str, desc: &SceneFile) -> Result<Scene> {
         media,
         mesh_ranges: mesh_tris,
         texel_density,
+        gloss_maps,
+        warnings,
     })
 }
 
@@ -236,18 +262,26 @@ fn transform(cx: &Ctx, index: usize, m: &file::MeshDesc) -> Result<Mat4> {
 
 type TexPaths = Vec<Option<(PathBuf, String)>>;
 
-type Meshes = (
-    Geometry,
-    Vec<Material>,
-    TexPaths,
-    Vec<Origin>,
-    Vec<std::ops::Range<usize>>,
-);
+/// Every mesh's triangles (transformed), the materials (MTL, then the scene's overrides) and the images
+/// they name, where each material's emission was set, each mesh's triangles, and the warnings about
+/// the assets.
+struct Meshes {
+    geo: Geometry,
+    materials: Vec<Material>,
+    tex_paths: TexPaths,
+    /// Each material's cutout mask (`map_d`).
+    mask_paths: TexPaths,
+    /// Each material's glossy maps (`map_Ks`, `map_Ns`).
+    ks_paths: TexPaths,
+    ns_paths: TexPaths,
+    emission_at: Vec<Origin>,
+    mesh_tris: Vec<std::ops::Range<usize>>,
+    warnings: Vec<String>,
+}
 
-/// Every mesh's triangles (transformed), the materials (MTL, then the scene's overrides), their texture
-/// paths, where each material's emission was set, and each mesh's triangles.
 fn meshes(cx: &Ctx, desc: &SceneFile) -> Result<Meshes> {
     let mut geo = Geometry::default();
+    let mut warnings = Vec::new();
     let mut loaded = LoadedMaterials::default();
     let mut mesh_tris = Vec::with_capacity(desc.mesh.len());
     for (mi, m) in desc.mesh.iter().enumerate() {
@@ -256,19 +290,12 @@ fn meshes(cx: &Ctx, desc: &SceneFile) -> Result<Meshes> {
         let nxf = Mat3::from_mat4(xf).inverse().transpose();
         let path = obj_path(cx, mi, m)?;
         let data = obj::load(&path)?;
-        if let Some((name, line)) = data
-            .undefined
-            .iter()
-            .find(|(name, _)| !desc.materials.contains_key(name))
-        {
-            return Err(at_line(
-                &path,
-                *line,
-                format!(
-                    "usemtl '{name}': no material library of this OBJ defines it (add it to the \
-                     MTL, or a [materials.{name}] table to the scene)"
-                ),
-            ));
+        for (name, line) in &data.undefined {
+            let w = undefined_material_warning(&path, *line, name);
+            // An OBJ placed by several meshes is warned about once.
+            if !desc.materials.contains_key(name) && !warnings.contains(&w) {
+                warnings.push(w);
+            }
         }
         let base = loaded.materials.len();
         loaded.add_mtl(cx, &data, line_of_key(cx.text, "mesh", mi, "obj"));
@@ -307,10 +334,36 @@ fn meshes(cx: &Ctx, desc: &SceneFile) -> Result<Meshes> {
     let LoadedMaterials {
         materials,
         tex_paths,
+        mask_paths,
+        ks_paths,
+        ns_paths,
         emission_at,
         ..
     } = loaded;
-    Ok((geo, materials, tex_paths, emission_at, mesh_tris))
+    Ok(Meshes {
+        geo,
+        materials,
+        tex_paths,
+        mask_paths,
+        ks_paths,
+        ns_paths,
+        emission_at,
+        mesh_tris,
+        warnings,
+    })
+}
+
+/// The warning for a `usemtl` name no library of the OBJ defines and the scene file does not either.
+/// An asset as exported may lack a material (McGuire's CornellBox-Glossy.mtl has no `light`, which
+/// its OBJ uses) and every other reader loads it with a default: so it renders, with a word, since a
+/// misspelt name would otherwise render grey unnoticed.
+fn undefined_material_warning(obj: &Path, line: usize, name: &str) -> String {
+    format!(
+        "{}:{line}: usemtl '{name}': no material library of this OBJ defines it; the default \
+         material (diffuse 0.8) stands in (define it in the MTL, or with a [materials.{name}] table \
+         in the scene)",
+        obj.display()
+    )
 }
 
 /// A mesh's `obj` path (relative to the scene file), checked to name a regular file.
@@ -340,6 +393,9 @@ fn obj_path(cx: &Ctx, index: usize, m: &file::MeshDesc) -> Result<PathBuf> {
 struct LoadedMaterials {
     materials: Vec<Material>,
     tex_paths: TexPaths,
+    mask_paths: TexPaths,
+    ks_paths: TexPaths,
+    ns_paths: TexPaths,
     emission_at: Vec<Origin>,
     /// The indices of the materials of each name (several OBJs may use one name).
     by_name: HashMap<String, Vec<usize>>,
@@ -351,12 +407,16 @@ impl LoadedMaterials {
     /// Adds an OBJ's MTL materials; an emission the MTL does not place is placed at `mesh_line`.
     fn add_mtl(&mut self, cx: &Ctx, data: &obj::ObjData, mesh_line: usize) {
         for tm in &data.materials {
-            let (mat, tex) = mtl::from_mtl(tm);
+            let (mat, maps) = mtl::from_mtl(tm);
             self.by_name
                 .entry(mat.name.clone())
                 .or_default()
                 .push(self.materials.len());
-            self.tex_paths.push(tex.map(|t| (data.mtl_dir.clone(), t)));
+            let in_dir = |t: String| (data.mtl_dir.clone(), t);
+            self.tex_paths.push(maps.kd.map(in_dir));
+            self.mask_paths.push(maps.d.map(in_dir));
+            self.ks_paths.push(maps.ks.map(in_dir));
+            self.ns_paths.push(maps.ns.map(in_dir));
             self.emission_at.push(
                 data.ke_at
                     .get(&mat.name)
@@ -380,6 +440,9 @@ impl LoadedMaterials {
                 emission: Vec3::ZERO,
             });
             self.tex_paths.push(None);
+            self.mask_paths.push(None);
+            self.ks_paths.push(None);
+            self.ns_paths.push(None);
             self.emission_at.push((cx.path.to_path_buf(), 1));
             (self.materials.len() - 1) as u32
         })
@@ -525,6 +588,97 @@ fn textures(cx: &Ctx, materials: &mut [Material], tex_paths: TexPaths) -> Result
     Ok(textures)
 }
 
+/// The cutouts of the triangles whose material names a `map_d` mask (each file read once); `None`
+/// when none does.
+fn cutouts(
+    cx: &Ctx,
+    geo: &Geometry,
+    materials: &[Material],
+    mask_paths: TexPaths,
+) -> Result<Option<Cutouts>> {
+    let mut masks = Vec::new();
+    let mut loaded: HashMap<PathBuf, u32> = HashMap::new();
+    let mut mask_of = vec![None; materials.len()];
+    for (k, mp) in mask_paths.into_iter().enumerate() {
+        let Some((dir, name)) = mp else { continue };
+        let resolved = texture::resolve(&dir, &name).map_err(|why| {
+            in_file(
+                cx.path,
+                format!("material '{}': map_d '{}' {why}", materials[k].name, name),
+            )
+        })?;
+        let idx = match loaded.get(&resolved) {
+            Some(&i) => i,
+            None => {
+                input::check_regular(&resolved, "texture", MAX_TEXTURE_BYTES)?;
+                let m = Mask::load(&resolved)
+                    .map_err(|e| in_file(&resolved, format!("cannot read mask: {e}")))?;
+                masks.push(m);
+                loaded.insert(resolved, masks.len() as u32 - 1);
+                masks.len() as u32 - 1
+            }
+        };
+        mask_of[k] = Some(idx);
+    }
+    let masked = geo.triangles.iter().enumerate().filter_map(|(i, t)| {
+        let mask = mask_of[t.material as usize]?;
+        Some((i, mask, t.v.map(|k| geo.uvs[k as usize])))
+    });
+    Ok(Cutouts::new(masks, geo.triangles.len(), masked))
+}
+
+/// Each glossy material's `map_Ks` and `map_Ns` (`None` for a material with neither, or not glossy
+/// once overrides are applied); empty when no material has one.
+fn gloss_maps(
+    cx: &Ctx,
+    materials: &[Material],
+    ks_paths: TexPaths,
+    ns_paths: TexPaths,
+) -> Result<Vec<Option<GlossMaps>>> {
+    let read = |mat: &Material, statement: &str, (dir, name): (PathBuf, String)| {
+        let resolved = texture::resolve(&dir, &name).map_err(|why| {
+            in_file(
+                cx.path,
+                format!("material '{}': {statement} '{}' {why}", mat.name, name),
+            )
+        })?;
+        input::check_regular(&resolved, "texture", MAX_TEXTURE_BYTES)?;
+        Ok::<_, crate::error::Error>(resolved)
+    };
+    let mut maps = Vec::with_capacity(materials.len());
+    for ((mat, ks), ns) in materials.iter().zip(ks_paths).zip(ns_paths) {
+        if !matches!(mat.bsdf, Bsdf::Glossy { .. }) || (ks.is_none() && ns.is_none()) {
+            maps.push(None);
+            continue;
+        }
+        let specular = match ks {
+            Some(k) => {
+                let path = read(mat, "map_Ks", k)?;
+                Some(
+                    Texture::load(&path)
+                        .map_err(|e| in_file(&path, format!("cannot read texture: {e}")))?,
+                )
+            }
+            None => None,
+        };
+        let exponent = match ns {
+            Some(n) => {
+                let path = read(mat, "map_Ns", n)?;
+                Some(
+                    Mask::load_values(&path, false)
+                        .map_err(|e| in_file(&path, format!("cannot read texture: {e}")))?,
+                )
+            }
+            None => None,
+        };
+        maps.push(Some(GlossMaps { specular, exponent }));
+    }
+    if maps.iter().all(Option::is_none) {
+        maps.clear();
+    }
+    Ok(maps)
+}
+
 /// The mean diffuse colour of a textured glossy material over its texture: its `albedo`, for readers
 /// that do not look the texel up (the irradiance atlas gives a glossy texel its material's albedo; the
 /// scaled Kd there made pm 7.9 % bright on Sibenik with a polished marble floor).
@@ -543,6 +697,7 @@ fn fingerprint(
     geo: &Geometry,
     materials: &[Material],
     textures: &[Texture],
+    cutouts: Option<&Cutouts>,
     lights: &Lights,
     media: Option<&super::Media>,
 ) -> u64 {
@@ -577,6 +732,9 @@ fn fingerprint(
             h = (h ^ b as u64).wrapping_mul(0x0100_0000_01b3);
         }
         bytes.extend(h.to_le_bytes());
+    }
+    if let Some(c) = cutouts {
+        bytes.extend(c.fingerprint().to_le_bytes());
     }
     for l in &lights.lights {
         bytes.extend(format!("{l:?}").bytes());

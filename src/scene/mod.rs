@@ -129,6 +129,11 @@ pub struct Scene {
     pub mesh_ranges: Vec<std::ops::Range<usize>>,
     /// Per triangle, its material's texels per world unit ([`texel_density`]; 0 without a texture).
     texel_density: Vec<f32>,
+    /// Each material's glossy maps (`map_Ks`, `map_Ns`); empty when no material has any.
+    gloss_maps: Vec<Option<crate::gloss_map::GlossMaps>>,
+    /// What the loader accepted but a user should hear about (an OBJ's `usemtl` of a material no
+    /// library defines), each naming its file and line; the render's warnings begin with these.
+    pub warnings: Vec<String>,
 }
 
 /// Texels of `texture` per world unit on triangle `tri` of `g`, along the direction where they are
@@ -557,6 +562,22 @@ impl Scene {
 
     pub(crate) fn material(&self, hit: &Hit) -> &Material {
         &self.materials[hit.material as usize]
+    }
+
+    /// The BSDF at a hit: its material's, the glossy lobe scaled by the material's `map_Ks` and
+    /// `map_Ns` at the hit's texture coordinates.
+    pub(crate) fn bsdf(&self, hit: &Hit) -> crate::material::Bsdf {
+        let bsdf = &self.materials[hit.material as usize].bsdf;
+        match self.gloss_maps.get(hit.material as usize) {
+            Some(Some(maps)) => maps.apply(bsdf, hit.uv),
+            _ => bsdf.clone(),
+        }
+    }
+
+    /// Whether material `material`'s glossy exponent varies over its surface (a `map_Ns`): the
+    /// radiance cache, which holds one lobe per material, leaves it out.
+    pub(crate) fn exponent_varies(&self, material: usize) -> bool {
+        matches!(self.gloss_maps.get(material), Some(Some(m)) if m.exponent.is_some())
     }
 
     /// Radiance emitted from `hit` toward `wo` (one-sided emitters).

@@ -26,10 +26,63 @@ fn param3(m: &tobj::Material, key: &str) -> Option<Vec3> {
     }
 }
 
+/// The image files an MTL material names that the renderer reads.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct MtlMaps {
+    /// `map_Kd`, the diffuse colour (of diffuse and glossy materials).
+    pub kd: Option<String>,
+    /// `map_d`, a cutout mask (of any material).
+    pub d: Option<String>,
+    /// `map_Ks` and `map_Ns`, scales of the glossy lobe's colour and exponent (of glossy materials).
+    pub ks: Option<String>,
+    pub ns: Option<String>,
+}
+
+/// The file a texture statement names, after its options (`-clamp on`, `-bm 0.5`, `-o u v w`, …):
+/// the rest of the statement from the first word that is not an option or an option's value (a file
+/// name may hold spaces).
+pub fn map_file(arg: &str) -> &str {
+    let mut rest = arg.trim();
+    loop {
+        let mut words = rest.split_whitespace();
+        let Some(option) = words.next().filter(|w| w.starts_with('-')) else {
+            return rest;
+        };
+        // Values each option takes: -o, -s and -t up to three numbers, -mm two, the others one.
+        let (least, most) = match option {
+            "-o" | "-s" | "-t" => (1, 3),
+            "-mm" => (2, 2),
+            "-blendu" | "-blendv" | "-bm" | "-boost" | "-cc" | "-clamp" | "-imfchan"
+            | "-texres" | "-type" => (1, 1),
+            _ => return rest,
+        };
+        let mut n_values = 0;
+        let mut after = &rest[option.len()..];
+        while n_values < most {
+            let trimmed = after.trim_start();
+            let Some(word) = trimmed.split_whitespace().next() else {
+                break;
+            };
+            if n_values >= least && word.parse::<f32>().is_err() {
+                break;
+            }
+            after = &trimmed[word.len()..];
+            n_values += 1;
+        }
+        rest = after.trim_start();
+    }
+}
+
+/// A texture statement's file, when it names one.
+fn map_path(statement: &Option<String>) -> Option<String> {
+    let name = map_file(statement.as_deref()?);
+    (!name.is_empty()).then(|| name.to_string())
+}
+
 /// The MTL mapping: Ke > 0 → emission; illum 3/5 → mirror; 4/6/7 → glass; Ks > 0 with Ns > 1 →
-/// glossy; otherwise diffuse. Returns the material and the texture path (`map_Kd`, for diffuse and
-/// glossy), if any.
-pub fn from_mtl(m: &tobj::Material) -> (Material, Option<String>) {
+/// glossy; otherwise diffuse. Returns the material and the image files it reads (`map_Kd` for
+/// diffuse and glossy, `map_d` for any, `map_Ks` and `map_Ns` for glossy once overrides are applied).
+pub fn from_mtl(m: &tobj::Material) -> (Material, MtlMaps) {
     let kd = v3(m.diffuse).unwrap_or(Vec3::splat(0.8));
     let ks = v3(m.specular).unwrap_or(Vec3::ZERO);
     // The MTL check has put every colour in its range already.
@@ -52,11 +105,14 @@ pub fn from_mtl(m: &tobj::Material) -> (Material, Option<String>) {
             texture: None,
         },
     };
-    let texture = match bsdf {
-        Bsdf::Diffuse { .. } | Bsdf::Glossy { .. } => {
-            m.diffuse_texture.clone().filter(|t| !t.trim().is_empty())
-        }
-        _ => None,
+    let maps = MtlMaps {
+        kd: match bsdf {
+            Bsdf::Diffuse { .. } | Bsdf::Glossy { .. } => map_path(&m.diffuse_texture),
+            _ => None,
+        },
+        d: map_path(&m.dissolve_texture),
+        ks: map_path(&m.specular_texture),
+        ns: map_path(&m.shininess_texture),
     };
     (
         Material {
@@ -64,7 +120,7 @@ pub fn from_mtl(m: &tobj::Material) -> (Material, Option<String>) {
             bsdf,
             emission,
         },
-        texture,
+        maps,
     )
 }
 
@@ -329,6 +385,22 @@ mod tests {
         // Glossy made diffuse drops it unless given.
         let s = scene("[materials.blender]\ntype = \"diffuse\"\n");
         assert!((albedo_at(&s, -1.0).x - 0.8 / 1.3).abs() < 1e-5);
+    }
+
+    #[test]
+    fn texture_options_are_skipped() {
+        for (statement, file) in [
+            ("leaf.png", "leaf.png"),
+            ("-clamp on leaf.png", "leaf.png"),
+            ("-bm 0.5 -imfchan m my leaf.png", "my leaf.png"),
+            ("-o 0.5 -s 2 2 1 leaf.png", "leaf.png"),
+            ("-s 2 2 leaf.png", "leaf.png"),
+            ("-mm 0 1 -type sphere leaf.png", "leaf.png"),
+            ("-unknown leaf.png", "-unknown leaf.png"),
+            ("-clamp", ""),
+        ] {
+            assert_eq!(map_file(statement), file, "{statement}");
+        }
     }
 
     #[test]

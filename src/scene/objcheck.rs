@@ -19,7 +19,8 @@ pub struct CheckedObj {
     /// Where each material's `Ke` was given (MTL file and line), for messages about light power.
     pub ke_at: HashMap<String, (PathBuf, usize)>,
     /// The `usemtl` names no library defines, with the OBJ line of each one's first use: the default
-    /// material stands in for them, and the scene file must define each (see [`define_missing`]).
+    /// material stands in for them, each warned about unless the scene file defines it (see
+    /// [`define_missing`]).
     pub undefined: Vec<(String, usize)>,
 }
 
@@ -137,8 +138,8 @@ pub fn check_obj(path: &Path, text: &str) -> Result<CheckedObj> {
 /// Gives each `usemtl` name that no library defines the default material (diffuse 0.8) under its own
 /// name, in a library of its own read first, so that a scene's `[materials.NAME]` can define it:
 /// McGuire's CornellBox-Glossy.mtl lacks the `light` its OBJ uses. The names are kept in
-/// `out.undefined`: without such a table the scene is refused (a misspelt name would silently render
-/// grey).
+/// `out.undefined`: without such a table the scene warns about each (a misspelt name would silently
+/// render grey).
 fn define_missing(path: &Path, out: &mut CheckedObj, used: &[(String, usize)]) {
     let defined: std::collections::HashSet<&str> = out
         .libraries

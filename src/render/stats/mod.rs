@@ -109,6 +109,8 @@ pub struct Setup {
     pub n_lights: u64,
     /// The instruction set Embree's kernels run: renders match across machines that run the same.
     pub ray_isa: &'static str,
+    /// The scene's warnings from loading (file and line of each).
+    pub load_warnings: Vec<String>,
 }
 
 /// The photon maps, traced or loaded, and the settings they are read with.
@@ -172,7 +174,7 @@ impl RenderStats {
     /// What a user should hear about a render that succeeded on legal input but is likely not what
     /// they meant; the binary prints each on stderr.
     pub fn warnings(&self) -> Vec<String> {
-        let mut out = Vec::new();
+        let mut out = self.setup.load_warnings.clone();
         if let Some(p) = self.photons.as_ref().filter(|p| !p.loaded) {
             let t = &p.trace;
             let stored = t.n_global_stored
@@ -204,6 +206,7 @@ impl RenderStats {
             n_degenerate: scene.geometry.n_degenerate as u64,
             n_lights: scene.lights.len() as u64,
             ray_isa: scene.bvh.isa(),
+            load_warnings: scene.warnings.clone(),
         };
         RenderStats {
             setup,

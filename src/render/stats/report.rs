@@ -64,6 +64,7 @@ impl RenderStats {
                 self.setup.n_degenerate,
             ),
             ("Lights", "scene.lights", self.setup.n_lights),
+            ("Warnings", "scene.warnings", self.warnings().len() as u64),
         ] {
             r.count("Scene", title, key, n);
         }
