@@ -19,6 +19,7 @@ from __future__ import annotations
 import json
 import os
 import sys
+import warnings as _warnings
 from typing import Callable, Dict, Iterator, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
@@ -28,6 +29,7 @@ from ._native import SceneError
 
 __all__ = [
     "SceneError",
+    "RenderWarning",
     "Scene",
     "Result",
     "Bake",
@@ -42,6 +44,16 @@ __all__ = [
 ]
 
 Scene = _native.Scene
+
+
+class RenderWarning(UserWarning):
+    """A render succeeded on legal input but is likely not what was meant (the CLI's warnings: an
+    asset's undefined material, a photon pass that stored nothing, ...)."""
+
+
+def _warn(native) -> None:
+    for w in native.warnings():
+        _warnings.warn(w, RenderWarning, stacklevel=3)
 PathLike = Union[str, "os.PathLike[str]"]
 Progress = Union[None, bool, Callable[[float], object]]
 
@@ -84,6 +96,11 @@ class Result:
                 for name in self._native.layer_names()
             }
         return self._layers
+
+    @property
+    def warnings(self) -> List[str]:
+        """What the CLI would print as warnings for this render (also raised as ``RenderWarning``)."""
+        return self._native.warnings()
 
     @property
     def stats(self) -> dict:
@@ -238,7 +255,7 @@ def render(
     """
     if bake is not None and not isinstance(bake, Bake):
         raise ValueError("bake: must come from pmrender.bake or pmrender.load_bake")
-    return Result(
+    result = Result(
         _native.render(
             scene,
             method=method,
@@ -256,6 +273,8 @@ def render(
             tiles=_int("tiles", tiles),
         )
     )
+    _warn(result._native)
+    return result
 
 
 def bake(

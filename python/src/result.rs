@@ -72,6 +72,11 @@ impl RenderResult {
         Ok(pixel_bytes(py, img))
     }
 
+    /// What the render would have the user hear (the CLI prints each as a warning).
+    fn warnings(&self) -> Vec<String> {
+        self.stats.warnings()
+    }
+
     /// The statistics as the `--stats` JSON text.
     fn stats_json(&self) -> PyResult<String> {
         serde_json::to_string(&self.stats.report().to_json())

@@ -78,3 +78,16 @@ def test_seeds_change_the_noise_and_only_the_noise():
     a, b = (pm.render(scene, spp=4, seed=s).image for s in (0, 1))
     assert not np.array_equal(a, b)
     assert abs(a.mean() / b.mean() - 1) < 0.05
+
+
+def test_an_assets_undefined_material_is_a_render_warning(tmp_path):
+    (tmp_path / "box.obj").write_text(
+        "mtllib box.mtl\nv -1 0 -1\nv 1 0 -1\nv 1 0 1\nv -1 0 1\nusemtl nowhere\nf 1 2 3\nf 1 3 4\n")
+    (tmp_path / "box.mtl").write_text("newmtl floor\nKd 0.5 0.5 0.5\n")
+    (tmp_path / "s.toml").write_text(
+        '[camera]\neye = [0, 2, 3]\ntarget = [0, 0, 0]\nfov = 40\nwidth = 16\nheight = 12\n\n'
+        '[[mesh]]\nobj = "box.obj"\n\n[[light]]\ntype = "point"\nposition = [0, 2, 0]\n'
+        'intensity = [5, 5, 5]\n')
+    with pytest.warns(pm.RenderWarning, match="nowhere"):
+        r = pm.render(pm.load_file(tmp_path / "s.toml"), spp=1)
+    assert any("box.obj:6" in w for w in r.warnings)
