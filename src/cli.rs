@@ -18,6 +18,7 @@ use pmrender::render::{self, tiles::Window, Options, Progress};
 use pmrender::scene::{self, Method, Scene, MAX_PHOTONS, METHODS};
 use pmrender::signal;
 
+mod landing;
 mod sequence;
 
 #[derive(Parser)]

@@ -60,26 +60,35 @@ def measure(out_json):
     Path(out_json).write_text(json.dumps(results, indent=1))
 
 
-def simulate_job(row, n, scale=1.0):
-    """Wall time on n machines from the 1-worker run (2 threads per task); ``scale`` multiplies
-    every per-pixel cost (pass A and the tiles), for a larger still."""
-    s = row["summary1"]
+def startup(row, workers):
+    """Seconds the command spends before and after its job: the cluster's start and stop, measured."""
+    return row[f"farm{workers}_s"] - row[f"summary{workers}"]["wall_s"]
+
+
+def model(s, n, start_s, tiles=None, pixel_scale=1.0):
+    """Wall seconds of the job in summary ``s`` on ``n`` workers: ``start_s``, the bake (its pass A
+    scaled by ``pixel_scale``) and its shipping, the tasks in order on the first free worker with
+    the measured per-task overhead, the pixels back to the client. ``tiles``: that many tile tasks,
+    their times drawn in turn from the measured ones (each the same number of pixels)."""
     tasks = [t for t in s["tasks"] if t["kind"] != "bake"]
     overhead = max(0.0, (s["wall_s"] - sum(t["time_s"] for t in s["tasks"])) / max(len(s["tasks"]), 1))
-    start = 0.0
+    ready = 0.0
     bake = [t for t in s["tasks"] if t["kind"] == "bake"]
     if bake:
         b = bake[0]
         trace = b.get("trace_s") or 0.0
-        start = trace + (b["time_s"] - trace) * scale
-        start += (n - 1) * (LATENCY + s["bake_bytes"] / BANDWIDTH)
-    free = [start] * n
-    for t in sorted(tasks, key=lambda t: t.get("frames", t.get("window", [0]))[0]):
+        ready = trace + (b["time_s"] - trace) * pixel_scale
+        ready += (n - 1) * (LATENCY + s["bake_bytes"] / BANDWIDTH)
+    times = [t["time_s"] for t in sorted(tasks, key=lambda t: (t.get("frames") or t.get("window"))[0:2])]
+    result_bytes = sum(t["result_bytes"] for t in tasks)
+    if tiles is not None:
+        times = [times[i % len(times)] for i in range(tiles)]
+        result_bytes *= pixel_scale
+    free = [ready] * n
+    for t in times:
         i = min(range(n), key=lambda k: free[k])
-        free[i] += t["time_s"] * scale + overhead
-    # The pixels come back to the client over its one link.
-    pixel_bytes = sum(t["result_bytes"] for t in tasks) * scale
-    return max(free) + pixel_bytes / BANDWIDTH
+        free[i] += t + overhead
+    return start_s + max(free) + result_bytes / BANDWIDTH
 
 
 def simulate(out_json):
@@ -89,21 +98,26 @@ def simulate(out_json):
 
     results = json.loads(Path(out_json).read_text())
     ns = [1, 2, 4, 8, 16, 32, 64]
+    print("Measured here (2 cores) and the model of the same runs:\n")
+    print("| job | CLI s | farm, 1 worker × 2 threads: measured / model s | "
+          "2 workers × 1 thread: measured / model s |")
+    print("|---|---:|---:|---:|")
+    for name, row in results.items():
+        m1 = model(row["summary1"], 1, startup(row, 1))
+        m2 = model(row["summary2"], 2, startup(row, 2))
+        print(f"| {name} | {row['cli_s']:.1f} | {row['farm1_s']:.1f} / {m1:.1f} | "
+              f"{row['farm2_s']:.1f} / {m2:.1f} |")
+    jobs = [(name, row, None, 1.0) for name, row in results.items()]
+    still = results["cornell-caustics still 1024² (16 tiles)"]
+    jobs.append(("cornell-caustics still 4096² (256 tiles)", still, 256, 16.0))
+    print("\nSimulated on N machines of this kind (2 cores, one worker of 2 threads each), seconds:\n")
+    print("| job | " + " | ".join(f"N = {n}" for n in ns) + " |")
+    print("|---|" + "---:|" * len(ns))
     fig, ax = plt.subplots(figsize=(6, 4))
-    jobs = list(results.items())
-    jobs.append(("cornell-caustics still 4096² (256 tiles, scaled ×16)",
-                 results["cornell-caustics still 1024² (16 tiles)"]))
-    print("| job | CLI s | farm 1 worker s | farm 2 workers s | simulated: " +
-          " | ".join(f"{n}" for n in ns) + " |")
-    for name, row in jobs:
-        scale = 16.0 if "4096" in name else 1.0
-        times = [simulate_job(row, n, scale) for n in ns]
+    for name, row, tiles, scale in jobs:
+        times = [model(row["summary1"], n, startup(row, 1), tiles, scale) for n in ns]
         ax.plot(ns, [times[0] / t for t in times], "o-", label=name)
-        if scale == 1.0:
-            meas = f"{row['cli_s']:.1f} | {row['farm1_s']:.1f} | {row['farm2_s']:.1f}"
-        else:
-            meas = "— | — | —"
-        print(f"| {name} | {meas} | " + " | ".join(f"{t:.1f}" for t in times) + " |")
+        print(f"| {name} | " + " | ".join(f"{t:.1f}" for t in times) + " |")
     ax.plot(ns, ns, ":", color="grey", label="linear")
     ax.set_xscale("log", base=2)
     ax.set_yscale("log", base=2)

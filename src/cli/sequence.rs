@@ -10,6 +10,7 @@ use std::time::Instant;
 use indicatif::ProgressBar;
 use serde_json::json;
 
+use super::landing::Landings;
 use super::{cli_inputs, styled_bar, RenderArgs};
 use pmrender::error::{option, Error, Result};
 use pmrender::render::outputs::{
@@ -174,6 +175,11 @@ impl Patterns {
         inputs.extend(cli_inputs(a));
         let inputs = KnownInputs::new(&inputs);
         let summary = self.stats.as_ref().map(|p| p.named("sequence"));
+        // Outputs of different frames (or options) that are one file, found before any is written.
+        let mut landings = Landings::default();
+        if let Some(s) = &summary {
+            landings.add(2, None, s)?;
+        }
         let mut probed = HashSet::new();
         for f in frames.clone() {
             if f % CANCEL_EVERY == 0 {
@@ -183,6 +189,17 @@ impl Patterns {
                 progress.set(u64::from(f - frames.start()));
             }
             let paths = self.at(f);
+            let each = [
+                Some(paths.exr.as_path()),
+                paths.png.as_deref(),
+                paths.stats.as_deref(),
+                paths.cache_image.as_deref(),
+            ];
+            for (i, p) in each.into_iter().enumerate() {
+                if let Some(p) = p {
+                    landings.add(i, Some(f), p)?;
+                }
+            }
             let named: Vec<(&'static str, &Path)> = [
                 (self.exr.opt, Some(paths.exr.as_path())),
                 ("--png", paths.png.as_deref()),

@@ -22,6 +22,60 @@ pub struct Animation {
     text: String,
     desc: SceneFile,
     frames: u32,
+    /// The file without its keys, and each keyed value's track: a frame's scene file costs its
+    /// values' binary searches, not a pass over every key.
+    base: SceneFile,
+    tracks: Tracks,
+}
+
+/// The tracks of every keyable value, made once.
+#[derive(Clone, Debug)]
+struct Tracks {
+    /// eye, target, up.
+    camera: [Track<[f32; 3]>; 3],
+    fov: Track<f32>,
+    /// Per mesh: scale (per axis), rotate, translate.
+    meshes: Vec<[Track<[f32; 3]>; 3]>,
+    /// Per light: position, target, direction, intensity, irradiance.
+    lights: Vec<[Track<[f32; 3]>; 5]>,
+}
+
+impl Tracks {
+    fn new(desc: &SceneFile) -> Tracks {
+        let ck = &desc.camera.key;
+        Tracks {
+            camera: [
+                Track::new(ck.iter().map(|k| (k.frame, k.eye))),
+                Track::new(ck.iter().map(|k| (k.frame, k.target))),
+                Track::new(ck.iter().map(|k| (k.frame, k.up))),
+            ],
+            fov: Track::new(ck.iter().map(|k| (k.frame, k.fov))),
+            meshes: desc
+                .mesh
+                .iter()
+                .map(|m| {
+                    [
+                        Track::new(m.key.iter().map(|k| (k.frame, k.scale.map(per_axis)))),
+                        Track::new(m.key.iter().map(|k| (k.frame, k.rotate))),
+                        Track::new(m.key.iter().map(|k| (k.frame, k.translate))),
+                    ]
+                })
+                .collect(),
+            lights: desc
+                .light
+                .iter()
+                .map(|l| {
+                    [
+                        Track::new(l.key.iter().map(|k| (k.frame, k.position))),
+                        Track::new(l.key.iter().map(|k| (k.frame, k.target))),
+                        Track::new(l.key.iter().map(|k| (k.frame, k.direction))),
+                        Track::new(l.key.iter().map(|k| (k.frame, k.intensity))),
+                        Track::new(l.key.iter().map(|k| (k.frame, k.irradiance))),
+                    ]
+                })
+                .collect(),
+        }
+    }
 }
 
 /// What moves between frames, for deciding what a frame may reuse from the one before.
@@ -70,11 +124,18 @@ impl Animation {
             check_frames(&cx, "light", i, l.key.iter().map(|k| k.frame), frames)?;
             check_light_keys(&cx, i, l)?;
         }
+        let mut base = desc.clone();
+        base.camera.key.clear();
+        base.mesh.iter_mut().for_each(|m| m.key.clear());
+        base.light.iter_mut().for_each(|l| l.key.clear());
+        base.animation = None;
         Ok(Some(Animation {
             path: path.to_path_buf(),
             text: text.to_string(),
             desc: desc.clone(),
             frames,
+            tracks: Tracks::new(desc),
+            base,
         }))
     }
 
@@ -92,34 +153,27 @@ impl Animation {
 
     /// The scene file of frame `f`: every keyed value at that frame, no keys left.
     pub(super) fn frame_desc(&self, f: u32) -> SceneFile {
-        let mut d = self.desc.clone();
+        let mut d = self.base.clone();
+        let t = &self.tracks;
         let c = &mut d.camera;
-        let keys = std::mem::take(&mut c.key);
-        c.eye = track(Some(c.eye), keys.iter().map(|k| (k.frame, k.eye)), f).unwrap_or(c.eye);
-        c.target =
-            track(Some(c.target), keys.iter().map(|k| (k.frame, k.target)), f).unwrap_or(c.target);
-        c.up = track(c.up, keys.iter().map(|k| (k.frame, k.up)), f);
-        c.fov = track(Some(c.fov), keys.iter().map(|k| (k.frame, k.fov)), f).unwrap_or(c.fov);
-        for m in &mut d.mesh {
-            let keys = std::mem::take(&mut m.key);
-            let scale = keys.iter().map(|k| (k.frame, k.scale.map(per_axis)));
-            m.scale = track(m.scale.map(per_axis), scale, f).map(Scale::PerAxis);
-            m.rotate = track(m.rotate, keys.iter().map(|k| (k.frame, k.rotate)), f);
-            m.translate = track(m.translate, keys.iter().map(|k| (k.frame, k.translate)), f);
+        c.eye = t.camera[0].at(Some(c.eye), f).unwrap_or(c.eye);
+        c.target = t.camera[1].at(Some(c.target), f).unwrap_or(c.target);
+        c.up = t.camera[2].at(c.up, f);
+        c.fov = t.fov.at(Some(c.fov), f).unwrap_or(c.fov);
+        for (m, [scale, rotate, translate]) in d.mesh.iter_mut().zip(&t.meshes) {
+            m.scale = scale.at(m.scale.map(per_axis), f).map(Scale::PerAxis);
+            m.rotate = rotate.at(m.rotate, f);
+            m.translate = translate.at(m.translate, f);
         }
-        for l in &mut d.light {
-            let keys = std::mem::take(&mut l.key);
-            l.position = track(l.position, keys.iter().map(|k| (k.frame, k.position)), f);
-            l.target = track(l.target, keys.iter().map(|k| (k.frame, k.target)), f);
-            l.direction = track(l.direction, keys.iter().map(|k| (k.frame, k.direction)), f);
-            l.intensity = track(l.intensity, keys.iter().map(|k| (k.frame, k.intensity)), f);
-            l.irradiance = track(
-                l.irradiance,
-                keys.iter().map(|k| (k.frame, k.irradiance)),
-                f,
-            );
+        for (l, [position, target, direction, intensity, irradiance]) in
+            d.light.iter_mut().zip(&t.lights)
+        {
+            l.position = position.at(l.position, f);
+            l.target = target.at(l.target, f);
+            l.direction = direction.at(l.direction, f);
+            l.intensity = intensity.at(l.intensity, f);
+            l.irradiance = irradiance.at(l.irradiance, f);
         }
-        d.animation = None;
         d
     }
 
@@ -396,29 +450,36 @@ impl Lerp for [f32; 3] {
     }
 }
 
-/// A value's track at frame `f`: the base value where no key sets it, else held before the first key
-/// and after the last, linear between neighbours.
-fn track<T: Lerp>(
-    base: Option<T>,
-    keys: impl Iterator<Item = (i64, Option<T>)>,
-    f: u32,
-) -> Option<T> {
-    let mut set: Vec<(i64, T)> = keys.filter_map(|(k, v)| Some((k, v?))).collect();
-    set.sort_by_key(|(k, _)| *k);
-    let f = f as i64;
-    let (first, last) = match (set.first(), set.last()) {
-        (Some(a), Some(b)) => (*a, *b),
-        _ => return base,
-    };
-    if f <= first.0 {
-        return Some(first.1);
+/// One keyable value's keys that set it, in frame order.
+#[derive(Clone, Debug)]
+struct Track<T>(Vec<(i64, T)>);
+
+impl<T: Lerp> Track<T> {
+    fn new(keys: impl Iterator<Item = (i64, Option<T>)>) -> Track<T> {
+        let mut set: Vec<(i64, T)> = keys.filter_map(|(k, v)| Some((k, v?))).collect();
+        set.sort_by_key(|(k, _)| *k);
+        Track(set)
     }
-    if f >= last.0 {
-        return Some(last.1);
+
+    /// The value at frame `f`: `base` where no key sets it, else held before the first key and after
+    /// the last, linear between neighbours.
+    fn at(&self, base: Option<T>, f: u32) -> Option<T> {
+        let set = &self.0;
+        let f = f as i64;
+        let (first, last) = match (set.first(), set.last()) {
+            (Some(a), Some(b)) => (*a, *b),
+            _ => return base,
+        };
+        if f <= first.0 {
+            return Some(first.1);
+        }
+        if f >= last.0 {
+            return Some(last.1);
+        }
+        let i = set.partition_point(|(k, _)| *k <= f);
+        let ((k0, v0), (k1, v1)) = (set[i - 1], set[i]);
+        Some(T::lerp(v0, v1, (f - k0) as f32 / (k1 - k0) as f32))
     }
-    let i = set.partition_point(|(k, _)| *k <= f);
-    let ((k0, v0), (k1, v1)) = (set[i - 1], set[i]);
-    Some(T::lerp(v0, v1, (f - k0) as f32 / (k1 - k0) as f32))
 }
 
 /// Every key's frame lies in the sequence, and no two keys of one object share a frame.
@@ -430,12 +491,13 @@ fn check_frames(
     frames: u32,
 ) -> Result<()> {
     let mut seen = std::collections::HashSet::new();
+    // The line is looked up only for an error: finding it reads the file's text.
+    let line = |k: usize| line_of_path(cx.text, &[table, "key", "frame"], &[index, k]);
     for (k, f) in frames_of_keys.enumerate() {
-        let line = line_of_path(cx.text, &[table, "key", "frame"], &[index, k]);
         if !(0..frames as i64).contains(&f) {
             return Err(at_line(
                 cx.path,
-                line,
+                line(k),
                 format!(
                     "{table}.key.frame: {f} is outside the sequence 0..={}",
                     frames - 1
@@ -445,7 +507,7 @@ fn check_frames(
         if !seen.insert(f) {
             return Err(at_line(
                 cx.path,
-                line,
+                line(k),
                 format!("{table}.key.frame: a second key of this {table} at frame {f}"),
             ));
         }
@@ -500,6 +562,14 @@ fn first_key(desc: &SceneFile) -> Option<KeyPath> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn track<T: Lerp>(
+        base: Option<T>,
+        keys: impl Iterator<Item = (i64, Option<T>)>,
+        f: u32,
+    ) -> Option<T> {
+        Track::new(keys).at(base, f)
+    }
 
     #[test]
     fn the_key_that_sets_a_value_is_the_last_before_else_the_first_after() {
