@@ -238,7 +238,8 @@ def render(
     job = {"scene": path, "settings": settings, "threads": threads,
            "chunk": chunk if chunk is not None else local.frames}
     summary = {"scene": path, "workers": len(client.scheduler_info()["workers"]), "tasks": [],
-               "frames_written": 0, "frames_skipped": 0, "bake_s": None, "bake_bytes": None}
+               "frames": [], "frames_written": 0, "frames_skipped": 0, "bake_s": None,
+               "bake_bytes": None}
     from distributed import as_completed
 
     futures = []
@@ -263,6 +264,8 @@ def render(
                         _write(at_exr(fr["frame"]), at_png(fr["frame"]) if at_png else None,
                                fr["width"], fr["height"], fr)
                         summary["frames_written"] += 1
+                        summary["frames"].append({"frame": fr["frame"], "worker": res["worker"],
+                                                  "stats": fr["stats"]})
                         bar.step()
         elif os.path.exists(output) and (png is None or os.path.exists(png)):
             summary["frames_skipped"] = 1
@@ -274,6 +277,7 @@ def render(
                                      "result_bytes": _nbytes(res)})
             _write(output, png, res["width"], res["height"], res)
             summary["frames_written"] = 1
+            summary["frames"].append({"frame": None, "worker": res["worker"], "stats": res["stats"]})
             bar.step()
         else:
             width, height = local.size
@@ -297,7 +301,7 @@ def render(
                 _paste(canvas, res)
                 summary["tasks"].append({"kind": "tile", "window": list(res["window"]),
                                          "time_s": res["time_s"], "worker": res["worker"],
-                                         "result_bytes": _nbytes(res)})
+                                         "result_bytes": _nbytes(res), "stats": res["stats"]})
             full = {"beauty": bytes(canvas["beauty"]), "layers": [(n, bytes(canvas[n])) for n in names]}
             _write(output, png, width, height, full)
             summary["frames_written"] = 1

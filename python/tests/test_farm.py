@@ -46,6 +46,9 @@ def test_a_local_cluster_renders_the_clis_frames_and_resumes(tmp_path):
     s = json.loads(summary.read_text())
     assert s["frames_written"] == 6 and s["workers"] == 2
     assert sorted(t["frames"] for t in s["tasks"]) == [[0, 2], [3, 5]]
+    # Each frame's statistics, as the CLI's --stats gives them.
+    assert sorted(f["frame"] for f in s["frames"]) == list(range(6))
+    assert all(f["stats"]["frame"]["index"] == f["frame"] for f in s["frames"])
     # Resume: nothing to do, then only the frame that went missing.
     farm(scene, "-o", str(tmp_path / "farm" / "f-##.exr"), "--frames", "0..5", "--chunk", "3",
          "--workers", "2", "--stats", str(summary), *SMALL)
