@@ -17,7 +17,7 @@ use pmrender::render::outputs::{
     check_distinct_from, check_target, probe_writable, scene_inputs, KnownInputs,
 };
 use pmrender::render::sequence::render_sequence;
-use pmrender::render::write::{write_outputs, write_sequence_summary, OutputPaths};
+use pmrender::render::write::{write_outputs, OutputPaths, SequenceSummary};
 use pmrender::render::{Options, Progress};
 use pmrender::scene::Animation;
 use pmrender::signal;
@@ -296,7 +296,8 @@ pub(super) fn render_animation(
     bar.frame.store(*frames.start(), Ordering::Relaxed);
     patterns.check(a, &frames, &bar, cancel)?;
     let start = Instant::now();
-    let mut summary = Vec::new();
+    // Rows only for --stats: a sequence without it keeps nothing per frame.
+    let mut summary = SequenceSummary::new();
     let mut warned = std::collections::HashSet::new();
     let mut on_frame =
         |f: u32, scene: &pmrender::scene::Scene, out: &_, stats: &pmrender::render::RenderStats| {
@@ -316,7 +317,9 @@ pub(super) fn render_animation(
                     eprintln!("pmrender: warning: frame {f}: {w}");
                 }
             }
-            summary.push(frame_summary(f, stats));
+            if patterns.stats.is_some() {
+                summary.push(&frame_summary(f, stats))?;
+            }
             bar.bar.inc(1);
             bar.frame.store(f + 1, Ordering::Relaxed);
             Ok(())
@@ -327,14 +330,13 @@ pub(super) fn render_animation(
     signal::arm(false);
     bar.bar.finish_and_clear();
     if let (Some(p), false) = (&patterns.stats, summary.is_empty()) {
-        write_sequence_summary(
+        summary.write(
             &p.named("sequence"),
-            &summary,
             start.elapsed().as_secs_f64(),
             result.is_ok(),
         )?;
-        for row in &summary {
-            eprintln!("{}", summary_line(row));
+        for row in summary.rows()? {
+            eprintln!("{}", summary_line(&row));
         }
     }
     result
