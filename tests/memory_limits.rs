@@ -71,7 +71,16 @@ fn a_render_larger_than_the_address_space_left_is_refused() {
         ],
     );
     assert!(t.elapsed() < Duration::from_secs(10), "refused at once");
-    assert_refused(&r, &["memory", "image 4096×4096", "ulimit -v"]);
+    // The scene named, and what to change.
+    assert_refused(
+        &r,
+        &[
+            "cornell-caustics.toml: memory",
+            "image 4096×4096",
+            "ulimit -v",
+            "--width, --height",
+        ],
+    );
     assert!(listing(&out).is_empty());
 }
 
@@ -169,7 +178,15 @@ fn what_textures_hold_counts_against_the_budget() {
     let mtl = ROOM_MTL.replace("Kd 0.6 0.6 0.6", "Kd 0.6 0.6 0.6\nmap_Kd big.ppm");
     std::fs::write(dir.join("room.mtl"), mtl).unwrap();
     let r = run(&args);
-    assert_refused(&r, &["already held", "budget of 260 MiB", "--max-memory"]);
+    assert_refused(
+        &r,
+        &[
+            "scene.toml: memory",
+            "already held",
+            "budget of 260 MiB",
+            "raise --max-memory",
+        ],
+    );
     assert!(listing(&out).is_empty());
 }
 
@@ -253,6 +270,15 @@ fn converge_against_a_reference_too_large_to_render_is_refused() {
         ],
     );
     assert!(t.elapsed() < Duration::from_secs(30), "refused at once");
-    assert_refused(&r, &["memory", "image 4096×4096", "ulimit -v"]);
+    // The scene named, and what to change.
+    assert_refused(
+        &r,
+        &[
+            "scene.toml: memory",
+            "image 4096×4096",
+            "ulimit -v",
+            "--width, --height",
+        ],
+    );
     assert!(listing(&out).is_empty());
 }

@@ -230,16 +230,22 @@ pub fn check(scene: &Scene, plan: &Plan, opts: &Options) -> Result<()> {
     let need = items.iter().fold(0u64, |a, (_, b)| a.saturating_add(*b));
     let held = memory::resident();
     let (limit, source) = budget(opts)?;
-    let over = match memory::address_space_left() {
-        Some(left) if need > left => format!(
-            "more than the {} of address space left under the process's limit of {} (ulimit -v)",
-            human(left),
-            human(memory::address_space_limit().unwrap_or(0))
+    let (over, raise) = match memory::address_space_left() {
+        Some(left) if need > left => (
+            format!(
+                "more than the {} of address space left under the process's limit of {} (ulimit -v)",
+                human(left),
+                human(memory::address_space_limit().unwrap_or(0))
+            ),
+            "raise ulimit -v",
         ),
-        _ if need.saturating_add(held) > limit => format!(
-            "with the {} already held, over the memory budget of {} ({source})",
-            human(held),
-            human(limit)
+        _ if need.saturating_add(held) > limit => (
+            format!(
+                "with the {} already held, over the memory budget of {} ({source})",
+                human(held),
+                human(limit)
+            ),
+            "raise --max-memory",
         ),
         _ => return Ok(()),
     };
@@ -248,8 +254,11 @@ pub fn check(scene: &Scene, plan: &Plan, opts: &Options) -> Result<()> {
         .filter(|(_, b)| *b > 0)
         .map(|(n, b)| format!("{n}: {}", human(*b)))
         .collect();
+    // The scene named, and what to change: the image's size, the photon counts, or the limit.
     Err(Error::Input(format!(
-        "memory: the render needs about {} ({}), {over}",
+        "{}: memory: the render needs about {} ({}), {over}; render less (--width, --height, \
+         --crop, or the scene's photon counts) or {raise}",
+        scene.path.display(),
         human(need),
         parts.join(", "),
     )))
