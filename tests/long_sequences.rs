@@ -106,3 +106,51 @@ fn outputs_of_different_frames_that_are_one_file_are_refused_before_any_is_writt
     let r = run(&args);
     assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
 }
+
+#[test]
+fn a_frame_whose_maps_would_thin_out_is_traced_as_a_still() {
+    // A floor under a spot slides out of its beam: over the first frame's 365 k paths it stored
+    // 200 k, 194 k, 170 k, 130 k photons at frames 0–3, and would have gone on thinning (a still of
+    // frame 5 stores 200 k, over 1.29 M paths). Frame 4's would have fallen under half the first
+    // frame's: it is traced as a still (798 k paths, 200 k photons), and frame 5 takes its paths
+    // (123 k). Every frame stays within a factor of two of a still's density.
+    let d = tempfile::tempdir().unwrap();
+    let quad = "mtllib quad.mtl\nv -1 0 -1\nv 1 0 -1\nv 1 0 1\nv -1 0 1\nusemtl white\n\
+                f 1 2 3\nf 1 3 4\n";
+    std::fs::write(d.path().join("quad.obj"), quad).unwrap();
+    std::fs::write(d.path().join("quad.mtl"), "newmtl white\nKd 0.7 0.7 0.7\n").unwrap();
+    let scene = "version = 1\n[animation]\nframes = 6\n[camera]\neye = [0.0, 4.0, 4.0]\n\
+                 target = [0.0, 0.0, 0.0]\nfov = 50.0\nwidth = 32\nheight = 24\n[[mesh]]\n\
+                 obj = \"quad.obj\"\n[[mesh.key]]\nframe = 0\ntranslate = [0.0, 0.0, 0.0]\n\
+                 [[mesh.key]]\nframe = 5\ntranslate = [1.8, 0.0, 0.0]\n[[light]]\n\
+                 type = \"spot\"\nposition = [0.0, 2.0, 0.0]\ntarget = [0.0, 0.0, 0.0]\n\
+                 intensity = [20.0, 20.0, 20.0]\ncone_angle = 40.0\n[render]\nseed = 0\n";
+    std::fs::write(d.path().join("s.toml"), scene).unwrap();
+    let (s, out, stats) = (
+        p(d.path(), "s.toml"),
+        p(d.path(), "f-#.exr"),
+        p(d.path(), "f-#.json"),
+    );
+    let r = run(&["render", &s, "-o", &out, "--stats", &stats, "--quiet"]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let photons = |f: u32| {
+        let j: serde_json::Value = serde_json::from_str(
+            &std::fs::read_to_string(d.path().join(format!("f-{f}.json"))).unwrap(),
+        )
+        .unwrap();
+        let p = &j["photons"];
+        (
+            p["global_stored"].as_u64().unwrap(),
+            p["paths_emitted"].as_u64().unwrap(),
+        )
+    };
+    let (target, first_paths) = photons(0);
+    for f in 0..6 {
+        let (stored, _) = photons(f);
+        assert!(
+            stored * 2 >= target && stored <= 2 * target,
+            "frame {f}: {stored} photons against a still's {target}"
+        );
+    }
+    assert!(photons(5).1 > first_paths, "no frame was traced afresh");
+}

@@ -17,13 +17,28 @@ impl Sequence {
         cancel: &AtomicBool,
     ) -> Result<PhotonData<'a>> {
         let temporal = plan.method == Method::Pm;
-        let (traced, s) = match &opts.files.load_photons {
+        let (mut traced, mut s) = match &opts.files.load_photons {
             Some(file) => load_photons(scene, plan, file)?,
             None => self.trace_over_paths(scene, plan, temporal, opts, progress, cancel)?,
         };
+        // The first frame's paths may store far fewer (or more) photons in this frame's scene — a
+        // fog box moving away from its light: a map at a fraction of a still's density, its noise
+        // several times a still's. Such a frame is traced as a still is, and the frames after it
+        // take its paths.
+        if let Some(first) = self.photon_stored.filter(|_| temporal) {
+            if !density_holds(first, stored(&s.trace)) {
+                let over = photon::Over {
+                    log: true,
+                    ..Default::default()
+                };
+                (traced, s) = trace_photons(scene, plan, over, &opts.files, progress, cancel)?;
+                self.photon_paths = None;
+            }
+        }
         self.photon_log = traced.log.map(|log| (log, scene.bounds));
         if temporal && self.photon_paths.is_none() {
             self.photon_paths = Some(photon::MapPaths::of(&s.trace));
+            self.photon_stored = Some(stored(&s.trace));
         }
         stats.photons = Some(s);
         let mut data = build_maps(scene, plan, traced.maps);
@@ -76,3 +91,25 @@ impl Sequence {
         trace_photons(scene, plan, over, &opts.files, progress, cancel)
     }
 }
+
+/// Photons stored per map: global, caustic, volume, volume caustic.
+fn stored(t: &photon::TraceStats) -> [u64; 4] {
+    [
+        t.n_global_stored,
+        t.n_caustic_stored,
+        t.n_volume_stored,
+        t.n_volume_caustic_stored,
+    ]
+}
+
+/// Whether each map a frame stored is within a factor of two of what the first frame's paths
+/// stored (maps of fewer than [`DENSITY_FLOOR`] photons at the first frame are not judged).
+fn density_holds(first: [u64; 4], now: [u64; 4]) -> bool {
+    first
+        .iter()
+        .zip(now)
+        .all(|(&a, b)| a < DENSITY_FLOOR || (b.saturating_mul(2) >= a && b <= a.saturating_mul(2)))
+}
+
+/// Below this many photons a map's count says too little to judge its density by.
+const DENSITY_FLOOR: u64 = 1000;

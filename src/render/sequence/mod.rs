@@ -248,10 +248,13 @@ struct Sequence {
     /// stays.
     shaded_light: ShadedLight,
     pixel_samples: Option<Vec<u32>>,
-    /// The paths each photon map of the sequence's first frame took: later frames trace as many;
-    /// and the last trace's log of them, with the bounds of its scene (later frames copy the paths
-    /// nothing moved touched).
+    /// The paths each photon map of the sequence's first frame (or of the last frame traced afresh)
+    /// took: later frames trace as many; and the last trace's log of them, with the bounds of its
+    /// scene (later frames copy the paths nothing moved touched).
     photon_paths: Option<photon::MapPaths>,
+    /// What those paths stored in each map (global, caustic, volume, volume caustic): the density
+    /// later frames are held to ([`frame_photons`]).
+    photon_stored: Option<[u64; 4]>,
     photon_log: Option<(photon::PathLog, (Vec3, Vec3))>,
     /// The atlas and photons of the scene before (for a new scene's first frame), and this scene's
     /// photons (for the next).
@@ -276,6 +279,7 @@ impl Sequence {
             shaded_light: ShadedLight::default(),
             pixel_samples: None,
             photon_paths: None,
+            photon_stored: None,
             photon_log: None,
             atlas_before: None,
             atlas_next: None,
