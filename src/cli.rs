@@ -319,6 +319,24 @@ fn check_extensions(a: &RenderArgs) -> Result<()> {
     Ok(())
 }
 
+/// `--stats` writes JSON: a name ending otherwise (`o-10.exr`) is a slip, found after the checks
+/// that say worse (an output over an input, a path that names no file).
+fn check_stats_extension(a: &RenderArgs) -> Result<()> {
+    match &a.stats {
+        Some(p)
+            if !p
+                .extension()
+                .is_some_and(|e| e.eq_ignore_ascii_case("json")) =>
+        {
+            Err(option(
+                "--stats",
+                format!("'{}' must end in .json", p.display()),
+            ))
+        }
+        _ => Ok(()),
+    }
+}
+
 /// A still render's outputs can be written, and its input files given by options can be read.
 fn check_outputs(a: &RenderArgs) -> Result<()> {
     for (opt, p) in outputs(a) {
@@ -368,6 +386,20 @@ fn render_command(a: RenderArgs, cancel: &AtomicBool) -> Result<()> {
         let pool = pool(threads)?;
         return sequence::render_animation(&a, &opts, &anim, &pool, cancel);
     }
+    // A `#` in a still's file name is a frame pattern given to a scene without frames.
+    for (opt, p) in outputs(&a) {
+        if p.file_name()
+            .is_some_and(|n| n.to_string_lossy().contains('#'))
+        {
+            return Err(option(
+                opt,
+                format!(
+                    "'{}' holds # for a frame number, but the scene has no [animation]",
+                    p.display()
+                ),
+            ));
+        }
+    }
     // The checks create and remove a file beside each output: not while a signal ends the process.
     signal::arm(false);
     check_outputs(&a)?;
@@ -384,6 +416,7 @@ fn render_command(a: RenderArgs, cancel: &AtomicBool) -> Result<()> {
     let mut inputs = scene_inputs(&a.scene);
     inputs.extend(cli_inputs(&a));
     check_distinct(&outputs(&a), &inputs)?;
+    check_stats_extension(&a)?;
     let pool = pool(threads)?;
     let bar = Bar::new(a.quiet);
     let tiles = in_range("--tiles", a.tiles, MAX_SIDE)?;

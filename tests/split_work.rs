@@ -139,6 +139,10 @@ fn split_options_out_of_place_are_refused() {
         vec!["render", a, "-o", &frames, "--tiles", "2"],
         vec!["render", a, "-o", &frames, "--chunk", "0"],
         vec!["render", a, "-o", &long],
+        // A frame pattern on a still, statistics that are no JSON.
+        vec!["render", s, "-o", &frames],
+        vec!["render", s, "-o", &out, "--stats", &p(d.path(), "o-10.exr")],
+        vec!["render", a, "-o", &frames, "--stats", &p(d.path(), "s-##.exr")],
     ] {
         let r = run(&args);
         let stderr = String::from_utf8_lossy(&r.stderr);

@@ -295,6 +295,7 @@ pub(super) fn render_animation(
     let bar = FramesBar::new(a.quiet, (frames.end() - frames.start() + 1) as u64);
     bar.frame.store(*frames.start(), Ordering::Relaxed);
     patterns.check(a, &frames, &bar, cancel)?;
+    super::check_stats_extension(a)?;
     let start = Instant::now();
     // Rows only for --stats: a sequence without it keeps nothing per frame.
     let mut summary = SequenceSummary::new();
@@ -335,8 +336,11 @@ pub(super) fn render_animation(
             start.elapsed().as_secs_f64(),
             result.is_ok(),
         )?;
-        for row in summary.rows()? {
-            eprintln!("{}", summary_line(&row));
+        // After a failure its message is the one line said: the rows are in the summary file.
+        if !matches!(result, Err(Error::Input(_) | Error::Runtime(_))) {
+            for row in summary.rows()? {
+                eprintln!("{}", summary_line(&row));
+            }
         }
     }
     result
