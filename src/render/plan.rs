@@ -185,7 +185,7 @@ pub fn plan(scene: &Scene, opts: &Options, camera: Option<&Camera>) -> Result<Pl
             .unwrap_or(&scene.camera)
             .with_resolution(width, height),
         photons: PhotonSettings::resolve(scene),
-        cache: icache.for_image(width, height),
+        cache: icache.for_method(method, width, height),
         pass_a_stride: icache.pass_a_stride(width, height),
         pass_a_gaps_only: false,
         gather: GatherParams {
