@@ -130,7 +130,7 @@ struct RenderArgs {
     /// Write the photon maps as a PLY point cloud.
     #[arg(long)]
     dump_photons: Option<PathBuf>,
-    /// Save the irradiance cache (method pm).
+    /// Save the irradiance cache (methods pm and ao).
     #[arg(long)]
     save_cache: Option<PathBuf>,
     /// Use a cache saved by --save-cache instead of filling one (pass B only).
@@ -438,7 +438,8 @@ fn render_command(a: RenderArgs, cancel: &AtomicBool) -> Result<()> {
         save_cache: a.save_cache.clone(),
         cache_image: a.cache_image.clone(),
     };
-    let report = write_outputs(&paths, scene.fingerprint, &out, stats, cancel)?;
+    let fingerprint = pmrender::render::files::cache_fingerprint(&scene, stats.setup.method);
+    let report = write_outputs(&paths, fingerprint, &out, stats, cancel)?;
     if a.stats.is_some() {
         eprint!("{}", report.table());
     }

@@ -60,7 +60,7 @@ pub fn sample_hits(
 }
 
 /// Half a pixel apart on one smooth surface: the centre's record will cover the corner.
-fn same_surface(a: &ShadingPoint, b: &ShadingPoint) -> bool {
+pub(crate) fn same_surface(a: &ShadingPoint, b: &ShadingPoint) -> bool {
     a.normal.dot(b.normal) > 0.95
         && (a.pos - b.pos).dot(a.normal).abs() < a.pixel_world
         && (a.pos - b.pos).length() < 2.0 * a.pixel_world

@@ -1,6 +1,7 @@
 //! Integrators: the path-tracing reference and the photon-map methods built on Jensen's split.
 pub mod cache_fill;
 pub mod in_scatter;
+pub mod occlusion;
 pub mod path;
 pub mod pm;
 pub mod radiance_cache;

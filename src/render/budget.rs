@@ -106,7 +106,7 @@ const MEDIA_RECORD_BYTES: u64 = std::mem::size_of::<
 /// What the render will need, item by item (name, bytes).
 pub fn estimate(scene: &Scene, plan: &Plan, opts: &Options) -> Vec<(String, u64)> {
     let pixels = plan.width as u64 * plan.height as u64;
-    let photon_method = plan.method != Method::Path;
+    let photon_method = plan.method.uses_photon_maps();
     let n_images: u64 = if photon_method {
         1 + crate::integrator::terms::Layout::of(scene).count() as u64
     } else {
@@ -126,7 +126,7 @@ pub fn estimate(scene: &Scene, plan: &Plan, opts: &Options) -> Vec<(String, u64)
         items.extend(photon_items(scene, plan, opts, pixels));
     }
     let memos = pixels.saturating_mul(MEMO_BYTES_PER_PIXEL);
-    if plan.method == Method::Pm {
+    if plan.method.uses_cache() {
         let cache = match &opts.files.load_cache {
             Some(p) => file_len(Some(p)).saturating_mul(3),
             None => pixels.saturating_mul(FILL_BYTES_PER_PIXEL),

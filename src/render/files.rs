@@ -14,7 +14,7 @@ use crate::error::{option, Result};
 use crate::io::atomic::OutputSet;
 use crate::io::output::{stage_png, Image};
 use crate::scene::limits::MAX_COORD;
-use crate::scene::Scene;
+use crate::scene::{Method, Scene};
 
 /// Files a render reads or writes besides its images.
 #[derive(Clone, Debug, Default)]
@@ -69,6 +69,20 @@ pub fn save_photons(set: &mut OutputSet, path: &Path, p: &PhotonOutput) -> Resul
         photon::file::write_maps(&mut w, &p.info, &p.maps).map_err(|e| e.to_string())?;
         std::io::Write::flush(&mut w).map_err(|e| e.to_string())
     })
+}
+
+/// The fingerprint a cache file of `scene` rendered by `method` carries: the scene's, for `ao` with
+/// its occlusion distance mixed in (occlusion records are no irradiance, and another distance's are
+/// another occlusion).
+pub fn cache_fingerprint(scene: &Scene, method: Method) -> u64 {
+    match method {
+        Method::Ao => photon::sampling::hash_keys(&[
+            scene.fingerprint,
+            0xa0,
+            scene.ao_distance().to_bits() as u64,
+        ]),
+        _ => scene.fingerprint,
+    }
 }
 
 pub fn load_cache(path: &Path, fingerprint: u64) -> Result<IrradianceCache> {

@@ -190,8 +190,8 @@ fn choose_rays(
 }
 
 /// A `--save-cache` file of the same scene, instead of `fill_cache` (pass B only).
-pub fn load_cache(scene: &Scene, path: &Path) -> Result<(CacheFill, CacheFillStats)> {
-    let cache = files::load_cache(path, scene.fingerprint)?;
+pub fn load_cache(scene: &Scene, plan: &Plan, path: &Path) -> Result<(CacheFill, CacheFillStats)> {
+    let cache = files::load_cache(path, files::cache_fingerprint(scene, plan.method))?;
     let stats = CacheFillStats {
         n_loaded: cache.len() as u64,
         ..Default::default()

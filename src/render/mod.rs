@@ -10,6 +10,7 @@ pub mod budget;
 pub mod files;
 pub mod fill;
 pub mod gather_rays;
+pub mod occlusion;
 pub mod outputs;
 pub mod photons;
 pub mod plan;
@@ -182,6 +183,9 @@ pub fn bake<'a>(
     let media_cache = media_phase(scene, plan, photons.as_ref(), stats, progress, cancel)?;
     let radiance = radiance_phase(scene, plan, files, None);
     let cache = match &photons {
+        None if plan.method == Method::Ao => {
+            occlusion_cache_phase(scene, plan, files, stats, progress, cancel)?
+        }
         Some(p) => cache_phase(
             scene,
             plan,
@@ -263,8 +267,26 @@ pub(crate) fn cache_phase(
         return Ok(None);
     }
     let (cache, s) = match &files.load_cache {
-        Some(file) => load_cache(scene, file)?,
+        Some(file) => load_cache(scene, plan, file)?,
         None => fill_cache(scene, plan, light, earlier, only, progress, cancel)?,
+    };
+    stats.fill = Some(s);
+    interrupted(cancel)?;
+    Ok(Some(cache))
+}
+
+/// `ao`'s irradiance cache of occlusion records: loaded, or filled by its pass A.
+fn occlusion_cache_phase(
+    scene: &Scene,
+    plan: &Plan,
+    files: &files::FileOptions,
+    stats: &mut RenderStats,
+    progress: &dyn Progress,
+    cancel: &AtomicBool,
+) -> Result<Option<CacheFill>> {
+    let (cache, s) = match &files.load_cache {
+        Some(file) => load_cache(scene, plan, file)?,
+        None => occlusion::fill_occlusion_cache(scene, plan, progress, cancel)?,
     };
     stats.fill = Some(s);
     interrupted(cancel)?;

@@ -125,6 +125,9 @@ pub fn plan(scene: &Scene, opts: &Options, camera: Option<&Camera>) -> Result<Pl
         Method::Path => 64,
         Method::Pm | Method::Photons => 128,
         Method::PmFg => 4,
+        // Gathers at every sample, of rays that stop at the occlusion distance and read nothing.
+        Method::AoDirect => 16,
+        Method::Ao => 128,
     });
     let aa_spp = opts
         .aa_spp
@@ -136,7 +139,9 @@ pub fn plan(scene: &Scene, opts: &Options, camera: Option<&Camera>) -> Result<Pl
     // (it is the reference, and its charts are drawn per spp).
     let noise = opts.noise.or(scene.settings.noise).unwrap_or(match method {
         Method::Path => 0.0,
-        Method::Pm | Method::Photons | Method::PmFg => DEFAULT_NOISE,
+        Method::Pm | Method::Photons | Method::PmFg | Method::Ao | Method::AoDirect => {
+            DEFAULT_NOISE
+        }
     });
     let width = opts.width.unwrap_or(scene.camera.width);
     let height = opts.height.unwrap_or(scene.camera.height);
@@ -156,6 +161,12 @@ pub fn plan(scene: &Scene, opts: &Options, camera: Option<&Camera>) -> Result<Pl
         }
     };
     let icache = &scene.settings.icache;
+    if method == Method::Ao && icache.fill == crate::scene::FillMode::OnePass {
+        return Err(option(
+            "--method",
+            "ao fills its cache in two passes ([render.icache] fill = \"one-pass\" is pm's alone)",
+        ));
+    }
     let choose_rays = method == Method::Pm
         && !icache.rays_given
         && icache.fill == crate::scene::FillMode::TwoPass
@@ -174,7 +185,7 @@ pub fn plan(scene: &Scene, opts: &Options, camera: Option<&Camera>) -> Result<Pl
             .unwrap_or(&scene.camera)
             .with_resolution(width, height),
         photons: PhotonSettings::resolve(scene),
-        cache: icache.for_image(width, height),
+        cache: icache.for_method(method, width, height),
         pass_a_stride: icache.pass_a_stride(width, height),
         pass_a_gaps_only: false,
         gather: GatherParams {
@@ -236,7 +247,10 @@ fn check_photon_files(method: Method, files: &FileOptions) -> Result<()> {
     {
         return Err(option(
             opt,
-            "method path traces no photon maps (choose pm, pm-fg or photons)",
+            format!(
+                "method {} traces no photon maps (choose pm, pm-fg or photons)",
+                method.name()
+            ),
         ));
     }
     if files.load_photons.is_some() {

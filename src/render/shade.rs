@@ -112,6 +112,12 @@ pub fn sampler<'a>(
     lighting: Lighting<'a>,
     cancel: &'a AtomicBool,
 ) -> (Box<dyn Sampler + 'a>, usize) {
+    if plan.method.is_occlusion() {
+        return (
+            super::occlusion::sampler(scene, plan, lighting.cache, cancel),
+            1,
+        );
+    }
     let Some(photons) = lighting.photons else {
         return (path_sample(scene, &plan.camera), 1);
     };
@@ -220,51 +226,92 @@ impl Sampler for GrowingCache<'_> {
             self.view = n as usize;
             return Ok(());
         }
-        let cache = &mut self.fill.cache;
+        let (ctx, camera) = (self.ctx, &self.plan.camera);
+        let points = |x, y, offsets: &[[f32; 2]]| sample_hits(&ctx, camera, x, y, offsets);
+        let gather = |x, y, i, sp: &ShadingPoint, hit: &Hit| gather_record(&ctx, x, y, i, sp, hit);
+        let visible = |sp: &ShadingPoint, hit: &Hit, id, rec: &icache::Record| {
+            ctx.fill_may_use(hit, sp.normal, id, rec)
+        };
+        let grown = Grower {
+            plan: self.plan,
+            round: self.round,
+            cancel: ctx.cancel,
+        }
+        .grow(&mut self.fill.cache, missed, &points, &gather, &visible);
+        self.grown.rounds += grown.rounds;
+        self.grown.fill += grown.fill;
+        self.grown.counters += grown.counters;
+        self.view = self.fill.cache.len();
+        Ok(())
+    }
+
+    fn grown(&self) -> GrowStats {
+        self.grown
+    }
+}
+
+/// The camera rays of a pixel's samples at some offsets within it, and their shading points.
+pub(crate) type SampleHitsFn<'a> =
+    dyn Fn(u32, u32, &[[f32; 2]]) -> Vec<(ShadingPoint, Hit)> + Sync + 'a;
+/// The gather at shading point `i` of pixel (x, y), as a record.
+pub(crate) type RecordFn<'a> =
+    dyn Fn(u32, u32, usize, &ShadingPoint, &Hit) -> (icache::NewRecord, SampleCounters) + Sync + 'a;
+
+/// Records made between pass B's rounds for the samples that found none, as pass A makes them.
+pub(crate) struct Grower<'a> {
+    pub plan: &'a Plan,
+    /// The round just ended (from 1).
+    pub round: usize,
+    pub cancel: &'a AtomicBool,
+}
+
+impl Grower<'_> {
+    /// Records for `missed` (in pixel order), at the points `points` finds for them, gathered by
+    /// `gather` (its shading point indices seeded apart from pass A's and other rounds'), then a new
+    /// stage of the cache; what it did.
+    pub(crate) fn grow(
+        &self,
+        cache: &mut IrradianceCache,
+        missed: &[MissedSample],
+        points: &SampleHitsFn,
+        gather: &RecordFn,
+        visible: &icache::VisibleFn<Hit>,
+    ) -> GrowStats {
+        let mut grown = GrowStats::default();
         if !missed.is_empty() {
-            let (ctx, camera) = (self.ctx, &self.plan.camera);
             let pixels: Vec<(u32, u32)> = missed
                 .chunk_by(|a, b| (a.x, a.y) == (b.x, b.y))
                 .map(|m| (m[0].x, m[0].y))
                 .collect();
-            let points = |x: u32, y: u32| {
+            let pixel_points = |x: u32, y: u32| {
                 let from = missed.partition_point(|m| (m.y, m.x) < (y, x));
                 let offsets: Vec<[f32; 2]> = missed[from..]
                     .iter()
                     .take_while(|m| (m.x, m.y) == (x, y))
                     .map(|m| m.offset)
                     .collect();
-                sample_hits(&ctx, camera, x, y, &offsets)
+                points(x, y, &offsets)
             };
             // Seeds apart from pass A's gathers at the same pixel, and from other rounds'.
             let first = self.round << 16;
-            let gather = |x, y, i, sp: &ShadingPoint, hit: &Hit| {
-                gather_record(&ctx, x, y, first + i, sp, hit)
-            };
-            let visible = |sp: &ShadingPoint, hit: &Hit, id, rec: &icache::Record| {
-                ctx.fill_may_use(hit, sp.normal, id, rec)
-            };
+            let round_gather =
+                |x, y, i, sp: &ShadingPoint, hit: &Hit| gather(x, y, first + i, sp, hit);
             let (fill, counters) = icache::fill_pixels_cancellable(
                 cache,
                 self.plan.width,
                 self.plan.height,
                 &pixels,
-                &points,
-                &gather,
-                &visible,
-                ctx.cancel,
+                &pixel_points,
+                &round_gather,
+                visible,
+                self.cancel,
             );
-            self.grown.rounds += (fill.insert.n_inserted > 0) as u64;
-            self.grown.fill += fill;
-            self.grown.counters += counters;
+            grown.rounds += (fill.insert.n_inserted > 0) as u64;
+            grown.fill += fill;
+            grown.counters += counters;
         }
         cache.end_stage();
-        self.view = cache.len();
-        Ok(())
-    }
-
-    fn grown(&self) -> GrowStats {
-        self.grown
+        grown
     }
 }
 

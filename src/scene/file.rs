@@ -150,6 +150,7 @@ pub struct RenderDesc {
     pub noise: Option<f64>,
     pub seed: Option<u64>,
     pub max_depth: Option<i64>,
+    pub ao_distance: Option<f32>,
     pub photons: Option<PhotonsDesc>,
     pub icache: Option<IcacheDesc>,
 }

@@ -42,6 +42,10 @@ pub enum Method {
     Pm,
     PmFg,
     Photons,
+    /// Ambient occlusion through the irradiance cache.
+    Ao,
+    /// Ambient occlusion gathered at every camera sample (`ao`'s reference).
+    AoDirect,
 }
 
 impl Method {
@@ -51,13 +55,25 @@ impl Method {
             "pm" => Some(Method::Pm),
             "pm-fg" => Some(Method::PmFg),
             "photons" => Some(Method::Photons),
+            "ao" => Some(Method::Ao),
+            "ao-direct" => Some(Method::AoDirect),
             _ => None,
         }
     }
 
-    /// Whether the method traces photon maps (every method but `path`).
+    /// Whether the method traces photon maps (all but `path` and the occlusion methods).
     pub fn uses_photon_maps(self) -> bool {
-        self != Method::Path
+        !matches!(self, Method::Path | Method::Ao | Method::AoDirect)
+    }
+
+    /// Whether the method reads an irradiance cache it fills (or loads) before shading.
+    pub fn uses_cache(self) -> bool {
+        matches!(self, Method::Pm | Method::Ao)
+    }
+
+    /// Whether the method's image is ambient occlusion.
+    pub fn is_occlusion(self) -> bool {
+        matches!(self, Method::Ao | Method::AoDirect)
     }
 
     pub fn name(self) -> &'static str {
@@ -66,11 +82,13 @@ impl Method {
             Method::Pm => "pm",
             Method::PmFg => "pm-fg",
             Method::Photons => "photons",
+            Method::Ao => "ao",
+            Method::AoDirect => "ao-direct",
         }
     }
 }
 
-pub const METHODS: &str = "path | pm | pm-fg | photons";
+pub const METHODS: &str = "path | pm | pm-fg | photons | ao | ao-direct";
 
 /// Null boundaries a ray may cross before it is given up (nested boundaries are a handful deep; this
 /// only stops a pathological mesh from trapping a ray).
@@ -104,6 +122,8 @@ pub struct RenderSettings {
     pub noise: Option<f32>,
     pub seed: u64,
     pub max_depth: u32,
+    /// `ao`'s occlusion distance in scene units; `None`: a tenth of the bounding box's diagonal.
+    pub ao_distance: Option<f32>,
     pub photons: PhotonConfig,
     pub icache: IcacheSettings,
 }
@@ -592,6 +612,11 @@ impl Scene {
 
     pub(crate) fn diagonal(&self) -> f32 {
         (self.bounds.1 - self.bounds.0).length()
+    }
+
+    /// The occlusion methods' distance: `[render] ao_distance`, else a tenth of the diagonal.
+    pub fn ao_distance(&self) -> f32 {
+        self.settings.ao_distance.unwrap_or(0.1 * self.diagonal())
     }
 
     /// Whether any triangle is mirror or glass (unused MTL entries do not count).

@@ -132,6 +132,16 @@ pub(super) fn settings(cx: &Ctx, desc: &SceneFile) -> Result<RenderSettings> {
         }
         d => d.unwrap_or(64) as u32,
     };
+    if let Some(d) = r.ao_distance {
+        if !(d > 0.0 && d <= 2.0 * MAX_COORD) {
+            return Err(cx.err(
+                "render",
+                0,
+                "ao_distance",
+                format!("{d} is outside (0, {:e}]", 2.0 * MAX_COORD),
+            ));
+        }
+    }
     let icache = icache_table(cx, &r.icache.clone().unwrap_or_default())?;
     let photons = photons(cx, &r.photons.clone().unwrap_or_default())?;
     Ok(RenderSettings {
@@ -141,6 +151,7 @@ pub(super) fn settings(cx: &Ctx, desc: &SceneFile) -> Result<RenderSettings> {
         noise,
         seed: r.seed.unwrap_or(0),
         max_depth,
+        ao_distance: r.ao_distance,
         photons,
         icache,
     })

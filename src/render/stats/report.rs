@@ -39,6 +39,8 @@ impl RenderStats {
         r.seconds("Time", "Shade", "time.shade_s", self.shade.time_s);
         if self.setup.method.uses_photon_maps() {
             self.photon_method_rows(&mut r);
+        } else if self.setup.method.is_occlusion() {
+            self.cache_and_gather_rows(&mut r);
         }
         r.seconds("Time", "Total", "time.total_s", self.total_s);
         self.ray_rows(&mut r);
@@ -112,6 +114,18 @@ impl RenderStats {
         if let Some(g) = &self.glossy {
             glossy_rows(r, g);
         }
+        self.cache_and_gather_rows(r);
+        r.count(
+            "Photons",
+            "k-NN estimates while rendering (caustic, indirect)",
+            "photons.estimates",
+            fill.photon_estimates + shade.photon_estimates,
+        );
+    }
+
+    /// The irradiance cache's rows (where there is one), the final gathers' and the shading's rays.
+    fn cache_and_gather_rows(&self, r: &mut Report) {
+        let (shade, fill) = (&self.shade.counters, self.fill_counters());
         if let (Some(cs), Some(f)) = (&self.cache, &self.fill) {
             if f.n_loaded > 0 {
                 r.count(
@@ -135,12 +149,6 @@ impl RenderStats {
             "Rays while shading (camera, bounce, shadow, pass-B gathers)",
             "rays.shade",
             shade.rays + shade.shadow_rays,
-        );
-        r.count(
-            "Photons",
-            "k-NN estimates while rendering (caustic, indirect)",
-            "photons.estimates",
-            fill.photon_estimates + shade.photon_estimates,
         );
     }
 
