@@ -142,7 +142,14 @@ fn split_options_out_of_place_are_refused() {
         // A frame pattern on a still, statistics that are no JSON.
         vec!["render", s, "-o", &frames],
         vec!["render", s, "-o", &out, "--stats", &p(d.path(), "o-10.exr")],
-        vec!["render", a, "-o", &frames, "--stats", &p(d.path(), "s-##.exr")],
+        vec![
+            "render",
+            a,
+            "-o",
+            &frames,
+            "--stats",
+            &p(d.path(), "s-##.exr"),
+        ],
     ] {
         let r = run(&args);
         let stderr = String::from_utf8_lossy(&r.stderr);

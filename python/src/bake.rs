@@ -87,7 +87,7 @@ pub fn bake(
     let opts = settings.options()?;
     let pool = pool(threads)?;
     let method = pmrender::render::method(&still, &opts);
-    let mut phases = still_phases(method == pmrender::scene::Method::Pm, true, false);
+    let mut phases = still_phases(method, false);
     phases.retain(|p| *p != "shade");
     let (baked, stats) = detached(py, progress.as_ref(), phases, |watch| {
         pool.install(|| bake_apart(&still, &opts, watch, &watch.cancel))

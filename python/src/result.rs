@@ -193,11 +193,7 @@ pub fn render(
     let opts = settings.options()?;
     let pool = pool(threads)?;
     let method = pmrender::render::method(&still, &opts);
-    let phases = still_phases(
-        method == pmrender::scene::Method::Pm,
-        method.uses_photon_maps(),
-        bake.is_some(),
-    );
+    let phases = still_phases(method, bake.is_some());
     let baked = bake.map(|b| &b.baked);
     if tiles == Some(0) {
         return Err(bad_arg("tiles", "0 must be at least 1"));

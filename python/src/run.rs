@@ -86,16 +86,16 @@ impl Progress for Watch {
 }
 
 /// The phases a still's progress counts for `method`, given whether it is shaded from a bake.
-pub fn still_phases(pm: bool, photons: bool, baked: bool) -> Vec<&'static str> {
+pub fn still_phases(method: pmrender::scene::Method, baked: bool) -> Vec<&'static str> {
     let mut phases = Vec::new();
-    if photons && !baked {
+    if method.uses_photon_maps() && !baked {
         phases.push("photons");
     }
-    if pm {
+    if method == pmrender::scene::Method::Pm {
         phases.push("media cache");
-        if !baked {
-            phases.push("cache");
-        }
+    }
+    if method.uses_cache() && !baked {
+        phases.push("cache");
     }
     phases.push("shade");
     phases

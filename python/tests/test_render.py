@@ -24,7 +24,8 @@ def timeless(d):
 
 @pytest.mark.parametrize(
     "name, method",
-    [("cornell-caustics", "pm"), ("fog-spot", "pm"), ("water-caustics", "photons"), ("spot-point", "path")],
+    [("cornell-caustics", "pm"), ("fog-spot", "pm"), ("water-caustics", "photons"), ("spot-point", "path"),
+     ("blinds-room", "ao")],
 )
 def test_pixels_layers_and_stats_are_the_clis(tmp_path, name, method):
     scene = SCENES / f"{name}.toml"
