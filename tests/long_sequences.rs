@@ -154,3 +154,37 @@ fn a_frame_whose_maps_would_thin_out_is_traced_as_a_still() {
     }
     assert!(photons(5).1 > first_paths, "no frame was traced afresh");
 }
+
+#[test]
+fn a_summary_of_frames_in_numbered_folders_goes_beside_them() {
+    // `--stats out/d#/s.json` put the summary into out/dsequence/s.json, a folder no frame has.
+    let d = tempfile::tempdir().unwrap();
+    for f in 0..2 {
+        std::fs::create_dir(d.path().join(format!("d{f}"))).unwrap();
+    }
+    let scene = repo().join("scenes/anim-ball.toml");
+    let (o, s) = (p(d.path(), "d#/f.exr"), p(d.path(), "d#/s.json"));
+    let r = run(&[
+        "render",
+        scene.to_str().unwrap(),
+        "-o",
+        &o,
+        "--stats",
+        &s,
+        "--frames",
+        "0..1",
+        "--width",
+        "16",
+        "--height",
+        "12",
+        "--spp",
+        "1",
+        "--quiet",
+    ]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    for f in 0..2 {
+        assert!(d.path().join(format!("d{f}/s.json")).exists(), "frame {f}");
+    }
+    let summary = std::fs::read_to_string(d.path().join("s-sequence.json")).unwrap();
+    assert!(summary.contains("\"frames_written\": 2"), "{summary}");
+}

@@ -79,9 +79,25 @@ impl Pattern {
         ))
     }
 
-    /// The run replaced by a word (the sequence summary's name).
+    /// The run replaced by a word (the sequence summary's name). A run in a folder's name would make
+    /// a folder no frame has (`out/d#/s.json` → `out/dsequence/`): the summary then goes beside the
+    /// frames' folders, named after their file (`out/s-sequence.json`).
     fn named(&self, word: &str) -> PathBuf {
-        PathBuf::from(format!("{}{word}{}", self.head, self.tail))
+        let Some((_, file)) = self.tail.rsplit_once('/') else {
+            return PathBuf::from(format!("{}{word}{}", self.head, self.tail));
+        };
+        let file = Path::new(file);
+        let stem = file
+            .file_stem()
+            .map_or_else(String::new, |s| s.to_string_lossy().into_owned());
+        let name = match file.extension() {
+            Some(e) => format!("{stem}-{word}.{}", e.to_string_lossy()),
+            None => format!("{stem}-{word}"),
+        };
+        Path::new(&self.head)
+            .parent()
+            .unwrap_or(Path::new(""))
+            .join(name)
     }
 }
 
