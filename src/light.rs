@@ -73,7 +73,8 @@ pub struct Emission {
 
 pub struct Lights {
     pub lights: Vec<Light>,
-    select: Distribution,
+    /// Selection by power; `None` in a scene without any light (rendered only by the occlusion methods).
+    select: Option<Distribution>,
     /// Selection among area lights only (by power), for integrators that evaluate every delta light.
     select_area: Option<Distribution>,
     /// For each triangle, the index of its area light (u32::MAX if not emissive).
@@ -151,10 +152,21 @@ impl Lights {
         }
         Some(Lights {
             lights,
-            select,
+            select: Some(select),
             select_area,
             light_of_tri,
         })
+    }
+
+    /// A scene's lights when it has none at all: the occlusion methods render it, the others refuse it
+    /// (see `render::plan`).
+    pub fn none(n_triangles: usize) -> Lights {
+        Lights {
+            lights: Vec::new(),
+            select: None,
+            select_area: None,
+            light_of_tri: vec![u32::MAX; n_triangles],
+        }
     }
 
     pub fn total_power(&self) -> Vec3 {
@@ -163,7 +175,7 @@ impl Lights {
 
     /// Samples incident light at `p` (`u` = [select, u1, u2]).
     pub fn sample(&self, geo: &Geometry, p: Vec3, u: [f32; 3]) -> Option<LightSample> {
-        let (i, p_sel) = self.select.sample(u[0]);
+        let (i, p_sel) = self.select.as_ref()?.sample(u[0]);
         self.sample_light(i, p_sel, geo, p, u)
     }
 
@@ -300,7 +312,10 @@ impl Lights {
 
     /// Solid-angle pdf with which `sample` would pick point `q` on emissive triangle `tri` from `p`.
     pub fn pdf_hit(&self, tri: u32, p: Vec3, q: Vec3) -> f32 {
-        self.pdf_hit_with(&self.select, tri, p, q)
+        match &self.select {
+            Some(select) => self.pdf_hit_with(select, tri, p, q),
+            None => 0.0,
+        }
     }
 
     fn pdf_hit_with(&self, select: &Distribution, tri: u32, p: Vec3, q: Vec3) -> f32 {
@@ -324,7 +339,7 @@ impl Lights {
 
     /// One photon path's start: `u` = [select, position u1, u2, direction u1, u2].
     pub fn emit(&self, geo: &Geometry, u: [f32; 5]) -> Option<Emission> {
-        let (i, p_sel) = self.select.sample(u[0]);
+        let (i, p_sel) = self.select.as_ref()?.sample(u[0]);
         let light = &self.lights[i];
         match *light {
             Light::Area { tri, le, n, area } => {
@@ -491,7 +506,9 @@ mod tests {
     #[test]
     fn lights_are_chosen_by_power() {
         let (_, lights) = two_emitters();
-        let p: Vec<f32> = (0..2).map(|i| lights.select.prob(i)).collect();
+        let p: Vec<f32> = (0..2)
+            .map(|i| lights.select.as_ref().unwrap().prob(i))
+            .collect();
         let w: Vec<f32> = lights.lights.iter().map(|l| l.power().x).collect();
         assert!((p[0] / p[1] - w[0] / w[1]).abs() < 1e-4);
     }

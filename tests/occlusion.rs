@@ -324,3 +324,34 @@ fn ao_cache_files() {
         assert!(!r.status.success(), "{method} refuses the other cache");
     }
 }
+
+#[test]
+fn geometry_without_any_light_renders_as_occlusion_and_only_so() {
+    // A look-development occlusion pass of bare geometry: no [[light]], no emitter. Every other
+    // method refuses it, at the scene's first line, saying which render it.
+    let d = tempfile::tempdir().unwrap();
+    let quad = "v -1 0 -1\nv 1 0 -1\nv 1 0 1\nv -1 0 1\nf 1 2 3\nf 1 3 4\n";
+    std::fs::write(d.path().join("quad.obj"), quad).unwrap();
+    let scene = "version = 1\n[camera]\neye = [0.0, 3.0, 3.0]\ntarget = [0.0, 0.0, 0.0]\n\
+                 fov = 50.0\nwidth = 24\nheight = 18\n[[mesh]]\nobj = \"quad.obj\"\n";
+    std::fs::write(d.path().join("s.toml"), scene).unwrap();
+    let s = d.path().join("s.toml");
+    let (s, out) = (s.to_str().unwrap(), d.path().join("o.exr"));
+    let o = out.to_str().unwrap();
+    for method in ["ao", "ao-direct"] {
+        let r = run(&["render", s, "-o", o, "--method", method, "--spp", "4", "--quiet"]);
+        assert!(r.status.success(), "{method}: {}", String::from_utf8_lossy(&r.stderr));
+        // A lone plane is open everywhere it is seen.
+        let img = read(&out);
+        let max = img.pixels.iter().map(|p| p.max_element()).fold(0.0f32, f32::max);
+        assert!((max - 1.0).abs() < 1e-5, "{method}: {max}");
+        std::fs::remove_file(&out).unwrap();
+    }
+    for method in ["pm", "path", "photons", "pm-fg"] {
+        let r = run(&["render", s, "-o", o, "--method", method, "--quiet"]);
+        let stderr = String::from_utf8_lossy(&r.stderr);
+        assert_eq!(r.status.code(), Some(2), "{method}: {stderr}");
+        assert!(stderr.contains("s.toml:1") && stderr.contains("no lights"), "{stderr}");
+        assert!(!out.exists());
+    }
+}

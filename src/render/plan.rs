@@ -117,6 +117,17 @@ pub fn method(scene: &Scene, opts: &Options) -> Method {
 /// scene's.
 pub fn plan(scene: &Scene, opts: &Options, camera: Option<&Camera>) -> Result<Plan> {
     let method = method(scene, opts);
+    if scene.lights.is_empty() && !method.is_occlusion() {
+        return Err(crate::error::at_line(
+            &scene.path,
+            1,
+            format!(
+                "the scene has no lights (add a [[light]] or a material with Ke > 0): method {} \
+                 needs light; ao and ao-direct render geometry alone",
+                method.name()
+            ),
+        ));
+    }
     check_photon_files(method, &opts.files)?;
     let spp = opts.spp.or(scene.settings.spp).unwrap_or(match method {
         // Chosen from measurements against the Mitsuba reference of the caustic scene (README); for

@@ -94,7 +94,12 @@ pub fn check_sequence(
         }
         progress.set(u64::from(f - start));
         let desc = anim.frame_desc(f);
-        if !meshes_emit && !some_light_emits(&cx, &desc).map_err(|e| at_frame(e, f))? {
+        // A scene without any light renders only as occlusion, which the render's plan checks.
+        let has_lights = meshes_emit || !desc.light.is_empty();
+        if has_lights
+            && !meshes_emit
+            && !some_light_emits(&cx, &desc).map_err(|e| at_frame(e, f))?
+        {
             return Err(at_frame(
                 at_line(
                     cx.path,

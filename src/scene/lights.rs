@@ -60,12 +60,15 @@ pub(super) fn lights(
     if lights.is_empty() {
         let zero_area_emitters =
             materials.iter().any(|m| m.emission.max_element() > 0.0) && n_emissive == 0;
-        let msg = if zero_area_emitters {
-            "the only emitters are triangles of zero area: the scene has no light"
-        } else {
-            "the scene has no lights (add a [[light]] or a material with Ke > 0)"
-        };
-        return Err(at_line(cx.path, 1, msg));
+        if zero_area_emitters {
+            return Err(at_line(
+                cx.path,
+                1,
+                "the only emitters are triangles of zero area: the scene has no light",
+            ));
+        }
+        // Geometry alone: an occlusion pass renders it; the other methods refuse it at their plan.
+        return Ok(Lights::none(geo.triangles.len()));
     }
     check_power(&lights, &origins)?;
     Lights::new(lights, geo.triangles.len())
