@@ -339,11 +339,21 @@ fn geometry_without_any_light_renders_as_occlusion_and_only_so() {
     let (s, out) = (s.to_str().unwrap(), d.path().join("o.exr"));
     let o = out.to_str().unwrap();
     for method in ["ao", "ao-direct"] {
-        let r = run(&["render", s, "-o", o, "--method", method, "--spp", "4", "--quiet"]);
-        assert!(r.status.success(), "{method}: {}", String::from_utf8_lossy(&r.stderr));
+        let r = run(&[
+            "render", s, "-o", o, "--method", method, "--spp", "4", "--quiet",
+        ]);
+        assert!(
+            r.status.success(),
+            "{method}: {}",
+            String::from_utf8_lossy(&r.stderr)
+        );
         // A lone plane is open everywhere it is seen.
         let img = read(&out);
-        let max = img.pixels.iter().map(|p| p.max_element()).fold(0.0f32, f32::max);
+        let max = img
+            .pixels
+            .iter()
+            .map(|p| p.max_element())
+            .fold(0.0f32, f32::max);
         assert!((max - 1.0).abs() < 1e-5, "{method}: {max}");
         std::fs::remove_file(&out).unwrap();
     }
@@ -351,7 +361,50 @@ fn geometry_without_any_light_renders_as_occlusion_and_only_so() {
         let r = run(&["render", s, "-o", o, "--method", method, "--quiet"]);
         let stderr = String::from_utf8_lossy(&r.stderr);
         assert_eq!(r.status.code(), Some(2), "{method}: {stderr}");
-        assert!(stderr.contains("s.toml:1") && stderr.contains("no lights"), "{stderr}");
+        assert!(
+            stderr.contains("s.toml:1") && stderr.contains("no lights"),
+            "{stderr}"
+        );
         assert!(!out.exists());
+    }
+}
+
+#[test]
+fn an_occlusion_sequence_fills_a_cache_per_frame_and_gives_its_stills() {
+    // A sequence's frames read no photon maps under `ao`: each fills its cache as its still does
+    // (before, the frames gathered at every sample, at ao-direct's cost) and is that still's image.
+    let d = tempfile::tempdir().unwrap();
+    let scene = repo().join("scenes/anim-ball.toml");
+    let s = scene.to_str().unwrap();
+    let render = |name: &str, extra: &[&str]| {
+        let (o, st) = (
+            p(d.path(), &format!("{name}-##.exr")),
+            p(d.path(), &format!("{name}-##.json")),
+        );
+        let mut args = vec![
+            "render", s, "-o", &o, "--stats", &st, "--frames", "0..2", "--method", "ao", "--width",
+            "48", "--height", "36", "--spp", "8", "--quiet",
+        ];
+        args.extend_from_slice(extra);
+        let r = run(&args);
+        assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    };
+    render("seq", &[]);
+    render("still", &["--chunk", "1"]);
+    for f in 0..=2 {
+        let name = |n: &str| d.path().join(format!("{n}-{f:02}.exr"));
+        assert_eq!(
+            std::fs::read(name("seq")).unwrap(),
+            std::fs::read(name("still")).unwrap()
+        );
+        let j: serde_json::Value = serde_json::from_str(
+            &std::fs::read_to_string(d.path().join(format!("seq-{f:02}.json"))).unwrap(),
+        )
+        .unwrap();
+        assert!(
+            j["icache"]["records_pass_a"].as_u64().unwrap() > 100,
+            "frame {f}: {}",
+            j["icache"]
+        );
     }
 }

@@ -276,7 +276,7 @@ pub(crate) fn cache_phase(
 }
 
 /// `ao`'s irradiance cache of occlusion records: loaded, or filled by its pass A.
-fn occlusion_cache_phase(
+pub(crate) fn occlusion_cache_phase(
     scene: &Scene,
     plan: &Plan,
     files: &files::FileOptions,

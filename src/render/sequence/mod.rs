@@ -38,8 +38,8 @@ use super::shade::{beauty, KeptPixels};
 use super::stats::PhotonStats;
 use super::tiles::Window;
 use super::{
-    budget, cache_phase, interrupted, media_phase, output, plan, radiance_phase,
-    shade_bake_foreign, Bake, FrameStats, Options, Plan, RenderOutput, RenderStats,
+    budget, cache_phase, interrupted, media_phase, occlusion_cache_phase, output, plan,
+    radiance_phase, shade_bake_foreign, Bake, FrameStats, Options, Plan, RenderOutput, RenderStats,
 };
 use crate::camera::Camera;
 use crate::error::Result;
@@ -326,13 +326,17 @@ impl Sequence {
         });
         let (earlier, only, foreign, still_view) =
             self.earlier(scene, &mut plan, moving, light.as_ref(), cancel, &mut frame)?;
-        let cache = light
-            .map(|l| {
+        let cache = match light {
+            Some(l) => {
                 let (files, work) = (&opts.files, (earlier, only));
-                cache_phase(scene, &plan, files, l, work, &mut stats, progress, cancel)
-            })
-            .transpose()?
-            .flatten();
+                cache_phase(scene, &plan, files, l, work, &mut stats, progress, cancel)?
+            }
+            // Occlusion reads no light: each frame fills its cache as its still does.
+            None if plan.method == Method::Ao => {
+                occlusion_cache_phase(scene, &plan, &opts.files, &mut stats, progress, cancel)?
+            }
+            None => None,
+        };
         interrupted(cancel)?;
         let mut bake = Bake {
             photons: maps.take(),
