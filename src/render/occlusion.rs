@@ -10,7 +10,7 @@ use icache::{IrradianceCache, ShadingPoint};
 use photon::sampling::Rng;
 
 use super::fill::CacheFill;
-use super::shade::Grower;
+use super::shade::CacheRounds;
 use super::stats::CacheFillStats;
 use super::tiles::{GrowStats, MissedSample, SamplePoint, Sampler};
 use super::Plan;
@@ -95,20 +95,10 @@ pub fn sampler<'a>(
 ) -> Box<dyn Sampler + 'a> {
     let ao = occlusion(scene, plan, OcclusionSource::Gather, cancel);
     match cache {
-        Some(fill) => {
-            if fill.cache.stages().is_empty() {
-                fill.cache.end_stage();
-            }
-            let view = fill.cache.stages()[0] as usize;
-            Box::new(CachedOcclusion {
-                ao,
-                plan,
-                fill,
-                grown: GrowStats::default(),
-                view,
-                round: 0,
-            })
-        }
+        Some(fill) => Box::new(CachedOcclusion {
+            ao,
+            rounds: CacheRounds::new(plan, fill),
+        }),
         None => Box::new(
             move |x: u32,
                   y: u32,
@@ -121,16 +111,11 @@ pub fn sampler<'a>(
     }
 }
 
-/// `ao` reading its cache, which grows between rounds where samples found no record (see `pm`'s
-/// `GrowingCache` in [`super::shade`]: the same rounds and stages).
+/// `ao` reading its cache, which grows between rounds where samples found no record, as `pm`'s does
+/// ([`CacheRounds`]).
 struct CachedOcclusion<'a> {
     ao: Occlusion<'a>,
-    plan: &'a Plan,
-    fill: &'a mut CacheFill,
-    grown: GrowStats,
-    /// Records the current round reads, and its index.
-    view: usize,
-    round: usize,
+    rounds: CacheRounds<'a>,
 }
 
 impl Sampler for CachedOcclusion<'_> {
@@ -145,11 +130,11 @@ impl Sampler for CachedOcclusion<'_> {
         defer_misses: bool,
     ) -> LayerValues {
         let ao = Occlusion {
-            source: OcclusionSource::CacheUpTo(&self.fill.cache, self.view),
+            source: OcclusionSource::CacheUpTo(&self.rounds.fill.cache, self.rounds.view),
             defer_misses,
             ..self.ao
         };
-        ao.sample(&self.plan.camera, (x, y), at.offset, rng, c)
+        ao.sample(&self.rounds.plan.camera, (x, y), at.offset, rng, c)
     }
 
     fn adds_records(&self) -> bool {
@@ -157,30 +142,16 @@ impl Sampler for CachedOcclusion<'_> {
     }
 
     fn end_round(&mut self, missed: &[MissedSample]) -> Result<()> {
-        self.round += 1;
-        if let Some(&n) = self.fill.cache.stages().get(self.round) {
-            // A stage of the file's render: its records, made from that render's misses.
-            self.view = n as usize;
-            return Ok(());
-        }
-        let (ao, camera) = (self.ao, &self.plan.camera);
+        let (ao, camera) = (self.ao, &self.rounds.plan.camera);
         let points = |x, y, offsets: &[[f32; 2]]| ao.sample_hits(camera, x, y, offsets);
         let gather = |x, y, i, sp: &ShadingPoint, hit: &Hit| ao.record((x, y, i), 0, sp, hit);
         let visible = |_: &ShadingPoint, _: &Hit, _, _: &icache::Record| true;
-        let grown = Grower {
-            plan: self.plan,
-            round: self.round,
-            cancel: ao.cancel,
-        }
-        .grow(&mut self.fill.cache, missed, &points, &gather, &visible);
-        self.grown.rounds += grown.rounds;
-        self.grown.fill += grown.fill;
-        self.grown.counters += grown.counters;
-        self.view = self.fill.cache.len();
+        self.rounds
+            .end_round(ao.cancel, missed, &points, &gather, &visible);
         Ok(())
     }
 
     fn grown(&self) -> GrowStats {
-        self.grown
+        self.rounds.grown
     }
 }

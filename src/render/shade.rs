@@ -164,34 +164,19 @@ pub fn sampler<'a>(
 }
 
 /// `pm` reading its (two-pass) cache: each sample looks records up; between rounds, the samples that
-/// found none get records of their own, made as pass A makes them (see [`render_tiles`]). Each round
-/// reads the records of the stages before it ([`icache::IrradianceCache::stages`]): with a cache read
-/// from a file, the stages it holds are replayed (the rounds read what they read when it was made, so a
-/// crop equals the same pixels of the full render), and records are made only past them.
+/// found none get records of their own, made as pass A makes them (see [`render_tiles`] and
+/// [`CacheRounds`]).
 struct GrowingCache<'a> {
     /// Everything but the cache, which `sample` lends it.
     ctx: PmContext<'a>,
-    plan: &'a Plan,
-    fill: &'a mut CacheFill,
-    grown: GrowStats,
-    /// Records the current round reads, and its index.
-    view: usize,
-    round: usize,
+    rounds: CacheRounds<'a>,
 }
 
 impl<'a> GrowingCache<'a> {
     fn new(ctx: PmContext<'a>, plan: &'a Plan, fill: &'a mut CacheFill) -> Self {
-        if fill.cache.stages().is_empty() {
-            fill.cache.end_stage();
-        }
-        let view = fill.cache.stages()[0] as usize;
         GrowingCache {
             ctx,
-            plan,
-            fill,
-            grown: GrowStats::default(),
-            view,
-            round: 0,
+            rounds: CacheRounds::new(plan, fill),
         }
     }
 }
@@ -207,12 +192,13 @@ impl Sampler for GrowingCache<'_> {
         c: &mut SampleCounters,
         defer_misses: bool,
     ) -> LayerValues {
+        let r = &self.rounds;
         let ctx = PmContext {
-            source: IndirectSource::CacheUpTo(&self.fill.cache, self.view),
+            source: IndirectSource::CacheUpTo(&r.fill.cache, r.view),
             defer_misses,
             ..self.ctx
         };
-        camera_sample(&ctx, &self.plan.camera, x, y, at, memo, rng, c)
+        camera_sample(&ctx, &r.plan.camera, x, y, at, memo, rng, c)
     }
 
     fn adds_records(&self) -> bool {
@@ -220,33 +206,19 @@ impl Sampler for GrowingCache<'_> {
     }
 
     fn end_round(&mut self, missed: &[MissedSample]) -> Result<()> {
-        self.round += 1;
-        if let Some(&n) = self.fill.cache.stages().get(self.round) {
-            // A stage of the file's render: its records, made from that render's misses.
-            self.view = n as usize;
-            return Ok(());
-        }
-        let (ctx, camera) = (self.ctx, &self.plan.camera);
+        let (ctx, camera) = (self.ctx, &self.rounds.plan.camera);
         let points = |x, y, offsets: &[[f32; 2]]| sample_hits(&ctx, camera, x, y, offsets);
         let gather = |x, y, i, sp: &ShadingPoint, hit: &Hit| gather_record(&ctx, x, y, i, sp, hit);
         let visible = |sp: &ShadingPoint, hit: &Hit, id, rec: &icache::Record| {
             ctx.fill_may_use(hit, sp.normal, id, rec)
         };
-        let grown = Grower {
-            plan: self.plan,
-            round: self.round,
-            cancel: ctx.cancel,
-        }
-        .grow(&mut self.fill.cache, missed, &points, &gather, &visible);
-        self.grown.rounds += grown.rounds;
-        self.grown.fill += grown.fill;
-        self.grown.counters += grown.counters;
-        self.view = self.fill.cache.len();
+        self.rounds
+            .end_round(ctx.cancel, missed, &points, &gather, &visible);
         Ok(())
     }
 
     fn grown(&self) -> GrowStats {
-        self.grown
+        self.rounds.grown
     }
 }
 
@@ -257,21 +229,61 @@ pub(crate) type SampleHitsFn<'a> =
 pub(crate) type RecordFn<'a> =
     dyn Fn(u32, u32, usize, &ShadingPoint, &Hit) -> (icache::NewRecord, SampleCounters) + Sync + 'a;
 
-/// Records made between pass B's rounds for the samples that found none, as pass A makes them.
-pub(crate) struct Grower<'a> {
+/// A cache read by pass B's rounds (`pm`'s or `ao`'s): each round reads the records of the stages
+/// before it ([`icache::IrradianceCache::stages`]). With a cache read from a file, the stages it holds
+/// are replayed (the rounds read what they read when it was made, so a crop equals the same pixels of
+/// the full render); past them, the samples that found no record get records of their own between
+/// rounds, made as pass A makes them.
+pub(crate) struct CacheRounds<'a> {
     pub plan: &'a Plan,
-    /// The round just ended (from 1).
-    pub round: usize,
-    pub cancel: &'a AtomicBool,
+    pub fill: &'a mut CacheFill,
+    pub grown: GrowStats,
+    /// Records the current round reads, and the index of the round just ended (from 1).
+    pub view: usize,
+    round: usize,
 }
 
-impl Grower<'_> {
-    /// Records for `missed` (in pixel order), at the points `points` finds for them, gathered by
-    /// `gather` (its shading point indices seeded apart from pass A's and other rounds'), then a new
-    /// stage of the cache; what it did.
-    pub(crate) fn grow(
-        &self,
-        cache: &mut IrradianceCache,
+impl<'a> CacheRounds<'a> {
+    pub(crate) fn new(plan: &'a Plan, fill: &'a mut CacheFill) -> CacheRounds<'a> {
+        if fill.cache.stages().is_empty() {
+            fill.cache.end_stage();
+        }
+        let view = fill.cache.stages()[0] as usize;
+        CacheRounds {
+            plan,
+            fill,
+            grown: GrowStats::default(),
+            view,
+            round: 0,
+        }
+    }
+
+    /// After a round: the file's next stage, or records for `missed` (see [`Self::grow`]); the next
+    /// round reads them.
+    pub(crate) fn end_round(
+        &mut self,
+        cancel: &AtomicBool,
+        missed: &[MissedSample],
+        points: &SampleHitsFn,
+        gather: &RecordFn,
+        visible: &icache::VisibleFn<Hit>,
+    ) {
+        self.round += 1;
+        if let Some(&n) = self.fill.cache.stages().get(self.round) {
+            // A stage of the file's render: its records, made from that render's misses.
+            self.view = n as usize;
+            return;
+        }
+        let grown = self.grow(cancel, missed, points, gather, visible);
+        self.grown.rounds += grown.rounds;
+        self.grown.fill += grown.fill;
+        self.grown.counters += grown.counters;
+        self.view = self.fill.cache.len();
+    }
+
+    fn grow(
+        &mut self,
+        cancel: &AtomicBool,
         missed: &[MissedSample],
         points: &SampleHitsFn,
         gather: &RecordFn,
@@ -297,20 +309,20 @@ impl Grower<'_> {
             let round_gather =
                 |x, y, i, sp: &ShadingPoint, hit: &Hit| gather(x, y, first + i, sp, hit);
             let (fill, counters) = icache::fill_pixels_cancellable(
-                cache,
+                &mut self.fill.cache,
                 self.plan.width,
                 self.plan.height,
                 &pixels,
                 &pixel_points,
                 &round_gather,
                 visible,
-                self.cancel,
+                cancel,
             );
             grown.rounds += (fill.insert.n_inserted > 0) as u64;
             grown.fill += fill;
             grown.counters += counters;
         }
-        cache.end_stage();
+        self.fill.cache.end_stage();
         grown
     }
 }
