@@ -177,7 +177,12 @@ pub fn gather_record_round(
     if let (Some(r), Some(_)) = (ctx.radiance, order) {
         r.keep(sp.pos, coefficients);
     }
-    let record = NewRecord {
+    (new_record(&g, sp, [x, y, i as u32]), counters)
+}
+
+/// The record a gather at shading point `sp` makes (`at`: its pixel and point index).
+pub(crate) fn new_record(g: &gather::GatherResult, sp: &ShadingPoint, at: [u32; 3]) -> NewRecord {
+    NewRecord {
         pos: sp.pos,
         normal: sp.normal,
         e: g.e,
@@ -188,7 +193,6 @@ pub fn gather_record_round(
         dir: g.dir,
         pixel_world: sp.pixel_world,
         rel_err: g.rel_err,
-        at: [x, y, i as u32],
-    };
-    (record, counters)
+        at,
+    }
 }

@@ -18,7 +18,7 @@ use glam::Vec3;
 use icache::{IrradianceCache, NewRecord, Pass, ShadingPoint};
 use photon::sampling::{hash_keys, Rng};
 
-use super::cache_fill::same_surface;
+use super::cache_fill::{new_record, same_surface};
 use super::terms::LayerValues;
 use crate::camera::Camera;
 use crate::counters::SampleCounters;
@@ -227,19 +227,6 @@ impl Occlusion<'_> {
         let mut c = SampleCounters::default();
         let seed = hash_keys(&[self.seed, x as u64, y as u64, i as u64]);
         let g = self.gather(hit, sp.normal, seed, round, &mut c);
-        let record = NewRecord {
-            pos: sp.pos,
-            normal: sp.normal,
-            e: g.e,
-            grad_r: g.grad_r,
-            grad_t: g.grad_t,
-            r_harmonic: g.r_harmonic,
-            r_min: g.r_min,
-            dir: g.dir,
-            pixel_world: sp.pixel_world,
-            rel_err: g.rel_err,
-            at: [x, y, i as u32],
-        };
-        (record, c)
+        (new_record(&g, sp, [x, y, i as u32]), c)
     }
 }
