@@ -121,29 +121,14 @@ fn write_checker_mask(path: &std::path::Path) {
     .unwrap();
 }
 
-const CUTOUT_SCENE: &str =
-    "version = 1\n[camera]\neye = [0.0, 2.6, 3.2]\ntarget = [0.0, 0.5, -0.2]\n\
-    fov = 45.0\nwidth = 64\nheight = 48\n[[mesh]]\nobj = \"m.obj\"\n[[light]]\ntype = \"point\"\n\
-    position = [0.4, 2.5, 0.6]\nintensity = [4.0, 4.0, 4.0]\n";
-
-/// Renders the cutout scene with `card` (OBJ text) and `card_mtl` (its material's statements) by `pm`
-/// at `seed`.
-fn render_card(card: &str, card_mtl: &str, seed: u32) -> Image {
-    let d = scene_dir(&[
-        ("m.obj", &cutout_obj(card)),
-        (
-            "m.mtl",
-            &format!("newmtl room\nKd 0.6 0.6 0.6\nnewmtl card\nKd 0.8 0.5 0.3\n{card_mtl}"),
-        ),
-        ("s.toml", CUTOUT_SCENE),
-    ]);
-    write_checker_mask(&d.path().join("mask.png"));
-    let out = p(d.path(), "o.exr");
+/// `s.toml` of `dir` rendered with pm at 16 spp and `seed`, which must say nothing on stderr.
+fn render_pm(dir: &std::path::Path, seed: u32) -> Image {
+    let out = p(dir, "o.exr");
     let seed = seed.to_string();
     let r = run_bounded(
         &[
             "render",
-            &p(d.path(), "s.toml"),
+            &p(dir, "s.toml"),
             "-o",
             &out,
             "--method",
@@ -162,6 +147,26 @@ fn render_card(card: &str, card_mtl: &str, seed: u32) -> Image {
         String::from_utf8_lossy(&r.stderr)
     );
     read(std::path::Path::new(&out))
+}
+
+const CUTOUT_SCENE: &str =
+    "version = 1\n[camera]\neye = [0.0, 2.6, 3.2]\ntarget = [0.0, 0.5, -0.2]\n\
+    fov = 45.0\nwidth = 64\nheight = 48\n[[mesh]]\nobj = \"m.obj\"\n[[light]]\ntype = \"point\"\n\
+    position = [0.4, 2.5, 0.6]\nintensity = [4.0, 4.0, 4.0]\n";
+
+/// Renders the cutout scene with `card` (OBJ text) and `card_mtl` (its material's statements) by `pm`
+/// at `seed`.
+fn render_card(card: &str, card_mtl: &str, seed: u32) -> Image {
+    let d = scene_dir(&[
+        ("m.obj", &cutout_obj(card)),
+        (
+            "m.mtl",
+            &format!("newmtl room\nKd 0.6 0.6 0.6\nnewmtl card\nKd 0.8 0.5 0.3\n{card_mtl}"),
+        ),
+        ("s.toml", CUTOUT_SCENE),
+    ]);
+    write_checker_mask(&d.path().join("mask.png"));
+    render_pm(d.path(), seed)
 }
 
 /// A quad cut to a checker by `map_d` renders as the checker modelled as triangles: the holes are
@@ -228,30 +233,7 @@ fn render_glossy_floor(floor: &str, seed: u32) -> Image {
     };
     write("ks.exr", [0.5, 0.25, 1.0]);
     write("ns.exr", [0.2, 0.2, 0.2]);
-    let out = p(d.path(), "o.exr");
-    let seed = seed.to_string();
-    let r = run_bounded(
-        &[
-            "render",
-            &p(d.path(), "s.toml"),
-            "-o",
-            &out,
-            "--method",
-            "pm",
-            "--spp",
-            "16",
-            "--seed",
-            &seed,
-            "--quiet",
-        ],
-        Duration::from_secs(300),
-    );
-    assert!(
-        r.status.success() && r.stderr.is_empty(),
-        "{}",
-        String::from_utf8_lossy(&r.stderr)
-    );
-    read(std::path::Path::new(&out))
+    render_pm(d.path(), seed)
 }
 
 /// `map_Ks` scales the lobe's colour and `map_Ns` its exponent: uniform maps render as the constants
