@@ -24,9 +24,9 @@ fn keyed_path(dir: &std::path::Path, n: u32) -> String {
 
 #[test]
 fn a_key_per_frame_loads_in_time_linear_in_the_keys() {
-    // Every frame was rebuilt from every key at load: 4,000 keys took 48.8 s before frame 0, 40,000
-    // would take hours. Now 40,000 keys load and render two frames in 1.6 s here; the bound only
-    // tells linear from quadratic.
+    // A key per frame over 40,000 frames: with a load linear in the keys, two frames render in
+    // about 1.6 s here; a load quadratic in them (every frame built from every key) takes hours. The
+    // bound only tells one from the other.
     let d = tempfile::tempdir().unwrap();
     let scene = keyed_path(d.path(), 40_000);
     let out = p(d.path(), "f-#####.exr");
@@ -157,7 +157,8 @@ fn a_frame_whose_maps_would_thin_out_is_traced_as_a_still() {
 
 #[test]
 fn a_summary_of_frames_in_numbered_folders_goes_beside_them() {
-    // `--stats out/d#/s.json` put the summary into out/dsequence/s.json, a folder no frame has.
+    // With `--stats out/d#/s.json` the run is in a folder's name: replacing it by "sequence" would
+    // name out/dsequence/, a folder no frame has.
     let d = tempfile::tempdir().unwrap();
     for f in 0..2 {
         std::fs::create_dir(d.path().join(format!("d{f}"))).unwrap();

@@ -371,8 +371,8 @@ fn geometry_without_any_light_renders_as_occlusion_and_only_so() {
 
 #[test]
 fn an_occlusion_sequence_fills_a_cache_per_frame_and_gives_its_stills() {
-    // A sequence's frames read no photon maps under `ao`: each fills its cache as its still does
-    // (before, the frames gathered at every sample, at ao-direct's cost) and is that still's image.
+    // A sequence's frames read no photon maps under `ao`: each fills its cache as its still does,
+    // rather than gathering at every sample at ao-direct's cost, and is that still's image.
     let d = tempfile::tempdir().unwrap();
     let scene = repo().join("scenes/anim-ball.toml");
     let s = scene.to_str().unwrap();
