@@ -13,9 +13,11 @@ use pmrender::error::{option, Error, Result};
 use pmrender::render::budget::{env_max_memory, parse_size, MAX_SIDE, MAX_SPP};
 use pmrender::render::files::FileOptions;
 use pmrender::render::outputs::{check_distinct, check_output, scene_inputs, Output};
+use pmrender::render::progressive::{Budget, MAX_PASSES};
+use pmrender::render::stats::StopReason;
 use pmrender::render::write::{write_outputs, OutputPaths};
 use pmrender::render::{self, tiles::Window, Options, Progress};
-use pmrender::scene::{self, Method, Scene, MAX_PHOTONS, METHODS};
+use pmrender::scene::{self, Method, Scene, MAX_PHOTONS, MAX_TIME_S, METHODS};
 use pmrender::signal;
 
 mod landing;
@@ -154,6 +156,13 @@ struct RenderArgs {
     /// so that chunks render apart (on a farm) and still give the same frames.
     #[arg(long, value_name = "N", allow_negative_numbers = true)]
     chunk: Option<i64>,
+    /// A time budget: render progressive passes, each a whole render of its own seed, and stop with
+    /// their mean before the budget is spent (a longer budget, a better image; not reproducible).
+    #[arg(long, value_name = "SECONDS", allow_negative_numbers = true)]
+    time: Option<f64>,
+    /// Render N progressive passes and write their mean: reproducible at any thread count.
+    #[arg(long, value_name = "N", allow_negative_numbers = true)]
+    passes: Option<i64>,
 }
 
 /// The bar on stderr, hidden with --quiet or when stderr is not a terminal.
@@ -251,6 +260,18 @@ fn options(a: &RenderArgs) -> Result<Options> {
         max_memory,
         seed: a.seed,
         chunk: in_range("--chunk", a.chunk, u32::MAX)?,
+        budget: Budget {
+            passes: in_range("--passes", a.passes, MAX_PASSES)?,
+            seconds: match a.time {
+                Some(t) if !(t > 0.0 && t <= MAX_TIME_S) => {
+                    return Err(option(
+                        "--time",
+                        format!("{t} must be in (0, {MAX_TIME_S:e}] seconds"),
+                    ))
+                }
+                t => t,
+            },
+        },
         crop,
         files: FileOptions {
             save_photons: a.save_photons.clone(),
@@ -439,11 +460,28 @@ fn render_command(a: RenderArgs, cancel: &AtomicBool) -> Result<()> {
         cache_image: a.cache_image.clone(),
     };
     let fingerprint = pmrender::render::files::cache_fingerprint(&scene, stats.setup.method);
-    let report = write_outputs(&paths, fingerprint, &out, stats, cancel)?;
+    // A progressive render a signal ended after its first pass writes the mean of its passes.
+    let signalled = stats
+        .progressive
+        .as_ref()
+        .filter(|p| p.stopped == StopReason::Interrupted)
+        .map(|p| p.pass_s.len());
+    let report = match signalled {
+        Some(_) => write_outputs(&paths, fingerprint, &out, stats, &AtomicBool::new(false))?,
+        None => write_outputs(&paths, fingerprint, &out, stats, cancel)?,
+    };
     if a.stats.is_some() {
         eprint!("{}", report.table());
     }
-    Ok(())
+    match signalled {
+        Some(n) => {
+            eprintln!(
+                "pmrender: the outputs hold the mean of the {n} pass(es) made before the signal"
+            );
+            Err(Error::Interrupted)
+        }
+        None => Ok(()),
+    }
 }
 
 /// `--tiles` renders from a bake of its own: no photon or cache file is read or saved with it.
@@ -456,6 +494,8 @@ fn check_tiles(a: &RenderArgs) -> Result<()> {
         ("--save-cache", a.save_cache.is_some()),
         ("--cache-image", a.cache_image.is_some()),
         ("--crop", a.crop.is_some()),
+        ("--passes", a.passes.is_some()),
+        ("--time", a.time.is_some()),
     ] {
         if given {
             return Err(option(

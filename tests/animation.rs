@@ -673,47 +673,6 @@ fn stats_write_each_frame_and_a_sequence_summary() {
     );
 }
 
-/// Waits (at most 20 s) until the process catches SIGINT (bit 1 of SigCgt in /proc/PID/status).
-fn wait_for_handler(pid: u32) {
-    let t = Instant::now();
-    while t.elapsed() < Duration::from_secs(20) {
-        let status = std::fs::read_to_string(format!("/proc/{pid}/status")).unwrap_or_default();
-        let caught = status
-            .lines()
-            .find_map(|l| l.strip_prefix("SigCgt:"))
-            .and_then(|m| u64::from_str_radix(m.trim(), 16).ok());
-        match caught {
-            Some(mask) if mask & (1 << 1) != 0 => return,
-            None if !status.is_empty() => return,
-            _ => std::thread::sleep(Duration::from_millis(10)),
-        }
-    }
-}
-
-/// The binary run with `args`, stderr piped, once it catches SIGINT.
-fn spawn_interruptible(args: &[&str]) -> std::process::Child {
-    use std::os::unix::process::CommandExt;
-    let mut cmd = Command::new(bin());
-    // SAFETY: the closure runs in the forked child before `exec` and only calls `signal`, which is
-    // async-signal-safe. (The child starts with SIGINT's default disposition even when this test run
-    // ignores SIGINT, as a background job does; see bad_input.rs.)
-    unsafe {
-        cmd.pre_exec(|| {
-            if libc::signal(libc::SIGINT, libc::SIG_DFL) == libc::SIG_ERR {
-                return Err(std::io::Error::last_os_error());
-            }
-            Ok(())
-        });
-    }
-    let child = cmd
-        .args(args)
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .unwrap();
-    wait_for_handler(child.id());
-    child
-}
-
 /// `frames` frames of the cube sliding across the box at 48×36: every frame traced and filled anew.
 fn sliding_cube(frames: u32) -> Keys {
     let mut k = Keys::frames(frames);

@@ -243,6 +243,8 @@ def render(
     aa_spp: Optional[int] = None,
     crop: Optional[Tuple[int, int, int, int]] = None,
     max_memory: Optional[str] = None,
+    passes: Optional[int] = None,
+    time: Optional[float] = None,
 ) -> Result:
     """Renders a still scene. Arguments left None take the scene's (and ``load_file``'s) values.
 
@@ -251,7 +253,8 @@ def render(
     the fraction done (on this thread). With ``bake``, only pass B runs, from the bake's photon maps
     and caches: the same pixels as the render that would have made it. With ``tiles``, the image is
     shaded as that many bands of rows apart from one bake, as ``pmrender render --tiles`` and the farm
-    do (see ``tile_windows``).
+    do (see ``tile_windows``). ``passes``: a progressive render of that many passes, their mean (as
+    ``--passes``, the same pixels); ``time``: a budget in seconds (as ``--time``).
     """
     if bake is not None and not isinstance(bake, Bake):
         raise ValueError("bake: must come from pmrender.bake or pmrender.load_bake")
@@ -271,6 +274,8 @@ def render(
             progress=_progress(progress),
             bake=None if bake is None else bake._native,
             tiles=_int("tiles", tiles),
+            passes=_int("passes", passes),
+            time=time,
         )
     )
     _warn(result._native)

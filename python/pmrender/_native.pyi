@@ -78,6 +78,8 @@ def render(
     progress: Optional[Callable[[float], object]] = ...,
     bake: Optional[Bake] = ...,
     tiles: Optional[int] = ...,
+    passes: Optional[int] = ...,
+    time: Optional[float] = ...,
 ) -> RenderResult: ...
 def bake(
     scene: Scene,

@@ -6,8 +6,10 @@ use std::sync::atomic::AtomicBool;
 
 use pmrender::io::output::Image;
 use pmrender::render::outputs::{check_distinct, check_output, scene_inputs, Output};
+use pmrender::render::progressive::{Budget, MAX_PASSES};
 use pmrender::render::write::{write_outputs, OutputPaths};
 use pmrender::render::{RenderOutput, RenderStats};
+use pmrender::scene::MAX_TIME_S;
 use pyo3::prelude::*;
 use pyo3::types::PyByteArray;
 
@@ -156,7 +158,7 @@ impl RenderResult {
 #[pyfunction]
 #[pyo3(signature = (scene, *, method=None, spp=None, width=None, height=None, seed=None,
                     threads=None, noise=None, aa_spp=None, crop=None, max_memory=None,
-                    progress=None, bake=None, tiles=None))]
+                    progress=None, bake=None, tiles=None, passes=None, time=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn render(
     py: Python<'_>,
@@ -174,6 +176,8 @@ pub fn render(
     progress: Option<Bound<'_, PyAny>>,
     bake: Option<&Bake>,
     tiles: Option<u32>,
+    passes: Option<i64>,
+    time: Option<f64>,
 ) -> PyResult<RenderResult> {
     let still = scene.still()?.clone();
     let mut settings = scene.settings.over(&Settings {
@@ -190,7 +194,15 @@ pub fn render(
     if let (Some(b), None) = (bake, &settings.method) {
         settings.method = Some(b.baked.method.name().to_string());
     }
-    let opts = settings.options()?;
+    let mut opts = settings.options()?;
+    opts.budget = budget(passes, time)?;
+    if opts.budget.is_set() && bake.is_some() {
+        let name = if passes.is_some() { "passes" } else { "time" };
+        return Err(bad_arg(
+            name,
+            "makes every pass's photon maps and caches afresh: leave out bake",
+        ));
+    }
     let pool = pool(threads)?;
     let method = pmrender::render::method(&still, &opts);
     let phases = still_phases(method, bake.is_some());
@@ -295,4 +307,27 @@ pub fn tile_windows(width: u32, height: u32, n: u32) -> Vec<(u32, u32, u32, u32)
         .into_iter()
         .map(|w| (w.x0, w.y0, w.x1, w.y1))
         .collect()
+}
+
+/// `passes` and `time` checked as `--passes` and `--time` are.
+fn budget(passes: Option<i64>, time: Option<f64>) -> PyResult<Budget> {
+    let passes = match passes {
+        Some(n) if !(1..=i64::from(MAX_PASSES)).contains(&n) => {
+            return Err(bad_arg(
+                "passes",
+                format!("{n} must be in 1..={MAX_PASSES}"),
+            ))
+        }
+        n => n.map(|n| n as u32),
+    };
+    let seconds = match time {
+        Some(t) if !(t > 0.0 && t <= MAX_TIME_S) => {
+            return Err(bad_arg(
+                "time",
+                format!("{t} must be in (0, {MAX_TIME_S:e}] seconds"),
+            ))
+        }
+        t => t,
+    };
+    Ok(Budget { passes, seconds })
 }

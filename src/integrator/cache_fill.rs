@@ -21,10 +21,11 @@ const MAX_SPECULAR_DEPTH: u32 = 4;
 /// pixel or cut by a pixel's edge became a pass-B miss.
 pub fn shading_hits(ctx: &PmContext, camera: &Camera, x: u32, y: u32) -> Vec<(ShadingPoint, Hit)> {
     let mut out = Vec::new();
-    let d = camera.ray(x as f32 + 0.5, y as f32 + 0.5);
+    let [sx, sy] = ctx.pass_a_shift;
+    let d = camera.ray(x as f32 + (0.5 + sx).fract(), y as f32 + (0.5 + sy).fract());
     follow(ctx, camera, d, camera.eye, d, 0.0, 0, &mut out);
     let n_centre = out.len();
-    let d = camera.ray(x as f32, y as f32);
+    let d = camera.ray(x as f32 + sx, y as f32 + sy);
     follow(ctx, camera, d, camera.eye, d, 0.0, 0, &mut out);
     let mut i = n_centre;
     while i < out.len() {

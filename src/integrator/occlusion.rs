@@ -177,10 +177,17 @@ impl Occlusion<'_> {
     /// The points pass A gathers at for pixel (x, y): where the rays through its centre and through
     /// its top-left corner first meet a surface, the corner's only where the centre's does not cover
     /// it (as `pm`'s [`super::cache_fill::shading_hits`], without its mirror and glass chains: occlusion
-    /// stops at the first surface).
-    pub fn shading_hits(&self, camera: &Camera, x: u32, y: u32) -> Vec<(ShadingPoint, Hit)> {
-        let mut out = self.sample_hits(camera, x, y, &[[0.5, 0.5]]);
-        for corner in self.sample_hits(camera, x, y, &[[0.0, 0.0]]) {
+    /// stops at the first surface), both moved by `shift` ([`crate::render::Plan::pass_a_shift`]).
+    pub fn shading_hits(
+        &self,
+        camera: &Camera,
+        x: u32,
+        y: u32,
+        [sx, sy]: [f32; 2],
+    ) -> Vec<(ShadingPoint, Hit)> {
+        let centre = [(0.5 + sx).fract(), (0.5 + sy).fract()];
+        let mut out = self.sample_hits(camera, x, y, &[centre]);
+        for corner in self.sample_hits(camera, x, y, &[[sx, sy]]) {
             if !out.iter().any(|(c, _)| same_surface(c, &corner.0)) {
                 out.push(corner);
             }

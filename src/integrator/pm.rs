@@ -69,6 +69,8 @@ pub struct PmContext<'a> {
     pub texture_filter: f32,
     /// The camera's pixel, in radians: a pixel memo's [`super::Slope`] is measured across it (0: none).
     pub pixel_angle: f32,
+    /// Where pass A traces in a pixel ([`crate::render::Plan::pass_a_shift`]).
+    pub pass_a_shift: [f32; 2],
 }
 
 /// A caustic irradiance at most this fraction of the soft indirect one is reused within a pixel (see

@@ -52,6 +52,7 @@ pub fn bake_apart(
     cancel: &AtomicBool,
 ) -> Result<(Baked, RenderStats)> {
     let start = Instant::now();
+    super::progressive::refuse_in_bake(scene, opts, "a bake")?;
     let plan = plan(scene, opts, None)?;
     if !plan.method.uses_photon_maps() {
         return Err(Error::Input(format!(

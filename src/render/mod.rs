@@ -14,6 +14,7 @@ pub mod occlusion;
 pub mod outputs;
 pub mod photons;
 pub mod plan;
+pub mod progressive;
 pub mod sequence;
 pub mod shade;
 pub mod stats;
@@ -60,6 +61,8 @@ pub struct Options {
     /// A sequence's chunk length (`--chunk`): each chunk of this many frames starts afresh (see
     /// [`sequence::render_sequence`]); `None`: the sequence is one chunk.
     pub chunk: Option<u32>,
+    /// `--passes` and `--time`: a progressive still ([`progressive`]); unset: one pass.
+    pub budget: progressive::Budget,
 }
 
 /// What a render produced: beauty and the per-term layers of Jensen's split (empty for `path`).
@@ -113,6 +116,10 @@ pub fn render_seen_by(
     progress: &dyn Progress,
     cancel: &AtomicBool,
 ) -> Result<(RenderOutput, RenderStats)> {
+    let passes = progressive::Budget::of(scene, opts);
+    if passes.is_set() {
+        return progressive::render_progressive(scene, opts, passes, camera, progress, cancel);
+    }
     let start = Instant::now();
     let plan = plan(scene, opts, camera)?;
     budget::check(scene, &plan, opts)?;

@@ -53,7 +53,7 @@ pub fn fill_occlusion_cache(
     let ao = occlusion(scene, plan, OcclusionSource::Gather, cancel);
     let (lo, hi) = scene.bounds;
     let mut cache = IrradianceCache::new(lo, hi, plan.cache).map_err(runtime)?;
-    let points = |x: u32, y: u32| ao.shading_hits(&plan.camera, x, y);
+    let points = |x: u32, y: u32| ao.shading_hits(&plan.camera, x, y, plan.pass_a_shift);
     let gather = |x, y, i, sp: &ShadingPoint, hit: &Hit| ao.record((x, y, i), 0, sp, hit);
     let visible = |_: &ShadingPoint, _: &Hit, _, _: &icache::Record| true;
     progress.start("cache", plan.width as u64 * plan.height as u64);

@@ -18,6 +18,7 @@ use crate::photons::{PhotonData, PhotonSettings};
 use crate::scene::{Method, Scene};
 
 /// Resolved settings of one render.
+#[derive(Clone)]
 pub struct Plan {
     pub method: Method,
     pub spp: u32,
@@ -51,6 +52,10 @@ pub struct Plan {
     pub choose_rays: bool,
     /// A window held to a lower noise target ([`Sampling::finer`]); `None` in a still.
     pub finer: Option<(Window, f32)>,
+    /// Where in its pixel pass A traces a lattice pixel's points, as a shift (in pixels, each in
+    /// [0, 1)) of the centre and the corner it traces unshifted: 0 but in a progressive render's later
+    /// passes, whose records then land elsewhere ([`super::progressive`]).
+    pub pass_a_shift: [f32; 2],
 }
 
 /// Default noise target of the photon-map methods (chosen from the speed×accuracy chart; README).
@@ -104,6 +109,7 @@ impl Plan {
             foreign: 0,
             texture_filter: TEXTURE_FILTER * self.camera.pixel_angle(),
             pixel_angle: self.camera.pixel_angle(),
+            pass_a_shift: self.pass_a_shift,
         }
     }
 }
@@ -208,6 +214,7 @@ pub fn plan(scene: &Scene, opts: &Options, camera: Option<&Camera>) -> Result<Pl
         },
         choose_rays,
         finer: None,
+        pass_a_shift: [0.0; 2],
     })
 }
 

@@ -38,6 +38,7 @@ pub fn render_tiled(
     progress: &dyn Progress,
     cancel: &AtomicBool,
 ) -> Result<(RenderOutput, RenderStats)> {
+    super::progressive::refuse_in_bake(scene, opts, "--tiles")?;
     if opts.crop.is_some() {
         return Err(option(
             "--tiles",

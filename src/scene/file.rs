@@ -151,6 +151,7 @@ pub struct RenderDesc {
     pub seed: Option<u64>,
     pub max_depth: Option<i64>,
     pub ao_distance: Option<f32>,
+    pub time: Option<f64>,
     pub photons: Option<PhotonsDesc>,
     pub icache: Option<IcacheDesc>,
 }

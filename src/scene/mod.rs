@@ -23,9 +23,9 @@ pub use animation::{Animation, Change};
 pub use build::{
     check_sequence, frame_camera, frame_view, load, load_animation, load_frame, mesh_transform,
 };
-pub use icache_settings::{FillMode, IcacheSettings, SPACING_REFERENCE_SIDE};
+pub use icache_settings::{FillMode, IcacheSettings, MIN_RECORD_REACH_PX, SPACING_REFERENCE_SIDE};
 pub use media::{Media, MAX_SIGMA};
-pub use settings::{PhotonConfig, MAX_PHOTONS, MAX_SIDE, MAX_SPP};
+pub use settings::{PhotonConfig, MAX_PHOTONS, MAX_SIDE, MAX_SPP, MAX_TIME_S, MIN_LOOKUP};
 
 use crate::accel::embree::Bvh;
 use crate::camera::Camera;
@@ -124,6 +124,8 @@ pub struct RenderSettings {
     pub max_depth: u32,
     /// `ao`'s occlusion distance in scene units; `None`: a tenth of the bounding box's diagonal.
     pub ao_distance: Option<f32>,
+    /// `[render] time`: a time budget in seconds (a progressive render; see `render::progressive`).
+    pub time: Option<f64>,
     pub photons: PhotonConfig,
     pub icache: IcacheSettings,
 }

@@ -20,6 +20,8 @@ pub const MAX_SPP: u32 = 1 << 20;
 pub(crate) const MAX_DEPTH: i64 = 1024;
 /// Largest image side (the scene's and `--width`, `--height`).
 pub const MAX_SIDE: u32 = 65_536;
+/// Longest time budget (`[render] time`, `--time`), in seconds: 115 days.
+pub const MAX_TIME_S: f64 = 1e7;
 /// Largest photon count (and lookup k, and photons per atlas texel).
 pub const MAX_PHOTONS: i64 = 100_000_000;
 
@@ -142,6 +144,17 @@ pub(super) fn settings(cx: &Ctx, desc: &SceneFile) -> Result<RenderSettings> {
             ));
         }
     }
+    let time = match r.time {
+        Some(t) if !(t > 0.0 && t <= MAX_TIME_S) => {
+            return Err(cx.err(
+                "render",
+                0,
+                "time",
+                format!("{t} must be in (0, {MAX_TIME_S:e}] seconds"),
+            ))
+        }
+        t => t,
+    };
     let icache = icache_table(cx, &r.icache.clone().unwrap_or_default())?;
     let photons = photons(cx, &r.photons.clone().unwrap_or_default())?;
     Ok(RenderSettings {
@@ -152,6 +165,7 @@ pub(super) fn settings(cx: &Ctx, desc: &SceneFile) -> Result<RenderSettings> {
         seed: r.seed.unwrap_or(0),
         max_depth,
         ao_distance: r.ao_distance,
+        time,
         photons,
         icache,
     })

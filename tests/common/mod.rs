@@ -229,3 +229,44 @@ pub fn listing(dir: &Path) -> Vec<String> {
 pub fn bytes(path: &str) -> Vec<u8> {
     std::fs::read(path).unwrap_or_else(|e| panic!("{path}: {e}"))
 }
+
+/// Waits (at most 20 s) until the process catches SIGINT (bit 1 of SigCgt in /proc/PID/status).
+pub fn wait_for_handler(pid: u32) {
+    let t = Instant::now();
+    while t.elapsed() < Duration::from_secs(20) {
+        let status = std::fs::read_to_string(format!("/proc/{pid}/status")).unwrap_or_default();
+        let caught = status
+            .lines()
+            .find_map(|l| l.strip_prefix("SigCgt:"))
+            .and_then(|m| u64::from_str_radix(m.trim(), 16).ok());
+        match caught {
+            Some(mask) if mask & (1 << 1) != 0 => return,
+            None if !status.is_empty() => return,
+            _ => std::thread::sleep(Duration::from_millis(10)),
+        }
+    }
+}
+
+/// The binary run with `args`, stderr piped, once it catches SIGINT.
+pub fn spawn_interruptible(args: &[&str]) -> std::process::Child {
+    use std::os::unix::process::CommandExt;
+    let mut cmd = Command::new(bin());
+    // SAFETY: the closure runs in the forked child before `exec` and only calls `signal`, which is
+    // async-signal-safe. (The child starts with SIGINT's default disposition even when this test run
+    // ignores SIGINT, as a background job does; see bad_input.rs.)
+    unsafe {
+        cmd.pre_exec(|| {
+            if libc::signal(libc::SIGINT, libc::SIG_DFL) == libc::SIG_ERR {
+                return Err(std::io::Error::last_os_error());
+            }
+            Ok(())
+        });
+    }
+    let child = cmd
+        .args(args)
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    wait_for_handler(child.id());
+    child
+}

@@ -80,6 +80,7 @@ pub fn render_sequence(
     let replay_from = *chunk_of(first, len, n).start();
     // Whatever a frame's scene would refuse is refused before the first frame is written.
     let first_scene = scene::load_frame(anim, replay_from)?;
+    super::progressive::refuse_in_sequence(&first_scene, opts)?;
     // Frames where a medium's boundary moved are built to be checked: that can take a while.
     progress.start("checking frames", (last - replay_from + 1) as u64);
     scene::check_sequence(anim, replay_from..=last, &first_scene, progress, cancel)?;

@@ -255,6 +255,7 @@ pub(super) fn reused_image_stats(before: &RenderStats, f: u32) -> RenderStats {
         media_fill: None,
         media_cache: before.media_cache,
         glossy: None,
+        progressive: None,
         total_s: 0.0,
         write_outputs_s: None,
         peak_rss_bytes: before.peak_rss_bytes,

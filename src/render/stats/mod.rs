@@ -46,6 +46,8 @@ pub struct RenderStats {
     pub glossy: Option<GlossyStats>,
     /// A frame of a sequence: what it reused from the frames before.
     pub frame: Option<FrameStats>,
+    /// A progressive render's passes (`--passes`, `--time`).
+    pub progressive: Option<ProgressiveStats>,
     /// Seconds from the plan to the end of shading.
     pub total_s: f64,
     /// Set by `write_outputs`.
@@ -73,6 +75,65 @@ pub struct FrameStats {
     pub n_pixels_relit: u64,
     /// After a mesh or light changed: what the temporal update did to the records.
     pub temporal: Option<TemporalStats>,
+}
+
+/// Why a progressive render stopped.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum StopReason {
+    /// It made the passes `--passes` asked for.
+    #[default]
+    Passes,
+    /// The next pass would not have fitted in the time budget (or the one under way did not).
+    Time,
+    /// A signal: the image is the mean of the passes made before it.
+    Interrupted,
+}
+
+impl StopReason {
+    pub fn name(self) -> &'static str {
+        match self {
+            StopReason::Passes => "passes",
+            StopReason::Time => "time",
+            StopReason::Interrupted => "interrupted",
+        }
+    }
+}
+
+/// A progressive render's passes, summed.
+#[derive(Clone, Debug, Default)]
+pub struct ProgressiveStats {
+    /// Seconds of each pass made.
+    pub pass_s: Vec<f64>,
+    /// The time budget, if one was set.
+    pub budget_s: Option<f64>,
+    pub stopped: StopReason,
+    /// The last pass's photon lookup radius as a fraction of the first's (√ of their k-NN counts);
+    /// `None` for the methods without photon maps.
+    pub radius_fraction: Option<f64>,
+    /// Photon paths traced and photons stored, over all passes.
+    pub photon_paths: u64,
+    pub photons_stored: u64,
+    /// Per layer (beauty first), the relMSE the mean's noise alone gives, estimated from the spread
+    /// between passes (empty before two).
+    pub noise_relmse: Vec<(&'static str, f64)>,
+    pub warnings: Vec<String>,
+}
+
+impl ProgressiveStats {
+    /// One more pass, planned as `plan` in a render whose first pass is `first`, taken in.
+    pub fn add_pass(&mut self, stats: &RenderStats, plan: &Plan, first: &Plan) {
+        self.pass_s.push(stats.total_s);
+        if let Some(p) = stats.photons.as_ref() {
+            let t = &p.trace;
+            self.photon_paths += t.n_paths_emitted;
+            self.photons_stored += t.n_global_stored
+                + t.n_caustic_stored
+                + t.n_volume_stored
+                + t.n_volume_caustic_stored;
+            self.radius_fraction =
+                Some((plan.photons.lookup as f64 / first.photons.lookup.max(1) as f64).sqrt());
+        }
+    }
 }
 
 /// What the update did, for the frame's statistics.
@@ -175,6 +236,9 @@ impl RenderStats {
     /// they meant; the binary prints each on stderr.
     pub fn warnings(&self) -> Vec<String> {
         let mut out = self.setup.load_warnings.clone();
+        if let Some(p) = &self.progressive {
+            out.extend(p.warnings.iter().cloned());
+        }
         if let Some(p) = self.photons.as_ref().filter(|p| !p.loaded) {
             let t = &p.trace;
             let stored = t.n_global_stored
@@ -220,6 +284,7 @@ impl RenderStats {
             cache: None,
             glossy: None,
             frame: None,
+            progressive: None,
             total_s: 0.0,
             write_outputs_s: None,
             peak_rss_bytes: 0,

@@ -42,6 +42,9 @@ impl RenderStats {
         } else if self.setup.method.is_occlusion() {
             self.cache_and_gather_rows(&mut r);
         }
+        if let Some(p) = &self.progressive {
+            progressive_rows(&mut r, p);
+        }
         r.seconds("Time", "Total", "time.total_s", self.total_s);
         self.ray_rows(&mut r);
         self.image_rows(&mut r);
@@ -279,5 +282,48 @@ impl RenderStats {
             n.at_limit,
         );
         r.count("Image", "Samples", "image.samples", n.samples);
+    }
+}
+
+/// A progressive render's passes: how many, why it stopped, the radius reached, the photons traced
+/// and the noise left in each layer.
+fn progressive_rows(r: &mut Report, p: &ProgressiveStats) {
+    let cat = "Progressive";
+    r.count(cat, "Passes", "progressive.passes", p.pass_s.len() as u64);
+    r.text(cat, "Stopped by", "progressive.stopped", p.stopped.name());
+    if let Some(b) = p.budget_s {
+        r.seconds(cat, "Time budget", "progressive.budget_s", b);
+    }
+    if let Some(&last) = p.pass_s.last() {
+        r.seconds(cat, "Last pass", "progressive.last_pass_s", last);
+    }
+    if let Some(f) = p.radius_fraction {
+        r.number(
+            cat,
+            "Photon radius reached (of the first pass's)",
+            "progressive.radius_fraction",
+            f,
+        );
+        r.count(
+            cat,
+            "Photon paths traced",
+            "progressive.photon_paths",
+            p.photon_paths,
+        );
+        r.count(
+            cat,
+            "Photons stored",
+            "progressive.photons_stored",
+            p.photons_stored,
+        );
+    }
+    for (layer, e) in &p.noise_relmse {
+        r.value(
+            cat,
+            &format!("Noise relMSE, {layer} (spread between passes)"),
+            &format!("progressive.noise_relmse.{layer}"),
+            serde_json::Value::from(*e),
+            format!("{e:.2e}"),
+        );
     }
 }
