@@ -61,8 +61,12 @@ struct ExportArgs {
 struct ConvergeArgs {
     scene: PathBuf,
     /// Photon counts, comma-separated (e.g. 1e4,3e4,1e5,3e5,1e6); each sets both maps' targets.
-    #[arg(long, value_delimiter = ',', required = true)]
+    #[arg(long, value_delimiter = ',', conflicts_with = "time")]
     photons: Vec<String>,
+    /// Time budgets in seconds, comma-separated (e.g. 2,8,32): each a progressive render (--time)
+    /// at the scene's photon counts.
+    #[arg(long, value_delimiter = ',', value_name = "SECONDS")]
+    time: Vec<String>,
     /// Reference EXR (its size sets the render size).
     #[arg(long)]
     reference: PathBuf,
@@ -579,6 +583,23 @@ fn converge_command(a: ConvergeArgs) -> Result<()> {
             )),
         })
         .collect::<Result<Vec<_>>>()?;
+    let times = a
+        .time
+        .iter()
+        .map(|s| match s.trim().parse::<f64>() {
+            Ok(t) if t > 0.0 && t <= MAX_TIME_S => Ok(t),
+            _ => Err(option(
+                "--time",
+                format!("'{s}' is not a time in (0, {MAX_TIME_S:e}] seconds"),
+            )),
+        })
+        .collect::<Result<Vec<_>>>()?;
+    if counts.is_empty() && times.is_empty() {
+        return Err(option(
+            "--photons",
+            "give photon counts (--photons 1e4,1e5) or time budgets (--time 2,8)",
+        ));
+    }
     let method = match Method::parse(&a.method) {
         Some(m @ (Method::Photons | Method::Pm)) => m,
         _ => {
@@ -609,21 +630,27 @@ fn converge_command(a: ConvergeArgs) -> Result<()> {
     let rows = pool(threads)?.install(|| {
         let study = Study {
             counts: &counts,
+            times: &times,
             reference: &a.reference,
             method,
             out_dir: Some(&a.output),
         };
         converge(&mut scene, &study, &opts, &bar, &signal::CANCEL)
     })?;
+    let timed = !times.is_empty();
     println!(
         "{:>10} {:>9} {:>14} {:>14} {:>14}",
-        "photons", "time s", "beauty relMSE", "caustic", "indirect"
+        if timed { "budget s" } else { "photons" },
+        "time s",
+        "beauty relMSE",
+        "caustic",
+        "indirect"
     );
     let f = pmrender::converge::fmt_rel_mse;
     for r in &rows {
         println!(
             "{:>10} {:>9.2} {:>14} {:>14} {:>14}",
-            r.photons,
+            r.budget_s.map_or(r.photons.to_string(), |b| b.to_string()),
             r.time_s,
             f(r.beauty),
             f(r.caustic),

@@ -13,6 +13,7 @@ use crate::chart::{stage_log_log_png, Level, LogLogChart, Series, PALETTE};
 use crate::error::{in_file, option, Error, Result};
 use crate::io::atomic::{CreatedDirs, OutputSet};
 use crate::io::output::{read_layer, Image};
+use crate::render::progressive::Budget;
 use crate::render::{render, Options, Progress};
 use crate::scene::{Method, Scene};
 
@@ -63,7 +64,11 @@ pub fn temporal_rel_mse(frames: &[Image], reference: &[Image]) -> f64 {
 }
 
 pub struct ConvergeRow {
+    /// The photon count of both maps (of each pass, in a time study).
     pub photons: usize,
+    /// A time study's budget, and the passes made in it.
+    pub budget_s: Option<f64>,
+    pub passes: Option<u32>,
     pub time_s: f64,
     pub beauty: f64,
     pub caustic: f64,
@@ -86,11 +91,14 @@ pub fn fmt_rel_mse(x: f64) -> String {
 pub fn missing_values_note(rows: &[ConvergeRow]) -> Option<String> {
     let mut notes = Vec::new();
     if let Some(r) = rows.iter().find(|r| r.terms_are_reference) {
+        let (at, others) = match r.budget_s {
+            Some(b) => (format!("At the {b} s budget"), "budgets'"),
+            None => (format!("At {} photons", r.photons), "counts'"),
+        };
         notes.push(format!(
-            "At {} photons the caustic and indirect terms are the reference that the other counts' \
+            "{at} the caustic and indirect terms are the reference that the other {others} \
              terms are measured against (self-convergence: the reference image has no such layers), \
-             so they have no error of their own.",
-            r.photons
+             so they have no error of their own."
         ));
     }
     let missing = |x: f64| !x.is_finite();
@@ -140,6 +148,9 @@ fn layer<'a>(layers: &'a [(&'static str, Image)], name: &str) -> Option<&'a Imag
 pub struct Study<'a> {
     /// Photon counts, each the target of both the global and the caustic map.
     pub counts: &'a [usize],
+    /// Time budgets in seconds, each a progressive render at the scene's photon counts (a time
+    /// study, when not empty: `counts` is then unused).
+    pub times: &'a [f64],
     /// The reference image (an EXR; its `caustic` and `indirect` layers are used when present).
     pub reference: &'a Path,
     pub method: Method,
@@ -159,6 +170,7 @@ pub fn converge(
 ) -> Result<Vec<ConvergeRow>> {
     let Study {
         counts,
+        times,
         reference,
         method,
         out_dir,
@@ -171,15 +183,31 @@ pub fn converge(
     opts.height = Some(reference_img.height);
     let mut renders = Vec::new();
     let mut spp = 0;
-    for &n in counts {
-        scene.settings.photons.global = Some(n);
-        scene.settings.photons.caustic = Some(if scene.has_specular() { n } else { 0 });
+    let steps: Vec<(usize, Option<f64>)> = if times.is_empty() {
+        counts.iter().map(|&n| (n, None)).collect()
+    } else {
+        times.iter().map(|&t| (0, Some(t))).collect()
+    };
+    for (n, budget) in steps {
+        if budget.is_none() {
+            scene.settings.photons.global = Some(n);
+            scene.settings.photons.caustic = Some(if scene.has_specular() { n } else { 0 });
+        }
+        opts.budget = Budget {
+            passes: None,
+            seconds: budget,
+        };
         let t = Instant::now();
         let (out, stats) = render(scene, &opts, progress, cancel)?;
         spp = stats.setup.spp;
-        renders.push((n, t.elapsed().as_secs_f64(), out));
+        let photons = stats
+            .photons
+            .as_ref()
+            .map_or(n, |p| p.trace.n_global_stored as usize);
+        let passes = stats.progressive.as_ref().map(|p| p.pass_s.len() as u32);
+        renders.push((photons, budget, passes, t.elapsed().as_secs_f64(), out));
     }
-    let Some((_, _, last)) = renders.last() else {
+    let Some((_, _, _, _, last)) = renders.last() else {
         return Err(option("--photons", "give at least one count"));
     };
     let self_terms: Vec<Option<Image>> = ["caustic", "indirect"]
@@ -190,7 +218,7 @@ pub fn converge(
     let rows: Vec<ConvergeRow> = renders
         .iter()
         .enumerate()
-        .map(|(i, (n, t, out))| {
+        .map(|(i, (n, budget_s, passes, t, out))| {
             let term_err = |k: usize, name: &str| -> f64 {
                 let r = ref_terms[k].as_ref().or(self_terms[k].as_ref());
                 let is_own_reference = ref_terms[k].is_none() && i + 1 == n_renders;
@@ -201,6 +229,8 @@ pub fn converge(
             };
             ConvergeRow {
                 photons: *n,
+                budget_s: *budget_s,
+                passes: *passes,
                 time_s: *t,
                 beauty: rel_mse(&out.beauty, &reference_img),
                 caustic: term_err(0, "caustic"),
@@ -280,15 +310,36 @@ fn write_outputs(
     } else {
         "the render at the largest count (self-convergence)"
     };
+    let timed = rows.iter().any(|r| r.budget_s.is_some());
+    let (title, first_cols) = if timed {
+        (
+            "Time-budget convergence",
+            "| budget (s) | passes | photons (global, per pass) ",
+        )
+    } else {
+        ("Photon-count convergence", "| photons ")
+    };
+    let basis = basis.replace(
+        "largest count",
+        if timed {
+            "largest budget"
+        } else {
+            "largest count"
+        },
+    );
     let mut md = format!(
-        "# Photon-count convergence\n\nrelMSE = mean (x − r)² / (r² + 0.01). Beauty against the reference; caustic and indirect terms against {basis}.\n\n\
-         | photons | time (s) | beauty relMSE | caustic relMSE | indirect relMSE |\n|---:|---:|---:|---:|---:|\n"
+        "# {title}\n\nrelMSE = mean (x − r)² / (r² + 0.01). Beauty against the reference; caustic and indirect terms against {basis}.\n\n\
+         {first_cols}| time (s) | beauty relMSE | caustic relMSE | indirect relMSE |\n|{}---:|---:|---:|---:|\n",
+        if timed { "---:|---:|---:|" } else { "---:|" }
     );
     let f = fmt_rel_mse;
     for r in rows {
+        let first = match (r.budget_s, r.passes) {
+            (Some(b), p) => format!("| {b} | {} | {} ", p.unwrap_or(0), r.photons),
+            _ => format!("| {} ", r.photons),
+        };
         md += &format!(
-            "| {} | {:.2} | {} | {} | {} |\n",
-            r.photons,
+            "{first}| {:.2} | {} | {} | {} |\n",
             r.time_s,
             f(r.beauty),
             f(r.caustic),
@@ -304,12 +355,18 @@ fn write_outputs(
     for note in footnote(rows).iter().chain(&noise_note) {
         md += &format!("\n{note}\n");
     }
-    md += &format!("\nChart `converge.png`: x = photons, y = relMSE; {} = beauty, {} = caustic, {} = indirect.\n", PALETTE[0].0, PALETTE[1].0, PALETTE[2].0);
+    md += &format!(
+        "\nChart `converge.png`: x = {}, y = relMSE; {} = beauty, {} = caustic, {} = indirect.\n",
+        x_label(rows),
+        PALETTE[0].0,
+        PALETTE[1].0,
+        PALETTE[2].0
+    );
     let dirs = CreatedDirs::create(out_dir)
         .map_err(|e| option("-o", format!("cannot create '{}': {e}", out_dir.display())))?;
     let mut set = OutputSet::new();
     set.stage_bytes(&out_dir.join("converge.md"), md.as_bytes())?;
-    let json = serde_json::json!(rows.iter().map(|r| serde_json::json!({"photons": r.photons, "time_s": r.time_s, "beauty": r.beauty, "caustic": r.caustic, "indirect": r.indirect})).collect::<Vec<_>>());
+    let json = serde_json::json!(rows.iter().map(|r| serde_json::json!({"photons": r.photons, "budget_s": r.budget_s, "passes": r.passes, "time_s": r.time_s, "beauty": r.beauty, "caustic": r.caustic, "indirect": r.indirect})).collect::<Vec<_>>());
     set.stage_bytes(
         &out_dir.join("converge.json"),
         serde_json::to_string_pretty(&json)
@@ -344,7 +401,7 @@ fn stage_chart(
 ) -> Result<()> {
     let mk = |name: &str, f: &dyn Fn(&ConvergeRow) -> f64| Series {
         name: name.into(),
-        points: rows.iter().map(|r| (r.photons as f64, f(r))).collect(),
+        points: rows.iter().map(|r| (x_of(r), f(r))).collect(),
     };
     let series = [
         mk("beauty", &|r| r.beauty),
@@ -361,16 +418,34 @@ fn stage_chart(
         .collect();
     let chart = LogLogChart {
         title: format!(
-            "Photon-count convergence — {}, method {}, {} spp",
+            "{} convergence — {}, method {}, {} spp",
+            if rows.iter().any(|r| r.budget_s.is_some()) {
+                "Time-budget"
+            } else {
+                "Photon-count"
+            },
             setting.scene,
             setting.method.name(),
             setting.spp
         ),
-        x_label: "photons",
+        x_label: x_label(rows),
         y_label: "relMSE",
         series: &series,
         levels: &levels,
         notes,
     };
     stage_log_log_png(set, path, &chart)
+}
+
+/// A row's place on the chart's x axis: its time budget, else its photon count.
+fn x_of(r: &ConvergeRow) -> f64 {
+    r.budget_s.unwrap_or(r.photons as f64)
+}
+
+fn x_label(rows: &[ConvergeRow]) -> &'static str {
+    if rows.iter().any(|r| r.budget_s.is_some()) {
+        "time budget (s)"
+    } else {
+        "photons"
+    }
 }

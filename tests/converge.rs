@@ -147,3 +147,49 @@ fn converge_refuses_a_reference_that_is_no_measure() {
         assert_eq!(std::fs::read_dir(&out).unwrap().count(), 0);
     }
 }
+
+/// A time study: each budget a progressive render, the longer one making more passes and a better
+/// image of the caustic box at 160×128.
+#[test]
+fn converge_studies_time_budgets() {
+    let d = tempfile::tempdir().unwrap();
+    let scene = repo().join("scenes/cornell-caustics.toml");
+    let reference = repo().join("tests/reference/cornell-caustics-path.exr");
+    let r = run(&[
+        "converge",
+        scene.to_str().unwrap(),
+        "--time",
+        "1,6",
+        "--reference",
+        reference.to_str().unwrap(),
+        "-o",
+        d.path().to_str().unwrap(),
+        "--method",
+        "pm",
+        "--spp",
+        "8",
+        "--quiet",
+    ]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let rows: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.path().join("converge.json")).unwrap())
+            .unwrap();
+    let rows = rows.as_array().unwrap();
+    let passes: Vec<u64> = rows.iter().map(|r| r["passes"].as_u64().unwrap()).collect();
+    let beauty: Vec<f64> = rows.iter().map(|r| r["beauty"].as_f64().unwrap()).collect();
+    assert!(passes[1] > passes[0], "passes by budget: {passes:?}");
+    assert!(beauty[1] < beauty[0], "relMSE by budget: {beauty:?}");
+    let md = std::fs::read_to_string(d.path().join("converge.md")).unwrap();
+    assert!(md.contains("| budget (s) | passes |"), "{md}");
+    // Neither photon counts nor budgets: the option to give is named.
+    let none = run(&[
+        "converge",
+        scene.to_str().unwrap(),
+        "--reference",
+        reference.to_str().unwrap(),
+        "-o",
+        d.path().join("x").to_str().unwrap(),
+    ]);
+    assert_eq!(none.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&none.stderr).contains("--time"));
+}

@@ -374,7 +374,7 @@ def render_sequence(
 
 def converge(
     scene: Scene,
-    photons: Sequence[float],
+    photons: Optional[Sequence[float]],
     reference: PathLike,
     method: str = "photons",
     spp: Optional[int] = None,
@@ -382,13 +382,16 @@ def converge(
     threads: Optional[int] = None,
     out: Optional[PathLike] = None,
     progress: Progress = None,
+    time: Optional[Sequence[float]] = None,
 ) -> List[dict]:
     """The ``converge`` command's study: at each photon count (both maps' targets) a render at the
     reference's size, and its relMSE against the reference (an EXR or HDR) for the beauty and the
     ``caustic`` and ``indirect`` terms. Returns one row per count (``photons``, ``time_s``,
     ``beauty``, ``caustic``, ``indirect``; NaN where a term has no reference); with ``out``, also
-    writes ``converge.md``, ``converge.json`` and ``converge.png`` there."""
-    counts = [float(n) for n in photons]
+    writes ``converge.md``, ``converge.json`` and ``converge.png`` there. With ``time`` (budgets in
+    seconds) and ``photons=None``, the study is of progressive renders at those budgets instead
+    (rows also give ``budget_s`` and ``passes``)."""
+    counts = [float(n) for n in (photons or [])]
     return _native.converge(
         scene,
         photons=counts,
@@ -399,6 +402,7 @@ def converge(
         threads=_int("threads", threads),
         out=_opt_path(out),
         progress=_progress(progress),
+        time=None if time is None else [float(t) for t in time],
     )
 
 

@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 
 use pmrender::converge::{converge as study, Study};
-use pmrender::scene::{self, Method, MAX_PHOTONS};
+use pmrender::scene::{self, Method, MAX_PHOTONS, MAX_TIME_S};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
@@ -15,7 +15,7 @@ use crate::scene::Scene;
 
 #[pyfunction]
 #[pyo3(signature = (scene, *, photons, reference, method="photons", spp=None, seed=None,
-                    threads=None, out=None, progress=None))]
+                    threads=None, out=None, progress=None, time=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn converge<'py>(
     py: Python<'py>,
@@ -28,6 +28,7 @@ pub fn converge<'py>(
     threads: Option<i64>,
     out: Option<PathBuf>,
     progress: Option<Bound<'py, PyAny>>,
+    time: Option<Vec<f64>>,
 ) -> PyResult<Vec<Bound<'py, PyDict>>> {
     scene.still()?;
     let counts = photons
@@ -43,8 +44,22 @@ pub fn converge<'py>(
             }
         })
         .collect::<PyResult<Vec<_>>>()?;
-    if counts.is_empty() {
-        return Err(bad_arg("photons", "give at least one count"));
+    let times = time.unwrap_or_default();
+    if let Some(t) = times.iter().find(|&&t| !(t > 0.0 && t <= MAX_TIME_S)) {
+        return Err(bad_arg(
+            "time",
+            format!("{t} is not a time in (0, {MAX_TIME_S:e}] seconds"),
+        ));
+    }
+    match (counts.is_empty(), times.is_empty()) {
+        (true, true) => return Err(bad_arg("photons", "give at least one count (or time)")),
+        (false, false) => {
+            return Err(bad_arg(
+                "time",
+                "a study is of photons or of time: not both",
+            ))
+        }
+        _ => {}
     }
     let method = match Method::parse(method) {
         Some(m @ (Method::Photons | Method::Pm)) => m,
@@ -76,6 +91,7 @@ pub fn converge<'py>(
         let mut s = scene::load(&path)?;
         let plan = Study {
             counts: &counts,
+            times: &times,
             reference: &reference,
             method,
             out_dir: out.as_deref(),
@@ -86,6 +102,8 @@ pub fn converge<'py>(
         .map(|r| {
             let d = PyDict::new(py);
             d.set_item("photons", r.photons)?;
+            d.set_item("budget_s", r.budget_s)?;
+            d.set_item("passes", r.passes)?;
             d.set_item("time_s", r.time_s)?;
             d.set_item("beauty", r.beauty)?;
             d.set_item("caustic", r.caustic)?;
