@@ -51,7 +51,7 @@ use crate::scene::{self, Animation, Method, Scene};
 use atlas_carry::{AtlasBefore, PhotonKeys};
 use kept_pixels::ShadedLight;
 use reuse::{reused_image_stats, Kept};
-use temporal::{Lifespans, Moved, SceneChange};
+use temporal::{Lifespans, Moved, Rigid, SceneChange};
 
 /// The chunk of a sequence of `n` frames that frame `f` belongs to, chunks being `len` frames long
 /// (the last may be shorter): a chunk starts afresh, with nothing from the frames before it.
