@@ -226,9 +226,15 @@ fn media_items(plan: &Plan) -> Vec<(String, u64)> {
 /// textures, a reference image), exceeds the budget — or exceeds the address space left under
 /// `RLIMIT_AS` whatever the budget, since an allocation past it aborts.
 pub fn check(scene: &Scene, plan: &Plan, opts: &Options) -> Result<()> {
+    check_held(scene, plan, opts, memory::resident())
+}
+
+/// [`check`] with `held` bytes already held: a sequence's frames count what the process held before
+/// its first frame, since what the frames before left (their caches, maps and images, or the pages
+/// the allocator kept of them) is what this frame's estimate counts again.
+pub fn check_held(scene: &Scene, plan: &Plan, opts: &Options, held: u64) -> Result<()> {
     let items = estimate(scene, plan, opts);
     let need = items.iter().fold(0u64, |a, (_, b)| a.saturating_add(*b));
-    let held = memory::resident();
     let (limit, source) = budget(opts)?;
     let (over, raise) = match memory::address_space_left() {
         Some(left) if need > left => (

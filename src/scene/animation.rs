@@ -26,6 +26,8 @@ pub struct Animation {
     /// values' binary searches, not a pass over every key.
     base: SceneFile,
     tracks: Tracks,
+    /// The OBJ files the frames read, each read once for the whole sequence.
+    held: std::sync::Arc<super::held::HeldInputs>,
 }
 
 /// The tracks of every keyable value, made once.
@@ -136,7 +138,13 @@ impl Animation {
             frames,
             tracks: Tracks::new(desc),
             base,
+            held: Default::default(),
         }))
+    }
+
+    /// The inputs the frames read, held for the sequence.
+    pub(super) fn held(&self) -> &super::held::HeldInputs {
+        &self.held
     }
 
     pub fn frames(&self) -> u32 {

@@ -8,6 +8,7 @@ use glam::{Mat3, Mat4, Vec3};
 use super::animation::{at_frame, Animation};
 use super::context::Ctx;
 use super::file::{self, line_of, line_of_key, SceneFile};
+use super::held::HeldInputs;
 use super::input::{self, read_text, MAX_SCENE_BYTES, MAX_TEXTURE_BYTES};
 use super::lights::{check_lights, lights, some_light_emits, Origin};
 use super::media::{check_camera_medium, media};
@@ -32,7 +33,7 @@ pub fn load(path: &Path) -> Result<Scene> {
     let text = read_text(path, "scene file", MAX_SCENE_BYTES, None)?;
     let desc = file::parse(path, &text)?;
     match Animation::new(path, &text, &desc)? {
-        None => build(path, &text, &desc),
+        None => build(path, &text, &desc, &HeldInputs::default()),
         Some(a) => load_frame(&a, 0),
     }
 }
@@ -57,12 +58,13 @@ pub fn load_animation(path: &Path) -> Result<Option<Animation>> {
 
 /// Frame `f` of an animated scene.
 pub fn load_frame(anim: &Animation, f: u32) -> Result<Scene> {
-    build(anim.path(), anim.text(), &anim.frame_desc(f)).map_err(|e| at_frame(e, f))
+    build(anim.path(), anim.text(), &anim.frame_desc(f), anim.held()).map_err(|e| at_frame(e, f))
 }
 
 /// What building frames `frames` of `anim` would refuse, found before any of them is rendered
-/// (`first`: the scene of the first): each frame's lights without power (unless meshes emit) and the
-/// camera's declared medium at each frame's eye. A frame where a medium's boundary mesh moved is
+/// (`first`: the scene of the first): each frame's lights without power (unless meshes emit), the
+/// camera's declared medium at each frame's eye, and where a mesh moved or a light changed, the
+/// frame's meshes and lights as a still's are checked. A frame where a medium's boundary mesh moved is
 /// built (its media checked as a still's are), reported to `progress` frame by frame. Stops with
 /// `Interrupted` once `cancel` is set.
 pub fn check_sequence(
@@ -94,6 +96,12 @@ pub fn check_sequence(
         }
         progress.set(u64::from(f - start));
         let desc = anim.frame_desc(f);
+        // A frame where a mesh moved or a light changed is refused for what its still would be:
+        // a vertex past the limits after a keyed scale, an emitted power over the cap (a scaled
+        // emitter, a sun over grown bounds), no triangle left.
+        if f > start && (!anim.moved_meshes(f - 1, f).is_empty() || anim.lights_changed(f - 1, f)) {
+            check_geometry(&cx, &desc, anim.held()).map_err(|e| at_frame(e, f))?;
+        }
         // A scene without any light renders only as occlusion, which the render's plan checks.
         let has_lights = meshes_emit || !desc.light.is_empty();
         if has_lights
@@ -126,6 +134,13 @@ pub fn check_sequence(
         }
     }
     Ok(())
+}
+
+/// What building a scene from `desc` would refuse in its meshes and lights (see [`meshes`] and
+/// [`lights`]), without its textures, media or BVH.
+fn check_geometry(cx: &Ctx, desc: &SceneFile, held: &HeldInputs) -> Result<()> {
+    let m = meshes(cx, desc, held)?;
+    lights(cx, desc, &m.geo, &m.materials, &m.emission_at).map(drop)
 }
 
 /// The camera of frame `f` (checked by [`load_animation`]).
@@ -163,8 +178,8 @@ pub fn mesh_transform(anim: &Animation, f: u32, mesh: usize) -> Option<Mat4> {
     transform(&cx, mesh, desc.mesh.get(mesh)?).ok()
 }
 
-/// A scene from its parsed file.
-fn build(path: &Path, text: &str, desc: &SceneFile) -> Result<Scene> {
+/// A scene from its parsed file, its OBJ files read through `held`.
+fn build(path: &Path, text: &str, desc: &SceneFile, held: &HeldInputs) -> Result<Scene> {
     let cx = Ctx { path, text };
     if let Some(v) = desc.version {
         if v != 1 {
@@ -188,7 +203,7 @@ fn build(path: &Path, text: &str, desc: &SceneFile) -> Result<Scene> {
         emission_at,
         mesh_tris,
         warnings,
-    } = meshes(&cx, desc)?;
+    } = meshes(&cx, desc, held)?;
     let textures = textures(&cx, &mut materials, tex_paths)?;
     let gloss_maps = gloss_maps(&cx, &materials, ks_paths, ns_paths)?;
     let cutouts = cutouts(&cx, &geometry, &materials, mask_paths)?;
@@ -284,7 +299,7 @@ struct Meshes {
     warnings: Vec<String>,
 }
 
-fn meshes(cx: &Ctx, desc: &SceneFile) -> Result<Meshes> {
+fn meshes(cx: &Ctx, desc: &SceneFile, held: &HeldInputs) -> Result<Meshes> {
     let mut geo = Geometry::default();
     let mut warnings = Vec::new();
     let mut loaded = LoadedMaterials::default();
@@ -294,7 +309,7 @@ fn meshes(cx: &Ctx, desc: &SceneFile) -> Result<Meshes> {
         let xf = transform(cx, mi, m)?;
         let nxf = Mat3::from_mat4(xf).inverse().transpose();
         let path = obj_path(cx, mi, m)?;
-        let data = obj::load(&path)?;
+        let data = held.obj(&path)?;
         for (name, line) in &data.undefined {
             let w = undefined_material_warning(&path, *line, name);
             // An OBJ placed by several meshes is warned about once.

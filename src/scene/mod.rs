@@ -4,6 +4,7 @@ pub mod animation;
 mod build;
 mod context;
 pub(crate) mod file;
+mod held;
 mod icache_settings;
 pub(crate) mod input;
 mod lights;

@@ -51,7 +51,7 @@ use crate::scene::{self, Animation, Method, Scene};
 use atlas_carry::{AtlasBefore, PhotonKeys};
 use kept_pixels::ShadedLight;
 use reuse::{reused_image_stats, Kept};
-use temporal::{Lifespans, Moved, SceneChange};
+use temporal::{Lifespans, Moved, Rigid, SceneChange};
 
 /// The chunk of a sequence of `n` frames that frame `f` belongs to, chunks being `len` frames long
 /// (the last may be shorter): a chunk starts afresh, with nothing from the frames before it.
@@ -85,6 +85,8 @@ pub fn render_sequence(
     progress.start("checking frames", (last - replay_from + 1) as u64);
     scene::check_sequence(anim, replay_from..=last, &first_scene, progress, cancel)?;
     progress.finish();
+    // What the process holds before its first frame: each frame's memory is checked against it.
+    let held = crate::memory::resident();
     let mut loaded = Some(first_scene);
     let mut start = replay_from;
     while start <= last {
@@ -103,6 +105,7 @@ pub fn render_sequence(
         let span = Chunk {
             frames: chunk.clone(),
             upto,
+            held,
         };
         render_chunk(anim, span, scene, opts, progress, cancel, &mut handed)?;
         match chunk.end().checked_add(1) {
@@ -113,10 +116,12 @@ pub fn render_sequence(
     Ok(())
 }
 
-/// The frames of one chunk, and the last of them to render.
+/// The frames of one chunk, the last of them to render, and the bytes the process held before the
+/// sequence's first frame.
 struct Chunk {
     frames: RangeInclusive<u32>,
     upto: u32,
+    held: u64,
 }
 
 /// One chunk's frames up to `span.upto`, from its first, whose scene `first_scene` is.
@@ -147,7 +152,7 @@ fn render_chunk(
                 s.next_scene(anim, &scene, f);
                 s
             }
-            _ => Sequence::new(moving_window.clone(), track_atlas),
+            _ => Sequence::new(moving_window.clone(), track_atlas, span.held),
         };
         // The scene's photon maps, traced for its first frame rendered.
         let mut maps: Option<PhotonData> = None;
@@ -263,10 +268,12 @@ struct Sequence {
     atlas_next: Option<PhotonKeys>,
     /// Where each mesh of the scene before was (its bounding sphere).
     mesh_spheres: Vec<Option<(Vec3, f32)>>,
+    /// The bytes the process held before the sequence's first frame.
+    held: u64,
 }
 
 impl Sequence {
-    fn new(moving_window: Option<(Camera, Window)>, track_atlas: bool) -> Sequence {
+    fn new(moving_window: Option<(Camera, Window)>, track_atlas: bool, held: u64) -> Sequence {
         Sequence {
             moving_window,
             track_atlas,
@@ -285,6 +292,7 @@ impl Sequence {
             atlas_before: None,
             atlas_next: None,
             mesh_spheres: Vec::new(),
+            held,
         }
     }
 
@@ -303,7 +311,7 @@ impl Sequence {
     ) -> Result<(RenderOutput, RenderStats)> {
         let start = Instant::now();
         let (mut plan, moving) = self.frame_plan(scene, opts, camera)?;
-        budget::check(scene, &plan, opts)?;
+        budget::check_held(scene, &plan, opts, self.held)?;
         let mut stats = RenderStats::new(scene, &plan);
         let mut frame = FrameStats {
             frame: f,

@@ -3,10 +3,11 @@
 
 use std::collections::HashMap;
 
-use glam::{Mat3, Mat4, Vec3};
+use glam::{Mat3, Vec3};
 use icache::{IrradianceCache, NewRecord, Record};
 use pmbase::luminance;
 
+use super::temporal::Rigid;
 use crate::error::{runtime, Result};
 use crate::geometry::Hit;
 use crate::render::stats::TemporalStats;
@@ -65,12 +66,9 @@ pub(super) fn new_pos(r: &Record, moved: Option<Record>) -> Vec3 {
 
 /// A record whose surface is gone, carried along by the step of the moved mesh it lay on: its new
 /// place and the surface hit there (`None` when it lay on no moved mesh, or lands on no surface).
-pub(super) fn carried_along(
-    scene: &Scene,
-    r: &Record,
-    rigid: &[((Vec3, f32), Mat4)],
-) -> Option<(Record, Hit)> {
-    rigid.iter().find_map(|&((c, radius), step)| {
+pub(super) fn carried_along(scene: &Scene, r: &Record, rigid: &[Rigid]) -> Option<(Record, Hit)> {
+    rigid.iter().find_map(|m| {
+        let ((c, radius), step) = (m.before, m.step);
         if r.pos.distance(c) > radius * 1.01 + r.pixel_world {
             return None;
         }

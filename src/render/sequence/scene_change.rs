@@ -26,7 +26,11 @@ impl Sequence {
                 };
                 moved.push(Moved::new(before, after, step));
                 if let Some(step) = step {
-                    rigid.push((before, step));
+                    rigid.push(Rigid {
+                        mesh: m,
+                        before,
+                        step,
+                    });
                 }
             }
         }

@@ -48,6 +48,7 @@ use super::light_change::{sees_changed_light, Deposits};
 use super::record_life::*;
 use crate::camera::Camera;
 use crate::error::{runtime, Result};
+use crate::geometry::Hit;
 use crate::integrator::cache_fill::gather_record;
 use crate::integrator::pm::PmContext;
 use crate::render::stats::{FrameStats, TemporalStats};
@@ -61,10 +62,18 @@ pub const MOVING_NOISE: f32 = 0.5;
 #[derive(Clone, Debug, Default)]
 pub struct SceneChange {
     pub moved: Vec<Moved>,
-    /// Each moved mesh's bounding sphere before its step, and the step (new placement × old⁻¹): the
-    /// records on it move with it.
-    pub rigid: Vec<((Vec3, f32), Mat4)>,
+    /// Each moved mesh whose step is known: the records on it move with it.
+    pub rigid: Vec<Rigid>,
     pub lights: bool,
+}
+
+/// A moved mesh's `[[mesh]]` index, its bounding sphere before its step, and the step (new placement
+/// × old⁻¹).
+#[derive(Clone, Copy, Debug)]
+pub struct Rigid {
+    pub mesh: usize,
+    pub before: (Vec3, f32),
+    pub step: Mat4,
 }
 
 /// A mesh that moved: its bounding sphere (centre, radius) before and after, and how far any of its
@@ -265,14 +274,30 @@ impl Lifespans {
             measured: true,
             slides: false,
         });
-        let Some(hit) = surface_at(scene, r) else {
-            // Carried along with its mesh: what lit it moved relative to it at the rate
-            // its last gathers measured, so it is due like any other record; and what it
-            // sees changed for a known reason (it moved), so its gather is always taken.
-            let (moved, hit) = carried_along(scene, r, &change.rigid)?;
+        // Carried along with its mesh: what lit it moved relative to it at the rate its last
+        // gathers measured, so it is due like any other record; and what it sees changed for a
+        // known reason (it moved), so its gather is always taken.
+        let carried = |(moved, hit): (Record, Hit)| {
             let due = frame >= life.due || change.lights;
-            return Some((life, due.then_some(hit), Some(moved), true));
+            (life, due.then_some(hit), Some(moved), true)
         };
+        let Some(hit) = surface_at(scene, r) else {
+            return carried_along(scene, r, &change.rigid).map(carried);
+        };
+        // A record whose surface is a moved mesh's goes with it even where the step was too small
+        // to take the surface from under it (a mesh moving across its own normal): left in place
+        // it falls behind its mesh frame after frame, inside it or off it, where no pixel can use
+        // it, and new records pile up beside it (a camera following the mesh sees it in the same
+        // place every frame).
+        let on_moved = change.rigid.iter().filter(|m| {
+            scene
+                .mesh_ranges
+                .get(m.mesh)
+                .is_some_and(|t| t.contains(&(hit.tri as usize)))
+        });
+        if let Some(fate) = carried_along(scene, r, &on_moved.copied().collect::<Vec<_>>()) {
+            return Some(carried(fate));
+        }
         // Where no moved mesh is near, the light changes only through the photons that
         // meet one: a new record's rate is measured with its first lifespan's change.
         let due_at = if life.measured {

@@ -1,0 +1,112 @@
+//! Every frame of a sequence checked as its still would be before the first is written: a keyed
+//! scale that puts a vertex past the limits or leaves no triangle, an emitter scaled past the power
+//! cap — refused at the key's file:line with the frame, exit 2, nothing written. And a sequence
+//! reads its OBJ files once: one edited while the sequence renders changes no frame.
+
+mod common;
+use common::*;
+
+use std::time::Duration;
+
+const EMITTER_MTL: &str = "newmtl glow\nKd 0.5 0.5 0.5\nKe 1e6 1e6 1e6\n";
+
+/// The room and a cube (emitting with `emits`) under a point light, 4 frames, the cube's `scale`
+/// keyed from 0.25 at frame 0 to `scale` at frame 3, every mesh's with `all`.
+fn scene(scale: &str, emits: bool, all: bool) -> tempfile::TempDir {
+    let (cube, mtl) = if emits {
+        (cube_obj("cube.mtl", "glow"), EMITTER_MTL.to_string())
+    } else {
+        (
+            cube_obj("cube.mtl", "block"),
+            "newmtl block\nKd 0.2 0.3 0.7\n".into(),
+        )
+    };
+    let key = |s: &str| {
+        format!("[[mesh.key]]\nframe = 0\nscale = 0.25\n[[mesh.key]]\nframe = 3\nscale = {s}\n")
+    };
+    let room_keys = if all {
+        key(scale).replace("scale = 0.25", "scale = 1.0")
+    } else {
+        String::new()
+    };
+    let text = format!(
+        "version = 1\n[animation]\nframes = 4\n[camera]\neye = [0.0, 1.0, 3.0]\ntarget = [0.0, 1.0, 0.0]\n\
+         fov = 45.0\nwidth = 16\nheight = 12\n[[mesh]]\nobj = \"room.obj\"\n{room_keys}\n[[mesh]]\n\
+         obj = \"cube.obj\"\nscale = 0.25\ntranslate = [0.0, 0.5, 0.0]\n{}\n[[light]]\ntype = \"point\"\n\
+         position = [0.5, 1.5, 0.5]\nintensity = [1.0, 1.0, 1.0]\n[render]\nspp = 1\nseed = 1\n",
+        key(scale)
+    );
+    let d = scene_dir(&[
+        ("room.obj", ROOM_OBJ),
+        ("room.mtl", ROOM_MTL),
+        ("cube.obj", &cube),
+        ("cube.mtl", &mtl),
+        ("scene.toml", &text),
+    ]);
+    std::fs::create_dir(d.path().join("out")).unwrap();
+    d
+}
+
+/// Renders the scene of `d` to out/f-#.exr (with --stats) and expects a refusal naming `needles`.
+fn refused(d: &tempfile::TempDir, needles: &[&str]) {
+    let scene = p(d.path(), "scene.toml");
+    let (out, stats) = (
+        p(&d.path().join("out"), "f-#.exr"),
+        p(&d.path().join("out"), "f-#.json"),
+    );
+    let r = run_bounded(
+        &["render", &scene, "-o", &out, "--stats", &stats, "--quiet"],
+        Duration::from_secs(120),
+    );
+    let stderr = String::from_utf8_lossy(&r.stderr);
+    assert_eq!(r.status.code(), Some(2), "{stderr}");
+    assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
+    for n in needles {
+        assert!(stderr.contains(n), "{n:?} not in {stderr}");
+    }
+    let written = listing(&d.path().join("out"));
+    assert!(written.is_empty(), "{written:?}");
+}
+
+#[test]
+fn a_keyed_scale_past_the_vertex_limit_is_refused_before_frame_0() {
+    let d = scene("1e16", false, false);
+    refused(&d, &["scene.toml:", "frame 1", "after scale"]);
+}
+
+#[test]
+fn a_keyed_scale_that_leaves_no_triangle_is_refused_before_frame_0() {
+    let d = scene("1e-30", false, true);
+    refused(&d, &["scene.toml:", "frame 3", "no triangles"]);
+}
+
+#[test]
+fn an_emitter_scaled_past_the_power_cap_is_refused_before_frame_0() {
+    let d = scene("1e14", true, false);
+    refused(&d, &["cube.mtl:", "frame ", "emitted power"]);
+}
+
+#[test]
+fn an_obj_edited_while_a_sequence_renders_changes_no_frame() {
+    // The cube moves at every frame, so every frame builds its scene again; the OBJ is replaced by
+    // an empty one after frame 0 is written. Read once, it changes nothing.
+    let d = scene("0.4", false, false);
+    let scene = p(d.path(), "scene.toml");
+    let out = p(&d.path().join("out"), "f-#.exr");
+    let child = std::process::Command::new(bin())
+        .args([
+            "render", &scene, "-o", &out, "--quiet", "--width", "64", "--height", "48",
+        ])
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let first = d.path().join("out/f-0.exr");
+    let start = std::time::Instant::now();
+    while !first.exists() && start.elapsed() < Duration::from_secs(120) {
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    std::fs::write(d.path().join("cube.obj"), "# emptied\n").unwrap();
+    let r = child.wait_with_output().unwrap();
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    assert!(d.path().join("out/f-3.exr").exists());
+}
