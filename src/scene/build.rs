@@ -194,16 +194,19 @@ fn build(path: &Path, text: &str, desc: &SceneFile) -> Result<Scene> {
     } = meshes(&cx, desc)?;
     let textures = textures(&cx, &mut materials, tex_paths)?;
     let gloss_maps = gloss_maps(&cx, &materials, ks_paths, ns_paths)?;
-    let cutouts = cutouts(&cx, &geometry, &materials, mask_paths)?;
+    let cutouts = cutouts(&cx, &geometry, &materials, mask_paths)?.map(Arc::new);
     let bumps = bumps(&cx, &materials, bump_paths)?;
     let bounds = geometry.bounds();
-    let lights = lights(&cx, desc, &geometry, &materials, &emission_at)?;
+    let mut lights = lights(&cx, desc, &geometry, &materials, &emission_at)?;
+    if let Some(c) = cutouts.as_ref().filter(|c| c.cuts_any(&lights)) {
+        lights.cut_by(c.clone());
+    }
     let media = media(&cx, desc, &geometry, &materials, &mesh_tris, &lights.lights)?;
     let fingerprint = fingerprint(
         &geometry,
         &materials,
         &textures,
-        cutouts.as_ref(),
+        cutouts.as_deref(),
         &bumps,
         &lights,
         media.as_ref(),
