@@ -180,3 +180,67 @@ fn a_height_ramp_renders_as_its_slope_in_the_normals() {
         assert!(bumped.bump_rotated > 0);
     }
 }
+
+/// Bump statements that cannot be read are refused with a line naming the material or the file; a
+/// scale so large that every slope overflows leaves the normal as it was (no NaN, no crash).
+#[test]
+fn bad_bump_maps_are_refused_or_harmless() {
+    let scene = |floor: &str, images: &[(&str, Vec<u8>)]| {
+        let d = scene_dir(&[
+            (
+                "m.obj",
+                "mtllib m.mtl\nv -1 0 1\nv 1 0 1\nv 1 0 -1\nv -1 0 -1\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n\
+                 usemtl floor\nf 1/1 2/2 3/3 4/4\n",
+            ),
+            ("m.mtl", &format!("newmtl floor\nKd 0.5 0.5 0.5\n{floor}")),
+            (
+                "s.toml",
+                "version = 1\n[camera]\neye = [0.0, 2.0, 2.0]\ntarget = [0.0, 0.0, 0.0]\nfov = 45.0\n\
+                 width = 16\nheight = 12\n[[mesh]]\nobj = \"m.obj\"\n[[light]]\ntype = \"point\"\n\
+                 position = [0.0, 1.0, 0.0]\nintensity = [1.0, 1.0, 1.0]\n[render]\nspp = 2\n",
+            ),
+        ]);
+        for (name, bytes) in images {
+            std::fs::write(d.path().join(name), bytes).unwrap();
+        }
+        d
+    };
+    let render = |d: &tempfile::TempDir| {
+        run_bounded(
+            &[
+                "render",
+                &p(d.path(), "s.toml"),
+                "-o",
+                &p(d.path(), "o.exr"),
+                "--method",
+                "pm",
+                "--quiet",
+            ],
+            Duration::from_secs(120),
+        )
+    };
+    let grey = [("g.pgm", ramp_pgm())];
+    for (floor, images, want) in [
+        ("norm missing.png\n", &[][..], "norm 'missing.png'"),
+        (
+            "map_Bump -bm 0.5 missing.png\n",
+            &[][..],
+            "bump 'missing.png'",
+        ),
+        ("norm g.pgm\n", &grey[..], "needs a colour image"),
+    ] {
+        let d = scene(floor, images);
+        let r = render(&d);
+        let stderr = String::from_utf8_lossy(&r.stderr);
+        assert_eq!(r.status.code(), Some(2), "{floor}: {stderr}");
+        assert!(
+            stderr.contains(want) && stderr.lines().count() == 1,
+            "{floor}: {stderr}"
+        );
+    }
+    let d = scene("bump -bm 1e38 g.pgm\n", &grey);
+    let r = render(&d);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let m = mean(&read(&d.path().join("o.exr")));
+    assert!(m.is_finite() && m.min_element() > 0.0, "{m}");
+}
