@@ -21,7 +21,7 @@
 //! handedness: the frame MikkTSpace gives a mesh whose triangles share their mapping (a plane, a
 //! cylinder's side), not its per-vertex average where the mapping bends.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use glam::{Vec2, Vec3};
 
@@ -40,11 +40,14 @@ pub enum Statement {
 
 pub enum BumpMap {
     Height {
+        /// The file it was read from.
+        path: PathBuf,
         heights: Mask,
         /// World units of displacement per unit of the map's value (`-bm`).
         scale: f32,
     },
     Normal {
+        path: PathBuf,
         width: u32,
         height: u32,
         /// Decoded tangent-space vectors (2c − 1), top row first.
@@ -91,6 +94,7 @@ impl BumpMap {
         };
         if normal {
             return Ok(BumpMap::Normal {
+                path: path.to_path_buf(),
                 width: img.width,
                 height: img.height,
                 texels: rgb.iter().map(|c| *c * 2.0 - Vec3::ONE).collect(),
@@ -98,9 +102,17 @@ impl BumpMap {
             });
         }
         Ok(BumpMap::Height {
+            path: path.to_path_buf(),
             heights: Mask::load_values(path, false)?,
             scale: bm,
         })
+    }
+
+    /// The image file the map was read from.
+    pub fn path(&self) -> &Path {
+        match self {
+            BumpMap::Height { path, .. } | BumpMap::Normal { path, .. } => path,
+        }
     }
 
     /// The bumped shading normal at `uv` of a surface with unit shading normal `n` and texture
@@ -108,7 +120,7 @@ impl BumpMap {
     /// side.
     pub fn normal(&self, n: Vec3, dpdu: Vec3, dpdv: Vec3, uv: Vec2) -> Vec3 {
         let bumped = match self {
-            BumpMap::Height { heights, scale } => {
+            BumpMap::Height { heights, scale, .. } => {
                 let (w, h) = (heights.width.max(1) as f32, heights.height.max(1) as f32);
                 let (du, dv) = (1.0 / w, 1.0 / h);
                 let at = |d: Vec2| heights.value(uv + d);
@@ -130,6 +142,7 @@ impl BumpMap {
                 height,
                 texels,
                 strength,
+                ..
             } => {
                 let t = (dpdu - n * n.dot(dpdu)).normalize_or_zero();
                 if t == Vec3::ZERO {
@@ -160,7 +173,7 @@ impl BumpMap {
     pub fn fingerprint(&self) -> u64 {
         let mut bytes = Vec::new();
         match self {
-            BumpMap::Height { heights, scale } => {
+            BumpMap::Height { heights, scale, .. } => {
                 bytes.push(0u8);
                 bytes.extend(scale.to_le_bytes());
                 bytes.extend(heights.width.to_le_bytes());
@@ -232,6 +245,7 @@ mod tests {
 
     fn normal_map(c: Vec3, strength: f32) -> BumpMap {
         BumpMap::Normal {
+            path: PathBuf::new(),
             width: 1,
             height: 1,
             texels: vec![c * 2.0 - Vec3::ONE],
@@ -278,6 +292,7 @@ mod tests {
                 .collect(),
         };
         let map = BumpMap::Height {
+            path: PathBuf::new(),
             heights,
             scale: 0.5,
         };

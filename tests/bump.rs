@@ -244,3 +244,50 @@ fn bad_bump_maps_are_refused_or_harmless() {
     let m = mean(&read(&d.path().join("o.exr")));
     assert!(m.is_finite() && m.min_element() > 0.0, "{m}");
 }
+
+/// `export-mitsuba` wraps a height map's material in Mitsuba 3's `bumpmap` (scale `-bm`) and a
+/// normal map's in `normalmap`, both images read raw.
+#[test]
+fn export_writes_bumpmap_and_normalmap_wrappers() {
+    let d = scene_dir(&[
+        (
+            "m.obj",
+            "mtllib m.mtl\nv -1 0 1\nv 1 0 1\nv 1 0 -1\nv -1 0 -1\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n\
+             usemtl a\nf 1/1 2/2 3/3\nusemtl b\nf 1/1 3/3 4/4\n",
+        ),
+        (
+            "m.mtl",
+            "newmtl a\nKd 0.5 0.5 0.5\nbump -bm 0.25 h.pgm\nnewmtl b\nKd 0.5 0.5 0.5\n\
+             map_Bump n.ppm\n",
+        ),
+        (
+            "s.toml",
+            "version = 1\n[camera]\neye = [0.0, 2.0, 2.0]\ntarget = [0.0, 0.0, 0.0]\n\
+             fov = 45.0\nwidth = 16\nheight = 12\n[[mesh]]\nobj = \"m.obj\"\n[[light]]\ntype = \"point\"\n\
+             position = [0.0, 1.0, 0.0]\nintensity = [1.0, 1.0, 1.0]\n",
+        ),
+    ]);
+    std::fs::write(d.path().join("h.pgm"), ramp_pgm()).unwrap();
+    std::fs::write(d.path().join("n.ppm"), ppm(2, 2, [128, 128, 255])).unwrap();
+    let out = d.path().join("mi");
+    let r = run(&[
+        "export-mitsuba",
+        &p(d.path(), "s.toml"),
+        out.to_str().unwrap(),
+    ]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let xml = std::fs::read_to_string(out.join("scene.xml")).unwrap();
+    let raw = r#"<boolean name="raw" value="true"/>"#;
+    let bump = xml.lines().find(|l| l.contains("bumpmap")).expect(&xml);
+    assert!(bump.contains("h.pgm") && bump.contains(raw), "{bump}");
+    assert!(
+        bump.contains(r#"<float name="scale" value="0.25"/>"#),
+        "{bump}"
+    );
+    let normal = xml.lines().find(|l| l.contains("normalmap")).expect(&xml);
+    assert!(normal.contains("n.ppm") && normal.contains(raw), "{normal}");
+    assert!(
+        normal.contains(r#"<texture type="bitmap" name="normalmap">"#),
+        "{normal}"
+    );
+}

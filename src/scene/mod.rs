@@ -609,6 +609,11 @@ impl Scene {
         }
     }
 
+    /// Material `material`'s bump or normal map, if it has one.
+    pub(crate) fn bump_map(&self, material: usize) -> Option<&crate::bump::BumpMap> {
+        self.bumps.get(material)?.as_deref()
+    }
+
     /// Whether some material has a bump or normal map.
     pub fn has_bumps(&self) -> bool {
         !self.bumps.is_empty()
