@@ -660,7 +660,8 @@ fn refine_keeps_the_gradient_limit() {
 /// A lookup at a bumped normal weighs records by the smooth normal (the same records, the same
 /// weights as an unbumped lookup) and turns each one's irradiance by its rotational gradient; a
 /// bumped normal 30° off, beyond any record's normal reach, still finds them. Without gradients the
-/// record's dominant direction turns it.
+/// record's dominant direction turns it; either way, only the share of the turned hemisphere above
+/// the smooth surface counts.
 #[test]
 fn a_bumped_lookup_turns_records_found_by_the_smooth_normal() {
     let turned = Vec3::new(0.5, 0.0, 0.75f32.sqrt());
@@ -696,13 +697,15 @@ fn a_bumped_lookup_turns_records_found_by_the_smooth_normal() {
             (smooth.n_used, smooth.weight_sum)
         );
         assert!(c.lookup(p, turned, Pass::B).is_none());
-        let want = if gradients {
+        let turn = if gradients {
             // (n_i × n_turned)·∇r: (0, 0.5, 0)·(0, 0.4, 0).
             1.0 + 0.2
         } else {
             // 1 + (n_turned − n)·d / (n·d).
             1.0 + (turned - Vec3::Z).dot(r.dir) / Vec3::Z.dot(r.dir)
         };
+        // The share of the turned lobe above the smooth plane: (1 + cos 30°)/2.
+        let want = turn * 0.5 * (1.0 + turned.z);
         assert!(
             (bumped.e.x - want).abs() < 1e-5,
             "{gradients}: {} {want}",
