@@ -127,6 +127,23 @@ impl Cutouts {
     }
 }
 
+impl Cutouts {
+    /// Whether a mask cuts some emissive triangle of `lights` (their samples must then skip it).
+    pub fn cuts_any(&self, lights: &crate::light::Lights) -> bool {
+        lights.lights.iter().any(|l| {
+            matches!(l, crate::light::Light::Area { tri, .. }
+                if self.slot.get(*tri as usize).is_some_and(|&k| k != u32::MAX))
+        })
+    }
+}
+
+/// Shared by the BVH's filter and the lights (whose samples on cut texels emit nothing).
+impl Cutout for std::sync::Arc<Cutouts> {
+    fn is_cut(&self, prim: u32, u: f32, v: f32) -> bool {
+        self.as_ref().is_cut(prim, u, v)
+    }
+}
+
 impl Cutout for Cutouts {
     fn is_cut(&self, prim: u32, u: f32, v: f32) -> bool {
         let Some(&(mask, [t0, t1, t2])) = self

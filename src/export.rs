@@ -39,7 +39,35 @@ fn bitmap(scene: &Scene, t: usize, name: &str) -> String {
     )
 }
 
+/// Material `m`'s BSDF, inside Mitsuba 3's `bumpmap` (its scale our `-bm`) or `normalmap` where it
+/// has a bump or normal map, the image read raw (not sRGB-decoded) as ours is. A normal map's
+/// strength (`-bm`) has no Mitsuba parameter: it is written at full strength.
 fn bsdf_xml(scene: &Scene, m: usize) -> String {
+    let inner = surface_bsdf_xml(scene, m);
+    let Some(map) = scene.bump_map(m) else {
+        return inner;
+    };
+    let path = std::fs::canonicalize(map.path()).unwrap_or_else(|_| map.path().to_path_buf());
+    let raw = |name: &str| {
+        format!(
+            r#"<texture type="bitmap"{name}><boolean name="raw" value="true"/><string name="filename" value="{}"/></texture>"#,
+            path.display()
+        )
+    };
+    match map {
+        crate::bump::BumpMap::Height { scale, .. } => format!(
+            r#"<bsdf type="bumpmap">{}<float name="scale" value="{scale}"/>{inner}</bsdf>"#,
+            raw("")
+        ),
+        crate::bump::BumpMap::Normal { .. } => format!(
+            r#"<bsdf type="normalmap">{}{inner}</bsdf>"#,
+            raw(r#" name="normalmap""#)
+        ),
+    }
+}
+
+/// Material `m`'s BSDF without its bump map.
+fn surface_bsdf_xml(scene: &Scene, m: usize) -> String {
     let mat = &scene.materials[m];
     match &mat.bsdf {
         Bsdf::Diffuse { albedo, texture } => {

@@ -183,7 +183,12 @@ pub fn spawn_clear(hit: &Hit, dir: Vec3) -> Vec3 {
 /// whether `wo` is on the side the geometric normal points to.
 #[derive(Clone, Copy, Debug)]
 pub struct Frame {
+    /// The shading normal: a bump or normal map's where the material has one ([`Frame::bumped`]).
     pub n: Vec3,
+    /// The shading normal without the bump (`n` itself on a surface without one): what the
+    /// irradiance cache places, spaces and weighs its records by, so that bumps do not multiply
+    /// records (each record's rotational gradient turns its irradiance to `n` at lookup).
+    pub smooth: Vec3,
     /// Geometric normal turned toward `wo`.
     pub ng: Vec3,
     pub front: bool,
@@ -195,9 +200,25 @@ impl Frame {
         let s = if front { 1.0 } else { -1.0 };
         Frame {
             n: hit.ns * s,
+            smooth: hit.ns * s,
             ng: hit.ng * s,
             front,
         }
+    }
+
+    /// The frame with shading normal `n_bumped` (a unit vector on the side of the hit's `ns`), turned
+    /// toward `wo` as the smooth one is.
+    pub fn bumped(self, n_bumped: Vec3) -> Frame {
+        let s = if self.front { 1.0 } else { -1.0 };
+        Frame {
+            n: n_bumped * s,
+            ..self
+        }
+    }
+
+    /// Whether a bump turned the shading normal.
+    pub fn is_bumped(&self) -> bool {
+        self.n != self.smooth
     }
 
     /// Reflection must stay on `wo`'s geometric side, or light leaks through shading normals.

@@ -8,6 +8,8 @@
 
 pub(crate) mod accel;
 #[forbid(unsafe_code)]
+pub(crate) mod bump;
+#[forbid(unsafe_code)]
 pub(crate) mod camera;
 #[forbid(unsafe_code)]
 pub mod chart;

@@ -2,9 +2,11 @@
 //! shading point and emitting photons from them, both in proportion to emitted power.
 
 use std::f32::consts::PI;
+use std::sync::Arc;
 
 use glam::Vec3;
 
+use crate::accel::embree::Cutout;
 use crate::distribution::Distribution;
 use crate::geometry::Geometry;
 use crate::warp::{
@@ -79,6 +81,9 @@ pub struct Lights {
     select_area: Option<Distribution>,
     /// For each triangle, the index of its area light (u32::MAX if not emissive).
     light_of_tri: Vec<u32>,
+    /// The cutouts (`map_d`) of a scene where they cut an emitter: a sample on a cut texel emits
+    /// nothing, as the texel is not there. `None` otherwise (no test per sample).
+    cut: Option<Arc<dyn Cutout>>,
 }
 
 fn mean(c: Vec3) -> f64 {
@@ -155,7 +160,18 @@ impl Lights {
             select: Some(select),
             select_area,
             light_of_tri,
+            cut: None,
         })
+    }
+
+    /// Makes samples and photons that start on a texel `cut` removes emit nothing.
+    pub fn cut_by(&mut self, cut: Arc<dyn Cutout>) {
+        self.cut = Some(cut);
+    }
+
+    /// Whether the point at barycentrics (b1, b2) of emissive triangle `tri` is cut away.
+    fn is_cut(&self, tri: u32, b1: f32, b2: f32) -> bool {
+        self.cut.as_ref().is_some_and(|c| c.is_cut(tri, b1, b2))
     }
 
     /// A scene's lights when it has none at all: the occlusion methods render it, the others refuse it
@@ -166,6 +182,7 @@ impl Lights {
             select: None,
             select_area: None,
             light_of_tri: vec![u32::MAX; n_triangles],
+            cut: None,
         }
     }
 
@@ -237,6 +254,9 @@ impl Lights {
         match self.lights[i] {
             Light::Area { tri, le, n, area } => {
                 let (b1, b2) = uniform_triangle([u[1], u[2]]);
+                if self.is_cut(tri, b1, b2) {
+                    return None;
+                }
                 let q = geo.point_on(tri, b1, b2);
                 let d = q - p;
                 let dist2 = d.length_squared();
@@ -344,6 +364,9 @@ impl Lights {
         match *light {
             Light::Area { tri, le, n, area } => {
                 let (b1, b2) = uniform_triangle([u[1], u[2]]);
+                if self.is_cut(tri, b1, b2) {
+                    return None;
+                }
                 let origin = geo.point_on(tri, b1, b2);
                 let dir = to_world(n, cosine_hemisphere([u[3], u[4]]));
                 // Le cos / (pdf_area · pdf_dir) = Le cos · A · π / cos = Le A π.

@@ -656,3 +656,60 @@ fn refine_keeps_the_gradient_limit() {
     let l = c.lookup(near, Vec3::Z, Pass::B).unwrap();
     assert!(l.e.x <= 2.0 * rec.e.x + 1e-4, "{}", l.e);
 }
+
+/// A lookup at a bumped normal weighs records by the smooth normal (the same records, the same
+/// weights as an unbumped lookup) and turns each one's irradiance by its rotational gradient; a
+/// bumped normal 30° off, beyond any record's normal reach, still finds them. Without gradients the
+/// record's dominant direction turns it; either way, only the share of the turned hemisphere above
+/// the smooth surface counts.
+#[test]
+fn a_bumped_lookup_turns_records_found_by_the_smooth_normal() {
+    let turned = Vec3::new(0.5, 0.0, 0.75f32.sqrt());
+    let grad = Vec3::new(0.0, 0.4, 0.0);
+    for gradients in [true, false] {
+        let mut c = cache(CacheParams {
+            gradients,
+            ..Default::default()
+        });
+        let mut r = new_rec(Vec3::splat(5.0), Vec3::Z, Vec3::ONE, 1.0, 0.02);
+        r.grad_r = [grad; 3];
+        r.dir = Vec3::new(1.0, 0.0, 1.0).normalize();
+        c.insert(r);
+        let p = Vec3::new(5.01, 5.0, 5.0);
+        let mut ids = Vec::new();
+        let smooth = c
+            .lookup_noting(p, Vec3::Z, Pass::B, usize::MAX, |_, _| true, 0.0, &mut ids)
+            .unwrap();
+        let bumped = c
+            .lookup_noting_turned(
+                p,
+                Vec3::Z,
+                turned,
+                Pass::B,
+                usize::MAX,
+                |_, _| true,
+                0.0,
+                &mut ids,
+            )
+            .unwrap();
+        assert_eq!(
+            (bumped.n_used, bumped.weight_sum),
+            (smooth.n_used, smooth.weight_sum)
+        );
+        assert!(c.lookup(p, turned, Pass::B).is_none());
+        let turn = if gradients {
+            // (n_i × n_turned)·∇r: (0, 0.5, 0)·(0, 0.4, 0).
+            1.0 + 0.2
+        } else {
+            // 1 + (n_turned − n)·d / (n·d).
+            1.0 + (turned - Vec3::Z).dot(r.dir) / Vec3::Z.dot(r.dir)
+        };
+        // The share of the turned lobe above the smooth plane: (1 + cos 30°)/2.
+        let want = turn * 0.5 * (1.0 + turned.z);
+        assert!(
+            (bumped.e.x - want).abs() < 1e-5,
+            "{gradients}: {} {want}",
+            bumped.e.x
+        );
+    }
+}

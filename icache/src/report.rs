@@ -23,6 +23,8 @@ pmbase::summable! {
         pub gathered_pass_b: u64,
         /// Pass-B lookups answered by an earlier sample of the pixel on the same surface.
         pub reused_pass_b: u64,
+        /// Pass-B lookups whose records' irradiance a bump or normal map turned to its normal.
+        pub bump_rotated_pass_b: u64,
         /// Pass-B lookups that found a usable record, and the sum of usable records over them (pass A
         /// asks only whether a record covers a point).
         pub n_hits: u64,
@@ -61,6 +63,7 @@ impl CacheStats {
             extrapolated_pass_b: pass_b.n_extrapolated,
             gathered_pass_b: pass_b.n_gathered,
             reused_pass_b: pass_b.n_reused,
+            bump_rotated_pass_b: pass_b.n_bump_rotated,
             n_hits: pass_b.n_lookups - pass_b.n_misses,
             n_records_used: pass_b.n_records_used,
             radius_px,

@@ -43,6 +43,9 @@ pmbase::summable! {
         /// Of the lookups, those the caller answered from an earlier sample of the same pixel on the same
         /// surface (counted as that sample's lookup was: hit, miss, extrapolated, …).
         pub n_reused: u64,
+        /// Lookups answered at a bumped normal: records weighted by the smooth normal, their
+        /// irradiance turned to the bumped one ([`crate::IrradianceCache::each_used_turned`]).
+        pub n_bump_rotated: u64,
     }
 }
 
@@ -57,6 +60,7 @@ impl LookupStats {
             n_gathered: self.n_gathered - before.n_gathered,
             n_records_used: self.n_records_used - before.n_records_used,
             n_reused: self.n_reused - before.n_reused,
+            n_bump_rotated: self.n_bump_rotated - before.n_bump_rotated,
         }
     }
 

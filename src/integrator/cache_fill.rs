@@ -81,7 +81,9 @@ fn follow(
     let Some(hit) = ctx.scene.intersect_visible(o, d) else {
         return;
     };
-    let frame = Frame::new(&hit, -d);
+    // Mirror and glass chains follow the bumped normal, as pass B's rays do; the shading point takes
+    // the smooth one (records are placed and spaced by it).
+    let frame = ctx.scene.frame(&hit, -d);
     let bsdf = &ctx.scene.material(&hit).bsdf;
     let dist = dist + hit.t;
     match *bsdf {
@@ -119,12 +121,12 @@ fn follow(
             if bsdf.diffuse_albedo(ctx.scene.albedo(&hit)) == Vec3::ZERO {
                 return;
             }
-            let cos = frame.n.dot(-d);
+            let cos = frame.smooth.dot(-d);
             let pixel_world = camera.pixel_world(d0, dist, cos);
             out.push((
                 ShadingPoint {
                     pos: hit.p,
-                    normal: frame.n,
+                    normal: frame.smooth,
                     pixel_world,
                 },
                 hit,

@@ -74,6 +74,7 @@ struct Replay {
     single_record: u8,
     extrapolated: u8,
     gathered: u8,
+    bump_rotated: u8,
     records_used: u16,
 }
 
@@ -86,6 +87,7 @@ impl Replay {
             single_record: n(s.n_single_record),
             extrapolated: n(s.n_extrapolated),
             gathered: n(s.n_gathered),
+            bump_rotated: n(s.n_bump_rotated),
             records_used: s.n_records_used.min(u16::MAX as u64) as u16,
         }
     }
@@ -99,6 +101,7 @@ impl Replay {
             n_gathered: self.gathered as u64,
             n_records_used: self.records_used as u64,
             n_reused: 0,
+            n_bump_rotated: self.bump_rotated as u64,
         }
     }
 }

@@ -159,7 +159,7 @@ impl Path {
             };
             self.l += self.beta * le * w;
         }
-        let frame = Frame::new(hit, wo);
+        let frame = scene.frame(hit, wo);
         let kd = scene.albedo(hit);
         if !bsdf.is_specular() {
             self.l += self.beta * direct_light(scene, hit, &frame, wo, kd, self.medium, rng, c);

@@ -132,7 +132,7 @@ impl RadianceCache {
 
     /// The light the glossy lobe (material `material`, specular `ks`) at (p, n) reflects toward `wo`,
     /// interpolated from the records `cache` uses there (the first `n_records`, those `visible`
-    /// accepts); `None` when the lobe is not cached or no record there has coefficients (the caller
+    /// accepts, found by the normal before a bump, `n_smooth`: the lobe follows the bumped `n`); `None` when the lobe is not cached or no record there has coefficients (the caller
     /// samples the lobe).
     #[allow(clippy::too_many_arguments)]
     pub fn reflected(
@@ -142,7 +142,7 @@ impl RadianceCache {
         visible: impl Fn(u32, &icache::Record) -> bool,
         (material, ks): (u32, Vec3),
         p: Vec3,
-        n: Vec3,
+        (n_smooth, n): (Vec3, Vec3),
         wo: Vec3,
     ) -> Option<Vec3> {
         let (kernel, order) = self.lobes.get(material as usize).copied().flatten()?;
@@ -150,39 +150,47 @@ impl RadianceCache {
         let records = cache.records();
         let mut sum = [Vec3::ZERO; sh::len(sh::MAX_ORDER)];
         let mut weight_sum = 0.0f32;
-        cache.each_used(p, n, icache::Pass::B, n_records, visible, |id, w, e| {
-            // Records pass B's repairs made after `attach` are found by position.
-            let later;
-            let g = match by_record.get(id as usize) {
-                Some(Some(g)) => g,
-                Some(None) => return,
-                None => {
-                    let key = records[id as usize].pos.to_array().map(f32::to_bits);
-                    let made = self.made.lock().unwrap_or_else(|e| e.into_inner());
-                    match made.get(&key) {
-                        Some(g) => {
-                            later = g.clone();
-                            &later
+        cache.each_used_turned(
+            p,
+            n_smooth,
+            n,
+            icache::Pass::B,
+            n_records,
+            visible,
+            |id, w, e| {
+                // Records pass B's repairs made after `attach` are found by position.
+                let later;
+                let g = match by_record.get(id as usize) {
+                    Some(Some(g)) => g,
+                    Some(None) => return,
+                    None => {
+                        let key = records[id as usize].pos.to_array().map(f32::to_bits);
+                        let made = self.made.lock().unwrap_or_else(|e| e.into_inner());
+                        match made.get(&key) {
+                            Some(g) => {
+                                later = g.clone();
+                                &later
+                            }
+                            None => return,
                         }
-                        None => return,
                     }
+                };
+                // The record's gradients move its irradiance to p: its light is scaled alike.
+                let (e0, e1) = (
+                    crate::warp::luminance(records[id as usize].e),
+                    crate::warp::luminance(e),
+                );
+                let scale = if e0 > 0.0 {
+                    (e1 / e0).clamp(0.0, 4.0)
+                } else {
+                    1.0
+                };
+                for (s, c) in sum.iter_mut().zip(g.iter().take(sh::len(order))) {
+                    *s += w * scale * *c;
                 }
-            };
-            // The record's gradients move its irradiance to p: its light is scaled alike.
-            let (e0, e1) = (
-                crate::warp::luminance(records[id as usize].e),
-                crate::warp::luminance(e),
-            );
-            let scale = if e0 > 0.0 {
-                (e1 / e0).clamp(0.0, 4.0)
-            } else {
-                1.0
-            };
-            for (s, c) in sum.iter_mut().zip(g.iter().take(sh::len(order))) {
-                *s += w * scale * *c;
-            }
-            weight_sum += w;
-        });
+                weight_sum += w;
+            },
+        );
         self.lookups.fetch_add(1, Ordering::Relaxed);
         if !(weight_sum > 0.0) {
             self.fallbacks.fetch_add(1, Ordering::Relaxed);

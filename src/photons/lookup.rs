@@ -437,6 +437,46 @@ impl<'a> PhotonData<'a> {
         })
     }
 
+    /// [`caustic_irradiance`](Self::caustic_irradiance) at a point whose shading normal a bump map
+    /// turned from `frame.smooth` to `frame.n`: the photons are found and counted by the smooth normal
+    /// (the surface they were stored on), each one's power scaled by the cosine ratio
+    /// max(0, ωᵢ·n) / (ωᵢ·n_smooth) ([`turned_cosine`]), the irradiance on the bumped facet. Without a
+    /// bump, `caustic_irradiance` itself.
+    pub fn caustic_irradiance_at(
+        &self,
+        hit: &Hit,
+        frame: &crate::geometry::Frame,
+        c: &mut SampleCounters,
+    ) -> Vec3 {
+        if !frame.is_bumped() {
+            return self.caustic_irradiance(hit, frame.front, frame.n, c);
+        }
+        let p = hit.p;
+        if self
+            .surfaces
+            .caustic_reach
+            .as_ref()
+            .is_some_and(|g| !g.may_reach(p))
+        {
+            return Vec3::ZERO;
+        }
+        let Some(m) = &self.maps.caustic else {
+            return Vec3::ZERO;
+        };
+        c.photon_estimates += 1;
+        let (n, n_b) = (frame.smooth, frame.n);
+        m.radiance_with(
+            p,
+            n,
+            self.settings.lookup,
+            self.settings.max_radius_caustic,
+            self.settings.caustic_filter,
+            &self.coverage,
+            |wi| Vec3::splat(turned_cosine(wi, n, n_b)),
+        )
+        .e
+    }
+
     /// A texel's radiance at point `p` of it: an edge texel's direct light is `p`'s own.
     fn texel_radiance(
         &self,
@@ -612,7 +652,51 @@ impl<'a> PhotonData<'a> {
         })
     }
 
+    /// [`global_indirect_irradiance`](Self::global_indirect_irradiance) at a point whose shading
+    /// normal a bump map turned from `frame.smooth` to `frame.n`, each photon scaled as in
+    /// [`caustic_irradiance_at`](Self::caustic_irradiance_at).
+    pub fn global_indirect_irradiance_at(&self, p: Vec3, frame: &crate::geometry::Frame) -> Vec3 {
+        if !frame.is_bumped() {
+            return self.global_indirect_irradiance(p, frame.n);
+        }
+        let (n, n_b) = (frame.smooth, frame.n);
+        self.global(|m| {
+            m.projected(
+                p,
+                n,
+                self.settings.lookup,
+                self.settings.max_radius_global,
+                &self.coverage,
+                |ph| {
+                    let w = if ph.indirect {
+                        turned_cosine(ph.wi, n, n_b)
+                    } else {
+                        0.0
+                    };
+                    [w]
+                },
+            )
+            .1[0]
+        })
+    }
+
     fn global(&self, f: impl Fn(&PhotonMap) -> Vec3) -> Vec3 {
         self.maps.global.as_ref().map(f).unwrap_or(Vec3::ZERO)
+    }
+}
+
+/// Most a bump scales a photon's power by: a photon arriving near grazing to the smooth surface would
+/// otherwise weigh up to 1 / (ωᵢ·n_smooth) times its share, one bright speck in a caustic.
+const MAX_TURNED_COSINE: f32 = 4.0;
+
+/// The factor that makes a photon's power, stored on the smooth surface (ωᵢ toward where it came
+/// from), a share of the irradiance on a facet of normal `n_bumped`: max(0, ωᵢ·n_b) / (ωᵢ·n), at most
+/// [`MAX_TURNED_COSINE`].
+pub(crate) fn turned_cosine(wi: Vec3, n: Vec3, n_bumped: Vec3) -> f32 {
+    let cos = wi.dot(n);
+    if cos > 0.0 {
+        (wi.dot(n_bumped).max(0.0) / cos).min(MAX_TURNED_COSINE)
+    } else {
+        0.0
     }
 }

@@ -66,7 +66,7 @@ impl PhotonScene for PhotonView<'_> {
 
     fn scatter(&self, h: &SurfaceHit, wo: Vec3, u: [f32; 3]) -> Scatter {
         let hit = self.hit(h);
-        let frame = Frame::new(&hit, wo);
+        let frame = self.0.frame(&hit, wo);
         let bsdf = &self.0.bsdf(&hit);
         let kd = self.0.albedo(&hit);
         match bsdf.sample(kd, frame.n, wo, frame.front, u, Transport::Importance) {

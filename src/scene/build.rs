@@ -2,6 +2,7 @@
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 use glam::{Mat3, Mat4, Vec3};
 
@@ -15,6 +16,7 @@ use super::media::{check_camera_medium, media};
 use super::settings::{camera, settings};
 use super::{limits, mtl, obj, Scene};
 use crate::accel::embree::Bvh;
+use crate::bump::{BumpMap, Statement};
 use crate::camera::Camera;
 use crate::cutout::{Cutouts, Mask};
 use crate::error::{at_line, in_file, relative_to, Result};
@@ -200,21 +202,27 @@ fn build(path: &Path, text: &str, desc: &SceneFile, held: &HeldInputs) -> Result
         mask_paths,
         ks_paths,
         ns_paths,
+        bump_paths,
         emission_at,
         mesh_tris,
         warnings,
     } = meshes(&cx, desc, held)?;
     let textures = textures(&cx, &mut materials, tex_paths)?;
     let gloss_maps = gloss_maps(&cx, &materials, ks_paths, ns_paths)?;
-    let cutouts = cutouts(&cx, &geometry, &materials, mask_paths)?;
+    let cutouts = cutouts(&cx, &geometry, &materials, mask_paths)?.map(Arc::new);
+    let bumps = bumps(&cx, &materials, bump_paths)?;
     let bounds = geometry.bounds();
-    let lights = lights(&cx, desc, &geometry, &materials, &emission_at)?;
+    let mut lights = lights(&cx, desc, &geometry, &materials, &emission_at)?;
+    if let Some(c) = cutouts.as_ref().filter(|c| c.cuts_any(&lights)) {
+        lights.cut_by(c.clone());
+    }
     let media = media(&cx, desc, &geometry, &materials, &mesh_tris, &lights.lights)?;
     let fingerprint = fingerprint(
         &geometry,
         &materials,
         &textures,
-        cutouts.as_ref(),
+        cutouts.as_deref(),
+        &bumps,
         &lights,
         media.as_ref(),
     );
@@ -253,6 +261,7 @@ fn build(path: &Path, text: &str, desc: &SceneFile, held: &HeldInputs) -> Result
         mesh_ranges: mesh_tris,
         texel_density,
         gloss_maps,
+        bumps,
         warnings,
     })
 }
@@ -281,6 +290,8 @@ fn transform(cx: &Ctx, index: usize, m: &file::MeshDesc) -> Result<Mat4> {
 }
 
 type TexPaths = Vec<Option<(PathBuf, String)>>;
+/// Each material's bump or normal map statement, with the directory its file is in.
+type BumpPaths = Vec<Option<(PathBuf, mtl::BumpStatement)>>;
 
 /// Every mesh's triangles (transformed), the materials (MTL, then the scene's overrides) and the images
 /// they name, where each material's emission was set, each mesh's triangles, and the warnings about
@@ -294,6 +305,8 @@ struct Meshes {
     /// Each material's glossy maps (`map_Ks`, `map_Ns`).
     ks_paths: TexPaths,
     ns_paths: TexPaths,
+    /// Each material's bump or normal map.
+    bump_paths: BumpPaths,
     emission_at: Vec<Origin>,
     mesh_tris: Vec<std::ops::Range<usize>>,
     warnings: Vec<String>,
@@ -357,6 +370,7 @@ fn meshes(cx: &Ctx, desc: &SceneFile, held: &HeldInputs) -> Result<Meshes> {
         mask_paths,
         ks_paths,
         ns_paths,
+        bump_paths,
         emission_at,
         ..
     } = loaded;
@@ -367,6 +381,7 @@ fn meshes(cx: &Ctx, desc: &SceneFile, held: &HeldInputs) -> Result<Meshes> {
         mask_paths,
         ks_paths,
         ns_paths,
+        bump_paths,
         emission_at,
         mesh_tris,
         warnings,
@@ -416,6 +431,7 @@ struct LoadedMaterials {
     mask_paths: TexPaths,
     ks_paths: TexPaths,
     ns_paths: TexPaths,
+    bump_paths: BumpPaths,
     emission_at: Vec<Origin>,
     /// The indices of the materials of each name (several OBJs may use one name).
     by_name: HashMap<String, Vec<usize>>,
@@ -437,6 +453,8 @@ impl LoadedMaterials {
             self.mask_paths.push(maps.d.map(in_dir));
             self.ks_paths.push(maps.ks.map(in_dir));
             self.ns_paths.push(maps.ns.map(in_dir));
+            self.bump_paths
+                .push(maps.bump.map(|b| (data.mtl_dir.clone(), b)));
             self.emission_at.push(
                 data.ke_at
                     .get(&mat.name)
@@ -463,6 +481,7 @@ impl LoadedMaterials {
             self.mask_paths.push(None);
             self.ks_paths.push(None);
             self.ns_paths.push(None);
+            self.bump_paths.push(None);
             self.emission_at.push((cx.path.to_path_buf(), 1));
             (self.materials.len() - 1) as u32
         })
@@ -699,6 +718,52 @@ fn gloss_maps(
     Ok(maps)
 }
 
+/// Each material's bump or normal map (`None` for a material without one, or a `null` boundary);
+/// empty when no material has one. A file named by several materials with the same statement and
+/// `-bm` is read once.
+fn bumps(
+    cx: &Ctx,
+    materials: &[Material],
+    bump_paths: BumpPaths,
+) -> Result<Vec<Option<Arc<BumpMap>>>> {
+    let mut loaded: HashMap<(PathBuf, Statement, u32), Arc<BumpMap>> = HashMap::new();
+    let mut maps = Vec::with_capacity(materials.len());
+    for (mat, bp) in materials.iter().zip(bump_paths) {
+        let Some((dir, b)) = bp.filter(|_| !mat.bsdf.is_null()) else {
+            maps.push(None);
+            continue;
+        };
+        let name = match b.statement {
+            Statement::Bump => "bump",
+            Statement::Norm => "norm",
+        };
+        let resolved = texture::resolve(&dir, &b.file).map_err(|why| {
+            in_file(
+                cx.path,
+                format!("material '{}': {name} '{}' {why}", mat.name, b.file),
+            )
+        })?;
+        let key = (resolved.clone(), b.statement, b.bm.to_bits());
+        let map = match loaded.get(&key) {
+            Some(m) => m.clone(),
+            None => {
+                input::check_regular(&resolved, "texture", MAX_TEXTURE_BYTES)?;
+                let m = Arc::new(
+                    BumpMap::load(&resolved, b.statement, b.bm)
+                        .map_err(|e| in_file(&resolved, format!("cannot read {name} map: {e}")))?,
+                );
+                loaded.insert(key, m.clone());
+                m
+            }
+        };
+        maps.push(Some(map));
+    }
+    if maps.iter().all(Option::is_none) {
+        maps.clear();
+    }
+    Ok(maps)
+}
+
 /// The mean diffuse colour of a textured glossy material over its texture: its `albedo`, for readers
 /// that do not look the texel up (the irradiance atlas gives a glossy texel its material's albedo; the
 /// scaled Kd there made pm 7.9 % bright on Sibenik with a polished marble floor).
@@ -718,6 +783,7 @@ fn fingerprint(
     materials: &[Material],
     textures: &[Texture],
     cutouts: Option<&Cutouts>,
+    bumps: &[Option<Arc<BumpMap>>],
     lights: &Lights,
     media: Option<&super::Media>,
 ) -> u64 {
@@ -755,6 +821,9 @@ fn fingerprint(
     }
     if let Some(c) = cutouts {
         bytes.extend(c.fingerprint().to_le_bytes());
+    }
+    for b in bumps.iter().flatten() {
+        bytes.extend(b.fingerprint().to_le_bytes());
     }
     for l in &lights.lights {
         bytes.extend(format!("{l:?}").bytes());

@@ -30,7 +30,7 @@ pub use settings::{PhotonConfig, MAX_PHOTONS, MAX_SIDE, MAX_SPP, MAX_TIME_S, MIN
 
 use crate::accel::embree::Bvh;
 use crate::camera::Camera;
-use crate::geometry::{spawn, Geometry, Hit};
+use crate::geometry::{spawn, Frame, Geometry, Hit};
 use crate::light::Lights;
 use crate::material::Material;
 use crate::medium::{Medium, MediumId, VACUUM};
@@ -154,6 +154,8 @@ pub struct Scene {
     texel_density: Vec<f32>,
     /// Each material's glossy maps (`map_Ks`, `map_Ns`); empty when no material has any.
     gloss_maps: Vec<Option<crate::gloss_map::GlossMaps>>,
+    /// Each material's bump or normal map; empty when no material has any.
+    bumps: Vec<Option<std::sync::Arc<crate::bump::BumpMap>>>,
     /// What the loader accepted but a user should hear about (an OBJ's `usemtl` of a material no
     /// library defines), each naming its file and line; the render's warnings begin with these.
     pub warnings: Vec<String>,
@@ -595,6 +597,29 @@ impl Scene {
             Some(Some(maps)) => maps.apply(bsdf, hit.uv),
             _ => bsdf.clone(),
         }
+    }
+
+    /// The shading frame at `hit` seen from `wo`: [`Frame::new`]'s, its normal turned by the
+    /// material's bump or normal map where it has one ([`Frame::smooth`] keeps the normal before it).
+    pub(crate) fn frame(&self, hit: &Hit, wo: Vec3) -> Frame {
+        let frame = Frame::new(hit, wo);
+        match self.bumps.get(hit.material as usize) {
+            Some(Some(map)) => match crate::bump::uv_tangents(&self.geometry, hit.tri) {
+                Some((dpdu, dpdv)) => frame.bumped(map.normal(hit.ns, dpdu, dpdv, hit.uv)),
+                None => frame,
+            },
+            _ => frame,
+        }
+    }
+
+    /// Material `material`'s bump or normal map, if it has one.
+    pub(crate) fn bump_map(&self, material: usize) -> Option<&crate::bump::BumpMap> {
+        self.bumps.get(material)?.as_deref()
+    }
+
+    /// Whether some material has a bump or normal map.
+    pub fn has_bumps(&self) -> bool {
+        !self.bumps.is_empty()
     }
 
     /// Whether material `material`'s glossy exponent varies over its surface (a `map_Ns`): the

@@ -6,6 +6,7 @@ use glam::Vec3;
 
 use super::file::MaterialDesc;
 use super::limits::{self, MAX_EXPONENT, MAX_IOR};
+use crate::bump::Statement;
 use crate::error::{at_line, Error, Result};
 use crate::material::{Bsdf, Material};
 
@@ -36,6 +37,42 @@ pub struct MtlMaps {
     /// `map_Ks` and `map_Ns`, scales of the glossy lobe's colour and exponent (of glossy materials).
     pub ks: Option<String>,
     pub ns: Option<String>,
+    /// `norm`, else `bump`/`map_bump`/`map_Bump`: a normal or height map (of any material but `null`).
+    pub bump: Option<BumpStatement>,
+}
+
+/// A bump or normal map statement: its file, which statement it was and its `-bm` value (1 when
+/// absent or not a number).
+#[derive(Clone, Debug, PartialEq)]
+pub struct BumpStatement {
+    pub file: String,
+    pub statement: Statement,
+    pub bm: f32,
+}
+
+/// The value of option `name` (`-bm`) among a texture statement's options, when it is a number.
+pub fn map_option(arg: &str, name: &str) -> Option<f32> {
+    let options = &arg.trim()[..arg.trim().len() - map_file(arg).len()];
+    let mut words = options.split_whitespace();
+    words.find(|w| *w == name)?;
+    words.next()?.parse().ok()
+}
+
+/// The bump statement of an MTL material: `norm` when given (explicitly a normal map), else `bump`
+/// (tobj keeps the last of `bump`, `map_bump`, `map_Bump`).
+fn bump_statement(m: &tobj::Material) -> Option<BumpStatement> {
+    let (arg, statement) = match m.unknown_param.get("norm") {
+        Some(a) => (a.as_str(), Statement::Norm),
+        None => (m.normal_texture.as_deref()?, Statement::Bump),
+    };
+    let file = map_file(arg);
+    (!file.is_empty()).then(|| BumpStatement {
+        file: file.to_string(),
+        statement,
+        bm: map_option(arg, "-bm")
+            .filter(|b| b.is_finite())
+            .unwrap_or(1.0),
+    })
 }
 
 /// The file a texture statement names, after its options (`-clamp on`, `-bm 0.5`, `-o u v w`, …):
@@ -81,7 +118,8 @@ fn map_path(statement: &Option<String>) -> Option<String> {
 
 /// The MTL mapping: Ke > 0 → emission; illum 3/5 → mirror; 4/6/7 → glass; Ks > 0 with Ns > 1 →
 /// glossy; otherwise diffuse. Returns the material and the image files it reads (`map_Kd` for
-/// diffuse and glossy, `map_d` for any, `map_Ks` and `map_Ns` for glossy once overrides are applied).
+/// diffuse and glossy, `map_d` and a bump map for any, `map_Ks` and `map_Ns` for glossy once
+/// overrides are applied).
 pub fn from_mtl(m: &tobj::Material) -> (Material, MtlMaps) {
     let kd = v3(m.diffuse).unwrap_or(Vec3::splat(0.8));
     let ks = v3(m.specular).unwrap_or(Vec3::ZERO);
@@ -113,6 +151,7 @@ pub fn from_mtl(m: &tobj::Material) -> (Material, MtlMaps) {
         d: map_path(&m.dissolve_texture),
         ks: map_path(&m.specular_texture),
         ns: map_path(&m.shininess_texture),
+        bump: bump_statement(m),
     };
     (
         Material {
@@ -401,6 +440,12 @@ mod tests {
         ] {
             assert_eq!(map_file(statement), file, "{statement}");
         }
+        assert_eq!(map_option("-bm 0.25 -clamp on n.png", "-bm"), Some(0.25));
+        assert_eq!(map_option("-clamp on -bm 2 my n.png", "-bm"), Some(2.0));
+        assert_eq!(map_option("n.png", "-bm"), None);
+        assert_eq!(map_option("-bm x n.png", "-bm"), None);
+        // A file named -bm is no option.
+        assert_eq!(map_option("-unknown -bm 3", "-bm"), None);
     }
 
     #[test]

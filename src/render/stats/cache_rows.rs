@@ -63,6 +63,11 @@ pub(super) fn cache_rows(
             "icache.reused_pass_b",
             s.reused_pass_b,
         ),
+        (
+            "Pass-B lookups turned to a bumped normal",
+            "icache.bump_rotated_pass_b",
+            s.bump_rotated_pass_b,
+        ),
     ] {
         r.count("Irradiance cache", title, key, n);
     }

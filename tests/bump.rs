@@ -1,0 +1,293 @@
+//! Bump and normal maps against twins that need no texture: the same shading normals given as vertex
+//! normals. Each floor is flat; only its shading normal differs, so direct light, the photon
+//! estimates and the irradiance cache's turned records must all follow it.
+
+mod common;
+
+use std::time::Duration;
+
+use common::*;
+use glam::Vec3;
+use pmrender::io::output::Image;
+
+/// The floor's texture coordinates run over [UV_LO, UV_HI] (u along +x, v along −z), away from the
+/// wrap at 0 and 1 where a height map's differences would straddle the seam.
+const UV_LO: f32 = 0.05;
+const UV_HI: f32 = 0.95;
+/// The floor's side (x and z in [−2, 2]).
+const SIDE: f32 = 4.0;
+const TILT_DEGREES: f32 = 25.0;
+
+/// A floor (its statements `floor` in the MTL, vertex normals `vn` when given) and a back wall under a
+/// point light to the floor's +x side, rendered by `pm` at 64×48, 16 spp and `seed`; the images in
+/// `images` (name, encoded file) sit beside it.
+fn render_floor(floor: &str, vn: Option<Vec3>, images: &[(&str, Vec<u8>)], seed: u32) -> Render {
+    let (lo, hi) = (UV_LO, UV_HI);
+    let mut obj = format!(
+        "mtllib m.mtl\nv -2 0 2\nv 2 0 2\nv 2 0 -2\nv -2 0 -2\nv -2 3 -2\nv 2 3 -2\n\
+         vt {lo} {lo}\nvt {hi} {lo}\nvt {hi} {hi}\nvt {lo} {hi}\n"
+    );
+    obj += &match vn {
+        Some(n) => format!(
+            "vn {} {} {}\nusemtl floor\nf 1/1/1 2/2/1 3/3/1 4/4/1\n",
+            n.x, n.y, n.z
+        ),
+        None => "usemtl floor\nf 1/1 2/2 3/3 4/4\n".into(),
+    };
+    obj += "usemtl wall\nf 4 3 6 5\n";
+    let d = scene_dir(&[
+        ("m.obj", &obj),
+        (
+            "m.mtl",
+            &format!("newmtl wall\nKd 0.6 0.6 0.6\nnewmtl floor\nKd 0.5 0.5 0.5\n{floor}"),
+        ),
+        (
+            "s.toml",
+            "version = 1\n[camera]\neye = [0.0, 1.6, 3.0]\ntarget = [0.0, 0.2, -0.5]\nfov = 45.0\n\
+             width = 64\nheight = 48\n[[mesh]]\nobj = \"m.obj\"\n[[light]]\ntype = \"point\"\n\
+             position = [1.6, 0.9, 0.0]\nintensity = [3.0, 3.0, 3.0]\n",
+        ),
+    ]);
+    for (name, bytes) in images {
+        std::fs::write(d.path().join(name), bytes).unwrap();
+    }
+    let (out, stats) = (p(d.path(), "o.exr"), p(d.path(), "o.json"));
+    let seed = seed.to_string();
+    let r = run_bounded(
+        &[
+            "render",
+            &p(d.path(), "s.toml"),
+            "-o",
+            &out,
+            "--stats",
+            &stats,
+            "--method",
+            "pm",
+            "--spp",
+            "16",
+            "--seed",
+            &seed,
+            "--quiet",
+        ],
+        Duration::from_secs(300),
+    );
+    let stderr = String::from_utf8_lossy(&r.stderr);
+    assert!(r.status.success(), "{stderr}");
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap();
+    Render {
+        image: read(std::path::Path::new(&out)),
+        bump_rotated: json["icache"]["bump_rotated_pass_b"].as_u64().unwrap(),
+    }
+}
+
+/// A render's image and the pass-B lookups a bump turned.
+struct Render {
+    image: Image,
+    bump_rotated: u64,
+}
+
+/// A binary PPM (P6) of `w` × `h` texels all of colour `rgb`.
+fn ppm(w: u32, h: u32, rgb: [u8; 3]) -> Vec<u8> {
+    let mut b = format!("P6\n{w} {h}\n255\n").into_bytes();
+    (0..w * h).for_each(|_| b.extend(rgb));
+    b
+}
+
+/// A binary PGM (P5), 256 × 4, each column's grey value its index: a height ramp along u.
+fn ramp_pgm() -> Vec<u8> {
+    let mut b = b"P5\n256 4\n255\n".to_vec();
+    (0..4).for_each(|_| b.extend(0..=255u8));
+    b
+}
+
+fn rel(a: &Image, b: &Image) -> f32 {
+    (mean(a) - mean(b)).length() / mean(b).length()
+}
+
+fn blocks(a: &Image, b: &Image) -> f64 {
+    rel_mse(&block_means(a, 4), &block_means(b, 4))
+}
+
+/// A constant tangent-space normal map (`norm`, 8-bit, read linearly) tilting the floor's normal 25°
+/// toward +u renders as the floor whose vertex normals have that tilt; under `map_Bump` the same
+/// image is told to be a normal map. The cache places its records by the flat normal and turns them
+/// at every lookup (counted); the twin's records sit on its tilted normals.
+///
+/// Measured (64×48, pm, 16 spp, 4×4-pixel blocks), seeds 1–2, `norm` and `map_Bump` alike: mean
+/// +0.10 … +0.17 %, block relMSE 1.3–1.5e-5; the twin against itself at another seed +0.23 % and
+/// 3.7e-5; the flat floor (no map) against the twin +13.6 % and 2.2e-2. The bound, 1e-4, is about
+/// three times the twin's seed-to-seed spread.
+#[test]
+fn a_constant_normal_map_renders_as_tilted_vertex_normals() {
+    const BLOCK_BOUND: f64 = 1e-4;
+    let (s, c) = TILT_DEGREES.to_radians().sin_cos();
+    let texel = [0.5 + 0.5 * s, 0.5, 0.5 + 0.5 * c].map(|x| (x * 255.0).round() as u8);
+    // The twin's normal is the texel as decoded (2c − 1 of its 8-bit values), x along +u = +x.
+    let t = Vec3::from_array(texel.map(|x| x as f32 / 255.0)) * 2.0 - Vec3::ONE;
+    let twin_n = Vec3::new(t.x, t.z, -t.y).normalize();
+    let image = [("n.ppm", ppm(4, 4, texel))];
+    for seed in 1..=2 {
+        for statement in ["norm n.ppm", "map_Bump -bm 1 n.ppm"] {
+            let mapped = render_floor(&format!("{statement}\n"), None, &image, seed);
+            let twin = render_floor("", Some(twin_n), &[], seed);
+            let (m, b) = (
+                rel(&mapped.image, &twin.image),
+                blocks(&mapped.image, &twin.image),
+            );
+            eprintln!("seed {seed}, {statement}: mean {m:+.4}, block relMSE {b:.2e}");
+            assert!(
+                m < 0.01 && b < BLOCK_BOUND,
+                "seed {seed}, {statement}: {m} {b}"
+            );
+            assert!(mapped.bump_rotated > 0 && twin.bump_rotated == 0);
+        }
+    }
+    // The test tells the map from its absence.
+    let flat = render_floor("", None, &[], 1);
+    let twin = render_floor("", Some(twin_n), &[], 1);
+    let (m, b) = (
+        rel(&flat.image, &twin.image),
+        blocks(&flat.image, &twin.image),
+    );
+    eprintln!("flat: mean {m:+.4}, block relMSE {b:.2e}");
+    assert!(m > 0.05 && b > 100.0 * BLOCK_BOUND, "{m} {b}");
+}
+
+/// A height map that is a linear ramp along u (`bump -bm s`, a grey image) renders as the floor whose
+/// vertex normals have the ramp's slope: displacement s·h over ∂p/∂u = (SIDE / (UV_HI − UV_LO)) x̂,
+/// h rising 256/255 per unit of u, tilts the normal toward −x by atan(slope).
+///
+/// Measured (64×48, pm, 16 spp, 4×4-pixel blocks), seeds 1–2: mean +0.15 … +0.17 %, block relMSE
+/// 1.2–1.5e-5 (the tilt is the normal map's, toward −x: the twin's spread is the same). Bound 1e-4.
+#[test]
+fn a_height_ramp_renders_as_its_slope_in_the_normals() {
+    const BLOCK_BOUND: f64 = 1e-4;
+    let slope = TILT_DEGREES.to_radians().tan();
+    let dpdu = SIDE / (UV_HI - UV_LO);
+    let bm = slope * dpdu / (256.0 / 255.0);
+    let twin_n = Vec3::new(-slope, 1.0, 0.0).normalize();
+    let image = [("h.pgm", ramp_pgm())];
+    for seed in 1..=2 {
+        let bumped = render_floor(&format!("bump -bm {bm} h.pgm\n"), None, &image, seed);
+        let twin = render_floor("", Some(twin_n), &[], seed);
+        let (m, b) = (
+            rel(&bumped.image, &twin.image),
+            blocks(&bumped.image, &twin.image),
+        );
+        eprintln!("seed {seed}: mean {m:+.4}, block relMSE {b:.2e}");
+        assert!(m < 0.01 && b < BLOCK_BOUND, "seed {seed}: {m} {b}");
+        assert!(bumped.bump_rotated > 0);
+    }
+}
+
+/// Bump statements that cannot be read are refused with a line naming the material or the file; a
+/// scale so large that every slope overflows leaves the normal as it was (no NaN, no crash).
+#[test]
+fn bad_bump_maps_are_refused_or_harmless() {
+    let scene = |floor: &str, images: &[(&str, Vec<u8>)]| {
+        let d = scene_dir(&[
+            (
+                "m.obj",
+                "mtllib m.mtl\nv -1 0 1\nv 1 0 1\nv 1 0 -1\nv -1 0 -1\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n\
+                 usemtl floor\nf 1/1 2/2 3/3 4/4\n",
+            ),
+            ("m.mtl", &format!("newmtl floor\nKd 0.5 0.5 0.5\n{floor}")),
+            (
+                "s.toml",
+                "version = 1\n[camera]\neye = [0.0, 2.0, 2.0]\ntarget = [0.0, 0.0, 0.0]\nfov = 45.0\n\
+                 width = 16\nheight = 12\n[[mesh]]\nobj = \"m.obj\"\n[[light]]\ntype = \"point\"\n\
+                 position = [0.0, 1.0, 0.0]\nintensity = [1.0, 1.0, 1.0]\n[render]\nspp = 2\n",
+            ),
+        ]);
+        for (name, bytes) in images {
+            std::fs::write(d.path().join(name), bytes).unwrap();
+        }
+        d
+    };
+    let render = |d: &tempfile::TempDir| {
+        run_bounded(
+            &[
+                "render",
+                &p(d.path(), "s.toml"),
+                "-o",
+                &p(d.path(), "o.exr"),
+                "--method",
+                "pm",
+                "--quiet",
+            ],
+            Duration::from_secs(120),
+        )
+    };
+    let grey = [("g.pgm", ramp_pgm())];
+    for (floor, images, want) in [
+        ("norm missing.png\n", &[][..], "norm 'missing.png'"),
+        (
+            "map_Bump -bm 0.5 missing.png\n",
+            &[][..],
+            "bump 'missing.png'",
+        ),
+        ("norm g.pgm\n", &grey[..], "needs a colour image"),
+    ] {
+        let d = scene(floor, images);
+        let r = render(&d);
+        let stderr = String::from_utf8_lossy(&r.stderr);
+        assert_eq!(r.status.code(), Some(2), "{floor}: {stderr}");
+        assert!(
+            stderr.contains(want) && stderr.lines().count() == 1,
+            "{floor}: {stderr}"
+        );
+    }
+    let d = scene("bump -bm 1e38 g.pgm\n", &grey);
+    let r = render(&d);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let m = mean(&read(&d.path().join("o.exr")));
+    assert!(m.is_finite() && m.min_element() > 0.0, "{m}");
+}
+
+/// `export-mitsuba` wraps a height map's material in Mitsuba 3's `bumpmap` (scale `-bm`) and a
+/// normal map's in `normalmap`, both images read raw.
+#[test]
+fn export_writes_bumpmap_and_normalmap_wrappers() {
+    let d = scene_dir(&[
+        (
+            "m.obj",
+            "mtllib m.mtl\nv -1 0 1\nv 1 0 1\nv 1 0 -1\nv -1 0 -1\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n\
+             usemtl a\nf 1/1 2/2 3/3\nusemtl b\nf 1/1 3/3 4/4\n",
+        ),
+        (
+            "m.mtl",
+            "newmtl a\nKd 0.5 0.5 0.5\nbump -bm 0.25 h.pgm\nnewmtl b\nKd 0.5 0.5 0.5\n\
+             map_Bump n.ppm\n",
+        ),
+        (
+            "s.toml",
+            "version = 1\n[camera]\neye = [0.0, 2.0, 2.0]\ntarget = [0.0, 0.0, 0.0]\n\
+             fov = 45.0\nwidth = 16\nheight = 12\n[[mesh]]\nobj = \"m.obj\"\n[[light]]\ntype = \"point\"\n\
+             position = [0.0, 1.0, 0.0]\nintensity = [1.0, 1.0, 1.0]\n",
+        ),
+    ]);
+    std::fs::write(d.path().join("h.pgm"), ramp_pgm()).unwrap();
+    std::fs::write(d.path().join("n.ppm"), ppm(2, 2, [128, 128, 255])).unwrap();
+    let out = d.path().join("mi");
+    let r = run(&[
+        "export-mitsuba",
+        &p(d.path(), "s.toml"),
+        out.to_str().unwrap(),
+    ]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let xml = std::fs::read_to_string(out.join("scene.xml")).unwrap();
+    let raw = r#"<boolean name="raw" value="true"/>"#;
+    let bump = xml.lines().find(|l| l.contains("bumpmap")).expect(&xml);
+    assert!(bump.contains("h.pgm") && bump.contains(raw), "{bump}");
+    assert!(
+        bump.contains(r#"<float name="scale" value="0.25"/>"#),
+        "{bump}"
+    );
+    let normal = xml.lines().find(|l| l.contains("normalmap")).expect(&xml);
+    assert!(normal.contains("n.ppm") && normal.contains(raw), "{normal}");
+    assert!(
+        normal.contains(r#"<texture type="bitmap" name="normalmap">"#),
+        "{normal}"
+    );
+}
