@@ -43,8 +43,9 @@ pub enum BumpMap {
         /// The file it was read from.
         path: PathBuf,
         heights: Mask,
-        /// World units of displacement per unit of the map's value (`-bm`).
-        scale: f32,
+        /// World units of displacement per unit of the map's value (`-bm`); `None` (no `-bm`): the
+        /// map's full range is [`RELIEF_TEXELS`] of its texels' widths on the surface.
+        scale: Option<f32>,
     },
     Normal {
         path: PathBuf,
@@ -57,13 +58,21 @@ pub enum BumpMap {
     },
 }
 
+/// The relief of a height map whose statement gives no `-bm`, in widths of its texels on the surface:
+/// a step over its whole range from one texel to the next tilts the normal by atan(RELIEF_TEXELS / 2).
+/// Exporters write heights without a scale (Sibenik's and Sponza's MTLs give none), and one scene
+/// unit per unit of value — the MTL reading that pbrt and Mitsuba take with a scale of 1 — makes
+/// walls of a scene in metres slopes of hundreds: Sibenik rendered 38 % dark, Sponza 26 %. Relative to
+/// the texels, the same asset has the same bumps at any scene scale.
+pub const RELIEF_TEXELS: f32 = 1.0;
+
 /// Channels within this of each other make a texel grey (8-bit rounding of a grey image's colours).
 const GREY_TOLERANCE: f32 = 2.0 / 255.0;
 
 impl BumpMap {
-    /// Reads the map `statement` names from `path`, `bm` its `-bm` value (1 when absent).
-    pub fn load(path: &Path, statement: Statement, bm: f32) -> Result<BumpMap, String> {
-        if !bm.is_finite() {
+    /// Reads the map `statement` names from `path`, `bm` its `-bm` value.
+    pub fn load(path: &Path, statement: Statement, bm: Option<f32>) -> Result<BumpMap, String> {
+        if let Some(bm) = bm.filter(|b| !b.is_finite()) {
             return Err(format!("-bm {bm} is not a finite number"));
         }
         let img = decode(path)?;
@@ -98,7 +107,7 @@ impl BumpMap {
                 width: img.width,
                 height: img.height,
                 texels: rgb.iter().map(|c| *c * 2.0 - Vec3::ONE).collect(),
-                strength: bm.max(0.0),
+                strength: bm.unwrap_or(1.0).max(0.0),
             });
         }
         Ok(BumpMap::Height {
@@ -124,10 +133,16 @@ impl BumpMap {
                 let (w, h) = (heights.width.max(1) as f32, heights.height.max(1) as f32);
                 let (du, dv) = (1.0 / w, 1.0 / h);
                 let at = |d: Vec2| heights.value(uv + d);
-                let grad_u =
-                    scale * (at(Vec2::new(du, 0.0)) - at(Vec2::new(-du, 0.0))) / (2.0 * du);
-                let grad_v =
-                    scale * (at(Vec2::new(0.0, dv)) - at(Vec2::new(0.0, -dv))) / (2.0 * dv);
+                // World units per unit of value, along u and along v.
+                let (su, sv) = match scale {
+                    Some(s) => (*s, *s),
+                    None => (
+                        RELIEF_TEXELS * dpdu.length() * du,
+                        RELIEF_TEXELS * dpdv.length() * dv,
+                    ),
+                };
+                let grad_u = su * (at(Vec2::new(du, 0.0)) - at(Vec2::new(-du, 0.0))) / (2.0 * du);
+                let grad_v = sv * (at(Vec2::new(0.0, dv)) - at(Vec2::new(0.0, -dv))) / (2.0 * dv);
                 let su = dpdu + n * (grad_u - n.dot(dpdu));
                 let sv = dpdv + n * (grad_v - n.dot(dpdv));
                 let m = su.cross(sv).normalize_or_zero();
@@ -175,7 +190,7 @@ impl BumpMap {
         match self {
             BumpMap::Height { heights, scale, .. } => {
                 bytes.push(0u8);
-                bytes.extend(scale.to_le_bytes());
+                bytes.extend(scale.map_or(f32::NAN, |s| s).to_bits().to_le_bytes());
                 bytes.extend(heights.width.to_le_bytes());
                 bytes.extend(heights.values.iter().flat_map(|v| v.to_le_bytes()));
             }
@@ -294,7 +309,7 @@ mod tests {
         let map = BumpMap::Height {
             path: PathBuf::new(),
             heights,
-            scale: 0.5,
+            scale: Some(0.5),
         };
         let (n, dpdu, dpdv) = (Vec3::Y, Vec3::X * 2.0, -Vec3::Z * 2.0);
         let m = map.normal(n, dpdu, dpdv, Vec2::new(0.5, 0.5));

@@ -55,15 +55,36 @@ fn bsdf_xml(scene: &Scene, m: usize) -> String {
         )
     };
     match map {
-        crate::bump::BumpMap::Height { scale, .. } => format!(
-            r#"<bsdf type="bumpmap">{}<float name="scale" value="{scale}"/>{inner}</bsdf>"#,
-            raw("")
-        ),
+        crate::bump::BumpMap::Height { scale, heights, .. } => {
+            let scale = scale.unwrap_or_else(|| relief_scale(scene, m, heights.width));
+            format!(
+                r#"<bsdf type="bumpmap">{}<float name="scale" value="{scale}"/>{inner}</bsdf>"#,
+                raw("")
+            )
+        }
         crate::bump::BumpMap::Normal { .. } => format!(
             r#"<bsdf type="normalmap">{}{inner}</bsdf>"#,
             raw(r#" name="normalmap""#)
         ),
     }
+}
+
+/// The world scale Mitsuba's `bumpmap` needs for material `m`'s height map of `width` texels when its
+/// MTL gave no `-bm` (ours is relative to the texels: [`crate::bump::RELIEF_TEXELS`]): its mean texel
+/// width over the material's triangles, which is exact where their mapping is uniform.
+fn relief_scale(scene: &Scene, m: usize, width: u32) -> f32 {
+    let g = &scene.geometry;
+    let (sum, n) = g
+        .triangles
+        .iter()
+        .enumerate()
+        .filter(|(_, t)| t.material as usize == m)
+        .filter_map(|(i, _)| crate::bump::uv_tangents(g, i as u32))
+        .fold((0.0f64, 0u64), |(s, n), (dpdu, _)| {
+            (s + f64::from(dpdu.length()), n + 1)
+        });
+    let mean = if n == 0 { 0.0 } else { sum / n as f64 };
+    (f64::from(crate::bump::RELIEF_TEXELS) * mean / f64::from(width.max(1))) as f32
 }
 
 /// Material `m`'s BSDF without its bump map.

@@ -726,7 +726,7 @@ fn bumps(
     materials: &[Material],
     bump_paths: BumpPaths,
 ) -> Result<Vec<Option<Arc<BumpMap>>>> {
-    let mut loaded: HashMap<(PathBuf, Statement, u32), Arc<BumpMap>> = HashMap::new();
+    let mut loaded: HashMap<(PathBuf, Statement, Option<u32>), Arc<BumpMap>> = HashMap::new();
     let mut maps = Vec::with_capacity(materials.len());
     for (mat, bp) in materials.iter().zip(bump_paths) {
         let Some((dir, b)) = bp.filter(|_| !mat.bsdf.is_null()) else {
@@ -743,7 +743,7 @@ fn bumps(
                 format!("material '{}': {name} '{}' {why}", mat.name, b.file),
             )
         })?;
-        let key = (resolved.clone(), b.statement, b.bm.to_bits());
+        let key = (resolved.clone(), b.statement, b.bm.map(f32::to_bits));
         let map = match loaded.get(&key) {
             Some(m) => m.clone(),
             None => {

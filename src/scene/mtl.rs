@@ -41,13 +41,13 @@ pub struct MtlMaps {
     pub bump: Option<BumpStatement>,
 }
 
-/// A bump or normal map statement: its file, which statement it was and its `-bm` value (1 when
-/// absent or not a number).
+/// A bump or normal map statement: its file, which statement it was and its `-bm` value (`None`
+/// when absent or not a number).
 #[derive(Clone, Debug, PartialEq)]
 pub struct BumpStatement {
     pub file: String,
     pub statement: Statement,
-    pub bm: f32,
+    pub bm: Option<f32>,
 }
 
 /// The value of option `name` (`-bm`) among a texture statement's options, when it is a number.
@@ -69,9 +69,7 @@ fn bump_statement(m: &tobj::Material) -> Option<BumpStatement> {
     (!file.is_empty()).then(|| BumpStatement {
         file: file.to_string(),
         statement,
-        bm: map_option(arg, "-bm")
-            .filter(|b| b.is_finite())
-            .unwrap_or(1.0),
+        bm: map_option(arg, "-bm").filter(|b| b.is_finite()),
     })
 }
 
