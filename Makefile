@@ -62,6 +62,7 @@ test-slow: build
 chart: build
 	pip install -q -r tools/chart_requirements.txt
 	python3 tools/chart.py --out charts
+	python3 tools/progressive_chart.py --out charts
 
 fuzz: build
 	FUZZ_ITERS=200000 $(CARGO) test --release --test fuzz -- --nocapture

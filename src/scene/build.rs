@@ -98,13 +98,8 @@ pub fn check_sequence(
         }
         progress.set(u64::from(f - start));
         let desc = anim.frame_desc(f);
-        // A frame where a mesh moved or a light changed is refused for what its still would be:
-        // a vertex past the limits after a keyed scale, an emitted power over the cap (a scaled
-        // emitter, a sun over grown bounds), no triangle left.
-        if f > start && (!anim.moved_meshes(f - 1, f).is_empty() || anim.lights_changed(f - 1, f)) {
-            check_geometry(&cx, &desc, anim.held()).map_err(|e| at_frame(e, f))?;
-        }
-        // A scene without any light renders only as occlusion, which the render's plan checks.
+        // A scene without any light renders only as occlusion, which the render's plan checks. (Before
+        // the geometry's checks, which know no key line for a light keyed to nothing.)
         let has_lights = meshes_emit || !desc.light.is_empty();
         if has_lights
             && !meshes_emit
@@ -118,6 +113,12 @@ pub fn check_sequence(
                 ),
                 f,
             ));
+        }
+        // A frame where a mesh moved or a light changed is refused for what its still would be:
+        // a vertex past the limits after a keyed scale, an emitted power over the cap (a scaled
+        // emitter, a sun over grown bounds), no triangle left.
+        if f > start && (!anim.moved_meshes(f - 1, f).is_empty() || anim.lights_changed(f - 1, f)) {
+            check_geometry(&cx, &desc, anim.held()).map_err(|e| at_frame(e, f))?;
         }
         if f == start || first.media.is_none() {
             continue;
