@@ -455,5 +455,7 @@ fn an_occlusion_sequence_fills_a_cache_per_frame_and_gives_its_stills() {
             "frame {f}: {}",
             j["icache"]
         );
+        // ao reads no photon maps: its frames neither trace nor reuse any.
+        assert_eq!(j["frame"]["photons"], "none", "frame {f}: {}", j["frame"]);
     }
 }
