@@ -527,3 +527,33 @@ fn an_occlusion_sequence_fills_a_cache_per_frame_and_gives_its_stills() {
         assert_eq!(j["frame"]["photons"], "none", "frame {f}: {}", j["frame"]);
     }
 }
+
+#[test]
+fn a_bake_for_ao_says_why_it_is_refused() {
+    // A bake holds photon maps and an irradiance cache for the photon-map methods; ao's records are
+    // occlusion, and the refusal says so and names how ao's cache is kept instead.
+    let scene = pmrender::scene::load(&repo().join("scenes/cornell-caustics.toml")).unwrap();
+    for method in [
+        pmrender::scene::Method::Ao,
+        pmrender::scene::Method::AoDirect,
+    ] {
+        let opts = pmrender::render::Options {
+            method: Some(method),
+            ..Default::default()
+        };
+        let cancel = std::sync::atomic::AtomicBool::new(false);
+        let err = pmrender::render::baked::bake_apart(
+            &scene,
+            &opts,
+            &pmrender::render::NoProgress,
+            &cancel,
+        )
+        .err()
+        .map(|e| e.to_string())
+        .unwrap_or_default();
+        assert!(
+            err.contains("occlusion reads no photons") && err.contains("--save-cache"),
+            "{err}"
+        );
+    }
+}
