@@ -72,6 +72,7 @@ bench: build
 	$(CARGO) bench --bench passes
 	$(CARGO) bench --bench glossy
 	$(CARGO) bench --bench animation
+	$(CARGO) bench --bench ao
 
 clean:
 	$(CARGO) clean

@@ -113,7 +113,7 @@ impl RenderResult {
         if (save_cache.is_some() || cache_image.is_some()) && self.out.cache.is_none() {
             return Err(bad_arg(
                 "save_cache",
-                "this render has no irradiance cache (method pm has one)",
+                "this render has no irradiance cache (methods pm and ao have one)",
             ));
         }
         let mut outputs: Vec<Output> = vec![("path", path.as_path())];

@@ -37,6 +37,8 @@ def test_a_bake_refuses_another_scene_method_or_a_damaged_file(tmp_path):
         pm.render(scene, method="photons", bake=b)
     with pytest.raises(ValueError, match="nothing to bake"):
         pm.bake(scene, method="path")
+    with pytest.raises(ValueError, match="occlusion reads no photons; save ao's occlusion cache"):
+        pm.bake(scene, method="ao")
     f = tmp_path / "b.bake"
     b.save(f)
     data = bytearray(f.read_bytes())

@@ -54,6 +54,17 @@ pub fn bake_apart(
     let start = Instant::now();
     super::progressive::refuse_in_bake(scene, opts, "a bake")?;
     let plan = plan(scene, opts, None)?;
+    if plan.method.is_occlusion() {
+        // ao's occlusion records are no irradiance: a bake's cache serves the photon-map methods,
+        // which would read them as light.
+        return Err(Error::Input(format!(
+            "method {} has nothing to bake: a bake holds photon maps and an irradiance cache for \
+             the photon-map methods, and occlusion reads no photons; save ao's occlusion cache \
+             with --save-cache (Python: RenderResult.write(save_cache=...)) and render from it \
+             with --load-cache",
+            plan.method.name()
+        )));
+    }
     if !plan.method.uses_photon_maps() {
         return Err(Error::Input(format!(
             "method {} has nothing to bake: it traces no photons and fills no cache",

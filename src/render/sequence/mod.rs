@@ -316,6 +316,7 @@ impl Sequence {
         let mut frame = FrameStats {
             frame: f,
             photons_reused: maps.is_some(),
+            no_photon_maps: !plan.method.uses_photon_maps(),
             ..Default::default()
         };
         // Attached before the photons and after the maps: the paths nothing moved touched copied,

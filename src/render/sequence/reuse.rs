@@ -242,6 +242,7 @@ pub(super) fn reused_image_stats(before: &RenderStats, f: u32) -> RenderStats {
         frame: Some(FrameStats {
             frame: f,
             photons_reused: true,
+            no_photon_maps: before.frame.is_some_and(|fr| fr.no_photon_maps),
             n_records_reused: after,
             n_records_after: after,
             image_reused: true,

@@ -61,6 +61,8 @@ pub struct FrameStats {
     pub frame: u32,
     /// The photon maps were traced for an earlier frame (nothing that emits or reflects light moved).
     pub photons_reused: bool,
+    /// The method reads no photon maps (`path`, `ao`, `ao-direct`): none were traced or reused.
+    pub no_photon_maps: bool,
     /// Irradiance-cache records of earlier frames kept for this one.
     pub n_records_reused: u64,
     /// Records of earlier frames dropped as too coarse for this frame's view, or out of view for long.

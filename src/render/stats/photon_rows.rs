@@ -9,7 +9,11 @@ pub(super) fn frame_rows(r: &mut Report, f: &FrameStats) {
         "Sequence",
         "Photon maps",
         "frame.photons",
-        if f.photons_reused { "reused" } else { "traced" },
+        match (f.no_photon_maps, f.photons_reused) {
+            (true, _) => "none",
+            (false, true) => "reused",
+            (false, false) => "traced",
+        },
     );
     if f.image_reused {
         r.text(
