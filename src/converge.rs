@@ -200,10 +200,11 @@ pub fn converge(
         let t = Instant::now();
         let (out, stats) = render(scene, &opts, progress, cancel)?;
         spp = stats.setup.spp;
-        let photons = stats
-            .photons
-            .as_ref()
-            .map_or(n, |p| p.trace.n_global_stored as usize);
+        // A photon study's row names its target; a time study's the global photons a pass stored.
+        let photons = match (budget, stats.photons.as_ref()) {
+            (Some(_), Some(p)) => p.trace.n_global_stored as usize,
+            _ => n,
+        };
         let passes = stats.progressive.as_ref().map(|p| p.pass_s.len() as u32);
         renders.push((photons, budget, passes, t.elapsed().as_secs_f64(), out));
     }

@@ -10,7 +10,7 @@ Usage (from anywhere; `pip install -r tools/chart_requirements.txt -r tools/requ
 
 Per scene (scenes/NAME.toml or tests/scenes/NAME.toml, at its reference's size,
 tests/reference/NAME-path.exr): the default time t0 is the wall time of `pm` at its defaults (the mean
-of two renders); then for each multiple m, `pm --time m·t0` and `path --time m·t0`, each measured by its
+of two renders after one that warms the caches); then for each multiple m, `pm --time m·t0` and `path --time m·t0`, each measured by its
 wall time and relMSE = mean (x − r)² / (r² + 0.01). Writes progressive_NAME.png (relMSE against wall
 time, log–log, each series' least-squares slope in the legend, the reference's own noise dashed) and
 progressive.md (every number, the targets: pm at most 0.35× path's relMSE up to 25× t0 and never above
@@ -79,6 +79,8 @@ def run_scene(binary, name, multiples, tmp, log):
     size = (ref.shape[1], ref.shape[0])
     with open(ref_path[:-4] + ".json") as f:
         ref_noise = json.load(f).get("noise_relmse")
+    # A first render warms the page cache (the binary, the meshes) and is not counted.
+    render(binary, scene, os.path.join(tmp, f"{name}-warm.exr"), size, "pm")
     walls = []
     for seed in (0, 1):
         wall, _ = render(binary, scene, os.path.join(tmp, f"{name}-d{seed}.exr"), size, "pm",
@@ -102,17 +104,25 @@ def run_scene(binary, name, multiples, tmp, log):
             "reference_noise": ref_noise, "rows": rows}
 
 
+def corrected(result, r):
+    """A row's relMSE with the reference's own noise taken off (it is in every measurement), at least
+    a tenth of that noise."""
+    noise = result.get("reference_noise") or 0.0
+    return max(r["relmse"] - noise, 0.1 * noise) if noise else r["relmse"]
+
+
 def verdicts(result):
-    """The targets for one scene, each as (what, measured, met)."""
-    by = {(r["method"], r["multiple"]): r for r in result["rows"]}
+    """The targets for one scene, each as (what, measured, met), on relMSE less the reference's noise."""
+    by = {(r["method"], r["multiple"]): {**r, "relmse": corrected(result, r)} for r in result["rows"]}
     ms = sorted({r["multiple"] for r in result["rows"]})
     out = []
     ratios = [(m, by[("pm", m)]["relmse"] / by[("path", m)]["relmse"]) for m in ms]
     upto25 = [q for m, q in ratios if m <= 25]
     if upto25:
         out.append(("pm / path relMSE, worst up to 25x (target <= 0.35)", max(upto25), max(upto25) <= 0.35))
-    out.append(("pm / path relMSE, worst up to 100x (target <= 1)", max(q for _, q in ratios),
-                max(q for _, q in ratios) <= 1.0))
+    if ms[-1] >= 100:
+        out.append(("pm / path relMSE, worst up to 100x (target <= 1)", max(q for _, q in ratios),
+                    max(q for _, q in ratios) <= 1.0))
     if 1 in ms and 25 in ms:
         fall = by[("pm", 1)]["relmse"] / by[("pm", 25)]["relmse"]
         out.append(("pm's error fall from 1x to 25x (target >= 4)", fall, fall >= 4.0))
@@ -147,8 +157,8 @@ def plot(result, path):
 
 def table(results):
     lines = ["# A time budget: pm against path", "",
-             "relMSE = mean (x − r)² / (r² + 0.01) against the scene's Mitsuba reference (its own noise in the "
-             "last column); budgets are multiples of `pm`'s default wall time on this machine.", "",
+             "relMSE = mean (x − r)² / (r² + 0.01) against the scene's Mitsuba reference, its own noise "
+             "included; budgets are multiples of `pm`'s default wall time on this machine.", "",
              "| scene | multiple | budget (s) | pm wall (s) | pm passes | pm relMSE | path wall (s) | path relMSE "
              "| pm / path |", "|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for res in results:
@@ -157,7 +167,8 @@ def table(results):
             p, q = by[("pm", m)], by[("path", m)]
             lines.append(f"| {res['scene']} | {m:g}× | {p['budget_s']:.2f} | {p['wall_s']:.2f} | {p['passes']} | "
                          f"{p['relmse']:.6f} | {q['wall_s']:.2f} | {q['relmse']:.6f} | {p['relmse'] / q['relmse']:.3f} |")
-    lines += ["", "| scene | target | measured | met |", "|---|---|---:|---|"]
+    lines += ["", "The targets, on relMSE less the reference's own noise (`noise_relmse` of its JSON):", "",
+              "| scene | target | measured | met |", "|---|---|---:|---|"]
     for res in results:
         for what, value, met in verdicts(res):
             lines.append(f"| {res['scene']} | {what} | {value:.3f} | {'yes' if met else 'no'} |")
@@ -172,7 +183,19 @@ def main():
     ap.add_argument("--multiples", default=",".join(str(m) for m in DEFAULT_MULTIPLES))
     ap.add_argument("--out", default=os.path.join(ROOT, "charts"))
     ap.add_argument("--bin", default=os.path.join(ROOT, "target", "release", "pmrender"))
+    ap.add_argument("--from-json", nargs="+", help="tabulate and chart earlier runs' progressive.json")
     a = ap.parse_args()
+    if a.from_json:
+        results = [res for path in a.from_json for res in json.load(open(path))]
+        os.makedirs(a.out, exist_ok=True)
+        for res in results:
+            plot(res, os.path.join(a.out, f"progressive_{res['scene']}.png"))
+        with open(os.path.join(a.out, "progressive.md"), "w") as f:
+            f.write(table(results))
+        with open(os.path.join(a.out, "progressive.json"), "w") as f:
+            json.dump(results, f, indent=1)
+        print(table(results))
+        return
     multiples = [float(m) if "." in m else int(m) for m in a.multiples.split(",")]
     os.makedirs(a.out, exist_ok=True)
     results = []
