@@ -278,3 +278,26 @@ fn what_a_progressive_render_cannot_do_is_refused() {
         "{err}"
     );
 }
+
+#[test]
+fn a_sequence_refuses_a_budget_before_any_frame() {
+    let d = tempfile::tempdir().unwrap();
+    let scene = repo().join("scenes/anim-ball.toml");
+    let out = p(d.path(), "f-####.exr");
+    for args in [["--passes", "2"], ["--time", "5"]] {
+        let mut all = vec!["render", scene.to_str().unwrap(), "-o", &out, "--quiet"];
+        all.extend_from_slice(&args);
+        let r = run(&all);
+        let err = String::from_utf8_lossy(&r.stderr);
+        assert_eq!(r.status.code(), Some(2), "{args:?}: {err}");
+        assert!(
+            err.contains(args[0]) && err.contains("stills"),
+            "{args:?}: {err}"
+        );
+        assert!(
+            listing(d.path()).is_empty(),
+            "{args:?} wrote {:?}",
+            listing(d.path())
+        );
+    }
+}
