@@ -470,10 +470,9 @@ fn render_command(a: RenderArgs, cancel: &AtomicBool) -> Result<()> {
         .as_ref()
         .filter(|p| p.stopped == StopReason::Interrupted)
         .map(|p| p.pass_s.len());
-    let report = match signalled {
-        Some(_) => write_outputs(&paths, fingerprint, &out, stats, &AtomicBool::new(false))?,
-        None => write_outputs(&paths, fingerprint, &out, stats, cancel)?,
-    };
+    let unset = AtomicBool::new(false);
+    let write_cancel = if signalled.is_some() { &unset } else { cancel };
+    let report = write_outputs(&paths, fingerprint, &out, stats, write_cancel)?;
     if a.stats.is_some() {
         eprint!("{}", report.table());
     }

@@ -25,12 +25,10 @@ use std::time::{Duration, Instant};
 
 use glam::Vec3;
 
-use super::shade::{beauty, KeptPixels};
 use super::stats::{ProgressiveStats, RenderStats, StopReason};
-use super::{bake, budget, interrupted, plan, shade_bake, Options, Plan, RenderOutput};
+use super::{bake, budget, interrupted, plan, shade_and_finish, Options, Plan, RenderOutput};
 use crate::camera::Camera;
 use crate::error::{option, Error, Result};
-use crate::integrator::terms::Layout;
 use crate::io::output::Image;
 use crate::progress::Progress;
 use crate::scene::{Method, Scene, MIN_RECORD_REACH_PX};
@@ -458,30 +456,19 @@ fn passes(
     s.redone_pixels = per_pass.redone_pixels;
     stats.total_s = start.elapsed().as_secs_f64();
     stats.progressive = Some(total);
-    let RenderOutput {
-        cache,
-        photons,
-        media_records,
-        radiance_records,
-        camera,
-        ..
-    } = output;
     let (beauty, layers) = mean.images();
     Ok((
         RenderOutput {
             beauty,
             layers,
-            cache,
-            photons,
-            media_records,
-            radiance_records,
-            camera,
+            ..output
         },
         stats,
     ))
 }
 
-/// One pass: the bake and the shading of `plan`, its images, statistics and output.
+/// One pass: the bake and the shading of `plan` (the still's phases), its images, statistics and
+/// output (which keeps the pass's caches for `--cache-image`; its images are the mean's).
 fn one_pass(
     scene: &Scene,
     plan: &Plan,
@@ -491,29 +478,12 @@ fn one_pass(
 ) -> Result<(Images, RenderStats, RenderOutput)> {
     let start = Instant::now();
     let mut stats = RenderStats::new(scene, plan);
-    let mut bake = bake(scene, plan, &opts.files, &mut stats, progress, cancel)?;
-    let (layers, _) = shade_bake(
-        scene,
-        plan,
-        &mut bake,
-        KeptPixels::NONE,
-        &mut stats,
-        progress,
-        cancel,
-    )?;
+    let bake = bake(scene, plan, &opts.files, &mut stats, progress, cancel)?;
+    let (mut output, stats) = shade_and_finish(scene, plan, bake, stats, start, progress, cancel)?;
     interrupted(cancel)?;
-    let images = beauty(plan, Layout::of(scene), layers);
-    stats.finish(
-        start,
-        bake.photons.as_ref(),
-        bake.media_cache.as_ref(),
-        bake.cache.as_ref().map(|c| &c.cache),
-        bake.radiance.as_ref(),
-    );
-    // The output keeps the last pass's caches (for `--cache-image`); its images are the mean's.
-    let empty = (Image::new(plan.width, plan.height), Vec::new());
-    let output = bake.into_output(empty, plan.camera.clone());
-    Ok((images, stats, output))
+    let beauty = std::mem::replace(&mut output.beauty, Image::new(0, 0));
+    let layers = std::mem::take(&mut output.layers);
+    Ok(((beauty, layers), stats, output))
 }
 
 #[cfg(test)]
