@@ -152,14 +152,20 @@ struct RenderArgs {
     /// whole sequence renders: a range starting inside a chunk renders the chunk from its start.
     #[arg(long, value_name = "A..B", allow_hyphen_values = true)]
     frames: Option<String>,
-    /// Render a still as N bands of rows shaded apart from one bake (pass A over the whole image), as
-    /// a farm's tiles are: the same pixels however the tiles are shared out.
+    /// Render a still (or each frame of a --shared-bake walk) as N bands of rows shaded apart from one
+    /// bake (pass A over the whole image), as a farm's tiles are: the same pixels however the tiles
+    /// are shared out.
     #[arg(long, value_name = "N", allow_negative_numbers = true)]
     tiles: Option<i64>,
     /// A sequence's chunk length: the temporal cache starts afresh every N frames (default: never),
     /// so that chunks render apart (on a farm) and still give the same frames.
     #[arg(long, value_name = "N", allow_negative_numbers = true)]
     chunk: Option<i64>,
+    /// A camera walk (frames that share one scene) baked once: photon maps traced once, one cache
+    /// filled over every frame's view, each frame shaded from it alone — the same frame whatever
+    /// range, order or machine renders it.
+    #[arg(long)]
+    shared_bake: bool,
     /// A time budget: render progressive passes, each a whole render of its own seed, and stop with
     /// their mean before the budget is spent (a longer budget, a better image; not reproducible).
     #[arg(long, value_name = "SECONDS", allow_negative_numbers = true)]
@@ -403,8 +409,14 @@ fn render_command(a: RenderArgs, cancel: &AtomicBool) -> Result<()> {
         check_tiles(&a)?;
     }
     if let Some(anim) = scene::load_animation(&a.scene)? {
-        if a.tiles.is_some() {
-            return Err(option("--tiles", "is for still scenes"));
+        if a.tiles.is_some() && !a.shared_bake {
+            return Err(option(
+                "--tiles",
+                "shades a sequence's frames from a bake they share: add --shared-bake",
+            ));
+        }
+        if a.shared_bake {
+            check_shared_bake(&a)?;
         }
         // Each frame's outputs are checked once the frame numbers are known (`####` may stand in a
         // folder's name).
@@ -432,6 +444,7 @@ fn render_command(a: RenderArgs, cancel: &AtomicBool) -> Result<()> {
     for (opt, given) in [
         ("--frames", a.frames.is_some()),
         ("--chunk", a.chunk.is_some()),
+        ("--shared-bake", a.shared_bake),
     ] {
         if given {
             return Err(option(opt, "the scene has no [animation]"));
@@ -504,6 +517,27 @@ fn check_tiles(a: &RenderArgs) -> Result<()> {
             return Err(option(
                 "--tiles",
                 format!("renders from a bake of its own: leave out {opt}"),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// `--shared-bake` keeps its one bake in memory for the frames: no photon or cache file is read or
+/// saved with it.
+fn check_shared_bake(a: &RenderArgs) -> Result<()> {
+    for (opt, given) in [
+        ("--load-photons", a.load_photons.is_some()),
+        ("--load-cache", a.load_cache.is_some()),
+        ("--save-photons", a.save_photons.is_some()),
+        ("--dump-photons", a.dump_photons.is_some()),
+        ("--save-cache", a.save_cache.is_some()),
+        ("--chunk", a.chunk.is_some()),
+    ] {
+        if given {
+            return Err(option(
+                "--shared-bake",
+                format!("shades every frame from one bake of its own: leave out {opt}"),
             ));
         }
     }

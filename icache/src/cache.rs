@@ -131,6 +131,13 @@ impl IrradianceCache {
         self.stages.push(self.records.len() as u32);
     }
 
+    /// The records so far as one stage, ended now: a first round of pass B reads them all (a cache
+    /// whose pass A ran over several views, each ending a stage of its own).
+    pub fn one_stage(&mut self) {
+        self.stages.clear();
+        self.end_stage();
+    }
+
     /// The record count at the end of each stage so far.
     pub fn stages(&self) -> &[u32] {
         &self.stages

@@ -245,8 +245,12 @@ def render(
     max_memory: Optional[str] = None,
     passes: Optional[int] = None,
     time: Optional[float] = None,
+    frame: Optional[int] = None,
 ) -> Result:
-    """Renders a still scene. Arguments left None take the scene's (and ``load_file``'s) values.
+    """Renders a still scene, or frame ``frame`` of a camera walk from the walk's ``bake`` (made by
+    ``bake(scene)``; as ``pmrender render --shared-bake``, the same pixels whichever frames are
+    rendered, where and in what order). Arguments left None take the scene's (and ``load_file``'s)
+    values.
 
     ``method``: ``pm`` (default), ``pm-fg``, ``photons`` or ``path``; ``noise``: adaptive sampling's
     target (0: every pixel takes ``spp``); ``progress``: True for a bar on stderr, or a callable given
@@ -258,6 +262,8 @@ def render(
     """
     if bake is not None and not isinstance(bake, Bake):
         raise ValueError("bake: must come from pmrender.bake or pmrender.load_bake")
+    if frame is not None and _int("frame", frame) < 0:
+        raise ValueError(f"frame: {frame} is not a frame number (0 or more)")
     result = Result(
         _native.render(
             scene,
@@ -276,6 +282,7 @@ def render(
             tiles=_int("tiles", tiles),
             passes=_int("passes", passes),
             time=time,
+            frame=_int("frame", frame),
         )
     )
     _warn(result._native)
@@ -298,7 +305,9 @@ def bake(
     max_memory: Optional[str] = None,
 ) -> Bake:
     """Makes what ``render`` with the same arguments shades from — the photon maps and, for ``pm``,
-    the media, glossy and irradiance caches (pass A) — without shading."""
+    the media, glossy and irradiance caches (pass A) — without shading. Of an animated scene whose
+    frames share one scene (only the camera moves), the walk's bake: photon maps traced once and one
+    cache filled over every frame's view, for ``render(scene, bake=..., frame=f)``."""
     return Bake(
         _native.bake(
             scene,

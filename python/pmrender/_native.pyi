@@ -80,6 +80,7 @@ def render(
     tiles: Optional[int] = ...,
     passes: Optional[int] = ...,
     time: Optional[float] = ...,
+    frame: Optional[int] = ...,
 ) -> RenderResult: ...
 def bake(
     scene: Scene,

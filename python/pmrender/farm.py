@@ -2,13 +2,16 @@
 from one bake, as Dask tasks; the same pixels as one machine.
 
     pmrender-farm SCENE.toml -o out/walk-####.exr [--png out/walk-####.png] [--stats out/summary.json]
-                  [--frames A..B] [--chunk N] (--workers N | --scheduler tcp://HOST:PORT) [--tiles N]
+                  [--frames A..B] [--chunk N | --shared-bake] (--workers N | --scheduler tcp://HOST:PORT)
+                  [--tiles N]
 
-Both kinds of job are defined by the renderer itself, so that the farm's images are by construction
+Every kind of job is defined by the renderer itself, so that the farm's images are by construction
 the command line's: a chunk of a sequence is ``pmrender render --chunk N`` (the temporal cache starts
 afresh every N frames; a chunk renders from its first frame), a tiled still is ``pmrender render
 --tiles N`` (one bake of the photon maps and pass A over the whole image, each band of rows shaded
-apart from it). The bake is a task of its own; Dask ships its bytes to the workers that shade the
+apart from it), a camera walk's frame is ``pmrender render --shared-bake`` (one bake of the whole
+walk: photon maps traced once, one cache filled over every frame's view; each frame, or each tile of
+a frame with ``--tiles``, shaded from it alone). The bake is a task of its own; Dask ships its bytes to the workers that shade the
 tiles. Workers return pixels; this process (the client) writes every output atomically, so a worker
 lost mid-task leaves nothing behind and Dask runs its task again elsewhere. A second run skips the
 frames whose outputs all exist.
@@ -83,6 +86,20 @@ def tile_task(job: dict, baked: dict, window: Tuple[int, int, int, int]) -> dict
     r = pm.render(scene, threads=job["threads"], bake=bake, crop=tuple(window))
     out = _layers(r, (window[1], window[3]))
     out.update(window=tuple(window), width=r.width, height=r.height,
+               time_s=time.monotonic() - t, worker=_worker_name())
+    return out
+
+
+def walk_frame_task(job: dict, baked: dict, frame: int,
+                    window: Optional[Tuple[int, int, int, int]] = None) -> dict:
+    """One frame of a walk (or the band of rows ``window`` of it), shaded from the walk's bake."""
+    t = time.monotonic()
+    scene = _load(job)
+    bake = pm.Bake.from_bytes(baked["bake"])
+    crop = None if window is None else tuple(window)
+    r = pm.render(scene, threads=job["threads"], bake=bake, frame=frame, crop=crop)
+    out = _layers(r, None if window is None else (window[1], window[3]))
+    out.update(frame=frame, window=crop, width=r.width, height=r.height,
                time_s=time.monotonic() - t, worker=_worker_name())
     return out
 
@@ -194,6 +211,56 @@ def _paste(canvas: Dict[str, bytearray], tile: dict):
         buf[at:at + len(data)] = data
 
 
+def _walk(client, job: dict, local: "pm.Scene", patterns, frames: Tuple[int, int],
+          tiles: Optional[int], futures: list, summary: dict, quiet: bool):
+    """A shared-bake walk: the bake task, then a task per frame (or per tile of each frame) depending
+    on it; each frame written here once all its pixels are back."""
+    from distributed import as_completed
+
+    at_exr, at_png = patterns
+    first, last = frames
+    outputs = lambda f: [p for p in (at_exr(f), at_png(f) if at_png else None) if p]
+    todo = [f for f in range(first, last + 1) if not all(os.path.exists(p) for p in outputs(f))]
+    summary["frames_skipped"] = last - first + 1 - len(todo)
+    if not todo:
+        return
+    width, height = local.size
+    windows = pm.tile_windows(width, height, tiles) if tiles is not None else [None]
+    bar = _Bar(len(todo) * len(windows) + 1, "tasks", quiet)
+    baked = client.submit(bake_task, job, pure=False, retries=2)
+    futures.append(baked)
+    futures += [client.submit(walk_frame_task, job, baked, f, w, pure=False, retries=2)
+                for f in todo for w in windows]
+    canvases: Dict[int, Dict[str, bytearray]] = {}
+    left = {f: len(windows) for f in todo}
+    for fut in as_completed(futures):
+        res = fut.result()
+        bar.step()
+        if "bake" in res:
+            summary["bake_s"], summary["bake_bytes"] = res["time_s"], res["bytes"]
+            summary["tasks"].append({"kind": "bake", "time_s": res["time_s"], "trace_s": res["trace_s"],
+                                     "fill_s": res["fill_s"], "worker": res["worker"]})
+            continue
+        f = res["frame"]
+        summary["tasks"].append({"kind": "frame" if res["window"] is None else "tile", "frame": f,
+                                 "window": None if res["window"] is None else list(res["window"]),
+                                 "time_s": res["time_s"], "worker": res["worker"],
+                                 "result_bytes": _nbytes(res)})
+        if res["window"] is None:
+            part = res
+        else:
+            _paste(canvases.setdefault(f, {}), res)
+            left[f] -= 1
+            if left[f]:
+                continue
+            canvas = canvases.pop(f)
+            names = [n for n, _ in res["layers"]]
+            part = {"beauty": bytes(canvas["beauty"]), "layers": [(n, bytes(canvas[n])) for n in names]}
+        _write(at_exr(f), at_png(f) if at_png else None, res["width"], res["height"], part)
+        summary["frames_written"] += 1
+        summary["frames"].append({"frame": f, "worker": res["worker"], "stats": res["stats"]})
+
+
 def render(
     scene: str,
     *,
@@ -207,12 +274,15 @@ def render(
     threads: Optional[int] = None,
     settings: Optional[dict] = None,
     quiet: bool = False,
+    shared_bake: bool = False,
 ) -> dict:
     """Renders ``scene`` (a path) on the Dask ``client``'s workers and writes its outputs here.
 
     ``output`` / ``png``: paths, with a run of ``#`` for the frame number of an animated scene;
     ``frames``: ``"A..B"``; ``chunk``: a sequence's chunk length (default: the whole sequence, one
-    task); ``tiles``: a still's number of bands (default: one task, the plain render); ``threads``:
+    task); ``shared_bake``: a camera walk baked once, then a task per frame (``pmrender render
+    --shared-bake``); ``tiles``: the bands of a still, or of each frame of a shared-bake walk
+    (default: one task, the plain render); ``threads``:
     each task's worker threads (default: all of its machine's); ``settings``: ``load_file``'s
     overrides (``width``, ``spp``, ...). Returns the summary (also written to ``stats``): the tasks,
     their times and workers, the frames written and skipped. A bad scene or option raises before any
@@ -231,8 +301,12 @@ def render(
     for opt, v in (("--chunk", chunk), ("--tiles", tiles), ("--threads", threads)):
         if v is not None and v < 1:
             raise FarmError(f"{opt}: {v} must be at least 1")
-    if animated and tiles is not None:
-        raise FarmError("--tiles: is for still scenes; a sequence is split by --chunk")
+    if animated and tiles is not None and not shared_bake:
+        raise FarmError("--tiles: shades a sequence's frames from a bake they share: add --shared-bake")
+    if shared_bake and not animated:
+        raise FarmError("--shared-bake: the scene has no [animation]")
+    if shared_bake and chunk is not None:
+        raise FarmError("--shared-bake: shades every frame apart from one bake: leave out --chunk")
     if not animated and (frames is not None or chunk is not None):
         raise FarmError(f"{'--frames' if frames is not None else '--chunk'}: the scene has no [animation]")
     job = {"scene": path, "settings": settings, "threads": threads,
@@ -244,7 +318,10 @@ def render(
 
     futures = []
     try:
-        if animated:
+        if shared_bake:
+            _walk(client, job, local, (at_exr, at_png), _frames(frames, local.frames), tiles,
+                  futures, summary, quiet)
+        elif animated:
             first, last = _frames(frames, local.frames)
             outputs = lambda f: [p for p in (at_exr(f), at_png(f) if at_png else None) if p]
             todo = [f for f in range(first, last + 1) if not all(os.path.exists(p) for p in outputs(f))]
@@ -332,8 +409,12 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     p.add_argument("--frames", help="A..B inclusive (default: all)")
     p.add_argument("--chunk", type=int, help="frames per task; the temporal cache starts afresh at each "
                    "chunk, as with `pmrender render --chunk N` (default: the whole sequence)")
-    p.add_argument("--tiles", type=int, help="a still's bands of rows, shaded apart from one bake, as "
-                   "with `pmrender render --tiles N` (default: one task)")
+    p.add_argument("--shared-bake", action="store_true", help="a camera walk baked once (photon maps "
+                   "and one cache over every frame's view), then a task per frame, as with `pmrender "
+                   "render --shared-bake`")
+    p.add_argument("--tiles", type=int, help="a still's bands of rows (or each frame's, with "
+                   "--shared-bake), shaded apart from one bake, as with `pmrender render --tiles N` "
+                   "(default: one task)")
     who = p.add_mutually_exclusive_group(required=True)
     who.add_argument("--workers", type=int, help="start a local cluster of N worker processes")
     who.add_argument("--scheduler", help="use a running scheduler, e.g. tcp://HOST:8786")
@@ -366,7 +447,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         del local
         summary = render(a.scene, client=client, output=a.output, png=a.png, stats=a.stats,
                          frames=a.frames, chunk=a.chunk, tiles=a.tiles, threads=threads,
-                         settings=settings, quiet=a.quiet)
+                         settings=settings, quiet=a.quiet, shared_bake=a.shared_bake)
         if not a.quiet:
             print(f"pmrender-farm: {summary['frames_written']} written, {summary['frames_skipped']} "
                   f"skipped (done before), {len(summary['tasks'])} tasks on {summary['workers']} "

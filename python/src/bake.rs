@@ -11,7 +11,8 @@ use pyo3::prelude::*;
 use crate::errors::to_py;
 use crate::options::{pool, Settings};
 use crate::run::{detached, still_phases};
-use crate::scene::Scene;
+use crate::scene::{Kind, Scene};
+use pmrender::render::shared_bake::bake_walk;
 
 /// The photon maps and caches a render shades from.
 #[pyclass(frozen, module = "pmrender")]
@@ -72,7 +73,6 @@ pub fn bake(
     max_memory: Option<String>,
     progress: Option<Bound<'_, PyAny>>,
 ) -> PyResult<Bake> {
-    let still = scene.still()?.clone();
     let settings = scene.settings.over(&Settings {
         method,
         spp,
@@ -86,6 +86,27 @@ pub fn bake(
     });
     let opts = settings.options()?;
     let pool = pool(threads)?;
+    // An animated scene's bake is its walk's: one for every frame (render(frame=...) shades them).
+    if let Kind::Animated(anim) = &scene.kind {
+        if opts.crop.is_some() {
+            return Err(pyo3::exceptions::PyValueError::new_err(
+                "crop: a walk's bake covers every frame's whole view: leave out crop",
+            ));
+        }
+        let phases = vec![
+            "photons",
+            "media cache",
+            "filling the cache over the frames' views",
+        ];
+        let (baked, stats) = detached(py, progress.as_ref(), phases, |watch| {
+            pool.install(|| bake_walk(anim, &opts, watch, &watch.cancel))
+        })?;
+        return Ok(Bake {
+            baked,
+            stats: Some(stats),
+        });
+    }
+    let still = scene.still()?.clone();
     let method = pmrender::render::method(&still, &opts);
     let mut phases = still_phases(method, false);
     phases.retain(|p| *p != "shade");

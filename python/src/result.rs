@@ -158,7 +158,7 @@ impl RenderResult {
 #[pyfunction]
 #[pyo3(signature = (scene, *, method=None, spp=None, width=None, height=None, seed=None,
                     threads=None, noise=None, aa_spp=None, crop=None, max_memory=None,
-                    progress=None, bake=None, tiles=None, passes=None, time=None))]
+                    progress=None, bake=None, tiles=None, passes=None, time=None, frame=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn render(
     py: Python<'_>,
@@ -178,7 +178,34 @@ pub fn render(
     tiles: Option<u32>,
     passes: Option<i64>,
     time: Option<f64>,
+    frame: Option<u32>,
 ) -> PyResult<RenderResult> {
+    if let Some(f) = frame {
+        if passes.is_some() || time.is_some() {
+            let name = if passes.is_some() { "passes" } else { "time" };
+            return Err(bad_arg(
+                name,
+                "a walk's frame is one pass from its bake: leave it out",
+            ));
+        }
+        let s = Settings {
+            method,
+            spp,
+            noise,
+            aa_spp,
+            width,
+            height,
+            seed,
+            crop,
+            max_memory,
+        };
+        let shading = WalkFrame {
+            bake,
+            tiles,
+            threads,
+        };
+        return walk_frame(py, scene, f, s, shading, progress.as_ref());
+    }
     let still = scene.still()?.clone();
     let mut settings = scene.settings.over(&Settings {
         method,
@@ -228,6 +255,71 @@ pub fn render(
         out,
         stats,
         fingerprint: still.fingerprint,
+        scene_path: scene.path.clone(),
+    })
+}
+
+/// How a walk's frame is shaded: from which bake, in how many tiles, with how many threads.
+struct WalkFrame<'a> {
+    bake: Option<&'a Bake>,
+    tiles: Option<u32>,
+    threads: Option<i64>,
+}
+
+/// Frame `f` of an animated scene's walk, shaded from the walk's bake (`bake(scene)`).
+fn walk_frame(
+    py: Python<'_>,
+    scene: &Scene,
+    f: u32,
+    overrides: Settings,
+    shading: WalkFrame,
+    progress: Option<&Bound<'_, PyAny>>,
+) -> PyResult<RenderResult> {
+    let anim = scene.animation()?.clone();
+    let Some(bake) = shading.bake else {
+        return Err(bad_arg(
+            "frame",
+            "shades a walk's frame from the walk's bake: pass bake=bake(scene)",
+        ));
+    };
+    if f >= anim.frames() {
+        return Err(bad_arg(
+            "frame",
+            format!(
+                "{f} is not within the sequence's frames 0..={}",
+                anim.frames() - 1
+            ),
+        ));
+    }
+    if shading.tiles == Some(0) {
+        return Err(bad_arg("tiles", "0 must be at least 1"));
+    }
+    let mut settings = scene.settings.over(&overrides);
+    if settings.method.is_none() {
+        settings.method = Some(bake.baked.method.name().to_string());
+    }
+    let opts = settings.options()?;
+    let pool = pool(shading.threads)?;
+    let walk = py.detach(|| scene.walk_scene(&anim)).map_err(to_py)?;
+    let phases = still_phases(bake.baked.method, true);
+    let (out, stats) = detached(py, progress, phases, |watch| {
+        pool.install(|| {
+            pmrender::render::shared_bake::render_walk_frame(
+                &anim,
+                &walk,
+                &bake.baked,
+                f,
+                shading.tiles,
+                &opts,
+                watch,
+                &watch.cancel,
+            )
+        })
+    })?;
+    Ok(RenderResult {
+        out,
+        stats,
+        fingerprint: walk.fingerprint,
         scene_path: scene.path.clone(),
     })
 }

@@ -17,6 +17,9 @@ pub struct Scene {
     pub kind: Kind,
     /// The overrides given to `load_file`.
     pub settings: Settings,
+    /// An animated scene's first frame's scene, built when a walk's frame is first rendered: the
+    /// scene every frame of a walk shares.
+    pub walk_scene: std::sync::OnceLock<Arc<scene::Scene>>,
 }
 
 pub enum Kind {
@@ -41,16 +44,18 @@ impl Scene {
         }
     }
 
-    /// The image's (width, height) as the file and load_file's overrides set it (a still's).
+    /// The image's (width, height) as the file and load_file's overrides set it (an animated
+    /// scene's: its first frame's).
     #[getter]
     fn size(&self) -> Option<(u32, u32)> {
-        match &self.kind {
-            Kind::Still(s) => Some((
-                self.settings.width.map_or(s.camera.width, |w| w as u32),
-                self.settings.height.map_or(s.camera.height, |h| h as u32),
-            )),
-            Kind::Animated(_) => None,
-        }
+        let camera = match &self.kind {
+            Kind::Still(s) => s.camera.clone(),
+            Kind::Animated(a) => scene::frame_camera(a, 0).ok()?,
+        };
+        Some((
+            self.settings.width.map_or(camera.width, |w| w as u32),
+            self.settings.height.map_or(camera.height, |h| h as u32),
+        ))
     }
 
     /// The triangles of a still scene; None for an animated one.
@@ -81,6 +86,26 @@ impl Scene {
 
 impl Scene {
     /// The still scene, or a `ValueError` saying what to call for an animated one.
+    /// An animated scene's keys, or an error naming the still scene.
+    pub fn animation(&self) -> PyResult<&Arc<Animation>> {
+        match &self.kind {
+            Kind::Animated(a) => Ok(a),
+            Kind::Still(_) => Err(pyo3::exceptions::PyValueError::new_err(format!(
+                "'{}' has no [animation]: render it without frame",
+                self.path.display()
+            ))),
+        }
+    }
+
+    /// The scene a walk's frames share (its first frame's), built once.
+    pub fn walk_scene(&self, anim: &Animation) -> pmrender::error::Result<Arc<scene::Scene>> {
+        if let Some(s) = self.walk_scene.get() {
+            return Ok(s.clone());
+        }
+        let built = Arc::new(scene::load_frame(anim, 0)?);
+        Ok(self.walk_scene.get_or_init(|| built).clone())
+    }
+
     pub fn still(&self) -> PyResult<&Arc<scene::Scene>> {
         match &self.kind {
             Kind::Still(s) => Ok(s),
@@ -132,5 +157,6 @@ pub fn load_file(
         path,
         kind,
         settings,
+        walk_scene: std::sync::OnceLock::new(),
     })
 }

@@ -71,3 +71,23 @@ def test_leaving_a_sequence_early_stops_it():
         break
     # A new sequence runs after the abandoned one.
     assert [f for f, _ in pm.render_sequence(scene, frames=[5], spp=1)] == [5]
+
+
+def test_a_walks_frames_from_its_bake_are_the_clis(tmp_path):
+    scene = SCENES / "blinds-walk.toml"
+    cli("render", str(scene), "-o", str(tmp_path / "f-##.exr"), "--frames", "5..6", "--shared-bake",
+        "--width", "48", "--height", "36", "--spp", "2", "--quiet")
+    s = pm.load_file(scene, width=48, height=36, spp=2)
+    b = pm.bake(s)
+    # The bake travels as bytes (to a farm's workers) and shades the same frames.
+    shipped = pm.Bake.from_bytes(b.to_bytes())
+    for f in (6, 5):
+        r = pm.render(s, bake=shipped, frame=f)
+        assert np.array_equal(r.image, pm.read_image(tmp_path / f"f-{f:02}.exr")), f
+        assert r.stats["frame"]["index"] == f
+    with pytest.raises(ValueError, match="frame"):
+        pm.render(s, frame=3)
+    with pytest.raises(ValueError, match="frames 0..=23"):
+        pm.render(s, bake=b, frame=24)
+    with pytest.raises(ValueError, match="moves a mesh"):
+        pm.bake(pm.load_file(SCENES / "anim-ball.toml", width=48, height=36))

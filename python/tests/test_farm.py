@@ -75,6 +75,24 @@ def test_a_still_on_a_local_cluster_is_the_clis(tmp_path, tiles):
     assert (tmp_path / "farm.png").read_bytes() == (tmp_path / "cli.png").read_bytes()
 
 
+def test_a_walk_baked_once_on_a_local_cluster_is_the_clis(tmp_path):
+    scene = str(SCENES / "blinds-walk.toml")
+    (tmp_path / "cli").mkdir()
+    split = ["--frames", "4..7", "--shared-bake", "--tiles", "2"]
+    cli("render", scene, "-o", str(tmp_path / "cli" / "f-##.exr"), *split, *SMALL, "--quiet")
+    summary = tmp_path / "farm" / "summary.json"
+    farm(scene, "-o", str(tmp_path / "farm" / "f-##.exr"), *split, "--workers", "2",
+         "--stats", str(summary), *SMALL)
+    same_files(tmp_path / "cli", tmp_path / "farm", [f"f-{f:02}.exr" for f in range(4, 8)])
+    s = json.loads(summary.read_text())
+    kinds = sorted(t["kind"] for t in s["tasks"])
+    # One bake for the whole walk, then every frame's two tiles apart.
+    assert kinds == ["bake"] + ["tile"] * 8 and s["frames_written"] == 4
+    assert s["bake_bytes"] > 0 and sorted(f["frame"] for f in s["frames"]) == [4, 5, 6, 7]
+    r = farm(scene, "-o", str(tmp_path / "farm2" / "f-##.exr"), "--tiles", "2", "--workers", "1",
+             *SMALL, check=False)
+    assert r.returncode == 2 and "--shared-bake" in r.stderr
+
 def test_a_bad_scene_fails_before_any_task(tmp_path):
     bad = tmp_path / "bad.toml"
     bad.write_text('[camera]\neye = [0, 1, 3]\ntarget = [0, 1, 0]\nfov = "wide"\n')

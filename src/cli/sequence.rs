@@ -17,6 +17,7 @@ use pmrender::render::outputs::{
     check_distinct_from, check_target, probe_writable, scene_inputs, KnownInputs,
 };
 use pmrender::render::sequence::render_sequence;
+use pmrender::render::shared_bake::render_walk;
 use pmrender::render::write::{write_outputs, OutputPaths, SequenceSummary};
 use pmrender::render::{Options, Progress};
 use pmrender::scene::Animation;
@@ -342,8 +343,19 @@ pub(super) fn render_animation(
             Ok(())
         };
     signal::arm(true);
-    let result =
-        pool.install(|| render_sequence(anim, frames.clone(), opts, &bar, cancel, &mut on_frame));
+    let tiles = super::in_range("--tiles", a.tiles, pmrender::render::budget::MAX_SIDE)?;
+    let result = pool.install(|| match a.shared_bake {
+        true => render_walk(
+            anim,
+            frames.clone(),
+            opts,
+            tiles,
+            &bar,
+            cancel,
+            &mut on_frame,
+        ),
+        false => render_sequence(anim, frames.clone(), opts, &bar, cancel, &mut on_frame),
+    });
     signal::arm(false);
     bar.bar.finish_and_clear();
     if let (Some(p), false) = (&patterns.stats, summary.is_empty()) {

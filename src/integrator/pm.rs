@@ -42,6 +42,33 @@ pub enum IndirectSource<'a> {
     PhotonMap,
 }
 
+/// Which records of a cache were made for other views than the one rendered: a sequence's earlier
+/// frames' (the first `below`), and a walk's later frames' (`from..to`). Records made after all of
+/// them (pass B's, or this view's pass A's) are the view's own.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct OtherViews {
+    pub below: usize,
+    pub from: usize,
+    pub to: usize,
+}
+
+impl OtherViews {
+    /// The first `n` records: a sequence's frames before.
+    pub fn first(n: usize) -> OtherViews {
+        OtherViews {
+            below: n,
+            from: 0,
+            to: 0,
+        }
+    }
+
+    /// Whether record `id` was made for another view.
+    pub fn has(&self, id: u32) -> bool {
+        let id = id as usize;
+        id < self.below || (self.from..self.to).contains(&id)
+    }
+}
+
 #[derive(Clone, Copy)]
 pub struct PmContext<'a> {
     pub scene: &'a Scene,
@@ -61,9 +88,9 @@ pub struct PmContext<'a> {
     /// The glossy lobes' radiance cache (`pm`): filled beside the irradiance cache's records, read at
     /// glossy points instead of sampling their lobe.
     pub radiance: Option<&'a RadianceCache>,
-    /// The first `foreign` records of the cache were made for other views of a sequence: pass B
-    /// interpolates them only where they are in sight (see `record_in_sight`).
-    pub foreign: usize,
+    /// The records of the cache made for other views: pass B interpolates them only where they are
+    /// in sight (see `record_in_sight`).
+    pub foreign: OtherViews,
     /// Where a camera ray first meets a textured surface, the width (per unit of distance along the
     /// ray) its texture is averaged over; 0: read at the point ([`crate::render::plan::TEXTURE_FILTER`]).
     pub texture_filter: f32,
@@ -302,7 +329,7 @@ impl PmContext<'_> {
     /// must reach it. A still's records lie on surfaces its camera sees; another view's may lie behind
     /// an occluder of this one and lend its light across it.
     fn record_in_sight(&self, hit: &Hit, frame: &Frame, id: u32, rec: &icache::Record) -> bool {
-        if !self.scene.settings.icache.visibility() && id as usize >= self.foreign {
+        if !self.scene.settings.icache.visibility() && !self.foreign.has(id) {
             return true;
         }
         self.in_sight(hit, frame.smooth, rec)
@@ -313,7 +340,7 @@ impl PmContext<'_> {
     /// gathers for it between its rounds and shades its pixel again. (`visibility` stays pass B's
     /// alone, as in a still.)
     pub fn fill_may_use(&self, hit: &Hit, n: Vec3, id: u32, rec: &icache::Record) -> bool {
-        id as usize >= self.foreign || self.in_sight(hit, n, rec)
+        !self.foreign.has(id) || self.in_sight(hit, n, rec)
     }
 
     /// A shadow ray from `hit` (off its side `n`) reaches the record, just off its surface. Both ends

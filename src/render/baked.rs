@@ -5,8 +5,12 @@
 //! [`Baked::to_bytes`] / [`Baked::from_bytes`] are its file. The media radiance cache is not kept: it
 //! is filled again from the photons, which gives the same records.
 //!
-//! The file: `PMBAKE1\n`, the method's name (u32 length + UTF-8), the scene's fingerprint (u64), the
-//! chosen rays (u64, 0 for none, else rays + 1), the photon-map file (u64 length + bytes), the cache
+//! A camera walk's bake ([`super::shared_bake`]) is the same with a cache whose records cover every
+//! frame's view; it says which records each frame's view made (none for a still's).
+//!
+//! The file: `PMBAKE2\n`, the method's name (u32 length + UTF-8), the scene's fingerprint (u64), the
+//! views its cache covers (u32; 0 for a still's) and the records each made (u64 first, u64 past the
+//! last), the chosen rays (u64, 0 for none, else rays + 1), the photon-map file (u64 length + bytes), the cache
 //! file (u64 length + bytes, 0 for none), the radiance coefficients (u64 count; each the three u32 bits
 //! of its record's position, a u32 count and that many RGB f32 triples), then an FNV-1a hash (u64) of
 //! all before it. Little-endian throughout.
@@ -25,18 +29,25 @@ use super::{
     bake, budget, interrupted, media_phase, plan, shade_and_finish, Bake, Options, RenderOutput,
     RenderStats,
 };
+use crate::camera::Camera;
 use crate::error::{in_file, Error, Result};
+use crate::integrator::pm::OtherViews;
 use crate::integrator::radiance_cache::RadianceCache;
 use crate::io::atomic::OutputSet;
 use crate::progress::Progress;
 use crate::scene::{Method, Scene};
 
-const MAGIC: &[u8; 8] = b"PMBAKE1\n";
+const MAGIC: &[u8; 8] = b"PMBAKE2\n";
+/// The first version's header: a still's bake, without the count of views.
+const MAGIC_1: &[u8; 8] = b"PMBAKE1\n";
 
 /// What a render shades from, as bytes that outlive its scene's borrow.
 pub struct Baked {
     pub method: Method,
     fingerprint: u64,
+    /// The records each frame's view made, for a walk's bake (empty for a still's): a frame's pass
+    /// B reads the others only where they are in sight.
+    views: Vec<(u64, u64)>,
     chosen_rays: Option<usize>,
     photons: Vec<u8>,
     cache: Vec<u8>,
@@ -54,6 +65,26 @@ pub fn bake_apart(
     let start = Instant::now();
     super::progressive::refuse_in_bake(scene, opts, "a bake")?;
     let plan = plan(scene, opts, None)?;
+    check_bakeable(&plan, opts)?;
+    budget::check(scene, &plan, opts)?;
+    let mut stats = RenderStats::new(scene, &plan);
+    let files = super::files::FileOptions {
+        keep_maps: true,
+        ..opts.files.clone()
+    };
+    let bake = bake(scene, &plan, &files, &mut stats, progress, cancel)?;
+    stats.finish(
+        start,
+        bake.photons.as_ref(),
+        bake.media_cache.as_ref(),
+        bake.cache.as_ref().map(|c| &c.cache),
+        bake.radiance.as_ref(),
+    );
+    Ok((Baked::keep(scene, plan.method, bake, Vec::new())?, stats))
+}
+
+/// Refuses a bake of a method with nothing to bake, or one asked to read photon or cache files.
+pub(super) fn check_bakeable(plan: &super::Plan, opts: &Options) -> Result<()> {
     if plan.method.is_occlusion() {
         // ao's occlusion records are no irradiance: a bake's cache serves the photon-map methods,
         // which would read them as light.
@@ -77,42 +108,7 @@ pub fn bake_apart(
                 .into(),
         ));
     }
-    budget::check(scene, &plan, opts)?;
-    let mut stats = RenderStats::new(scene, &plan);
-    let files = super::files::FileOptions {
-        keep_maps: true,
-        ..opts.files.clone()
-    };
-    let bake = bake(scene, &plan, &files, &mut stats, progress, cancel)?;
-    stats.finish(
-        start,
-        bake.photons.as_ref(),
-        bake.media_cache.as_ref(),
-        bake.cache.as_ref().map(|c| &c.cache),
-        bake.radiance.as_ref(),
-    );
-    let mut photons = Vec::new();
-    if let (Some(p), Some(info)) = (bake.photons, bake.photon_info) {
-        photon::file::write_maps(&mut photons, &info, &p.into_maps())
-            .map_err(|e| Error::Runtime(format!("cannot keep the photon maps: {e}")))?;
-    }
-    let radiance = bake.radiance.map_or(Vec::new(), |r| {
-        r.coefficients()
-            .into_iter()
-            .map(|(k, c)| (k, c.to_vec()))
-            .collect()
-    });
-    let baked = Baked {
-        method: plan.method,
-        fingerprint: scene.fingerprint,
-        chosen_rays: bake.cache.as_ref().and_then(|c| c.chosen_rays),
-        cache: bake
-            .cache
-            .map_or(Vec::new(), |c| c.cache.to_bytes(scene.fingerprint)),
-        photons,
-        radiance,
-    };
-    Ok((baked, stats))
+    Ok(())
 }
 
 /// Renders `scene` from `baked` (pass B only) with `opts`, whose method must be the bake's.
@@ -123,8 +119,20 @@ pub fn render_baked(
     progress: &dyn Progress,
     cancel: &AtomicBool,
 ) -> Result<(RenderOutput, RenderStats)> {
+    render_baked_seen_by(scene, opts, baked, None, progress, cancel)
+}
+
+/// [`render_baked`] seen by a walk's frame (its camera and number), else by the scene's camera.
+pub fn render_baked_seen_by(
+    scene: &Scene,
+    opts: &Options,
+    baked: &Baked,
+    view: Option<(&Camera, u32)>,
+    progress: &dyn Progress,
+    cancel: &AtomicBool,
+) -> Result<(RenderOutput, RenderStats)> {
     let start = Instant::now();
-    let plan = plan(scene, opts, None)?;
+    let plan = plan(scene, opts, view.map(|(c, _)| c))?;
     if plan.method != baked.method {
         return Err(Error::Input(format!(
             "the bake was made for method {}, not {}",
@@ -160,6 +168,11 @@ pub fn render_baked(
         }),
         _ => None,
     };
+    // A walk's frame reads the records other frames' views made only where they are in sight.
+    let foreign = match (&cache, view) {
+        (Some(fill), Some((_, f))) => baked.other_views(f, fill.cache.len())?,
+        _ => OtherViews::default(),
+    };
     let bake = Bake {
         photons: Some(photons),
         photon_info: None,
@@ -167,10 +180,68 @@ pub fn render_baked(
         radiance,
         cache,
     };
-    shade_and_finish(scene, &plan, bake, stats, start, progress, cancel)
+    let shading = (bake, foreign);
+    shade_and_finish(scene, &plan, shading, stats, start, progress, cancel)
 }
 
 impl Baked {
+    /// What `bake` (of `scene` for `method`, its cache covering `views` views) holds, as bytes.
+    pub(super) fn keep(
+        scene: &Scene,
+        method: Method,
+        bake: Bake,
+        views: Vec<(u64, u64)>,
+    ) -> Result<Baked> {
+        let mut photons = Vec::new();
+        if let (Some(p), Some(info)) = (bake.photons, bake.photon_info) {
+            photon::file::write_maps(&mut photons, &info, &p.into_maps())
+                .map_err(|e| Error::Runtime(format!("cannot keep the photon maps: {e}")))?;
+        }
+        let radiance = bake.radiance.map_or(Vec::new(), |r| {
+            r.coefficients()
+                .into_iter()
+                .map(|(k, c)| (k, c.to_vec()))
+                .collect()
+        });
+        Ok(Baked {
+            method,
+            fingerprint: scene.fingerprint,
+            views,
+            chosen_rays: bake.cache.as_ref().and_then(|c| c.chosen_rays),
+            cache: bake
+                .cache
+                .map_or(Vec::new(), |c| c.cache.to_bytes(scene.fingerprint)),
+            photons,
+            radiance,
+        })
+    }
+
+    /// How many frames' views the cache's records were made for (a walk's; 0 for a still's).
+    pub fn views(&self) -> u32 {
+        self.views.len() as u32
+    }
+
+    /// The records of a cache of `n` made for other views than frame `f`'s.
+    fn other_views(&self, f: u32, n: usize) -> Result<OtherViews> {
+        let &(from, to) = self.views.get(f as usize).ok_or_else(|| {
+            Error::Input(format!(
+                "the bake covers {} frame(s): it has no frame {f}",
+                self.views.len()
+            ))
+        })?;
+        let (from, to) = (from as usize, to as usize);
+        if from > to || to > n {
+            return Err(Error::Input(
+                "the bake's views name records its cache does not hold".into(),
+            ));
+        }
+        Ok(OtherViews {
+            below: from,
+            from: to,
+            to: n,
+        })
+    }
+
     /// The irradiance cache as pass A left it, counted as loaded; `None` for methods without one.
     fn cache_fill(&self, scene: &Scene, stats: &mut RenderStats) -> Result<Option<CacheFill>> {
         if self.cache.is_empty() {
@@ -220,6 +291,11 @@ impl Baked {
         b.extend((name.len() as u32).to_le_bytes());
         b.extend(name);
         b.extend(self.fingerprint.to_le_bytes());
+        b.extend((self.views.len() as u32).to_le_bytes());
+        for (from, to) in &self.views {
+            b.extend(from.to_le_bytes());
+            b.extend(to.to_le_bytes());
+        }
         b.extend(self.chosen_rays.map_or(0, |r| r as u64 + 1).to_le_bytes());
         for part in [&self.photons, &self.cache] {
             b.extend((part.len() as u64).to_le_bytes());
@@ -244,8 +320,8 @@ impl Baked {
         let body_len = bytes
             .len()
             .checked_sub(8)
-            .filter(|_| bytes.starts_with(MAGIC))
-            .ok_or("not a pmrender bake (no PMBAKE1 header)")?;
+            .filter(|_| bytes.starts_with(MAGIC) || bytes.starts_with(MAGIC_1))
+            .ok_or("not a pmrender bake (no PMBAKE2 header)")?;
         let (body, hash) = bytes.split_at(body_len);
         if fnv1a(body).to_le_bytes() != hash {
             return Err("the bake is damaged (its checksum does not match)".into());
@@ -258,6 +334,17 @@ impl Baked {
         let name = std::str::from_utf8(r.take(name_len)?).map_err(|_| "a method name not UTF-8")?;
         let method = Method::parse(name).ok_or_else(|| format!("unknown method '{name}'"))?;
         let fingerprint = r.u64()?;
+        let n_views = match bytes.starts_with(MAGIC_1) {
+            true => 0,
+            false => r.u32()? as usize,
+        };
+        // Each view is 16 bytes: a count past what is left is damage, found before allocating.
+        if n_views.saturating_mul(16) > r.left() {
+            return Err("the bake's views are cut short".into());
+        }
+        let views = (0..n_views)
+            .map(|_| Ok((r.u64()?, r.u64()?)))
+            .collect::<std::result::Result<Vec<_>, String>>()?;
         let chosen_rays = match r.u64()? {
             0 => None,
             n => Some(usize::try_from(n - 1).map_err(|_| "a ray count out of range")?),
@@ -284,6 +371,7 @@ impl Baked {
         Ok(Baked {
             method,
             fingerprint,
+            views,
             chosen_rays,
             photons,
             cache,
@@ -344,6 +432,7 @@ mod tests {
         Baked {
             method: Method::Pm,
             fingerprint: 7,
+            views: vec![(0, 2), (2, 5)],
             chosen_rays: Some(500),
             photons: vec![1, 2, 3],
             cache: vec![4, 5],
@@ -356,8 +445,8 @@ mod tests {
         let b = Baked::from_bytes(&sample().to_bytes()).unwrap();
         assert_eq!(b.to_bytes(), sample().to_bytes());
         assert_eq!(
-            (b.method, b.fingerprint, b.chosen_rays),
-            (Method::Pm, 7, Some(500))
+            (b.method, b.fingerprint, b.views(), b.chosen_rays),
+            (Method::Pm, 7, 2, Some(500))
         );
         assert_eq!(b.radiance, sample().radiance);
     }

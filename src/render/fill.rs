@@ -15,7 +15,7 @@ use super::{files, gather_rays};
 use crate::error::{runtime, Result};
 use crate::geometry::Hit;
 use crate::integrator::cache_fill::{gather_record, shading_hits};
-use crate::integrator::pm::{IndirectSource, PmContext};
+use crate::integrator::pm::{IndirectSource, OtherViews, PmContext};
 use crate::integrator::radiance_cache::RadianceCache;
 use crate::photons::media_fill;
 use crate::photons::PhotonData;
@@ -55,7 +55,7 @@ pub fn fill_cache(
 ) -> Result<(CacheFill, CacheFillStats)> {
     let t = Instant::now();
     let radiance = light.radiance;
-    let foreign = earlier.as_ref().map_or(0, |(_, n)| *n);
+    let foreign = OtherViews::first(earlier.as_ref().map_or(0, |(_, n)| *n));
     let ctx = fill_context(scene, plan, light, foreign, cancel);
     let (lo, hi) = scene.bounds;
     // Records of earlier frames cover what they cover; pass A adds records only where they do not.
@@ -151,12 +151,12 @@ fn filled(
 }
 
 /// The integrator pass A's gathers run: reading the photon maps, the media cache and the glossy
-/// radiance cache of `light`, the cache's first `foreign` records made for other views.
+/// radiance cache of `light`, the cache's `foreign` records made for other views.
 pub(crate) fn fill_context<'a>(
     scene: &'a Scene,
     plan: &Plan,
     light: FillLight<'a>,
-    foreign: usize,
+    foreign: OtherViews,
     cancel: &'a AtomicBool,
 ) -> PmContext<'a> {
     PmContext {

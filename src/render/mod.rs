@@ -17,6 +17,7 @@ pub mod plan;
 pub mod progressive;
 pub mod sequence;
 pub mod shade;
+pub mod shared_bake;
 pub mod stats;
 pub mod tiled;
 pub mod tiles;
@@ -30,6 +31,7 @@ use icache::media::MediaCache;
 
 use crate::camera::Camera;
 use crate::error::{Error, Result};
+use crate::integrator::pm::OtherViews;
 use crate::integrator::radiance_cache::RadianceCache;
 use crate::io::output::Image;
 use crate::photons::PhotonData;
@@ -125,25 +127,34 @@ pub fn render_seen_by(
     budget::check(scene, &plan, opts)?;
     let mut stats = RenderStats::new(scene, &plan);
     let bake = bake(scene, &plan, &opts.files, &mut stats, progress, cancel)?;
-    shade_and_finish(scene, &plan, bake, stats, start, progress, cancel)
+    shade_and_finish(
+        scene,
+        &plan,
+        (bake, OtherViews::default()),
+        stats,
+        start,
+        progress,
+        cancel,
+    )
 }
 
 /// The still's phases after the bake: shading, the beauty and its layers, the statistics (begun at
-/// `start`), the output.
+/// `start`), the output. The bake's cache's `foreign` records were made for other views.
 fn shade_and_finish(
     scene: &Scene,
     plan: &Plan,
-    mut bake: Bake,
+    (mut bake, foreign): (Bake, OtherViews),
     mut stats: RenderStats,
     start: Instant,
     progress: &dyn Progress,
     cancel: &AtomicBool,
 ) -> Result<(RenderOutput, RenderStats)> {
-    let (layers, _) = shade_bake(
+    let (layers, _) = shade_bake_foreign(
         scene,
         plan,
         &mut bake,
         KeptPixels::NONE,
+        foreign,
         &mut stats,
         progress,
         cancel,
@@ -301,27 +312,14 @@ pub(crate) fn occlusion_cache_phase(
 }
 
 /// Shading (pass B) from `bake`, but the pixels `kept` marks: each layer's image and the samples each
-/// pixel took. `foreign` is how many of the cache's first records were made for other views.
-pub(crate) fn shade_bake(
-    scene: &Scene,
-    plan: &Plan,
-    bake: &mut Bake,
-    kept: KeptPixels,
-    stats: &mut RenderStats,
-    progress: &dyn Progress,
-    cancel: &AtomicBool,
-) -> Result<(Vec<Image>, Vec<u32>)> {
-    shade_bake_foreign(scene, plan, bake, kept, 0, stats, progress, cancel)
-}
-
-/// [`shade_bake`] from a cache whose first `foreign` records were made for other views.
+/// pixel took. The cache's `foreign` records were made for other views.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn shade_bake_foreign(
     scene: &Scene,
     plan: &Plan,
     bake: &mut Bake,
     kept: KeptPixels,
-    foreign: usize,
+    foreign: OtherViews,
     stats: &mut RenderStats,
     progress: &dyn Progress,
     cancel: &AtomicBool,

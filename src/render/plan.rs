@@ -13,7 +13,7 @@ use super::tiles::{Sampling, Window};
 use super::Options;
 use crate::camera::Camera;
 use crate::error::{option, Result};
-use crate::integrator::pm::{IndirectSource, PmContext};
+use crate::integrator::pm::{IndirectSource, OtherViews, PmContext};
 use crate::photons::{PhotonData, PhotonSettings};
 use crate::scene::{Method, Scene};
 
@@ -106,7 +106,7 @@ impl Plan {
             cancel,
             defer_misses: false,
             radiance: None,
-            foreign: 0,
+            foreign: OtherViews::default(),
             texture_filter: TEXTURE_FILTER * self.camera.pixel_angle(),
             pixel_angle: self.camera.pixel_angle(),
             pass_a_shift: self.pass_a_shift,

@@ -16,7 +16,7 @@ use crate::counters::SampleCounters;
 use crate::error::Result;
 use crate::geometry::Hit;
 use crate::integrator::cache_fill::{gather_record, sample_hits};
-use crate::integrator::pm::{IndirectSource, PmContext};
+use crate::integrator::pm::{IndirectSource, OtherViews, PmContext};
 use crate::integrator::radiance_cache::RadianceCache;
 use crate::integrator::terms::{LayerValues, Layout};
 use crate::integrator::{path, PixelMemo};
@@ -99,8 +99,8 @@ pub struct Lighting<'a> {
     pub gather: GatherParams,
     /// `pm`'s radiance cache on glossy surfaces.
     pub radiance: Option<&'a RadianceCache>,
-    /// The cache's first records made for other views of a sequence (see [`PmContext::foreign`]).
-    pub foreign: usize,
+    /// The cache's records made for other views (see [`PmContext::foreign`]).
+    pub foreign: OtherViews,
 }
 
 /// The method's sampler and its number of layers: `path`'s radiance without photon maps; with them,

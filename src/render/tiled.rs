@@ -7,9 +7,10 @@
 
 use std::sync::atomic::AtomicBool;
 
-use super::baked::{bake_apart, render_baked, Baked};
+use super::baked::{bake_apart, render_baked_seen_by, Baked};
 use super::tiles::Window;
 use super::{Options, RenderOutput, RenderStats};
+use crate::camera::Camera;
 use crate::error::{option, Result};
 use crate::io::output::Image;
 use crate::progress::Progress;
@@ -50,24 +51,42 @@ pub fn render_tiled(
         true => Some(bake_apart(scene, opts, progress, cancel)?),
         false => None,
     };
-    let plan = super::plan(scene, opts, None)?;
-    let mut stats = match &baked {
-        Some((_, s)) => s.clone(),
-        None => RenderStats::new(scene, &plan),
-    };
+    let (baked, stats) = baked.unzip();
+    shade_tiles(
+        scene,
+        opts,
+        baked.as_ref(),
+        None,
+        (n, stats),
+        progress,
+        cancel,
+    )
+}
+
+/// The image seen by a walk's frame `view` (its camera and number; else by the scene's camera) as `n` tiles, each shaded apart from
+/// `baked` (for `path`: none, each tile a crop of the render) and pasted in; the statistics are
+/// `stats` (the bake's; else new), with the tiles' shading summed.
+pub(super) fn shade_tiles(
+    scene: &Scene,
+    opts: &Options,
+    baked: Option<&Baked>,
+    view: Option<(&Camera, u32)>,
+    (n, stats): (u32, Option<RenderStats>),
+    progress: &dyn Progress,
+    cancel: &AtomicBool,
+) -> Result<(RenderOutput, RenderStats)> {
+    let camera = view.map(|(c, _)| c);
+    let plan = super::plan(scene, opts, camera)?;
+    let mut stats = stats.unwrap_or_else(|| RenderStats::new(scene, &plan));
     let mut image: Option<RenderOutput> = None;
     for window in tile_windows(plan.width, plan.height, n) {
-        let (tile, s) = match &baked {
-            Some((b, _)) => render_tile(scene, opts, b, window, progress, cancel)?,
-            None => super::render(
-                scene,
-                &Options {
-                    crop: Some(window),
-                    ..opts.clone()
-                },
-                progress,
-                cancel,
-            )?,
+        let cropped = Options {
+            crop: Some(window),
+            ..opts.clone()
+        };
+        let (tile, s) = match baked {
+            Some(b) => render_baked_seen_by(scene, &cropped, b, view, progress, cancel)?,
+            None => super::render_seen_by(scene, &cropped, camera, progress, cancel)?,
         };
         stats.shade.add(&s.shade);
         match &mut image {
@@ -80,22 +99,6 @@ pub fn render_tiled(
     image
         .map(|out| (out, stats))
         .ok_or_else(|| option("--tiles", "no tile"))
-}
-
-/// One tile shaded from `baked`: the image with the tile's pixels set and the others black.
-pub fn render_tile(
-    scene: &Scene,
-    opts: &Options,
-    baked: &Baked,
-    window: Window,
-    progress: &dyn Progress,
-    cancel: &AtomicBool,
-) -> Result<(RenderOutput, RenderStats)> {
-    let opts = Options {
-        crop: Some(window),
-        ..opts.clone()
-    };
-    render_baked(scene, &opts, baked, progress, cancel)
 }
 
 /// `window`'s pixels of `tile` copied into `out` (the beauty and each layer).

@@ -43,6 +43,7 @@ use super::{
 };
 use crate::camera::Camera;
 use crate::error::Result;
+use crate::integrator::pm::OtherViews;
 use crate::integrator::radiance_cache::RadianceCache;
 use crate::io::output::Image;
 use crate::photons::PhotonData;
@@ -358,7 +359,14 @@ impl Sequence {
         let kept = self.kept_pixels(scene, &plan, still_view.zip(only), &bake);
         let pixels = Kept::view(kept.as_ref());
         let shaded = shade_bake_foreign(
-            scene, &plan, &mut bake, pixels, foreign, &mut stats, progress, cancel,
+            scene,
+            &plan,
+            &mut bake,
+            pixels,
+            OtherViews::first(foreign),
+            &mut stats,
+            progress,
+            cancel,
         );
         *maps = bake.photons.take();
         let (mut layers, mut samples) = shaded?;

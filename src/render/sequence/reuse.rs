@@ -48,7 +48,13 @@ impl Sequence {
                 if same_view {
                     self.shaded_light.note_all(scene, &plan.camera, &cache);
                 }
-                let ctx = crate::render::fill::fill_context(scene, plan, *light, 0, cancel);
+                let ctx = crate::render::fill::fill_context(
+                    scene,
+                    plan,
+                    *light,
+                    Default::default(),
+                    cancel,
+                );
                 let temporal::Updated {
                     cache,
                     stats,
