@@ -2,7 +2,9 @@
 machines from the measured task times, the bake's size and a network model; the chart
 docs/images/farm-scaling.png and the table printed (docs/farm.md).
 
-    python tools/farm_scaling.py measure OUT.json     # renders (minutes; nothing else running)
+    python tools/farm_scaling.py measure OUT.json [JOB]  # renders (minutes; nothing else running);
+                                                        # JOB: only the jobs whose name holds it,
+                                                        # merged into OUT.json
     python tools/farm_scaling.py simulate OUT.json    # the model and the chart
 
 Model of N machines of this one's kind (2 cores each), one worker each: a still's bake runs on one
@@ -30,6 +32,8 @@ JOBS = {
         "scenes/anim-ball.toml", ["--chunk", "8"], "frames"),
     "sibenik-walk (48 frames, 320×240, chunks of 8)": (
         "tests/scenes/sibenik-walk.toml", ["--chunk", "8", "--width", "320", "--height", "240"], "frames"),
+    "sibenik-walk (48 frames, 320×240, shared bake)": (
+        "tests/scenes/sibenik-walk.toml", ["--shared-bake", "--width", "320", "--height", "240"], "frames"),
     "cornell-caustics still 1024² (16 tiles)": (
         "scenes/cornell-caustics.toml", ["--tiles", "16", "--width", "1024", "--height", "1024"], "still"),
 }
@@ -41,9 +45,12 @@ def run(cmd):
     return time.monotonic() - t
 
 
-def measure(out_json):
-    results = {}
+def measure(out_json, only=None):
+    out = Path(out_json)
+    results = json.loads(out.read_text()) if only and out.exists() else {}
     for name, (scene, extra, kind) in JOBS.items():
+        if only and only not in name:
+            continue
         tmp = Path("/tmp/farm-scaling")
         subprocess.run(["rm", "-rf", str(tmp)])
         tmp.mkdir(parents=True)
@@ -79,7 +86,8 @@ def model(s, n, start_s, tiles=None, pixel_scale=1.0):
         trace = b.get("trace_s") or 0.0
         ready = trace + (b["time_s"] - trace) * pixel_scale
         ready += (n - 1) * (LATENCY + s["bake_bytes"] / BANDWIDTH)
-    times = [t["time_s"] for t in sorted(tasks, key=lambda t: (t.get("frames") or t.get("window"))[0:2])]
+    order = lambda t: (t.get("frame") or 0, (t.get("frames") or t.get("window") or [])[0:2])
+    times = [t["time_s"] for t in sorted(tasks, key=order)]
     result_bytes = sum(t["result_bytes"] for t in tasks)
     if tiles is not None:
         times = [times[i % len(times)] for i in range(tiles)]
@@ -129,4 +137,4 @@ def simulate(out_json):
 
 
 if __name__ == "__main__":
-    {"measure": measure, "simulate": simulate}[sys.argv[1]](sys.argv[2])
+    {"measure": measure, "simulate": simulate}[sys.argv[1]](*sys.argv[2:])
