@@ -24,16 +24,18 @@ use icache::IrradianceCache;
 
 use super::fill::CacheFill;
 use super::photons::{build_maps, loaded_photons};
+use super::shade::{beauty, KeptPixels};
 use super::stats::CacheFillStats;
 use super::{
-    bake, budget, interrupted, media_phase, plan, shade_and_finish, Bake, Options, RenderOutput,
-    RenderStats,
+    bake, budget, interrupted, media_phase, output, plan, shade_bake_foreign, Bake, Options,
+    RenderOutput, RenderStats,
 };
 use crate::camera::Camera;
 use crate::error::{in_file, Error, Result};
 use crate::integrator::pm::OtherViews;
 use crate::integrator::radiance_cache::RadianceCache;
 use crate::io::atomic::OutputSet;
+use crate::photons::PhotonData;
 use crate::progress::Progress;
 use crate::scene::{Method, Scene};
 
@@ -133,32 +135,43 @@ pub fn render_baked_seen_by(
 ) -> Result<(RenderOutput, RenderStats)> {
     let start = Instant::now();
     let plan = plan(scene, opts, view.map(|(c, _)| c))?;
-    if plan.method != baked.method {
-        return Err(Error::Input(format!(
-            "the bake was made for method {}, not {}",
-            baked.method.name(),
-            plan.method.name()
-        )));
-    }
-    if scene.fingerprint != baked.fingerprint {
-        return Err(Error::Input(
-            "the bake was made for another scene (or this one changed since)".into(),
-        ));
-    }
     budget::check(scene, &plan, opts)?;
-    let mut stats = RenderStats::new(scene, &plan);
-    let loaded = photon::file::read_maps_within(
-        &baked.photons,
-        scene.fingerprint,
-        &super::files::plausible(scene),
+    let mut ready = baked.ready(scene, &plan, cancel)?;
+    let frame = view.map(|(_, f)| f);
+    shade_ready(
+        scene, &plan, baked, &mut ready, frame, start, progress, cancel,
     )
-    .map_err(|e| Error::Input(format!("the bake's photon maps: {e}")))?;
-    let (maps, s) = loaded_photons(&plan, loaded, Instant::now());
-    stats.photons = Some(s);
-    let photons = build_maps(scene, &plan, maps.maps);
-    interrupted(cancel)?;
-    let media_cache = media_phase(scene, &plan, Some(&photons), &mut stats, progress, cancel)?;
-    let cache = baked.cache_fill(scene, &mut stats)?;
+}
+
+/// A bake read back to shade views from: its photon maps built and its irradiance cache loaded,
+/// with the statistics of reading them. (The media cache is filled for each view: its records lie
+/// along the view's rays.)
+pub(super) struct Ready<'a> {
+    photons: Option<PhotonData<'a>>,
+    cache: Option<CacheFill>,
+    stats: RenderStats,
+}
+
+/// One view (a walk's frame `frame`, else the scene's) shaded from `ready`, read from `baked`, with
+/// `plan`: the view's media cache filled, then pass B over a copy of the irradiance cache (the
+/// records it makes serve this view only), the maps lent and kept for the next view; the statistics
+/// begun at `start`.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn shade_ready(
+    scene: &Scene,
+    plan: &super::Plan,
+    baked: &Baked,
+    ready: &mut Ready,
+    frame: Option<u32>,
+    start: Instant,
+    progress: &dyn Progress,
+    cancel: &AtomicBool,
+) -> Result<(RenderOutput, RenderStats)> {
+    let cache = ready.cache.as_ref().map(|c| CacheFill {
+        cache: c.cache.clone(),
+        one_pass: None,
+        chosen_rays: c.chosen_rays,
+    });
     let radiance = match (&cache, plan.method) {
         (Some(fill), Method::Pm) => RadianceCache::new(scene).inspect(|r| {
             for (key, c) in &baked.radiance {
@@ -169,22 +182,79 @@ pub fn render_baked_seen_by(
         _ => None,
     };
     // A walk's frame reads the records other frames' views made only where they are in sight.
-    let foreign = match (&cache, view) {
-        (Some(fill), Some((_, f))) => baked.other_views(f, fill.cache.len())?,
+    let foreign = match (&cache, frame) {
+        (Some(fill), Some(f)) => baked.other_views(f, fill.cache.len())?,
         _ => OtherViews::default(),
     };
-    let bake = Bake {
-        photons: Some(photons),
+    let mut stats = ready.stats.clone();
+    let photons = ready.photons.as_ref();
+    let media_cache = media_phase(scene, plan, photons, &mut stats, progress, cancel)?;
+    let mut bake = Bake {
+        photons: ready.photons.take(),
         photon_info: None,
         media_cache,
         radiance,
         cache,
     };
-    let shading = (bake, foreign);
-    shade_and_finish(scene, &plan, shading, stats, start, progress, cancel)
+    let kept = KeptPixels::NONE;
+    let shaded = shade_bake_foreign(
+        scene, plan, &mut bake, kept, foreign, &mut stats, progress, cancel,
+    );
+    ready.photons = bake.photons.take();
+    let (layers, _) = shaded?;
+    let images = beauty(plan, crate::integrator::terms::Layout::of(scene), layers);
+    stats.finish(
+        start,
+        ready.photons.as_ref(),
+        bake.media_cache.as_ref(),
+        bake.cache.as_ref().map(|c| &c.cache),
+        bake.radiance.as_ref(),
+    );
+    let mut out = output(images, bake.media_cache, plan.camera.clone());
+    out.radiance_records = bake.radiance.as_ref().map_or(Vec::new(), |r| r.positions());
+    out.cache = bake.cache.map(|c| c.cache);
+    Ok((out, stats))
 }
 
 impl Baked {
+    /// The bake read back for `scene` (for `plan`, whose method must be the bake's).
+    pub(super) fn ready<'a>(
+        &self,
+        scene: &'a Scene,
+        plan: &super::Plan,
+        cancel: &AtomicBool,
+    ) -> Result<Ready<'a>> {
+        if plan.method != self.method {
+            return Err(Error::Input(format!(
+                "the bake was made for method {}, not {}",
+                self.method.name(),
+                plan.method.name()
+            )));
+        }
+        if scene.fingerprint != self.fingerprint {
+            return Err(Error::Input(
+                "the bake was made for another scene (or this one changed since)".into(),
+            ));
+        }
+        let mut stats = RenderStats::new(scene, plan);
+        let loaded = photon::file::read_maps_within(
+            &self.photons,
+            scene.fingerprint,
+            &super::files::plausible(scene),
+        )
+        .map_err(|e| Error::Input(format!("the bake's photon maps: {e}")))?;
+        let (maps, s) = loaded_photons(plan, loaded, Instant::now());
+        stats.photons = Some(s);
+        let photons = build_maps(scene, plan, maps.maps);
+        interrupted(cancel)?;
+        let cache = self.cache_fill(scene, &mut stats)?;
+        Ok(Ready {
+            photons: Some(photons),
+            cache,
+            stats,
+        })
+    }
+
     /// What `bake` (of `scene` for `method`, its cache covering `views` views) holds, as bytes.
     pub(super) fn keep(
         scene: &Scene,

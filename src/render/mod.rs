@@ -127,23 +127,15 @@ pub fn render_seen_by(
     budget::check(scene, &plan, opts)?;
     let mut stats = RenderStats::new(scene, &plan);
     let bake = bake(scene, &plan, &opts.files, &mut stats, progress, cancel)?;
-    shade_and_finish(
-        scene,
-        &plan,
-        (bake, OtherViews::default()),
-        stats,
-        start,
-        progress,
-        cancel,
-    )
+    shade_and_finish(scene, &plan, bake, stats, start, progress, cancel)
 }
 
 /// The still's phases after the bake: shading, the beauty and its layers, the statistics (begun at
-/// `start`), the output. The bake's cache's `foreign` records were made for other views.
+/// `start`), the output.
 fn shade_and_finish(
     scene: &Scene,
     plan: &Plan,
-    (mut bake, foreign): (Bake, OtherViews),
+    mut bake: Bake,
     mut stats: RenderStats,
     start: Instant,
     progress: &dyn Progress,
@@ -154,7 +146,7 @@ fn shade_and_finish(
         plan,
         &mut bake,
         KeptPixels::NONE,
-        foreign,
+        OtherViews::default(),
         &mut stats,
         progress,
         cancel,

@@ -479,15 +479,7 @@ fn one_pass(
     let start = Instant::now();
     let mut stats = RenderStats::new(scene, plan);
     let bake = bake(scene, plan, &opts.files, &mut stats, progress, cancel)?;
-    let (mut output, stats) = shade_and_finish(
-        scene,
-        plan,
-        (bake, Default::default()),
-        stats,
-        start,
-        progress,
-        cancel,
-    )?;
+    let (mut output, stats) = shade_and_finish(scene, plan, bake, stats, start, progress, cancel)?;
     interrupted(cancel)?;
     let beauty = std::mem::replace(&mut output.beauty, Image::new(0, 0));
     let layers = std::mem::take(&mut output.layers);

@@ -13,7 +13,7 @@ use std::time::Instant;
 
 use gather::GatherParams;
 
-use super::baked::{check_bakeable, render_baked_seen_by, Baked};
+use super::baked::{check_bakeable, render_baked_seen_by, shade_ready, Baked};
 use super::files::FileOptions;
 use super::fill::{fill_cache, CacheFill, FillLight};
 use super::photons::{build_maps, trace_photons};
@@ -243,16 +243,13 @@ pub fn render_walk_frame(
         }
         None => render_baked_seen_by(scene, opts, baked, Some((&camera, f)), progress, cancel)?,
     };
-    stats.frame = Some(FrameStats {
-        frame: f,
-        photons_reused: true,
-        ..Default::default()
-    });
+    stats.frame = Some(frame_stats(f));
     Ok((out, stats))
 }
 
 /// The walk's frames `frames`, each shaded from one bake of the walk and handed to `on_frame` (the
-/// caller writes it); `tiles` shades each frame as that many bands of rows.
+/// caller writes it); `tiles` shades each frame as that many bands of rows. The bake is read back
+/// once for every frame (its maps built, its cache loaded), as each frame of a farm reads it.
 pub fn render_walk(
     anim: &Animation,
     frames: RangeInclusive<u32>,
@@ -264,10 +261,38 @@ pub fn render_walk(
 ) -> Result<()> {
     let (baked, _) = bake_walk(anim, opts, progress, cancel)?;
     let scene = scene::load_frame(anim, *frames.start())?;
+    let first = scene::frame_camera(anim, *frames.start())?;
+    let plan_first = plan(&scene, opts, Some(&first))?;
+    budget::check(&scene, &plan_first, opts)?;
+    // Tiles read the bake once a tile, as a farm's tile tasks do.
+    let mut ready = match tiles {
+        None => Some(baked.ready(&scene, &plan_first, cancel)?),
+        Some(_) => None,
+    };
     for f in frames {
-        let (out, stats) =
-            render_walk_frame(anim, &scene, &baked, f, tiles, opts, progress, cancel)?;
+        let (out, stats) = match &mut ready {
+            None => render_walk_frame(anim, &scene, &baked, f, tiles, opts, progress, cancel)?,
+            Some(r) => {
+                let start = Instant::now();
+                let camera = scene::frame_camera(anim, f)?;
+                scene.place_eye(camera.eye);
+                let plan = plan(&scene, opts, Some(&camera))?;
+                let (out, mut stats) =
+                    shade_ready(&scene, &plan, &baked, r, Some(f), start, progress, cancel)?;
+                stats.frame = Some(frame_stats(f));
+                (out, stats)
+            }
+        };
         on_frame(f, &scene, &out, &stats)?;
     }
     Ok(())
+}
+
+/// A walk's frame's line of the statistics: its number, its photons read from the bake.
+fn frame_stats(f: u32) -> FrameStats {
+    FrameStats {
+        frame: f,
+        photons_reused: true,
+        ..Default::default()
+    }
 }
