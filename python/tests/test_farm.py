@@ -107,7 +107,18 @@ def test_a_bad_scene_fails_before_any_task(tmp_path):
     assert r.returncode == 2 and "#" in r.stderr
 
 
-def test_a_worker_killed_mid_run_loses_no_frame(tmp_path):
+KILLED = {
+    # A sequence in chunks: each chunk a task.
+    "chunks": ("anim-ball.toml", ["--frames", "0..7", "--chunk", "2", "--width", "96", "--height", "72",
+                                  "--spp", "8"]),
+    # A camera walk baked once: a bake task, then each frame's tiles as tasks.
+    "shared bake": ("blinds-walk.toml", ["--frames", "0..7", "--shared-bake", "--tiles", "2",
+                                         "--width", "96", "--height", "72", "--spp", "8"]),
+}
+
+
+@pytest.mark.parametrize("kind", list(KILLED))
+def test_a_worker_killed_mid_run_loses_no_frame(tmp_path, kind):
     """A real scheduler and two worker processes; one is killed once the first frame is written."""
     dask = str(VENV_BIN / "dask")
     sched_file = tmp_path / "scheduler.json"
@@ -126,8 +137,8 @@ def test_a_worker_killed_mid_run_loses_no_frame(tmp_path):
                                     stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env)
                    for _ in range(2)]
         procs += workers
-        scene = str(SCENES / "anim-ball.toml")
-        args = ["--frames", "0..7", "--chunk", "2", "--width", "96", "--height", "72", "--spp", "8"]
+        name, args = KILLED[kind]
+        scene = str(SCENES / name)
         job = subprocess.Popen([FARM, scene, "-o", str(tmp_path / "farm" / "f-##.exr"), "--scheduler",
                                 address, "--threads", "1", "--stats", str(tmp_path / "s.json"), *args],
                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
