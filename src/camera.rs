@@ -2,6 +2,34 @@
 
 use glam::Vec3;
 
+/// A camera's pixel size at each distance: how many of its pixels a disc on a surface spans.
+#[derive(Clone, Copy, Debug)]
+pub struct PixelSpan {
+    eye: Vec3,
+    forward: Vec3,
+    /// A pixel's height on the image plane at distance 1.
+    pixel: f32,
+}
+
+impl PixelSpan {
+    /// The world size of a pixel at `distance` along `dir`, on a surface at `cos_theta` to it.
+    pub fn pixel_world(&self, dir: Vec3, distance: f32, cos_theta: f32) -> f32 {
+        let along_axis = distance * self.forward.dot(dir).abs().max(1e-3);
+        self.pixel * along_axis / cos_theta.abs().max(0.05).sqrt()
+    }
+
+    /// The pixels a disc of radius `r` at `p` (normal `n`) spans; a disc at the eye spans them all.
+    pub fn of(&self, p: Vec3, n: Vec3, r: f32) -> f32 {
+        let to = p - self.eye;
+        let dist = to.length();
+        if !(dist > 0.0) {
+            return f32::INFINITY;
+        }
+        let dir = to / dist;
+        r / self.pixel_world(dir, dist, n.dot(dir))
+    }
+}
+
 #[derive(Clone, Debug)]
 pub struct Camera {
     pub eye: Vec3,
@@ -84,9 +112,16 @@ impl Camera {
     /// World-space width of one pixel at `distance` along a ray, on a surface seen at `cos_theta` to
     /// its normal (the pixel footprint projected onto the tangent plane, along its longer axis).
     pub fn pixel_world(&self, dir: Vec3, distance: f32, cos_theta: f32) -> f32 {
-        let along_axis = distance * self.forward.dot(dir).abs().max(1e-3);
-        let pixel = 2.0 * self.tan_half * along_axis / self.height as f32;
-        pixel / cos_theta.abs().max(0.05).sqrt()
+        self.pixel_span().pixel_world(dir, distance, cos_theta)
+    }
+
+    /// What measures world sizes in this camera's pixels, without the camera.
+    pub fn pixel_span(&self) -> PixelSpan {
+        PixelSpan {
+            eye: self.eye,
+            forward: self.forward,
+            pixel: 2.0 * self.tan_half / self.height as f32,
+        }
     }
 
     /// Pixel coordinates of a world point, if in front of the camera.

@@ -6,6 +6,7 @@
 use std::f32::consts::PI;
 use std::sync::atomic::{AtomicBool, Ordering};
 
+use crate::camera::PixelSpan;
 use gather::{GatherParams, GatherRay, GatherResult};
 use glam::Vec3;
 use icache::media::MediaCache;
@@ -45,11 +46,15 @@ pub enum IndirectSource<'a> {
 /// Which records of a cache were made for other views than the one rendered: a sequence's earlier
 /// frames' (the first `below`), and a walk's later frames' (`from..to`). Records made after all of
 /// them (pass B's, or this view's pass A's) are the view's own.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default)]
 pub struct OtherViews {
     pub below: usize,
     pub from: usize,
     pub to: usize,
+    /// For a walk's shared cache: the view's pixels, and the most of them another view's record may
+    /// span here — one made far from the camera is too coarse once it comes close (a sequence drops
+    /// such records instead; a shared cache keeps them for the views they suit).
+    pub fine: Option<(PixelSpan, f32)>,
 }
 
 impl OtherViews {
@@ -57,9 +62,14 @@ impl OtherViews {
     pub fn first(n: usize) -> OtherViews {
         OtherViews {
             below: n,
-            from: 0,
-            to: 0,
+            ..Default::default()
         }
+    }
+
+    /// Whether another view's record `rec` is fine enough to be read in this one.
+    fn fits(&self, rec: &icache::Record) -> bool {
+        self.fine
+            .is_none_or(|(span, most)| span.of(rec.pos, rec.normal, rec.r_clamped) <= most)
     }
 
     /// Whether record `id` was made for another view.
@@ -329,10 +339,11 @@ impl PmContext<'_> {
     /// must reach it. A still's records lie on surfaces its camera sees; another view's may lie behind
     /// an occluder of this one and lend its light across it.
     fn record_in_sight(&self, hit: &Hit, frame: &Frame, id: u32, rec: &icache::Record) -> bool {
-        if !self.scene.settings.icache.visibility() && !self.foreign.has(id) {
+        let other = self.foreign.has(id);
+        if !self.scene.settings.icache.visibility() && !other {
             return true;
         }
-        self.in_sight(hit, frame.smooth, rec)
+        (!other || self.foreign.fits(rec)) && self.in_sight(hit, frame.smooth, rec)
     }
 
     /// Whether a fill may count record `id` as covering the point `hit` (shading normal `n`): one made
@@ -340,7 +351,7 @@ impl PmContext<'_> {
     /// gathers for it between its rounds and shades its pixel again. (`visibility` stays pass B's
     /// alone, as in a still.)
     pub fn fill_may_use(&self, hit: &Hit, n: Vec3, id: u32, rec: &icache::Record) -> bool {
-        !self.foreign.has(id) || self.in_sight(hit, n, rec)
+        !self.foreign.has(id) || (self.foreign.fits(rec) && self.in_sight(hit, n, rec))
     }
 
     /// A shadow ray from `hit` (off its side `n`) reaches the record, just off its surface. Both ends

@@ -183,7 +183,10 @@ pub(super) fn shade_ready(
     };
     // A walk's frame reads the records other frames' views made only where they are in sight.
     let foreign = match (&cache, frame) {
-        (Some(fill), Some(f)) => baked.other_views(f, fill.cache.len())?,
+        (Some(fill), Some(f)) => OtherViews {
+            fine: Some(super::shared_bake::fine_in(plan)),
+            ..baked.other_views(f, fill.cache.len())?
+        },
         _ => OtherViews::default(),
     };
     let mut stats = ready.stats.clone();
@@ -309,6 +312,7 @@ impl Baked {
             below: from,
             from: to,
             to: n,
+            fine: None,
         })
     }
 

@@ -48,14 +48,14 @@ pub fn fill_cache(
     scene: &Scene,
     plan: &Plan,
     light: FillLight,
-    earlier: Option<(IrradianceCache, usize)>,
+    earlier: Option<(IrradianceCache, OtherViews)>,
     only: Option<super::tiles::Window>,
     progress: &dyn Progress,
     cancel: &AtomicBool,
 ) -> Result<(CacheFill, CacheFillStats)> {
     let t = Instant::now();
     let radiance = light.radiance;
-    let foreign = OtherViews::first(earlier.as_ref().map_or(0, |(_, n)| *n));
+    let foreign = earlier.as_ref().map_or(OtherViews::default(), |(_, v)| *v);
     let ctx = fill_context(scene, plan, light, foreign, cancel);
     let (lo, hi) = scene.bounds;
     // Records of earlier frames cover what they cover; pass A adds records only where they do not.

@@ -278,7 +278,10 @@ pub(crate) fn cache_phase(
     }
     let (cache, s) = match &files.load_cache {
         Some(file) => load_cache(scene, plan, file)?,
-        None => fill_cache(scene, plan, light, earlier, only, progress, cancel)?,
+        None => {
+            let earlier = earlier.map(|(c, n)| (c, OtherViews::first(n)));
+            fill_cache(scene, plan, light, earlier, only, progress, cancel)?
+        }
     };
     stats.fill = Some(s);
     interrupted(cancel)?;

@@ -25,6 +25,7 @@ use super::{
 };
 use crate::camera::Camera;
 use crate::error::{option, Result};
+use crate::integrator::pm::OtherViews;
 use crate::photons::PhotonData;
 use crate::progress::{NoProgress, Progress};
 use crate::scene::{self, Animation, Method, Scene};
@@ -169,8 +170,11 @@ impl Views<'_> {
                     .pass_a_gaps_only(plan.width, plan.height);
                 let mut cache = c.cache;
                 cache.thaw();
-                let n = cache.len();
-                ((cache, n), c.chosen_rays)
+                let others = OtherViews {
+                    fine: Some(fine_in(&plan)),
+                    ..OtherViews::first(cache.len())
+                };
+                ((cache, others), c.chosen_rays)
             });
             if let (Some(r), Some(_)) = (radiance.as_deref_mut(), &earlier) {
                 r.next_frame();
@@ -181,7 +185,7 @@ impl Views<'_> {
                 radiance: radiance.as_deref(),
             };
             let (records, chosen) = earlier.unzip();
-            let had = records.as_ref().map_or(0, |(_, n)| *n as u64);
+            let had = records.as_ref().map_or(0, |(_, v)| v.below as u64);
             let (mut c, s) = fill_cache(scene, &plan, light, records, None, &NoProgress, cancel)?;
             made.push((had, c.cache.len() as u64));
             c.chosen_rays = chosen.flatten().or(c.chosen_rays);
@@ -199,6 +203,14 @@ impl Views<'_> {
         fill.map(|c| (c, total, made))
             .ok_or_else(|| option(OPTION, "the walk has no frame"))
     }
+}
+
+/// The view of `plan`, and the most of its pixels another view's record may span in it: the cache's
+/// largest spacing (twice it with adaptive caching, which grows records up to that).
+pub(super) fn fine_in(plan: &super::Plan) -> (crate::camera::PixelSpan, f32) {
+    let p = &plan.cache;
+    let most = p.max_spacing_px * if p.adaptive.is_some() { 2.0 } else { 1.0 };
+    (plan.camera.pixel_span(), most)
 }
 
 /// `s` (one view's fill) added to `total`.
