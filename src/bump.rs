@@ -213,6 +213,38 @@ impl BumpMap {
         }
         icache::file::fnv1a64(&bytes)
     }
+
+    /// A normal map's texels with its strength applied, RGB as an image stores them (`(n + 1) / 2`,
+    /// top row first): the map a reader without a strength (Mitsuba 3's `normalmap`) reads to turn
+    /// normals as [`BumpMap::normal`] does — the same at texel centres; between them the blend comes
+    /// before the bilinear lookup instead of after it. `None` for a height map.
+    pub fn encoded_at_strength(&self) -> Option<Vec<f32>> {
+        let BumpMap::Normal {
+            texels, strength, ..
+        } = self
+        else {
+            return None;
+        };
+        // Tangent space: the unbumped normal is +z, and `normal`'s fallbacks keep it.
+        let turned = |c: Vec3| {
+            let mapped = c.normalize_or_zero();
+            if mapped == Vec3::ZERO {
+                return Vec3::Z;
+            }
+            let n = (Vec3::Z + (mapped - Vec3::Z) * *strength).normalize_or_zero();
+            if n.is_finite() && n.z > 0.0 {
+                n
+            } else {
+                Vec3::Z
+            }
+        };
+        Some(
+            texels
+                .iter()
+                .flat_map(|&c| ((turned(c) + Vec3::ONE) * 0.5).to_array())
+                .collect(),
+        )
+    }
 }
 
 /// Whether the colour texels `rgb` (as stored, in [0, 1]) are those of a tangent-space normal map
@@ -295,6 +327,34 @@ mod tests {
         assert_eq!(under.normal(n, dpdu, dpdv, Vec2::ZERO), n);
     }
 
+    /// The texels `encoded_at_strength` bakes, decoded and normalized (as Mitsuba's `normalmap` reads
+    /// them), are the normals `normal` gives at their centres; strength 0 bakes a flat map.
+    #[test]
+    fn baked_strength_matches_the_blend_at_texel_centres() {
+        let texels = vec![Vec3::new(0.6, 0.0, 0.8), Vec3::new(-0.3, 0.5, 0.6)];
+        let map = |strength| BumpMap::Normal {
+            path: PathBuf::new(),
+            width: 2,
+            height: 1,
+            texels: texels.clone(),
+            strength,
+        };
+        let half = map(0.5);
+        let baked = half.encoded_at_strength().unwrap();
+        for (i, c) in baked.chunks_exact(3).enumerate() {
+            let read = (Vec3::from_slice(c) * 2.0 - Vec3::ONE).normalize();
+            let uv = Vec2::new((i as f32 + 0.5) / 2.0, 0.5);
+            let ours = half.normal(Vec3::Z, Vec3::X, Vec3::Y, uv);
+            assert!((read - ours).length() < 1e-5, "texel {i}: {read} vs {ours}");
+            assert!(
+                (ours - Vec3::Z).length() > 0.1,
+                "texel {i} not turned: {ours}"
+            );
+        }
+        let flat = map(0.0).encoded_at_strength().unwrap();
+        assert_eq!(flat, [0.5, 0.5, 1.0, 0.5, 0.5, 1.0]);
+    }
+
     /// A height ramp h = u over a plane with ∂p/∂u = L x̂ and scale s has slope s/L along x.
     #[test]
     fn a_height_ramp_tilts_the_normal_by_its_slope() {
@@ -305,6 +365,7 @@ mod tests {
             values: (0..2)
                 .flat_map(|_| (0..w).map(|i| (i as f32 + 0.5) / w as f32))
                 .collect(),
+            plain_grey: true,
         };
         let map = BumpMap::Height {
             path: PathBuf::new(),

@@ -21,6 +21,9 @@ pub struct Mask {
     pub width: u32,
     pub height: u32,
     pub values: Vec<f32>,
+    /// Whether a reader that drops alpha and takes a colour texel's luminance (Mitsuba's `bitmap`)
+    /// reads these values from the image: it has no alpha and its texels are grey.
+    pub plain_grey: bool,
 }
 
 impl Mask {
@@ -52,6 +55,12 @@ impl Mask {
                 None => px[..n_colour].iter().sum::<f32>() / n_colour as f32,
             })
             .collect();
+        let plain_grey = alpha.is_none()
+            && (n_colour == 1
+                || img
+                    .data
+                    .chunks_exact(nc)
+                    .all(|px| px[..n_colour].iter().all(|&c| c == px[0])));
         if let Some(i) = values.iter().position(|v| !v.is_finite()) {
             let w = img.width.max(1) as usize;
             return Err(format!(
@@ -64,6 +73,7 @@ impl Mask {
             width: img.width,
             height: img.height,
             values,
+            plain_grey,
         })
     }
 
@@ -128,6 +138,11 @@ impl Cutouts {
 }
 
 impl Cutouts {
+    /// Mask `k` of the list [`Cutouts::new`] was given.
+    pub fn mask(&self, k: u32) -> &Mask {
+        &self.masks[k as usize]
+    }
+
     /// Whether a mask cuts some emissive triangle of `lights` (their samples must then skip it).
     pub fn cuts_any(&self, lights: &crate::light::Lights) -> bool {
         lights.lights.iter().any(|l| {
@@ -179,10 +194,15 @@ mod tests {
         .unwrap();
         let m = Mask::load(&rgba).unwrap();
         assert_eq!(m.values, vec![1.0, 0.0]);
+        assert!(!m.plain_grey);
         let grey = d.path().join("g.ppm");
         std::fs::write(&grey, "P3\n2 1\n255\n140 140 140 100 100 100\n").unwrap();
         let m = Mask::load(&grey).unwrap();
         assert!((m.values[0] - 140.0 / 255.0).abs() < 1e-6, "{:?}", m.values);
+        assert!(m.plain_grey);
+        let colour = d.path().join("c.ppm");
+        std::fs::write(&colour, "P3\n1 1\n255\n255 0 0\n").unwrap();
+        assert!(!Mask::load(&colour).unwrap().plain_grey);
         let c = Cutouts::new(
             vec![m],
             3,

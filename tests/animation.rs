@@ -204,6 +204,47 @@ fn an_eye_interpolated_onto_its_target_is_refused() {
     refused(&k, &[], &["scene.toml:", "frame 1"]);
 }
 
+/// Two finite keys whose values differ by more than f32's range: every frame between them would be
+/// infinite. Refused at the first of those frames, on the line of the key before it, saying so (it
+/// read "must be finite", of values the file never gave).
+#[test]
+fn keys_whose_interpolation_overflows_are_refused_with_their_lines() {
+    let mut k = Keys::frames(4);
+    k.cube = "[[mesh.key]]\nframe = 0\nrotate = [0.0, 3e38, 0.0]\n\
+              [[mesh.key]]\nframe = 3\nrotate = [0.0, -3e38, 0.0]\n"
+        .into();
+    let next = at_line_of(&k, "rotate = [0.0, -3e38", 0);
+    let next = next.trim_start_matches("scene.toml:").trim_end_matches(':');
+    refused(
+        &k,
+        &[],
+        &[
+            &format!(
+                "{} frame 1: mesh.rotate: this key's 3e38 and the next key's -3e38 (line {next}) \
+                 differ by more than f32's range (3.4e38)",
+                at_line_of(&k, "rotate = [0.0, 3e38", 0)
+            ),
+            "keep consecutive keys within 3.4e38",
+        ],
+    );
+    // The camera's target (any finite point), keyed after a first key that leaves it unset.
+    let mut k = Keys::frames(5);
+    k.camera = "[[camera.key]]\nframe = 0\nfov = 40.0\n[[camera.key]]\nframe = 1\n\
+                target = [-3e38, 1.0, 0.0]\n[[camera.key]]\nframe = 4\ntarget = [3e38, 1.0, 0.0]\n"
+        .into();
+    refused(
+        &k,
+        &[],
+        &[
+            &format!(
+                "{} frame 2: camera.target: this key's -3e38",
+                at_line_of(&k, "target = [-3e38", 0)
+            ),
+            "overflow",
+        ],
+    );
+}
+
 #[test]
 fn bad_output_patterns_and_frame_ranges_are_refused() {
     let k = {

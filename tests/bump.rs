@@ -291,3 +291,64 @@ fn export_writes_bumpmap_and_normalmap_wrappers() {
         "{normal}"
     );
 }
+
+/// Mitsuba's `normalmap` has no strength: a normal map of `-bm` 0.5 is exported as an EXR of its
+/// texels turned halfway to the surface's normal, encoded as the image was; at strength 1 the map's
+/// own image is named.
+#[test]
+fn export_bakes_a_normal_maps_strength() {
+    let d = scene_dir(&[
+        (
+            "m.obj",
+            "mtllib m.mtl\nv -1 0 1\nv 1 0 1\nv 1 0 -1\nv -1 0 -1\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n\
+             usemtl a\nf 1/1 2/2 3/3\nusemtl b\nf 1/1 3/3 4/4\n",
+        ),
+        (
+            "m.mtl",
+            "newmtl a\nKd 0.5 0.5 0.5\nnorm -bm 0.5 n.ppm\nnewmtl b\nKd 0.5 0.5 0.5\n\
+             norm -bm 1 n.ppm\n",
+        ),
+        (
+            "s.toml",
+            "version = 1\n[camera]\neye = [0.0, 2.0, 2.0]\ntarget = [0.0, 0.0, 0.0]\n\
+             fov = 45.0\nwidth = 16\nheight = 12\n[[mesh]]\nobj = \"m.obj\"\n[[light]]\ntype = \"point\"\n\
+             position = [0.0, 1.0, 0.0]\nintensity = [1.0, 1.0, 1.0]\n",
+        ),
+    ]);
+    // (0.6, 0, 0.8) encoded; halfway to +z it is normalize(0.3, 0, 0.9).
+    let texel = [204, 128, 230];
+    std::fs::write(d.path().join("n.ppm"), ppm(2, 2, texel)).unwrap();
+    let out = d.path().join("mi");
+    let r = run(&[
+        "export-mitsuba",
+        &p(d.path(), "s.toml"),
+        out.to_str().unwrap(),
+    ]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let xml = std::fs::read_to_string(out.join("scene.xml")).unwrap();
+    let files: Vec<&str> = xml
+        .lines()
+        .filter(|l| l.contains("normalmap"))
+        .map(|l| {
+            let at = l.find(r#"name="normalmap">"#).expect(l);
+            let key = r#"<string name="filename" value=""#;
+            let start = at + l[at..].find(key).expect(l) + key.len();
+            &l[start..start + l[start..].find('"').unwrap()]
+        })
+        .collect();
+    assert_eq!(files.len(), 2, "{xml}");
+    let (baked, own): (Vec<&str>, Vec<&str>) = files.iter().partition(|f| f.ends_with(".exr"));
+    assert!(own.len() == 1 && own[0].ends_with("n.ppm"), "{files:?}");
+    assert!(
+        baked.len() == 1 && baked[0].starts_with("normal_"),
+        "{files:?}"
+    );
+    let img = pmrender::io::oiio::read(&out.join(baked[0])).unwrap();
+    assert_eq!((img.width, img.height, img.channels), (2, 2, 3));
+    let c = Vec3::from_array(texel.map(|v| v as f32 / 255.0)) * 2.0 - Vec3::ONE;
+    let want = (Vec3::Z + (c.normalize() - Vec3::Z) * 0.5).normalize();
+    for px in img.data.chunks_exact(3) {
+        let got = Vec3::from_slice(px) * 2.0 - Vec3::ONE;
+        assert!((got - want).length() < 1e-5, "{got} vs {want}");
+    }
+}

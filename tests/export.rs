@@ -94,3 +94,117 @@ fn export_never_overwrites_its_inputs() {
     ]);
     assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
 }
+
+/// Exports `mtl` for an OBJ of three quads using materials `a`, `b` and `c` (images `images` beside
+/// it) and returns the export's folder and its scene.xml.
+fn export_quads(mtl: &str, images: &[(&str, Vec<u8>)]) -> (tempfile::TempDir, String) {
+    let mut obj = String::from("mtllib m.mtl\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n");
+    for (k, m) in ["a", "b", "c"].iter().enumerate() {
+        let x = 3.0 * k as f32;
+        obj += &format!(
+            "v {} 0 1\nv {} 0 1\nv {} 0 -1\nv {} 0 -1\nusemtl {m}\nf {}/1 {}/2 {}/3 {}/4\n",
+            x - 1.0,
+            x + 1.0,
+            x + 1.0,
+            x - 1.0,
+            4 * k + 1,
+            4 * k + 2,
+            4 * k + 3,
+            4 * k + 4
+        );
+    }
+    let d = scene_dir(&[
+        ("m.obj", &obj),
+        ("m.mtl", mtl),
+        (
+            "s.toml",
+            "version = 1\n[camera]\neye = [3.0, 4.0, 4.0]\ntarget = [3.0, 0.0, 0.0]\n\
+             fov = 45.0\nwidth = 16\nheight = 12\n[[mesh]]\nobj = \"m.obj\"\n[[light]]\ntype = \"point\"\n\
+             position = [3.0, 2.0, 0.0]\nintensity = [1.0, 1.0, 1.0]\n",
+        ),
+    ]);
+    for (name, bytes) in images {
+        std::fs::write(d.path().join(name), bytes).unwrap();
+    }
+    let out = d.path().join("mi");
+    let r = run(&[
+        "export-mitsuba",
+        &p(d.path(), "s.toml"),
+        out.to_str().unwrap(),
+    ]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let xml = std::fs::read_to_string(out.join("scene.xml")).unwrap();
+    (d, xml)
+}
+
+/// The shape line of the material whose Kd is `kd` (each material of a test has its own).
+fn shape_of<'a>(xml: &'a str, kd: &str) -> &'a str {
+    let needle = format!(r#"name="reflectance" value="{kd}""#);
+    xml.lines().find(|l| l.contains(&needle)).expect(xml)
+}
+
+/// A binary PGM (P5) of `w` × `h` texels, each `grey`.
+fn pgm(w: u32, h: u32, grey: u8) -> Vec<u8> {
+    let mut b = format!("P5\n{w} {h}\n255\n").into_bytes();
+    b.extend(std::iter::repeat_n(grey, (w * h) as usize));
+    b
+}
+
+/// A material with `map_d` is wrapped in Mitsuba 3's `mask`, outside its bump map's `bumpmap`, the
+/// opacity its mask image read raw, bilinearly and wrapping; one without `map_d` has no mask. A mask
+/// read from alpha, which Mitsuba's `bitmap` drops, is written as an EXR of the alpha values.
+#[test]
+fn export_wraps_cutouts_in_a_mask_outside_the_bump_map() {
+    let dir = tempfile::tempdir().unwrap();
+    let rgba = dir.path().join("leaf.png");
+    // 2×1: white, opaque then transparent.
+    pmrender::io::oiio::write(
+        &rgba,
+        2,
+        1,
+        &["R", "G", "B", "A"],
+        pmrender::io::oiio::Pixels::U8(&[255, 255, 255, 255, 255, 255, 255, 0]),
+    )
+    .unwrap();
+    let (d, xml) = export_quads(
+        "newmtl a\nKd 0.5 0.1 0.1\nmap_d -clamp on cut.pgm\nbump -bm 0.25 h.pgm\n\
+         newmtl b\nKd 0.1 0.5 0.1\nbump -bm 0.25 h.pgm\n\
+         newmtl c\nKd 0.1 0.1 0.5\nmap_d leaf.png\n",
+        &[
+            ("cut.pgm", pgm(4, 4, 255)),
+            ("h.pgm", pgm(4, 4, 128)),
+            ("leaf.png", std::fs::read(&rgba).unwrap()),
+        ],
+    );
+    let opacity = r#"<bsdf type="mask"><texture type="bitmap" name="opacity"><boolean name="raw" value="true"/><string name="filter_type" value="bilinear"/><string name="wrap_mode" value="repeat"/><string name="filename" value=""#;
+    let a = shape_of(&xml, "0.5 0.1 0.1");
+    let (mask, bump) = (a.find(opacity).expect(a), a.find("bumpmap").expect(a));
+    assert!(mask < bump, "the mask wraps the bump map: {a}");
+    let file = &a[mask + opacity.len()..];
+    let cut = std::fs::canonicalize(d.path().join("cut.pgm")).unwrap();
+    assert!(file.starts_with(&format!("{}\"", cut.display())), "{a}");
+    assert!(
+        a.ends_with("</bsdf></bsdf></bsdf></bsdf></shape>"),
+        "mask(bumpmap(twosided(diffuse))): {a}"
+    );
+    let b = shape_of(&xml, "0.1 0.5 0.1");
+    assert!(!b.contains("mask") && b.contains("bumpmap"), "{b}");
+    let c = shape_of(&xml, "0.1 0.1 0.5");
+    let at = c.find(opacity).expect(c) + opacity.len();
+    let name = &c[at..at + c[at..].find('"').unwrap()];
+    assert!(name.starts_with("mask_") && name.ends_with(".exr"), "{c}");
+    let alpha = pmrender::io::oiio::read(&d.path().join("mi").join(name)).unwrap();
+    assert_eq!(
+        (alpha.width, alpha.height, alpha.channels, alpha.data),
+        (2, 1, 1, vec![1.0, 0.0])
+    );
+    assert!(xml.contains(r#"<integrator type="volpath">"#), "{xml}");
+
+    let (_d, xml) = export_quads(
+        "newmtl a\nKd 0.5 0.1 0.1\nbump -bm 0.25 h.pgm\nnewmtl b\nKd 0.1 0.5 0.1\n\
+         newmtl c\nKd 0.1 0.1 0.5\n",
+        &[("h.pgm", pgm(4, 4, 128))],
+    );
+    assert!(!xml.contains("mask"), "{xml}");
+    assert!(xml.contains(r#"<integrator type="path">"#), "{xml}");
+}

@@ -322,10 +322,59 @@ impl Animation {
             path: &self.path,
             text: &self.text,
         };
+        let mut overflow = self.first_overflow();
         for f in 0..self.frames {
+            if let Some((_, e)) = overflow.take_if(|(at, _)| *at == i64::from(f)) {
+                return Err(at_frame(e, f));
+            }
             check(&cx, &self.frame_desc(f)).map_err(|e| at_frame(self.at_key(e, f), f))?;
         }
         Ok(())
+    }
+
+    /// The first frame where interpolating a keyed value overflows f32 (see [`Track::overflow`]),
+    /// and the error that names the key before it: the key whose value the frame moves away from.
+    fn first_overflow(&self) -> Option<(i64, Error)> {
+        let t = &self.tracks;
+        let camera = ["eye", "target", "up"]
+            .into_iter()
+            .zip(&t.camera)
+            .map(|(field, track)| ("camera", 0, field, track.overflow()))
+            .chain([("camera", 0, "fov", t.fov.overflow())]);
+        let meshes = t.meshes.iter().enumerate().flat_map(|(i, tracks)| {
+            ["scale", "rotate", "translate"]
+                .into_iter()
+                .zip(tracks)
+                .map(move |(field, track)| ("mesh", i, field, track.overflow()))
+        });
+        let lights = t.lights.iter().enumerate().flat_map(|(i, tracks)| {
+            ["position", "target", "direction", "intensity", "irradiance"]
+                .into_iter()
+                .zip(tracks)
+                .map(move |(field, track)| ("light", i, field, track.overflow()))
+        });
+        let (table, i, field, o) = camera
+            .chain(meshes)
+            .chain(lights)
+            .filter_map(|(table, i, field, o)| Some((table, i, field, o?)))
+            .min_by_key(|(.., o)| o.frame)?;
+        let line = |k: usize| {
+            let indices = if table == "camera" {
+                vec![k]
+            } else {
+                vec![i, k]
+            };
+            line_of_path(&self.text, &[table, "key", field], &indices)
+        };
+        let [a, b] = o.values;
+        let msg = format!(
+            "{table}.{field}: this key's {a:?} and the next key's {b:?} (line {}) differ by more \
+             than f32's range ({max:.1e}), so the frames between them overflow; keep consecutive \
+             keys within {max:.1e} of each other",
+            line(o.keys[1]),
+            max = f32::MAX
+        );
+        Some((o.frame, at_line(&self.path, line(o.keys[0]), msg)))
     }
 
     /// An error about a keyed value of frame `f` ("file:line: table.field: …", the line of the base
@@ -437,6 +486,10 @@ fn per_axis(s: Scale) -> [f32; 3] {
 /// A value that can be interpolated linearly.
 trait Lerp: Copy {
     fn lerp(a: Self, b: Self, t: f32) -> Self;
+
+    /// The first pair of components, both finite, whose difference overflows f32: [`Lerp::lerp`]
+    /// between `a` and `b` is infinite there for every `t` strictly between 0 and 1.
+    fn overflowing(a: Self, b: Self) -> Option<[f32; 2]>;
 }
 
 impl Lerp for f32 {
@@ -450,23 +503,59 @@ impl Lerp for f32 {
             a + (b - a) * t
         }
     }
+
+    fn overflowing(a: f32, b: f32) -> Option<[f32; 2]> {
+        (a.is_finite() && b.is_finite() && !(b - a).is_finite()).then_some([a, b])
+    }
 }
 
 impl Lerp for [f32; 3] {
     fn lerp(a: [f32; 3], b: [f32; 3], t: f32) -> [f32; 3] {
         std::array::from_fn(|i| f32::lerp(a[i], b[i], t))
     }
+
+    fn overflowing(a: [f32; 3], b: [f32; 3]) -> Option<[f32; 2]> {
+        (0..3).find_map(|i| f32::overflowing(a[i], b[i]))
+    }
 }
 
-/// One keyable value's keys that set it, in frame order.
+/// One keyable value's keys that set it, in frame order: frame, value, and the key's index among its
+/// table's keys in the file (for messages).
 #[derive(Clone, Debug)]
-struct Track<T>(Vec<(i64, T)>);
+struct Track<T>(Vec<(i64, T, usize)>);
+
+/// Two consecutive keys of a track whose interpolation overflows ([`Track::overflow`]).
+struct Overflow {
+    /// The first frame between them.
+    frame: i64,
+    /// The keys' indices in the file, the earlier first.
+    keys: [usize; 2],
+    /// Their values of the first component that overflows.
+    values: [f32; 2],
+}
 
 impl<T: Lerp> Track<T> {
     fn new(keys: impl Iterator<Item = (i64, Option<T>)>) -> Track<T> {
-        let mut set: Vec<(i64, T)> = keys.filter_map(|(k, v)| Some((k, v?))).collect();
-        set.sort_by_key(|(k, _)| *k);
+        let mut set: Vec<(i64, T, usize)> = keys
+            .enumerate()
+            .filter_map(|(i, (k, v))| Some((k, v?, i)))
+            .collect();
+        set.sort_by_key(|(k, ..)| *k);
         Track(set)
+    }
+
+    /// The first consecutive keys, both finite and with a frame between them, whose values differ by
+    /// more than f32's range: every frame between them would be infinite.
+    fn overflow(&self) -> Option<Overflow> {
+        self.0.windows(2).find_map(|w| {
+            let ((k0, a, i0), (k1, b, i1)) = (w[0], w[1]);
+            let values = T::overflowing(a, b).filter(|_| k1 - k0 > 1)?;
+            Some(Overflow {
+                frame: k0 + 1,
+                keys: [i0, i1],
+                values,
+            })
+        })
     }
 
     /// The value at frame `f`: `base` where no key sets it, else held before the first key and after
@@ -484,8 +573,8 @@ impl<T: Lerp> Track<T> {
         if f >= last.0 {
             return Some(last.1);
         }
-        let i = set.partition_point(|(k, _)| *k <= f);
-        let ((k0, v0), (k1, v1)) = (set[i - 1], set[i]);
+        let i = set.partition_point(|(k, ..)| *k <= f);
+        let ((k0, v0, _), (k1, v1, _)) = (set[i - 1], set[i]);
         Some(T::lerp(v0, v1, (f - k0) as f32 / (k1 - k0) as f32))
     }
 }
@@ -600,6 +689,26 @@ mod tests {
         assert_eq!(at(99), 3.0);
         assert_eq!(track(Some(5.0f32), [(3, None)].into_iter(), 7), Some(5.0));
         assert_eq!(track::<f32>(None, std::iter::empty(), 7), None);
+    }
+
+    /// Keys whose difference overflows f32 are found where a frame lies between them, named by
+    /// their indices in the file; keys as far apart as f32 allows, or with no frame between, are not.
+    #[test]
+    fn an_overflowing_interpolation_is_found_between_its_keys() {
+        let keys = [
+            (6, Some([0.0f32, -3e38, 0.0])),
+            (0, Some([0.0, 1.0, 0.0])),
+            (2, Some([0.0, 3e38, 0.0])),
+        ];
+        let o = Track::new(keys.into_iter()).overflow().unwrap();
+        assert_eq!((o.frame, o.keys, o.values), (3, [2, 0], [3e38, -3e38]));
+        // What the check keeps from the frames: every one between those keys is infinite.
+        assert!((3..6).all(|f| !track(None, keys.into_iter(), f).unwrap()[1].is_finite()));
+        let near = [(0, Some(1.7e38f32)), (4, Some(-1.6e38))];
+        assert!(Track::new(near.into_iter()).overflow().is_none());
+        assert!(track(None, near.into_iter(), 2).unwrap().is_finite());
+        let adjacent = [(0, Some(3e38f32)), (1, Some(-3e38))];
+        assert!(Track::new(adjacent.into_iter()).overflow().is_none());
     }
 
     #[test]

@@ -210,7 +210,8 @@ fn build(path: &Path, text: &str, desc: &SceneFile, held: &HeldInputs) -> Result
     } = meshes(&cx, desc, held)?;
     let textures = textures(&cx, &mut materials, tex_paths)?;
     let gloss_maps = gloss_maps(&cx, &materials, ks_paths, ns_paths)?;
-    let cutouts = cutouts(&cx, &geometry, &materials, mask_paths)?.map(Arc::new);
+    let (cutouts, mask_files) = cutouts(&cx, &geometry, &materials, mask_paths)?;
+    let cutouts = cutouts.map(Arc::new);
     let bumps = bumps(&cx, &materials, bump_paths)?;
     let bounds = geometry.bounds();
     let mut lights = lights(&cx, desc, &geometry, &materials, &emission_at)?;
@@ -228,9 +229,9 @@ fn build(path: &Path, text: &str, desc: &SceneFile, held: &HeldInputs) -> Result
         media.as_ref(),
     );
     let triangles: Vec<[u32; 3]> = geometry.triangles.iter().map(|t| t.v).collect();
-    let bvh = match cutouts {
+    let bvh = match &cutouts {
         None => Bvh::build(&geometry.positions, &triangles)?,
-        Some(c) => Bvh::build_with_cutout(&geometry.positions, &triangles, Box::new(c))?,
+        Some(c) => Bvh::build_with_cutout(&geometry.positions, &triangles, Box::new(c.clone()))?,
     };
     // The specular BVH only tells the photon pass whether a path may reach a mirror or glass at all:
     // without the cutouts it answers yes a little more often, never wrongly no.
@@ -263,6 +264,8 @@ fn build(path: &Path, text: &str, desc: &SceneFile, held: &HeldInputs) -> Result
         texel_density,
         gloss_maps,
         bumps,
+        cutouts,
+        mask_files,
         warnings,
     })
 }
@@ -628,14 +631,17 @@ fn textures(cx: &Ctx, materials: &mut [Material], tex_paths: TexPaths) -> Result
     Ok(textures)
 }
 
-/// The cutouts of the triangles whose material names a `map_d` mask (each file read once); `None`
-/// when none does.
+/// Each material's mask file and its index among the cutouts' masks; empty when no triangle is cut.
+pub(super) type MaskFiles = Vec<Option<(PathBuf, u32)>>;
+
+/// The cutouts of the triangles whose material names a `map_d` mask (each file read once), `None`
+/// when none does, and each material's [`MaskFiles`] entry.
 fn cutouts(
     cx: &Ctx,
     geo: &Geometry,
     materials: &[Material],
     mask_paths: TexPaths,
-) -> Result<Option<Cutouts>> {
+) -> Result<(Option<Cutouts>, MaskFiles)> {
     let mut masks = Vec::new();
     let mut loaded: HashMap<PathBuf, u32> = HashMap::new();
     let mut mask_of = vec![None; materials.len()];
@@ -654,17 +660,21 @@ fn cutouts(
                 let m = Mask::load(&resolved)
                     .map_err(|e| in_file(&resolved, format!("cannot read mask: {e}")))?;
                 masks.push(m);
-                loaded.insert(resolved, masks.len() as u32 - 1);
+                loaded.insert(resolved.clone(), masks.len() as u32 - 1);
                 masks.len() as u32 - 1
             }
         };
-        mask_of[k] = Some(idx);
+        mask_of[k] = Some((resolved, idx));
     }
     let masked = geo.triangles.iter().enumerate().filter_map(|(i, t)| {
-        let mask = mask_of[t.material as usize]?;
-        Some((i, mask, t.v.map(|k| geo.uvs[k as usize])))
+        let (_, mask) = mask_of[t.material as usize].as_ref()?;
+        Some((i, *mask, t.v.map(|k| geo.uvs[k as usize])))
     });
-    Ok(Cutouts::new(masks, geo.triangles.len(), masked))
+    let cutouts = Cutouts::new(masks, geo.triangles.len(), masked);
+    if cutouts.is_none() {
+        mask_of.clear();
+    }
+    Ok((cutouts, mask_of))
 }
 
 /// Each glossy material's `map_Ks` and `map_Ns` (`None` for a material with neither, or not glossy

@@ -16,7 +16,7 @@ mod objcheck;
 mod settings;
 
 use std::cmp::Ordering;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use glam::{Vec2, Vec3};
 
@@ -156,6 +156,10 @@ pub struct Scene {
     gloss_maps: Vec<Option<crate::gloss_map::GlossMaps>>,
     /// Each material's bump or normal map; empty when no material has any.
     bumps: Vec<Option<std::sync::Arc<crate::bump::BumpMap>>>,
+    /// The `map_d` cutouts; `None` when no triangle has one.
+    cutouts: Option<std::sync::Arc<crate::cutout::Cutouts>>,
+    /// Each material's `map_d` file and mask among `cutouts`; empty when `cutouts` is `None`.
+    mask_files: build::MaskFiles,
     /// What the loader accepted but a user should hear about (an OBJ's `usemtl` of a material no
     /// library defines), each naming its file and line; the render's warnings begin with these.
     pub warnings: Vec<String>,
@@ -615,6 +619,17 @@ impl Scene {
     /// Material `material`'s bump or normal map, if it has one.
     pub(crate) fn bump_map(&self, material: usize) -> Option<&crate::bump::BumpMap> {
         self.bumps.get(material)?.as_deref()
+    }
+
+    /// Material `material`'s cutout (`map_d`): the file it was read from and its values.
+    pub(crate) fn cutout(&self, material: usize) -> Option<(&Path, &crate::cutout::Mask)> {
+        let (path, k) = self.mask_files.get(material)?.as_ref()?;
+        Some((path, self.cutouts.as_ref()?.mask(*k)))
+    }
+
+    /// Whether some triangle has a cutout (`map_d`).
+    pub fn has_cutouts(&self) -> bool {
+        self.cutouts.is_some()
     }
 
     /// Whether some material has a bump or normal map.

@@ -4,7 +4,11 @@
 //! as `pm_phong`, which `tools/mref_phong.py` registers (tools/mitsuba_reference.py renders these scenes).
 //! Participating media become `homogeneous` media (albedo, σt, HG phase) attached to their boundary
 //! shapes as interior/exterior, the camera's by reference in the sensor, rendered by `volpath`.
+//! A `map_d` cutout becomes a `mask` BSDF around the material's; where Mitsuba would read a map's
+//! image differently from us (a mask in an alpha channel, a normal map at a strength other than 1),
+//! the export writes the values we read as an EXR beside the XML.
 
+use std::borrow::Cow;
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -14,11 +18,13 @@ use glam::Vec3;
 
 use crate::error::{option, Error, Result};
 use crate::io::atomic::{CreatedDirs, OutputSet};
+use crate::io::oiio::{self, Pixels};
 use crate::light::Light;
-use crate::material::Bsdf;
 use crate::medium::{MediumId, VACUUM};
 use crate::render::outputs::{check_distinct, scene_inputs, Output};
 use crate::scene::Scene;
+
+mod bsdf;
 
 fn rgb(name: &str, c: Vec3) -> String {
     format!(r#"<rgb name="{name}" value="{} {} {}"/>"#, c.x, c.y, c.z)
@@ -28,107 +34,20 @@ fn v(p: Vec3) -> String {
     format!("{}, {}, {}", p.x, p.y, p.z)
 }
 
-/// A bitmap texture element named `name` reading texture `t` (Mitsuba's defaults, bilinear and
-/// repeating, are ours).
-fn bitmap(scene: &Scene, t: usize, name: &str) -> String {
-    let path = std::fs::canonicalize(&scene.textures[t].path)
-        .unwrap_or_else(|_| scene.textures[t].path.clone());
-    format!(
-        r#"<texture type="bitmap" name="{name}"><string name="filename" value="{}"/></texture>"#,
-        path.display()
-    )
+/// A file of the export: text (the XML, the OBJs) or a float image (EXR) of values we read from one
+/// of the scene's maps.
+enum Body<'a> {
+    Text(String),
+    Image {
+        width: u32,
+        height: u32,
+        channels: &'static [&'static str],
+        values: Cow<'a, [f32]>,
+    },
 }
 
-/// Material `m`'s BSDF, inside Mitsuba 3's `bumpmap` (its scale our `-bm`) or `normalmap` where it
-/// has a bump or normal map, the image read raw (not sRGB-decoded) as ours is. A normal map's
-/// strength (`-bm`) has no Mitsuba parameter: it is written at full strength.
-fn bsdf_xml(scene: &Scene, m: usize) -> String {
-    let inner = surface_bsdf_xml(scene, m);
-    let Some(map) = scene.bump_map(m) else {
-        return inner;
-    };
-    let path = std::fs::canonicalize(map.path()).unwrap_or_else(|_| map.path().to_path_buf());
-    let raw = |name: &str| {
-        format!(
-            r#"<texture type="bitmap"{name}><boolean name="raw" value="true"/><string name="filename" value="{}"/></texture>"#,
-            path.display()
-        )
-    };
-    match map {
-        crate::bump::BumpMap::Height { scale, heights, .. } => {
-            let scale = scale.unwrap_or_else(|| relief_scale(scene, m, heights.width));
-            format!(
-                r#"<bsdf type="bumpmap">{}<float name="scale" value="{scale}"/>{inner}</bsdf>"#,
-                raw("")
-            )
-        }
-        crate::bump::BumpMap::Normal { .. } => format!(
-            r#"<bsdf type="normalmap">{}{inner}</bsdf>"#,
-            raw(r#" name="normalmap""#)
-        ),
-    }
-}
-
-/// The world scale Mitsuba's `bumpmap` needs for material `m`'s height map of `width` texels when its
-/// MTL gave no `-bm` (ours is relative to the texels: [`crate::bump::RELIEF_TEXELS`]): its mean texel
-/// width over the material's triangles, which is exact where their mapping is uniform.
-fn relief_scale(scene: &Scene, m: usize, width: u32) -> f32 {
-    let g = &scene.geometry;
-    let (sum, n) = g
-        .triangles
-        .iter()
-        .enumerate()
-        .filter(|(_, t)| t.material as usize == m)
-        .filter_map(|(i, _)| crate::bump::uv_tangents(g, i as u32))
-        .fold((0.0f64, 0u64), |(s, n), (dpdu, _)| {
-            (s + f64::from(dpdu.length()), n + 1)
-        });
-    let mean = if n == 0 { 0.0 } else { sum / n as f64 };
-    (f64::from(crate::bump::RELIEF_TEXELS) * mean / f64::from(width.max(1))) as f32
-}
-
-/// Material `m`'s BSDF without its bump map.
-fn surface_bsdf_xml(scene: &Scene, m: usize) -> String {
-    let mat = &scene.materials[m];
-    match &mat.bsdf {
-        Bsdf::Diffuse { albedo, texture } => {
-            let refl = match texture {
-                Some(t) => bitmap(scene, *t, "reflectance"),
-                None => rgb("reflectance", *albedo),
-            };
-            format!(r#"<bsdf type="twosided"><bsdf type="diffuse">{refl}</bsdf></bsdf>"#)
-        }
-        Bsdf::Mirror { reflectance } => format!(
-            r#"<bsdf type="twosided"><bsdf type="conductor"><string name="material" value="none"/>{}</bsdf></bsdf>"#,
-            rgb("specular_reflectance", *reflectance)
-        ),
-        Bsdf::Glass { ior, transmittance } => format!(
-            r#"<bsdf type="dielectric"><float name="int_ior" value="{ior}"/><float name="ext_ior" value="1"/>{}</bsdf>"#,
-            rgb("specular_transmittance", *transmittance)
-        ),
-        Bsdf::Glossy {
-            albedo,
-            specular,
-            exponent,
-            texture,
-            texel_scale,
-        } => {
-            // pm_phong's parameters (tools/mref_phong.py): colours as strings, the texture nested.
-            let tex = match texture {
-                Some(t) => format!(
-                    r#"{}<float name="texture_scale" value="{texel_scale}"/>"#,
-                    bitmap(scene, *t, "texture")
-                ),
-                None => String::new(),
-            };
-            format!(
-                r#"<bsdf type="pm_phong"><string name="albedo" value="{} {} {}"/><string name="specular" value="{} {} {}"/><float name="exponent" value="{exponent}"/>{tex}</bsdf>"#,
-                albedo.x, albedo.y, albedo.z, specular.x, specular.y, specular.z
-            )
-        }
-        Bsdf::Null => r#"<bsdf type="null"/>"#.into(),
-    }
-}
+/// An exported file's name in DIR and its contents.
+type File<'a> = (String, Body<'a>);
 
 /// A group of triangles written as one OBJ shape: material, kind ([`EMISSIVE`], [`SMOOTH`] or
 /// [`FLAT`]) and, for a medium's boundary, the media on the normal's side and behind it.
@@ -140,7 +59,8 @@ const SMOOTH: u8 = 1;
 /// Other triangles, written flat.
 const FLAT: u8 = 2;
 
-/// Writes DIR/scene.xml and DIR/mesh_<material>_<kind>.obj: all of them or none. A file that would
+/// Writes DIR/scene.xml, DIR/mesh_<material>_<kind>.obj and the images the BSDFs need
+/// (`mask_<material>.exr`, `normal_<material>.exr`): all of them or none. A file that would
 /// overwrite one the scene reads (the scene itself, an OBJ, MTL or texture: `export-mitsuba scene.xml .`
 /// or an input named `mesh_0_2.obj` in DIR) is refused before anything is written, and the folders
 /// this command made are removed again when it fails or `cancel` is set (a signal).
@@ -160,8 +80,18 @@ pub fn export_mitsuba(scene: &Scene, dir: &Path, spp: u32, cancel: &AtomicBool) 
     let dirs = CreatedDirs::create(dir)
         .map_err(|e| option("DIR", format!("cannot create '{}': {e}", dir.display())))?;
     let mut set = OutputSet::new();
-    for ((_, bytes), path) in files.iter().zip(&paths) {
-        set.stage_bytes(path, bytes.as_bytes())?;
+    for ((_, body), path) in files.iter().zip(&paths) {
+        match body {
+            Body::Text(text) => set.stage_bytes(path, text.as_bytes())?,
+            Body::Image {
+                width,
+                height,
+                channels,
+                values,
+            } => set.stage(path, |tmp| {
+                oiio::write(tmp, *width, *height, channels, Pixels::F32(values))
+            })?,
+        }
         interrupted()?;
     }
     set.commit()?;
@@ -169,9 +99,13 @@ pub fn export_mitsuba(scene: &Scene, dir: &Path, spp: u32, cancel: &AtomicBool) 
     Ok(())
 }
 
-/// The files of the export, by name: one OBJ per triangle group, then scene.xml.
-fn mitsuba_files(scene: &Scene, spp: u32) -> Vec<(String, String)> {
+/// The files of the export, by name: one OBJ per triangle group, the images of the materials'
+/// BSDFs, then scene.xml.
+fn mitsuba_files(scene: &Scene, spp: u32) -> Vec<File<'_>> {
     let mut files = Vec::new();
+    let mut images = Vec::new();
+    // Each material's BSDF once, however many groups share it.
+    let mut bsdfs: BTreeMap<usize, String> = BTreeMap::new();
     let mut xml = String::from("<scene version=\"3.0.0\">\n");
     media_xml(&mut xml, scene);
     integrator_and_sensor_xml(&mut xml, scene, spp);
@@ -182,16 +116,20 @@ fn mitsuba_files(scene: &Scene, spp: u32) -> Vec<(String, String)> {
         } else {
             format!("mesh_{m}_{kind}.obj")
         };
-        shape_xml(&mut xml, scene, key, &name);
-        files.push((name, group_obj(scene, kind, tris)));
+        let bsdf = bsdfs
+            .entry(m)
+            .or_insert_with(|| bsdf::bsdf_xml(scene, m, &mut images));
+        shape_xml(&mut xml, scene, key, &name, bsdf);
+        files.push((name, Body::Text(group_obj(scene, kind, tris))));
     }
+    files.append(&mut images);
     for l in &scene.lights.lights {
         if let Some(line) = light_xml(l) {
             let _ = writeln!(xml, "  {line}");
         }
     }
     xml.push_str("</scene>\n");
-    files.push(("scene.xml".into(), xml));
+    files.push(("scene.xml".into(), Body::Text(xml)));
     files
 }
 
@@ -235,11 +173,13 @@ fn media_xml(xml: &mut String, scene: &Scene) {
     }
 }
 
-/// The integrator (`volpath` with media) and the camera as a perspective sensor with `spp` samples.
+/// The integrator and the camera as a perspective sensor with `spp` samples. The integrator is
+/// `volpath` with media or cutouts: Mitsuba's `path` lets camera rays through a `mask` but stops
+/// shadow rays at it (a cut card's holes would cast shadows).
 fn integrator_and_sensor_xml(xml: &mut String, scene: &Scene, spp: u32) {
     let cam = &scene.camera;
     let (eye, target, up) = (cam.eye, cam.eye + cam.forward(), cam.up_vector());
-    let integrator = if scene.media.is_some() {
+    let integrator = if scene.media.is_some() || scene.has_cutouts() {
         "volpath"
     } else {
         "path"
@@ -304,9 +244,9 @@ fn group_obj(scene: &Scene, kind: u8, tris: &[u32]) -> String {
     obj
 }
 
-/// The shape element of a group written to `file`: its BSDF, its emitter if it emits, and the media
-/// on its sides if it bounds a medium.
-fn shape_xml(xml: &mut String, scene: &Scene, key: &GroupKey, file: &str) {
+/// The shape element of a group written to `file`: its BSDF (`bsdf`), its emitter if it emits, and
+/// the media on its sides if it bounds a medium.
+fn shape_xml(xml: &mut String, scene: &Scene, key: &GroupKey, file: &str, bsdf: &str) {
     let (m, kind, sides) = *key;
     // Mitsuba's interior is behind the face normal, which is our winding normal here.
     let interface: String = match sides {
@@ -333,8 +273,7 @@ fn shape_xml(xml: &mut String, scene: &Scene, key: &GroupKey, file: &str) {
     };
     let _ = writeln!(
         xml,
-        r#"  <shape type="obj"><string name="filename" value="{file}"/>{flat}{}{emitter}{interface}</shape>"#,
-        bsdf_xml(scene, m)
+        r#"  <shape type="obj"><string name="filename" value="{file}"/>{flat}{bsdf}{emitter}{interface}</shape>"#
     );
 }
 
