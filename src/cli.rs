@@ -502,46 +502,42 @@ fn render_command(a: RenderArgs, cancel: &AtomicBool) -> Result<()> {
 
 /// `--tiles` renders from a bake of its own: no photon or cache file is read or saved with it.
 fn check_tiles(a: &RenderArgs) -> Result<()> {
-    for (opt, given) in [
-        ("--load-photons", a.load_photons.is_some()),
-        ("--load-cache", a.load_cache.is_some()),
-        ("--save-photons", a.save_photons.is_some()),
-        ("--dump-photons", a.dump_photons.is_some()),
-        ("--save-cache", a.save_cache.is_some()),
+    let mut left_out = bake_files(a);
+    left_out.extend([
         ("--cache-image", a.cache_image.is_some()),
         ("--crop", a.crop.is_some()),
         ("--passes", a.passes.is_some()),
         ("--time", a.time.is_some()),
-    ] {
-        if given {
-            return Err(option(
-                "--tiles",
-                format!("renders from a bake of its own: leave out {opt}"),
-            ));
-        }
-    }
-    Ok(())
+    ]);
+    refuse_given("--tiles", "renders from a bake of its own", &left_out)
 }
 
 /// `--shared-bake` keeps its one bake in memory for the frames: no photon or cache file is read or
 /// saved with it.
 fn check_shared_bake(a: &RenderArgs) -> Result<()> {
-    for (opt, given) in [
+    let mut left_out = bake_files(a);
+    left_out.push(("--chunk", a.chunk.is_some()));
+    let why = "shades every frame from one bake of its own";
+    refuse_given("--shared-bake", why, &left_out)
+}
+
+/// Which of the options that read or save photon and cache files are given.
+fn bake_files(a: &RenderArgs) -> Vec<(&'static str, bool)> {
+    vec![
         ("--load-photons", a.load_photons.is_some()),
         ("--load-cache", a.load_cache.is_some()),
         ("--save-photons", a.save_photons.is_some()),
         ("--dump-photons", a.dump_photons.is_some()),
         ("--save-cache", a.save_cache.is_some()),
-        ("--chunk", a.chunk.is_some()),
-    ] {
-        if given {
-            return Err(option(
-                "--shared-bake",
-                format!("shades every frame from one bake of its own: leave out {opt}"),
-            ));
-        }
+    ]
+}
+
+/// `opt`, which `why`, refused with the first of `options` given, named as the one to leave out.
+fn refuse_given(opt: &str, why: &str, options: &[(&'static str, bool)]) -> Result<()> {
+    match options.iter().find(|(_, given)| *given) {
+        Some((other, _)) => Err(option(opt, format!("{why}: leave out {other}"))),
+        None => Ok(()),
     }
-    Ok(())
 }
 
 /// Loads a scene while the watchdog may end the process on a signal (a read blocked on a FIFO cannot

@@ -158,8 +158,8 @@ impl Views<'_> {
             scene.place_eye(cam.eye);
             let mut plan = plan(scene, self.opts, Some(cam))?;
             let earlier = fill.take().map(|c| {
-                // The views before chose the rays, and their records keep their radii (frozen): a
-                // later view's records shrinking them would open holes in the views before.
+                // The views before chose the rays; their records may shrink for this view, as a
+                // sequence's do (a view whose cover a shrink opened gets records in pass B).
                 plan.choose_rays = false;
                 if let Some(rays) = c.chosen_rays {
                     plan.gather = GatherParams { rays };
