@@ -68,6 +68,8 @@ pub struct IrradianceCache {
     pub(crate) frozen: usize,
     /// The record count at the end of each stage of the fill ([`Self::end_stage`]).
     pub(crate) stages: Vec<u32>,
+    /// Pass A's checks of covered points ([`crate::validation`]); `None`: none.
+    pub(crate) validation: Option<crate::Validation>,
 }
 
 /// A record's radii before one of its shrinks.
@@ -114,6 +116,7 @@ impl IrradianceCache {
             shrink_log: None,
             frozen: 0,
             stages: Vec::new(),
+            validation: None,
         })
     }
 

@@ -20,6 +20,7 @@ pub mod record;
 mod report;
 pub mod stats;
 mod twopass;
+mod validation;
 mod weight;
 
 #[cfg(test)]
@@ -39,3 +40,4 @@ pub use stats::{FillStats, InsertStats, LookupStats, RadiusHistogram};
 pub use twopass::{
     fill_pass_a_cancellable, fill_pixels_cancellable, PassAPixels, ShadingPoint, VisibleFn,
 };
+pub use validation::Validation;

@@ -34,6 +34,11 @@ pmbase::summable! {
         pub shrunk_by_gradient: u64,
         /// Halvings of R' by adaptive caching.
         pub shrunk_adaptive: u64,
+        /// Validation gathers at covered pass-A points, those that found a record wrong, and the
+        /// records they shrank ([`crate::Validation`]).
+        pub validated: u64,
+        pub validation_failed: u64,
+        pub shrunk_validation: u64,
         pub clamped_min: u64,
         pub clamped_max: u64,
         pub memory_bytes: u64,
@@ -70,6 +75,9 @@ impl CacheStats {
             shrunk_by_clamping: totals.n_shrunk_by_neighbors,
             shrunk_by_gradient: totals.n_shrunk_by_gradient,
             shrunk_adaptive: totals.n_shrunk_adaptive,
+            validated: fill.insert.n_validated,
+            validation_failed: fill.insert.n_validation_failed,
+            shrunk_validation: fill.insert.n_shrunk_validation,
             clamped_min: totals.n_clamped_min,
             clamped_max: totals.n_clamped_max,
             memory_bytes: cache.memory_bytes() as u64,

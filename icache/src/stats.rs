@@ -23,6 +23,12 @@ pmbase::summable! {
         pub n_clamped_max: u64,
         /// Halvings of a record's R' by adaptive caching (records disagreeing at a pass-A point).
         pub n_shrunk_adaptive: u64,
+        /// Gathers at covered pass-A points that checked the records there ([`crate::Validation`]).
+        pub n_validated: u64,
+        /// Checks that found a record off by more than the gathers' noise.
+        pub n_validation_failed: u64,
+        /// Records those checks shrunk out of reach of the point.
+        pub n_shrunk_validation: u64,
     }
 }
 

@@ -58,13 +58,17 @@ pub(crate) type PointsWithFn<'a, P> = dyn Fn(u32, u32) -> Vec<(ShadingPoint, P)>
 pub(crate) type GatherWithFn<'a, P, S> =
     dyn Fn(u32, u32, usize, &ShadingPoint, &P) -> (NewRecord, S) + Sync + 'a;
 
-/// An uncovered shading point waiting for its gather.
+/// An uncovered shading point waiting for its gather, or a covered one chosen to check the records
+/// that cover it (`validate`, see [`crate::Validation`]).
 struct Candidate<P> {
     x: u32,
     y: u32,
     i: usize,
     sp: ShadingPoint,
     payload: P,
+    validate: bool,
+    /// Its index in the [`PointStore`] (`u32::MAX` before the first sweep stores it).
+    k: u32,
 }
 
 /// What a pixel's lookups found.
@@ -79,10 +83,12 @@ struct PixelFound<P> {
     shrink: Vec<u32>,
 }
 
-/// What a fill counts: its own statistics and the sum of the caller's.
+/// What a fill counts: its own statistics and the sum of the caller's; and the records validation
+/// shrank, whose other points the repair sweeps check too.
 struct Tally<S> {
     fill: FillStats,
     gathers: S,
+    suspects: Vec<u32>,
 }
 
 /// Which pixels pass A visits.
@@ -202,6 +208,7 @@ fn fill_in_order<P: Clone + Send + Sync, S: Default + AddAssign + Send>(
     let mut tally = Tally {
         fill: FillStats::default(),
         gathers: S::default(),
+        suspects: Vec::new(),
     };
     let mut store = PointStore::new(width, height);
     cache.log_shrinks(true);
@@ -237,6 +244,8 @@ struct PointStore<P> {
     /// How many records each point could interpolate at its last lookup (0 when it could not: its
     /// gather's record covers it, or one inserted before it).
     used: Vec<u32>,
+    /// Whether a repair sweep has checked the point's records ([`suspect_points`]).
+    validated: Vec<bool>,
 }
 
 impl<P: Clone> PointStore<P> {
@@ -247,11 +256,14 @@ impl<P: Clone> PointStore<P> {
             points: Vec::new(),
             pixel: Vec::new(),
             used: Vec::new(),
+            validated: Vec::new(),
         }
     }
 
     fn push(&mut self, x: u32, y: u32, points: Vec<(ShadingPoint, P)>, used: Vec<u32>) {
         let start = self.points.len() as u32;
+        self.validated
+            .extend(std::iter::repeat_n(false, used.len()));
         self.used.extend(used);
         self.pixel.extend(std::iter::repeat_n((x, y), points.len()));
         self.points.extend(points);
@@ -297,6 +309,8 @@ impl<P: Clone> PointStore<P> {
             i,
             sp: self.points[k as usize].0,
             payload,
+            validate: false,
+            k,
         }
     }
 }
@@ -331,8 +345,12 @@ fn repair<P: Clone + Send + Sync, S: Default + AddAssign + Send>(
         tally.fill.n_repair_sweeps += 1;
         let grid = grid.get_or_insert_with(|| point_grid(cache, store, &log));
         let lost = lost_records(cache, store, grid, &log);
+        let suspect = suspect_points(store, &lost, &mut tally.suspects);
         let check = points_to_check(store, &lost);
-        let waiting = look_up_again(cache, store, &check, visible, tally);
+        let mut waiting = look_up_again(cache, store, &check, visible, tally);
+        waiting.extend(suspect);
+        waiting.sort_by_key(|c| (c.k, c.validate));
+        waiting.dedup_by_key(|c| c.k);
         if !gather_in_waves(cache, waiting, gather, visible, tally, cancel) {
             return;
         }
@@ -382,6 +400,31 @@ fn lost_records<P: Sync>(
         .collect();
     lost.sort_unstable();
     lost
+}
+
+/// The points of `lost` that lost a record a validation gather found wrong (one of `suspects`) and
+/// have not been checked yet, as candidates to check: the records still covering them may be as
+/// wrong (a light panel's gap is read from several records outside it, one check finds one).
+fn suspect_points<P: Clone>(
+    store: &mut PointStore<P>,
+    lost: &[(u32, u32)],
+    suspects: &mut Vec<u32>,
+) -> Vec<Candidate<P>> {
+    if suspects.is_empty() {
+        return Vec::new();
+    }
+    suspects.sort_unstable();
+    suspects.dedup();
+    let mut out = Vec::new();
+    for &(k, id) in lost {
+        if !store.validated[k as usize] && suspects.binary_search(&id).is_ok() {
+            store.validated[k as usize] = true;
+            let mut c = store.candidate(k, store.points[k as usize].1.clone());
+            c.validate = true;
+            out.push(c);
+        }
+    }
+    out
 }
 
 /// The points of `lost` that may have lost their cover, each point's count of records it can still
@@ -454,10 +497,11 @@ fn gather_in_waves<P: Send + Sync, S: AddAssign + Send>(
         }
         let cache_ref: &IrradianceCache = cache;
         let mut wave: Vec<Candidate<P>> = Vec::with_capacity(WAVE_GATHERS);
-        for c in waiting.by_ref() {
+        for mut c in waiting.by_ref() {
             let hit = covered(cache_ref, &c.sp, &c.payload, visible);
             tally.fill.lookups.record(hit.as_ref());
-            if hit.is_none() {
+            c.validate &= hit.is_some();
+            if hit.is_none() || c.validate {
                 wave.push(c);
                 if wave.len() == WAVE_GATHERS {
                     break;
@@ -518,6 +562,7 @@ fn sweep<P: Clone + Send + Sync, S: Default + AddAssign + Send>(
         };
         tally.fill.n_pixels_skipped += (before - chunk.len()) as u64;
         let cache_ref: &IrradianceCache = cache;
+        let validation = cache_ref.validation();
         let found: Vec<PixelFound<P>> = chunk
             .par_iter()
             .with_max_len(4)
@@ -535,13 +580,16 @@ fn sweep<P: Clone + Send + Sync, S: Default + AddAssign + Send>(
                     f.lookups.record(hit.as_ref());
                     f.used.push(hit.map_or(0, |h| h.n_used));
                     f.shrink.extend(deviant);
-                    if hit.is_none() {
+                    let validate = hit.is_some() && validation.is_some_and(|v| v.selects(x, y, i));
+                    if hit.is_none() || validate {
                         f.misses.push(Candidate {
                             x,
                             y,
                             i,
                             sp: *sp,
                             payload: payload.clone(),
+                            validate,
+                            k: u32::MAX,
                         });
                     }
                 }
@@ -570,6 +618,7 @@ fn sweep<P: Clone + Send + Sync, S: Default + AddAssign + Send>(
             let cache_ref: &IrradianceCache = cache;
             pending.extend(f.misses.into_iter().filter(|c| {
                 !shrunk
+                    || c.validate
                     || cache_ref
                         .lookup_adaptive(c.sp.pos, c.sp.normal, |id, r| {
                             visible(&c.sp, &c.payload, id, r)
@@ -630,6 +679,18 @@ fn run_wave<P: Send + Sync, S: AddAssign + Send>(
     for (c, (rec, s, near)) in pending.drain(..).zip(gathered) {
         tally.gathers += s;
         let seen = |id, r: &Record| visible(&c.sp, &c.payload, id, r);
+        if c.validate {
+            // A covered point: where its records were right the check's record adds nothing that
+            // is worth the lookups it would cost; where they were wrong it takes their place.
+            let (checked, shrunk) = cache.validate_with(&rec, seen);
+            tally.fill.insert += checked;
+            tally.suspects.extend(shrunk);
+            if checked.n_validation_failed > 0 {
+                tally.fill.insert +=
+                    cache.insert_near(rec, near.as_deref().map(|ids| (ids, since)));
+            }
+            continue;
+        }
         let hit = if within_wave {
             cache.lookup_since_visible(c.sp.pos, c.sp.normal, Pass::A, since, seen)
         } else {

@@ -63,6 +63,7 @@ pub fn fill_cache(
         Some((c, _)) => c,
         None => IrradianceCache::new(lo, hi, plan.cache).map_err(runtime)?,
     };
+    cache.set_validation(plan.cache_validation);
     // Outside `only` the earlier records already cover what the camera sees, which has not changed.
     let points = |x: u32, y: u32| match only {
         Some(w) if !(x >= w.x0 && x < w.x1 && y >= w.y0 && y < w.y1) => Vec::new(),

@@ -53,6 +53,7 @@ pub fn fill_occlusion_cache(
     let ao = occlusion(scene, plan, OcclusionSource::Gather, cancel);
     let (lo, hi) = scene.bounds;
     let mut cache = IrradianceCache::new(lo, hi, plan.cache).map_err(runtime)?;
+    cache.set_validation(plan.cache_validation);
     let points = |x: u32, y: u32| ao.shading_hits(&plan.camera, x, y, plan.pass_a_shift);
     let gather = |x, y, i, sp: &ShadingPoint, hit: &Hit| ao.record((x, y, i), 0, sp, hit);
     let visible = |_: &ShadingPoint, _: &Hit, _, _: &icache::Record| true;

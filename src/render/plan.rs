@@ -56,6 +56,9 @@ pub struct Plan {
     /// [0, 1)) of the centre and the corner it traces unshifted: 0 but in a progressive render's later
     /// passes, whose records then land elsewhere ([`super::progressive`]).
     pub pass_a_shift: [f32; 2],
+    /// Pass A's checks of points its records already cover: `None` but in a progressive render's
+    /// later passes ([`super::progressive`]).
+    pub cache_validation: Option<icache::Validation>,
 }
 
 /// Default noise target of the photon-map methods (chosen from the speed×accuracy chart; README).
@@ -215,6 +218,7 @@ pub fn plan(scene: &Scene, opts: &Options, camera: Option<&Camera>) -> Result<Pl
         choose_rays,
         finer: None,
         pass_a_shift: [0.0; 2],
+        cache_validation: None,
     })
 }
 

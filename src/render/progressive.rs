@@ -122,6 +122,12 @@ const MIN_ACCURACY: f32 = 0.15;
 /// MIN_SPACING_PX.
 const SPACING_DECAY: f64 = 0.5;
 const MIN_SPACING_PX: f32 = 1.0;
+/// Share of pass A's covered points that passes after the first gather at to check the records
+/// there ([`icache::Validation`]): interpolation's bias repeats in every pass, averaging removes
+/// only noise.
+const VALIDATE_FRACTION: f32 = 1.0 / 16.0;
+/// Relative error beyond the gathers' noise a record may have at a checked point.
+const VALIDATE_TOLERANCE: f32 = 0.05;
 /// Under a time budget, a pass of a method that bakes nothing takes this fraction of its samples.
 const TIME_PASS_SPP_DIVISOR: u32 = 8;
 /// Keys the seeds of passes after the first.
@@ -161,6 +167,13 @@ pub fn pass_plan(first: &Plan, i: u32, timed: bool) -> Plan {
         let least = (MIN_RECORD_REACH_PX / p.cache.accuracy).max(MIN_SPACING_PX);
         p.cache.min_spacing_px =
             (first.cache.min_spacing_px * spacing).max(least.min(first.cache.min_spacing_px));
+        if i > 1 {
+            p.cache_validation = Some(icache::Validation {
+                fraction: VALIDATE_FRACTION,
+                seed: p.seed,
+                tolerance: VALIDATE_TOLERANCE,
+            });
+        }
     } else if timed {
         p.spp = (first.spp / TIME_PASS_SPP_DIVISOR).max(1);
         p.aa_spp = first.aa_spp.min(p.spp);

@@ -107,6 +107,21 @@ pub(super) fn spacing_rows(r: &mut Report, s: &CacheStats, fill: &icache::FillSt
             s.shrunk_adaptive,
         ),
         (
+            "Validation gathers at covered points",
+            "icache.validated",
+            s.validated,
+        ),
+        (
+            "Validation gathers that found a record wrong",
+            "icache.validation_failed",
+            s.validation_failed,
+        ),
+        (
+            "Records shrunk by validation",
+            "icache.shrunk_validation",
+            s.shrunk_validation,
+        ),
+        (
             "Clamped to min spacing",
             "icache.clamped_min",
             s.clamped_min,
