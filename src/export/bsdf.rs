@@ -5,7 +5,7 @@
 use std::borrow::Cow;
 use std::path::Path;
 
-use super::{rgb, Body, File};
+use super::{rgb, xml_attr, Body, File};
 use crate::material::Bsdf;
 use crate::scene::Scene;
 
@@ -18,12 +18,11 @@ fn bitmap(scene: &Scene, t: usize, name: &str) -> String {
     )
 }
 
-/// `path` as written into the XML: absolute where it can be, as the scene's maps are.
+/// `path` as written into an XML attribute: absolute where it can be, as the scene's maps are, and
+/// escaped ([`xml_attr`]).
 fn file_name(path: &Path) -> String {
-    std::fs::canonicalize(path)
-        .unwrap_or_else(|_| path.to_path_buf())
-        .display()
-        .to_string()
+    let path = std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf());
+    xml_attr(&path.display().to_string()).into_owned()
 }
 
 /// Material `m`'s BSDF, inside Mitsuba 3's `mask` where it has a cutout (`map_d`), outermost so
