@@ -507,3 +507,50 @@ fn a_tilted_normal_map_on_a_smooth_torus_shows_no_facets() {
         assert!(m < 0.01 && b < PIXEL_BOUND, "seed {seed}: {m} {b}");
     }
 }
+
+/// A height map read from a colour image (ours: its channels' mean; Mitsuba's `bitmap` would take its
+/// luminance) is exported as `height_<material>.exr` holding our values; a grey one is named as it is.
+#[test]
+fn export_writes_a_colour_height_map_as_our_values() {
+    let d = scene_dir(&[
+        (
+            "m.obj",
+            "mtllib m.mtl\nv -1 0 1\nv 1 0 1\nv 1 0 -1\nv -1 0 -1\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n\
+             usemtl a\nf 1/1 2/2 3/3\nusemtl b\nf 1/1 3/3 4/4\n",
+        ),
+        (
+            "m.mtl",
+            "newmtl a\nKd 0.5 0.5 0.5\nbump -bm 0.25 c.ppm\nnewmtl b\nKd 0.5 0.5 0.5\n\
+             bump -bm 0.25 h.pgm\n",
+        ),
+        (
+            "s.toml",
+            "version = 1\n[camera]\neye = [0.0, 2.0, 2.0]\ntarget = [0.0, 0.0, 0.0]\n\
+             fov = 45.0\nwidth = 16\nheight = 12\n[[mesh]]\nobj = \"m.obj\"\n[[light]]\ntype = \"point\"\n\
+             position = [0.0, 1.0, 0.0]\nintensity = [1.0, 1.0, 1.0]\n",
+        ),
+    ]);
+    // (200, 100, 0) decodes to a vector below the surface: no normal map, a height of mean 100/255.
+    std::fs::write(d.path().join("c.ppm"), ppm(2, 2, [200, 100, 0])).unwrap();
+    std::fs::write(d.path().join("h.pgm"), ramp_pgm()).unwrap();
+    let out = d.path().join("mi");
+    let r = run(&[
+        "export-mitsuba",
+        &p(d.path(), "s.toml"),
+        out.to_str().unwrap(),
+    ]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let xml = std::fs::read_to_string(out.join("scene.xml")).unwrap();
+    let bumps: Vec<&str> = xml.lines().filter(|l| l.contains("bumpmap")).collect();
+    assert_eq!(bumps.len(), 2, "{xml}");
+    assert!(
+        bumps.iter().any(|l| l.contains(r#"value="height_0.exr""#)),
+        "{xml}"
+    );
+    assert!(bumps.iter().any(|l| l.contains("h.pgm")), "{xml}");
+    let img = pmrender::io::oiio::read(&out.join("height_0.exr")).unwrap();
+    assert_eq!((img.width, img.height, img.channels), (2, 2, 1));
+    for v in &img.data {
+        assert!((v - 100.0 / 255.0).abs() < 1e-6, "{v}");
+    }
+}
