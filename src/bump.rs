@@ -16,10 +16,10 @@
 //! vectors); any other colour image is a height map of its channels' mean. `norm` is always a normal
 //! map and needs a colour image.
 //!
-//! Tangents come from the triangle's texture coordinates (∂p/∂u, ∂p/∂v of its plane), made orthogonal
-//! to the interpolated shading normal, the bitangent `sign · n × t` with the sign of the mapping's
-//! handedness: the frame MikkTSpace gives a mesh whose triangles share their mapping (a plane, a
-//! cylinder's side), not its per-vertex average where the mapping bends.
+//! A normal map's tangent is the one MikkTSpace gives the vertices ([`crate::tangents`]), interpolated
+//! and made orthogonal to the interpolated shading normal, the bitangent `sign · n × t`; a height map
+//! reads the triangle's own ∂p/∂u and ∂p/∂v (its slopes are per unit of u and v, as pbrt's and
+//! Mitsuba's are).
 
 use std::path::{Path, PathBuf};
 
@@ -125,9 +125,16 @@ impl BumpMap {
     }
 
     /// The bumped shading normal at `uv` of a surface with unit shading normal `n` and texture
-    /// derivatives `dpdu`, `dpdv`; `n` itself where the result would not be a unit vector on `n`'s
-    /// side.
-    pub fn normal(&self, n: Vec3, dpdu: Vec3, dpdv: Vec3, uv: Vec2) -> Vec3 {
+    /// derivatives `dpdu`, `dpdv`; a normal map's tangent frame is `tangent` (the vertices' interpolated
+    /// tangent and the bitangent's sign) where given, else `dpdu` with the mapping's handedness. `n`
+    /// itself where the result would not be a unit vector on `n`'s side.
+    pub fn normal(
+        &self,
+        n: Vec3,
+        (dpdu, dpdv): (Vec3, Vec3),
+        tangent: Option<(Vec3, f32)>,
+        uv: Vec2,
+    ) -> Vec3 {
         let bumped = match self {
             BumpMap::Height { heights, scale, .. } => {
                 let (w, h) = (heights.width.max(1) as f32, heights.height.max(1) as f32);
@@ -159,15 +166,15 @@ impl BumpMap {
                 strength,
                 ..
             } => {
-                let t = (dpdu - n * n.dot(dpdu)).normalize_or_zero();
+                let (along, sign) = tangent.unwrap_or_else(|| {
+                    let right = n.cross(dpdu).dot(dpdv) >= 0.0;
+                    (dpdu, if right { 1.0 } else { -1.0 })
+                });
+                // Gram–Schmidt: the tangent orthogonal to the interpolated normal.
+                let t = (along - n * n.dot(along)).normalize_or_zero();
                 if t == Vec3::ZERO {
                     return n;
                 }
-                let sign = if n.cross(t).dot(dpdv) < 0.0 {
-                    -1.0
-                } else {
-                    1.0
-                };
                 let b = sign * n.cross(t);
                 let c = bilinear(texels, *width as usize, *height as usize, uv);
                 let mapped = (t * c.x + b * c.y + n * c.z).normalize_or_zero();
@@ -306,25 +313,25 @@ mod tests {
     fn normal_maps_turn_the_normal_in_the_uv_frame() {
         let (n, dpdu, dpdv) = (Vec3::Y, Vec3::X * 2.0, -Vec3::Z * 3.0);
         let flat = normal_map(Vec3::new(0.5, 0.5, 1.0), 1.0);
-        assert!((flat.normal(n, dpdu, dpdv, Vec2::splat(0.3)) - n).length() < 1e-6);
+        assert!((flat.normal(n, (dpdu, dpdv), None, Vec2::splat(0.3)) - n).length() < 1e-6);
         let (s, c) = 25f32.to_radians().sin_cos();
         let tilted = normal_map(Vec3::new(0.5 + 0.5 * s, 0.5, 0.5 + 0.5 * c), 1.0);
-        let m = tilted.normal(n, dpdu, dpdv, Vec2::ZERO);
+        let m = tilted.normal(n, (dpdu, dpdv), None, Vec2::ZERO);
         assert!((m - Vec3::new(s, c, 0.0)).length() < 1e-5, "{m}");
         let m = normal_map(Vec3::new(0.5, 0.5 + 0.5 * s, 0.5 + 0.5 * c), 1.0).normal(
             n,
-            dpdu,
-            dpdv,
+            (dpdu, dpdv),
+            None,
             Vec2::ZERO,
         );
         assert!((m - Vec3::new(0.0, c, -s)).length() < 1e-5, "{m}");
         let none = normal_map(Vec3::new(0.5 + 0.5 * s, 0.5, 0.5 + 0.5 * c), 0.0);
-        assert!((none.normal(n, dpdu, dpdv, Vec2::ZERO) - n).length() < 1e-6);
+        assert!((none.normal(n, (dpdu, dpdv), None, Vec2::ZERO) - n).length() < 1e-6);
         // A texel that decodes to nothing, or below the surface, leaves the normal.
         let zero = normal_map(Vec3::splat(0.5), 1.0);
-        assert_eq!(zero.normal(n, dpdu, dpdv, Vec2::ZERO), n);
+        assert_eq!(zero.normal(n, (dpdu, dpdv), None, Vec2::ZERO), n);
         let under = normal_map(Vec3::new(0.5, 0.5, 0.0), 1.0);
-        assert_eq!(under.normal(n, dpdu, dpdv, Vec2::ZERO), n);
+        assert_eq!(under.normal(n, (dpdu, dpdv), None, Vec2::ZERO), n);
     }
 
     /// The texels `encoded_at_strength` bakes, decoded and normalized (as Mitsuba's `normalmap` reads
@@ -344,7 +351,7 @@ mod tests {
         for (i, c) in baked.chunks_exact(3).enumerate() {
             let read = (Vec3::from_slice(c) * 2.0 - Vec3::ONE).normalize();
             let uv = Vec2::new((i as f32 + 0.5) / 2.0, 0.5);
-            let ours = half.normal(Vec3::Z, Vec3::X, Vec3::Y, uv);
+            let ours = half.normal(Vec3::Z, (Vec3::X, Vec3::Y), None, uv);
             assert!((read - ours).length() < 1e-5, "texel {i}: {read} vs {ours}");
             assert!(
                 (ours - Vec3::Z).length() > 0.1,
@@ -373,7 +380,7 @@ mod tests {
             scale: Some(0.5),
         };
         let (n, dpdu, dpdv) = (Vec3::Y, Vec3::X * 2.0, -Vec3::Z * 2.0);
-        let m = map.normal(n, dpdu, dpdv, Vec2::new(0.5, 0.5));
+        let m = map.normal(n, (dpdu, dpdv), None, Vec2::new(0.5, 0.5));
         let slope = 0.5 / 2.0;
         let want = Vec3::new(-slope, 1.0, 0.0).normalize();
         assert!((m - want).length() < 1e-4, "{m} {want}");

@@ -55,6 +55,8 @@ pub mod signal;
 #[forbid(unsafe_code)]
 pub(crate) mod stats;
 #[forbid(unsafe_code)]
+pub(crate) mod tangents;
+#[forbid(unsafe_code)]
 pub(crate) mod texture;
 #[forbid(unsafe_code)]
 pub mod warp;

@@ -352,3 +352,205 @@ fn export_bakes_a_normal_maps_strength() {
         assert!((got - want).length() < 1e-5, "{got} vs {want}");
     }
 }
+
+/// Segments of the torus around its axis (u) and around its tube (v): coarse enough that a frame
+/// taken per triangle shows its facets.
+const TORUS_NU: usize = 16;
+const TORUS_NV: usize = 12;
+/// The tilt of the torus's normal map: a steep one, whose normal a twisted tangent moves the most.
+const TORUS_TILT_DEGREES: f32 = 45.0;
+
+/// A smooth torus (major radius 1, tube 0.45, axis +z, centre (0, 1.2, 0)), its texture coordinates
+/// u around the axis and v around the tube, its vertex normals those of the exact torus turned by
+/// `turn` (the tangent-space vector the twin's normal takes: x along ∂p/∂u, y along ∂p/∂v, z along the
+/// normal), as an OBJ using material `torus` of `m.mtl`. The seams of u and v repeat their vertices.
+fn torus_obj(turn: Vec3) -> String {
+    let (big_r, r) = (1.0f32, 0.45f32);
+    let mut obj = String::from("mtllib m.mtl\n");
+    for j in 0..=TORUS_NV {
+        for i in 0..=TORUS_NU {
+            let (u, v) = (i as f32 / TORUS_NU as f32, j as f32 / TORUS_NV as f32);
+            let (st, ct) = (std::f32::consts::TAU * u).sin_cos();
+            let (sp, cp) = (std::f32::consts::TAU * v).sin_cos();
+            let p = Vec3::new((big_r + r * cp) * ct, 1.2 + (big_r + r * cp) * st, r * sp);
+            let n = Vec3::new(cp * ct, cp * st, sp);
+            let (t, b) = (Vec3::new(-st, ct, 0.0), Vec3::new(-sp * ct, -sp * st, cp));
+            let m = (t * turn.x + b * turn.y + n * turn.z).normalize();
+            obj += &format!(
+                "v {} {} {}\nvt {u} {v}\nvn {} {} {}\n",
+                p.x, p.y, p.z, m.x, m.y, m.z
+            );
+        }
+    }
+    obj += "usemtl torus\n";
+    let at = |i: usize, j: usize| j * (TORUS_NU + 1) + i + 1;
+    for j in 0..TORUS_NV {
+        for i in 0..TORUS_NU {
+            let [a, b, c, d] = [at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1)];
+            obj += &format!(
+                "f {a}/{a}/{a} {b}/{b}/{b} {c}/{c}/{c}\nf {a}/{a}/{a} {c}/{c}/{c} {d}/{d}/{d}\n"
+            );
+        }
+    }
+    obj
+}
+
+/// The torus of [`torus_obj`] (`turn` its normals' turn, `torus` its material's statements) standing
+/// on a floor before a wall, lit by a point light to its upper right, seen from the front at 64×48 by
+/// `pm` at 16 spp and `seed`.
+fn render_torus(turn: Vec3, torus: &str, images: &[(&str, Vec<u8>)], seed: u32) -> Render {
+    let room = "o room\nv -4 0 3\nv 4 0 3\nv 4 0 -2\nv -4 0 -2\nv -4 5 -2\nv 4 5 -2\n\
+                usemtl wall\nf -6 -5 -4 -3\nf -3 -4 -1 -2\n";
+    let d = scene_dir(&[
+        ("t.obj", &torus_obj(turn)),
+        ("r.obj", &format!("mtllib m.mtl\n{room}")),
+        (
+            "m.mtl",
+            &format!("newmtl wall\nKd 0.6 0.6 0.6\nnewmtl torus\nKd 0.5 0.5 0.5\n{torus}"),
+        ),
+        (
+            "s.toml",
+            "version = 1\n[camera]\neye = [0.0, 1.3, 4.2]\ntarget = [0.0, 1.1, 0.0]\nfov = 40.0\n\
+             width = 64\nheight = 48\n[[mesh]]\nobj = \"t.obj\"\n[[mesh]]\nobj = \"r.obj\"\n\
+             [[light]]\ntype = \"point\"\nposition = [2.5, 3.0, 2.5]\nintensity = [12.0, 12.0, 12.0]\n",
+        ),
+    ]);
+    for (name, bytes) in images {
+        std::fs::write(d.path().join(name), bytes).unwrap();
+    }
+    let (out, stats) = (p(d.path(), "o.exr"), p(d.path(), "o.json"));
+    let seed = seed.to_string();
+    let r = run_bounded(
+        &[
+            "render",
+            &p(d.path(), "s.toml"),
+            "-o",
+            &out,
+            "--stats",
+            &stats,
+            "--method",
+            "pm",
+            "--spp",
+            "16",
+            "--seed",
+            &seed,
+            "--quiet",
+        ],
+        Duration::from_secs(300),
+    );
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap();
+    Render {
+        image: read(std::path::Path::new(&out)),
+        bump_rotated: json["icache"]["bump_rotated_pass_b"].as_u64().unwrap(),
+    }
+}
+
+/// A flat normal map ((128, 128, 255): 8-bit's nearest to +z, 0.2° off it) on a smooth, coarsely
+/// tessellated torus renders as the torus without it: the per-vertex tangent frame turns nothing
+/// where the map does not.
+///
+/// Measured (64×48, pm, 16 spp, 4×4-pixel blocks), seeds 1–2: mean +0.045 … +0.055 % (bound 0.5 %),
+/// block relMSE 3.0–3.1e-6 (bound 1e-5).
+#[test]
+fn a_flat_normal_map_on_a_smooth_torus_changes_nothing() {
+    const MEAN_BOUND: f32 = 0.005;
+    const BLOCK_BOUND: f64 = 1e-5;
+    let image = [("n.ppm", ppm(4, 4, [128, 128, 255]))];
+    for seed in 1..=2 {
+        let mapped = render_torus(Vec3::Z, "norm n.ppm\n", &image, seed);
+        let plain = render_torus(Vec3::Z, "", &[], seed);
+        let (m, b) = (
+            rel(&mapped.image, &plain.image),
+            blocks(&mapped.image, &plain.image),
+        );
+        eprintln!("seed {seed}: mean {m:+.5}, block relMSE {b:.2e}");
+        assert!(m < MEAN_BOUND && b < BLOCK_BOUND, "seed {seed}: {m} {b}");
+        assert!(mapped.bump_rotated > 0);
+    }
+}
+
+/// A constant normal map tilting the normal 45° toward +u on the coarse smooth torus renders as the
+/// torus whose vertex normals have that tilt in the exact surface's frame: the tangents, averaged
+/// per vertex and interpolated, turn the normal continuously across the triangles' edges, where a
+/// frame per triangle (its own ∂p/∂u) twists from one triangle of a quad to the other and shows
+/// the facets.
+///
+/// Measured per pixel (facets are a pixel or two wide here; blocks would average their error away),
+/// 64×48, pm, 16 spp, seeds 1–2: relMSE 2.6–2.7e-4, mean +0.12 … +0.16 %; the twin against itself at
+/// another seed 2.4e-4 (its noise); the per-triangle frame this replaced 5.2e-4 (seed 1). Bound 3.5e-4.
+#[test]
+fn a_tilted_normal_map_on_a_smooth_torus_shows_no_facets() {
+    const PIXEL_BOUND: f64 = 3.5e-4;
+    let (s, c) = TORUS_TILT_DEGREES.to_radians().sin_cos();
+    let texel = [0.5 + 0.5 * s, 0.5, 0.5 + 0.5 * c].map(|x| (x * 255.0).round() as u8);
+    let turn = Vec3::from_array(texel.map(|x| x as f32 / 255.0)) * 2.0 - Vec3::ONE;
+    let image = [("n.ppm", ppm(4, 4, texel))];
+    // The twin against itself at another seed: the noise the bounds stand above.
+    let (a, b) = (
+        render_torus(turn, "", &[], 1),
+        render_torus(turn, "", &[], 2),
+    );
+    eprintln!(
+        "twin, seeds 1 and 2: pixel relMSE {:.2e}",
+        rel_mse(&a.image, &b.image)
+    );
+    for seed in 1..=2 {
+        let mapped = render_torus(Vec3::Z, "norm n.ppm\n", &image, seed);
+        let twin = render_torus(turn, "", &[], seed);
+        let (m, b) = (
+            rel(&mapped.image, &twin.image),
+            rel_mse(&mapped.image, &twin.image),
+        );
+        eprintln!("seed {seed}: mean {m:+.5}, pixel relMSE {b:.2e}");
+        assert!(m < 0.01 && b < PIXEL_BOUND, "seed {seed}: {m} {b}");
+    }
+}
+
+/// A height map read from a colour image (ours: its channels' mean; Mitsuba's `bitmap` would take its
+/// luminance) is exported as `height_<material>.exr` holding our values; a grey one is named as it is.
+#[test]
+fn export_writes_a_colour_height_map_as_our_values() {
+    let d = scene_dir(&[
+        (
+            "m.obj",
+            "mtllib m.mtl\nv -1 0 1\nv 1 0 1\nv 1 0 -1\nv -1 0 -1\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n\
+             usemtl a\nf 1/1 2/2 3/3\nusemtl b\nf 1/1 3/3 4/4\n",
+        ),
+        (
+            "m.mtl",
+            "newmtl a\nKd 0.5 0.5 0.5\nbump -bm 0.25 c.ppm\nnewmtl b\nKd 0.5 0.5 0.5\n\
+             bump -bm 0.25 h.pgm\n",
+        ),
+        (
+            "s.toml",
+            "version = 1\n[camera]\neye = [0.0, 2.0, 2.0]\ntarget = [0.0, 0.0, 0.0]\n\
+             fov = 45.0\nwidth = 16\nheight = 12\n[[mesh]]\nobj = \"m.obj\"\n[[light]]\ntype = \"point\"\n\
+             position = [0.0, 1.0, 0.0]\nintensity = [1.0, 1.0, 1.0]\n",
+        ),
+    ]);
+    // (200, 100, 0) decodes to a vector below the surface: no normal map, a height of mean 100/255.
+    std::fs::write(d.path().join("c.ppm"), ppm(2, 2, [200, 100, 0])).unwrap();
+    std::fs::write(d.path().join("h.pgm"), ramp_pgm()).unwrap();
+    let out = d.path().join("mi");
+    let r = run(&[
+        "export-mitsuba",
+        &p(d.path(), "s.toml"),
+        out.to_str().unwrap(),
+    ]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let xml = std::fs::read_to_string(out.join("scene.xml")).unwrap();
+    let bumps: Vec<&str> = xml.lines().filter(|l| l.contains("bumpmap")).collect();
+    assert_eq!(bumps.len(), 2, "{xml}");
+    assert!(
+        bumps.iter().any(|l| l.contains(r#"value="height_0.exr""#)),
+        "{xml}"
+    );
+    assert!(bumps.iter().any(|l| l.contains("h.pgm")), "{xml}");
+    let img = pmrender::io::oiio::read(&out.join("height_0.exr")).unwrap();
+    assert_eq!((img.width, img.height, img.channels), (2, 2, 1));
+    for v in &img.data {
+        assert!((v - 100.0 / 255.0).abs() < 1e-6, "{v}");
+    }
+}

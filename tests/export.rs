@@ -208,3 +208,100 @@ fn export_wraps_cutouts_in_a_mask_outside_the_bump_map() {
     assert!(!xml.contains("mask"), "{xml}");
     assert!(xml.contains(r#"<integrator type="path">"#), "{xml}");
 }
+
+/// Whether `xml` is well-formed as far as an XML reader's tokenizer sees it: every `<` opens a tag
+/// that closes with `>`, attribute values are quoted and hold neither `<` nor their own quote, and
+/// every `&` starts one of XML's five entities or a character reference. Returns the first fault.
+fn xml_fault(xml: &str) -> Option<String> {
+    let entity_ok = |rest: &str| {
+        ["&amp;", "&lt;", "&gt;", "&quot;", "&apos;"]
+            .iter()
+            .any(|e| rest.starts_with(e))
+            || (rest.starts_with("&#") && rest[2..].find(';').is_some_and(|k| k > 0))
+    };
+    let b = xml.as_bytes();
+    let mut i = 0;
+    while i < b.len() {
+        match b[i] {
+            b'&' if !entity_ok(&xml[i..]) => return Some(format!("bare & at {i}")),
+            b'>' => return Some(format!("bare > at {i}")),
+            b'<' => {
+                // Inside a tag: names, spaces, `=`, `/` and quoted values up to its `>`.
+                i += 1;
+                loop {
+                    match b.get(i) {
+                        None => return Some("unclosed tag".into()),
+                        Some(b'>') => break,
+                        Some(b'<') => return Some(format!("< inside a tag at {i}")),
+                        Some(&q) if q == b'"' || q == b'\'' => {
+                            let Some(k) = xml[i + 1..].find(q as char) else {
+                                return Some(format!("unterminated value at {i}"));
+                            };
+                            let end = i + 1 + k;
+                            let value = &xml[i + 1..end];
+                            if value.contains('<') {
+                                return Some(format!("< in the value {value}"));
+                            }
+                            if let Some(k) = value.find('&').filter(|&k| !entity_ok(&value[k..])) {
+                                return Some(format!("bare & in the value {value} at {k}"));
+                            }
+                            i = end;
+                        }
+                        Some(&c) if c.is_ascii_alphanumeric() || b" \n\t=/_-:.?!".contains(&c) => {}
+                        Some(&c) => return Some(format!("{:?} inside a tag at {i}", c as char)),
+                    }
+                    i += 1;
+                }
+            }
+            _ => {}
+        }
+        i += 1;
+    }
+    None
+}
+
+/// The value of XML attribute text `v` with its entities replaced.
+fn unescape(v: &str) -> String {
+    v.replace("&lt;", "<")
+        .replace("&gt;", ">")
+        .replace("&quot;", "\"")
+        .replace("&apos;", "'")
+        .replace("&amp;", "&")
+}
+
+/// Image files named with `&`, `<`, `>`, `"` and `'` (a texture, a height map, a mask) give a
+/// well-formed scene.xml whose filename values, unescaped, are the files' paths.
+#[test]
+fn export_escapes_file_names_in_the_xml() {
+    let names = ["a&b<c>.ppm", "h\"1'&.pgm", "m<&>'.pgm"];
+    let mtl = format!(
+        "newmtl a\nKd 0.5 0.1 0.1\nmap_Kd {}\nnewmtl b\nKd 0.1 0.5 0.1\nbump -bm 0.25 {}\n\
+         newmtl c\nKd 0.1 0.1 0.5\nmap_d {}\n",
+        names[0], names[1], names[2]
+    );
+    let images = [
+        (names[0], b"P6\n1 1\n255\n\x80\x40\x20".to_vec()),
+        (names[1], pgm(2, 2, 100)),
+        (names[2], pgm(2, 2, 255)),
+    ];
+    let (d, xml) = export_quads(&mtl, &images);
+    assert_eq!(xml_fault(&xml), None, "{xml}");
+    let key = r#"<string name="filename" value=""#;
+    let values: Vec<String> = xml
+        .match_indices(key)
+        .map(|(at, _)| {
+            let start = at + key.len();
+            unescape(&xml[start..start + xml[start..].find('"').unwrap()])
+        })
+        .collect();
+    for name in names {
+        let path = std::fs::canonicalize(d.path().join(name)).unwrap();
+        assert!(
+            values.iter().any(|v| std::path::Path::new(v) == path),
+            "{name}: {values:?}"
+        );
+    }
+    // The check itself finds what an unescaped name would have written.
+    assert!(xml_fault(r#"<string name="filename" value="a&b<c>.ppm"/>"#).is_some());
+    assert!(xml_fault(r#"<string name="filename" value="h"1'.pgm"/>"#).is_some());
+}

@@ -5,7 +5,7 @@
 use std::borrow::Cow;
 use std::path::Path;
 
-use super::{rgb, Body, File};
+use super::{rgb, xml_attr, Body, File};
 use crate::material::Bsdf;
 use crate::scene::Scene;
 
@@ -18,12 +18,11 @@ fn bitmap(scene: &Scene, t: usize, name: &str) -> String {
     )
 }
 
-/// `path` as written into the XML: absolute where it can be, as the scene's maps are.
+/// `path` as written into an XML attribute: absolute where it can be, as the scene's maps are, and
+/// escaped ([`xml_attr`]).
 fn file_name(path: &Path) -> String {
-    std::fs::canonicalize(path)
-        .unwrap_or_else(|_| path.to_path_buf())
-        .display()
-        .to_string()
+    let path = std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf());
+    xml_attr(&path.display().to_string()).into_owned()
 }
 
 /// Material `m`'s BSDF, inside Mitsuba 3's `mask` where it has a cutout (`map_d`), outermost so
@@ -59,7 +58,8 @@ pub(super) fn bsdf_xml<'a>(scene: &'a Scene, m: usize, images: &mut Vec<File<'a>
 }
 
 /// Material `m`'s BSDF, inside Mitsuba 3's `bumpmap` (its scale our `-bm`) or `normalmap` where it
-/// has a bump or normal map, the image read raw (not sRGB-decoded) as ours is. Mitsuba's
+/// has a bump or normal map, the image read raw (not sRGB-decoded) as ours is; a height map read from
+/// a colour image (ours is its channels' mean) is written as `height_<m>.exr` of our values. Mitsuba's
 /// `normalmap` has no strength: a normal map of strength (`-bm`) other than 1 is written as
 /// `normal_<m>.exr`, its texels turned by that strength ([`crate::bump::BumpMap::encoded_at_strength`]),
 /// pushed to `images`.
@@ -76,9 +76,25 @@ fn bumped_bsdf_xml<'a>(scene: &'a Scene, m: usize, images: &mut Vec<File<'a>>) -
     match map {
         crate::bump::BumpMap::Height { scale, heights, .. } => {
             let scale = scale.unwrap_or_else(|| relief_scale(scene, m, heights.width));
+            // Ours is a colour image's channel mean, Mitsuba's its luminance: ours is written out.
+            let file = if heights.plain_grey {
+                file_name(map.path())
+            } else {
+                let name = format!("height_{m}.exr");
+                images.push((
+                    name.clone(),
+                    Body::Image {
+                        width: heights.width,
+                        height: heights.height,
+                        channels: &["Y"],
+                        values: Cow::Borrowed(&heights.values),
+                    },
+                ));
+                name
+            };
             format!(
                 r#"<bsdf type="bumpmap">{}<float name="scale" value="{scale}"/>{inner}</bsdf>"#,
-                raw("", &file_name(map.path()))
+                raw("", &file)
             )
         }
         crate::bump::BumpMap::Normal {

@@ -30,6 +30,26 @@ fn rgb(name: &str, c: Vec3) -> String {
     format!(r#"<rgb name="{name}" value="{} {} {}"/>"#, c.x, c.y, c.z)
 }
 
+/// `text` as the value of an XML attribute (in double quotes): the five characters XML gives a meaning
+/// (`&`, `<`, `>`, `"`, `'`) as their entities, so that a file named `a&b.png` leaves scene.xml readable.
+fn xml_attr(text: &str) -> Cow<'_, str> {
+    if !text.contains(['&', '<', '>', '"', '\'']) {
+        return Cow::Borrowed(text);
+    }
+    let mut out = String::with_capacity(text.len() + 16);
+    for c in text.chars() {
+        match c {
+            '&' => out.push_str("&amp;"),
+            '<' => out.push_str("&lt;"),
+            '>' => out.push_str("&gt;"),
+            '"' => out.push_str("&quot;"),
+            '\'' => out.push_str("&apos;"),
+            c => out.push(c),
+        }
+    }
+    Cow::Owned(out)
+}
+
 fn v(p: Vec3) -> String {
     format!("{}, {}, {}", p.x, p.y, p.z)
 }

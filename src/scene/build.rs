@@ -213,6 +213,8 @@ fn build(path: &Path, text: &str, desc: &SceneFile, held: &HeldInputs) -> Result
     let (cutouts, mask_files) = cutouts(&cx, &geometry, &materials, mask_paths)?;
     let cutouts = cutouts.map(Arc::new);
     let bumps = bumps(&cx, &materials, bump_paths)?;
+    let normal_mapped = |m: u32| matches!(bumps.get(m as usize), Some(Some(b)) if matches!(**b, BumpMap::Normal { .. }));
+    let tangents = crate::tangents::Tangents::new(&geometry, &mesh_tris, normal_mapped);
     let bounds = geometry.bounds();
     let mut lights = lights(&cx, desc, &geometry, &materials, &emission_at)?;
     if let Some(c) = cutouts.as_ref().filter(|c| c.cuts_any(&lights)) {
@@ -264,6 +266,7 @@ fn build(path: &Path, text: &str, desc: &SceneFile, held: &HeldInputs) -> Result
         texel_density,
         gloss_maps,
         bumps,
+        tangents,
         cutouts,
         mask_files,
         warnings,

@@ -156,6 +156,8 @@ pub struct Scene {
     gloss_maps: Vec<Option<crate::gloss_map::GlossMaps>>,
     /// Each material's bump or normal map; empty when no material has any.
     bumps: Vec<Option<std::sync::Arc<crate::bump::BumpMap>>>,
+    /// The per-vertex tangents of the meshes with a normal map; empty without one.
+    tangents: crate::tangents::Tangents,
     /// The `map_d` cutouts; `None` when no triangle has one.
     cutouts: Option<std::sync::Arc<crate::cutout::Cutouts>>,
     /// Each material's `map_d` file and mask among `cutouts`; empty when `cutouts` is `None`.
@@ -609,7 +611,10 @@ impl Scene {
         let frame = Frame::new(hit, wo);
         match self.bumps.get(hit.material as usize) {
             Some(Some(map)) => match crate::bump::uv_tangents(&self.geometry, hit.tri) {
-                Some((dpdu, dpdv)) => frame.bumped(map.normal(hit.ns, dpdu, dpdv, hit.uv)),
+                Some(d) => {
+                    let tangent = self.tangents.at(&self.geometry, hit);
+                    frame.bumped(map.normal(hit.ns, d, tangent, hit.uv))
+                }
                 None => frame,
             },
             _ => frame,
