@@ -160,8 +160,10 @@ fn json(path: &str) -> serde_json::Value {
 /// straight down, turned about its own centre from −30° to +30° about z over frames 0–3: the beam it
 /// reflects sweeps from the green wall to the red one. `pm`'s frame 3 has each channel of its
 /// `indirect` mean within 5 % of the still's (measured: 0.989, 0.988, 0.985 of it; a still of seed
-/// 1: 0.990, 0.991, 0.990). A turning mesh counted as not moving (its bounding sphere stays put)
-/// kept frame 0's green bleed: red 0.27×, green 6.1×, blue 1.95×.
+/// 1: 0.990, 0.991, 0.990; sequence and still at seed 1 1.009, 1.006, 1.007, at seed 2 1.013, 1.009,
+/// 1.014, on SSE4.2's kernels 0.992, 0.989, 0.989: the bound 3.3× the worst). A turning mesh counted
+/// as not moving (its bounding sphere stays put) kept frame 0's green bleed: red 0.27×, green 6.1×,
+/// blue 1.95×.
 #[test]
 fn a_mirror_turning_in_place_moves_the_indirect_light() {
     let panel =
@@ -219,10 +221,13 @@ fn a_ball_blocking_a_spot_removes_its_bounce_from_the_indirect_light() {
 /// A ball (scale 0.15) sinking slowly, over 30 frames, into a narrow spot beam aimed at the back
 /// wall, a metre from the ball: the wall's bright patch and its bounce light in the whole room dim,
 /// a few photons per texel at a time. `pm`'s frame 29 has each channel of its `indirect` mean
-/// within 2 % of the still's (measured: 1.005, 0.998, 0.992; before the atlas's texels were carried
+/// within 2.5 % of the still's (measured: 1.005, 0.998, 0.992; before the atlas's texels were carried
 /// 1.006, 0.999, 0.993; a still of seed 1: 0.986, 0.975, 0.972, but a sequence and a still share
-/// their seed's photons). Texels carried while no single cell's photons changed significantly kept
-/// the brighter bounce: 1.028, 0.982, 0.964.
+/// their seed's photons; sequence and still at seed 1 1.012, 1.014, 0.999, at seed 2 0.998, 0.993,
+/// 0.986, on SSE4.2's kernels 0.998, 0.999, 0.991). Texels carried while no single cell's photons
+/// changed significantly kept the brighter bounce: 1.028, 0.982, 0.964. The bound, 1.8× the worst
+/// seed's 1.4 %, stays below that defect's 3.6 % (2 % held the seeds by 1.4× only; 30 frames are too
+/// slow to average seeds).
 #[test]
 fn a_slow_dimming_of_bounce_light_reaches_the_carried_texels() {
     let ball = moving_ball(0.15, [0.2, 1.55, -0.1], [0.2, 1.2, -0.1], 29);
@@ -238,7 +243,7 @@ fn a_slow_dimming_of_bounce_light_reaches_the_carried_texels() {
     );
     eprintln!("[dimming bounce] frame 29 indirect / still: {r:.4}");
     assert!(
-        (r - Vec3::ONE).abs().max_element() <= 0.02,
+        (r - Vec3::ONE).abs().max_element() <= 0.025,
         "frame 29's indirect means are {r:.4} of its still's"
     );
 }
@@ -464,7 +469,8 @@ fn frames_that_reuse_the_image_report_no_work_of_their_own() {
 /// following its per-channel temporal gradient for 8 frames, frame 5's indirect 1.047, 0.974, 1.018
 /// of the still's (pink disks, one per record, red up to 1.37). Now each channel of frame 5's
 /// `indirect` mean is within 1.5 % of the still's (measured 0.9978, 0.9979, 0.9981; a still of seed
-/// 1 is within 0.3 %).
+/// 1 is within 0.3 %; sequence and still at seeds 1, 2 and on SSE4.2 0.9975–0.9984, the bound 6×
+/// the worst and a third of the defect's 4.7 %).
 #[test]
 fn records_stop_changing_hue_when_the_light_stops() {
     let scene = format!(

@@ -174,7 +174,8 @@ fn render_card(card: &str, card_mtl: &str, seed: u32) -> Image {
 /// and the photons. `d` as a constant cuts nothing, and the mask's alpha decides, not its white colour.
 ///
 /// Measured (64×48, pm, 16 spp, 4×4-pixel blocks), seeds 1–4: against the twin at the same seed the
-/// mean within +0.01 … +0.11 % and the block relMSE 0.7–2.8e-6; the twin against itself at another
+/// mean within +0.01 … +0.11 % and the block relMSE 0.7–2.8e-6 (seeds 1001–1003: +0.01 … +0.04 %,
+/// 1.3–1.9e-6; the mean's bound, 1 %, is 9× the worst); the twin against itself at another
 /// seed (its noise) 0.05–0.40 % and 3.5–6.2e-5; the opaque card (no mask) +6.7 % and 5.2e-2. The
 /// bound, 2e-4, is three times the twin's own seed-to-seed spread: a cutout drawn by other random
 /// numbers than its twin's passes it too.
@@ -219,7 +220,8 @@ fn flipped(obj: &str) -> String {
 /// carry nothing, as camera rays pass through it.
 ///
 /// Measured (64×48, pm, 16 spp, 4×4-pixel blocks), seeds 1–2: mean +0.22 … +0.32 %, block relMSE
-/// 1.6–2.0e-4; the cut emitter against itself at another seed +0.42 % and 4.1e-4 (half its light
+/// 1.6–2.0e-4 (seeds 1001–1002: +0.13, +0.14 %, 1.9e-4, 2.5e-4: the bound is 3.2× the worst of the
+/// four, the mean's 1 % 3×); the cut emitter against itself at another seed +0.42 % and 4.1e-4 (half its light
 /// samples land on cut texels and carry nothing: twice the twin's variance, whose own spread is
 /// 4.3e-5); the whole card emitting +41 % and 9.9e-2. The bound, 8e-4, is twice the cut emitter's
 /// seed-to-seed spread.
@@ -284,7 +286,8 @@ fn render_glossy_floor(floor: &str, seed: u32) -> Image {
 ///
 /// Measured (64×48, pm, 16 spp, 4×4-pixel blocks), seeds 1–3: map_Ks renders the same pixels as its
 /// constant (the same lobe to the bit); map_Ns +0.16 … +0.34 % in the mean, block relMSE 0.65–1.4e-4
-/// (its lobe is sampled, the constant's read from the radiance cache); the constant Ns 40 against
+/// (its lobe is sampled, the constant's read from the radiance cache; seeds 1001–1003: +0.07 …
+/// +0.22 %, 0.87–2.8e-4, the bound 2.1× the worst); the constant Ns 40 against
 /// itself at another seed 0.18–0.33 % and 1.9–2.6e-4; the unmapped Ns 200 against Ns 40 +0.5 % and
 /// 4.5e-2 (the mean hardly moves, an energy-conserving lobe only narrows). The bound, 6e-4, is about
 /// twice the seed-to-seed spread.

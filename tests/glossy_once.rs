@@ -4,8 +4,11 @@
 //! glossy box and a glossy sphere, lit by a point light and the ceiling light. Before the fix, a
 //! glossy-lobe ray that reached a diffuse wall added the global map's full irradiance (direct and
 //! caustic photons included) to the wall's own direct and caustic terms: the floor came out +61 %.
-//! `pm` and `photons` are compared with `path` at 1024 spp: measured means 0.9983 / 0.9920,
-//! floors 1.0022 / 0.9987, 4×4-block relMSE 0.00083 / 0.00105; bounds 2 %, 3 %, 0.004. (The floor's
+//! `pm` and `photons` are compared with `path` at 1024 spp, each at the same seed. Measured at seeds
+//! 0–3 (SSE4.2's kernels gave seed 0's figures): means 1.0028, 1.0014, 1.0035, 1.0050 / 0.9961,
+//! 0.9972, 0.9971, 1.0000; floors 1.0045, 1.0167, 1.0118, 1.0213 / 0.9998, 1.0114, 1.0097, 1.0136;
+//! 4×4-block relMSE 0.00078–0.00108 / 0.00092–0.00106. Bounds: means 2 % (4× the worst), floors 5 %
+//! (2.3× the worst, a twelfth of the defect's +61 %), blocks 0.004 (3.7× the worst). (The floor's
 //! lobe samples read, not shade, where they land; the satin box's lobe reads the radiance cache.)
 
 mod common;
@@ -149,7 +152,7 @@ fn glossy_light_is_counted_once() {
             (whole - 1.0) * 100.0
         );
         assert!(
-            (floor - 1.0).abs() < 0.03,
+            (floor - 1.0).abs() < 0.05,
             "{method}: floor mean off by {:.1} %",
             (floor - 1.0) * 100.0
         );

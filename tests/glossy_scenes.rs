@@ -5,8 +5,10 @@
 //! reference's own noise in the JSON beside each). Our `path` agreed with Mitsuba on CornellBox-Glossy to
 //! +0.006 % in the image mean at 4096 spp (block relMSE 1.3e-4 per pixel): the two Phong models match.
 //!
-//! Asserted: the image mean within 1 % of the reference's and the 8×8-block relMSE below a bound set
-//! from the measured value (written beside each). `path` on Sponza is slow (`make test-slow`).
+//! Asserted: the image mean within 1 % of the reference's (1.5 % where the mean sits further off) and
+//! the 8×8-block relMSE below a bound set from seeds 0 and 1 and SSE4.2's kernels at seed 0 (seeds 0,
+//! 1, 3 and SSE4.2 for Sponza; each written beside its bound, which is at least 2× the worst). `path`
+//! on Sponza is slow (`make test-slow`).
 
 mod common;
 
@@ -71,13 +73,13 @@ fn measure(
     (err, block, secs)
 }
 
-/// Renders `tests/scenes/<name>.toml` and checks it against its reference: the mean within 1 %, the
-/// 8×8-block relMSE below `max_block`.
-fn check(name: &str, method: &str, spp: Option<u32>, max_block: f64) {
+/// Renders `tests/scenes/<name>.toml` and checks it against its reference: the mean within
+/// `max_mean`, the 8×8-block relMSE below `max_block`.
+fn check(name: &str, method: &str, spp: Option<u32>, max_mean: f64, max_block: f64) {
     let scene = format!("tests/scenes/{name}.toml");
     let (err, block, _) = measure(&scene, name, method, spp, None);
     assert!(
-        err.abs() <= 0.01,
+        err.abs() <= max_mean,
         "{name} {method}: image mean off by {:+.2} %",
         100.0 * err
     );
@@ -89,20 +91,23 @@ fn check(name: &str, method: &str, spp: Option<u32>, max_block: f64) {
 
 #[test]
 fn cornell_glossy_pm() {
-    // Measured: mean -0.470 %, block relMSE 0.000051 (0.6 s).
-    check("cornell-glossy", "pm", None, 1e-4);
+    // Seed 0: mean -0.470 %, block relMSE 0.000051 (0.6 s); seed 1 +0.069 %, 0.000032; SSE4.2
+    // -0.097 %, 0.000078 (the 1e-4 bound held by 1.3×). Bound 2e-4.
+    check("cornell-glossy", "pm", None, 0.01, 2e-4);
 }
 
 #[test]
 fn cornell_glossy_path() {
-    // Measured: mean -0.106 %, block relMSE 0.000023 at 256 spp (3.5 s).
-    check("cornell-glossy", "path", Some(256), 5e-5);
+    // At 256 spp, seeds 0, 1 and SSE4.2: mean -0.106, +0.036, -0.038 %, block relMSE 0.000023,
+    // 0.000024, 0.000025 (3.5 s).
+    check("cornell-glossy", "path", Some(256), 0.01, 5e-5);
 }
 
 /// Seeds 0–2, each mean within 1 % and block relMSE below 6e-4, their median below 1.5e-4. Measured
 /// over seeds 0–7 on AVX2's and SSE4.2's ray kernels (16 realisations): means −0.46 … +0.22 %, block
 /// relMSE 0.000053–0.000122 but one, 0.000434 (SSE4.2, seed 0: a third of it in one corner block);
-/// the median of three seeds at most 0.000115. The single-seed bound of 1e-4 failed on SSE4.2.
+/// the median of three seeds at most 0.000115. The single-seed bound of 1e-4 failed on SSE4.2. Seeds
+/// 1000–1002: medians 0.000064 (−0.39 … +0.16 %).
 #[test]
 fn cornell_glossy_floor_pm() {
     let scene = "tests/scenes/cornell-glossy-floor.toml";
@@ -124,27 +129,31 @@ fn cornell_glossy_floor_pm() {
 
 #[test]
 fn cornell_glossy_floor_path() {
-    // Measured: mean -0.102 %, block relMSE 0.000021 at 256 spp (3.7 s).
-    check("cornell-glossy-floor", "path", Some(256), 5e-5);
+    // At 256 spp, seeds 0, 1 and SSE4.2: mean -0.102, +0.024, -0.050 %, block relMSE 0.000021,
+    // 0.000019, 0.000021 (3.7 s).
+    check("cornell-glossy-floor", "path", Some(256), 0.01, 5e-5);
 }
 
 #[test]
 fn sibenik_polished_pm() {
-    // Measured: mean -0.038 %, block relMSE 0.000101 (3.5 s). It was +7.9 % while a textured glossy
-    // material's albedo, which the irradiance atlas reads, was its scaled Kd, not its texture's mean.
-    check("sibenik-polished", "pm", None, 2e-4);
+    // Seeds 0, 1 and SSE4.2: mean -0.038, -0.129, +0.017 %, block relMSE 0.000101, 0.000089,
+    // 0.000103 (3.5 s). It was +7.9 % while a textured glossy material's albedo, which the irradiance
+    // atlas reads, was its scaled Kd, not its texture's mean.
+    check("sibenik-polished", "pm", None, 0.01, 2.5e-4);
 }
 
 #[test]
 fn sibenik_polished_path() {
-    // Measured: mean -0.225 %, block relMSE 0.000204 at the default 64 spp (3.6 s).
-    check("sibenik-polished", "path", None, 4e-4);
+    // At the default 64 spp, seeds 0, 1 and SSE4.2: mean -0.225, -0.095, -0.103 %, block relMSE
+    // 0.000204, 0.000232, 0.000203 (3.6 s).
+    check("sibenik-polished", "path", None, 0.01, 5e-4);
 }
 
 #[test]
 fn sponza_blender_pm() {
-    // Measured: mean -0.438 %, block relMSE 0.000706 (4.8 s).
-    check("sponza-blender", "pm", None, 1e-3);
+    // Seeds 0, 1, 3 and SSE4.2: mean -0.438, -0.270, +0.152, -0.231 %, block relMSE 0.000706,
+    // 0.000761, 0.000720, 0.000675 (4.8 s): the 1e-3 bound held by 1.3×. Bound 1.6e-3.
+    check("sponza-blender", "pm", None, 0.01, 1.6e-3);
 }
 
 #[test]
@@ -152,18 +161,21 @@ fn sponza_blender_pm() {
 fn sponza_blender_path() {
     // Measured: mean -0.28 %, block relMSE 0.020 at the default 64 spp (21 s; per-pixel relMSE 1.0:
     // fireflies of Ns 225 everywhere).
-    check("sponza-blender", "path", None, 0.05);
+    check("sponza-blender", "path", None, 0.01, 0.05);
 }
 
 #[test]
 fn sponza_conference_pm() {
-    // Measured: mean -0.778 %, block relMSE 0.000363 (5.7 s); seeds 1, 2: -0.96 %, -0.64 %. Sponza
-    // with its diffuse MTL is -0.43 % against its own reference.
-    check("sponza-conference", "pm", None, 1e-3);
+    // Seeds 0, 1, 3 and SSE4.2: mean -0.778, -0.573, -0.410, -0.708 % (seed 2 was -0.64 %, and seed
+    // 1 -0.96 %, on an earlier build), block relMSE 0.000363, 0.000367, 0.000342, 0.000372 (5.7 s).
+    // The mean sits 0.4–1.0 % low at every seed, so its 1 % bound is 1.5 % here. Sponza with its
+    // diffuse MTL is -0.43 % against its own reference.
+    check("sponza-conference", "pm", None, 0.015, 1e-3);
 }
 
 #[test]
 fn sponza_conference_path() {
-    // Measured: mean -0.211 %, block relMSE 0.0032 at the default 64 spp (2.0 s).
-    check("sponza-conference", "path", None, 0.008);
+    // At the default 64 spp, seeds 0, 1, 3 and SSE4.2: mean -0.211, -0.330, -0.538, +0.276 %, block
+    // relMSE 0.0032, 0.0038, 0.0034, 0.0031 (2.0 s).
+    check("sponza-conference", "path", None, 0.01, 0.008);
 }

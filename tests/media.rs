@@ -254,8 +254,10 @@ max_depth = 1
     let expect = ss * p * e * (Vec3::ONE - (-st * d * k).exp()) / (st * k);
     let got = mean(&img);
     let rel = ((got - expect) / expect).abs().max_element();
+    // Seeds 0–11, worst channel: −0.12 … +0.61 % (SSE4.2 at seed 0 as seed 0: +0.23 %); bound 1.5 %,
+    // 2.5× the worst. A wrong phase or transmittance factor moves it by tens of per cent.
     assert!(
-        rel < 0.01,
+        rel < 0.015,
         "mean {got}, closed form {expect} ({:.2} % off)",
         rel * 100.0
     );
@@ -296,8 +298,11 @@ max_depth = 1000
     ]);
     let img = render(dir.path(), &[]);
     let m = mean(&img);
+    // Each channel's mean is noise around 1 (one distance-sampling channel serves all three): seeds
+    // 0–11, worst channel 0.34–1.90 % off (−1.48 … +1.90 %; the bound of 1 % failed at seeds 2 and
+    // 11). Bound 3 %, 1.6× the worst.
     assert!(
-        (m - Vec3::ONE).abs().max_element() < 0.01,
+        (m - Vec3::ONE).abs().max_element() < 0.03,
         "mean {m}, expected 1"
     );
 }
@@ -438,10 +443,11 @@ fn render_shipped(
 
 /// The Cornell box in fog (glass sphere, block, area light) against its Mitsuba 3 reference
 /// (`volpath`, 4096 spp, tests/reference/fog-cornell-path.json): our `path` and every photon-map
-/// method on the image mean. Measured at 64²: path −0.1 % (512 spp), pm −0.5 %, pm-fg −1.1 %, photons
-/// −0.2 % (with k-NN estimates at 4 steps instead of the media radiance cache: pm −0.8 %, twice the
-/// time). Before final-gather rays saw the fog's own glow pm was 10 % dark; with the invisible
-/// boundaries counted as surfaces by the photon-disc probes, 14 %.
+/// method on the image mean. Measured at 64², seed 0 (worst channel): path +0.29 % (512 spp), pm
+/// −0.20 %, pm-fg +0.63 %, photons −0.36 % (with k-NN estimates at 4 steps instead of the media
+/// radiance cache: pm −0.8 %, twice the time); other seeds not measured yet (their renders are the
+/// suite's slowest), so the bounds stay 2.5–5× that. Before final-gather rays saw the fog's own glow
+/// pm was 10 % dark; with the invisible boundaries counted as surfaces by the photon-disc probes, 14 %.
 #[test]
 fn every_method_agrees_with_mitsuba_in_the_fogged_cornell_box() {
     let dir = tempfile::tempdir().unwrap();
@@ -476,7 +482,7 @@ fn every_method_agrees_with_mitsuba_in_the_fogged_cornell_box() {
 /// Mitsuba 3 reference (`volpath`, 65536 spp; a noisy one, relMSE 0.014 per pixel: the caustic light
 /// reaches it only when a path hits the small lamp through the glass). At 64 fixed samples (the light
 /// seen through the sphere is heavy-tailed; adaptive sampling's stopping rule biases it): measured pm
-/// −0.11 %, pm-fg −0.26 % (seeds 1–4 move pm's mean between −0.14 and +1.13 %: the photon maps'
+/// −0.11 % (seed 0), pm-fg −0.26 % (seeds 1–4 move pm's mean between −0.14 and +1.13 %: the photon maps'
 /// noise; the reference's image mean has a standard error of 0.55 % of its own). Our `path` is too noisy here for a test (1024 spp: −6 %, 2048:
 /// −1.7 %).
 #[test]
@@ -622,7 +628,8 @@ fn photon_files_hold_the_volume_maps() {
 /// Single scattering of a point light in a fogged black room, against a numerical integral of
 /// σs·Tr·p·I/d²·Tr along every ray (16 sub-pixel rays per pixel, 4000 steps each): `pm`'s
 /// `media_single` layer (default, adaptive sampling) and `path` with `max_depth = 1` (light scattered
-/// once, nothing else). Measured: pm −0.1 %, path +0.1 %. (With the light in view, pm's adaptive
+/// once, nothing else). Measured over seeds 0–11: pm −0.11 … +0.18 %, path −0.39 … +0.48 %; bound
+/// 1.5 %, 3× the worst. (With the light in view, pm's adaptive
 /// sampling runs +3 % at 16²: the glow's singularity gives its pixel infinite variance.)
 #[test]
 fn single_scattering_of_a_point_light_matches_a_numerical_integral() {
@@ -911,6 +918,8 @@ fn many_clear_boundaries_change_nothing() {
     let plain = mean(&render(room(0).path(), &[]));
     let slabs = mean(&render(room(127).path(), &[]));
     let ratio = slabs / plain;
+    // 1.0000 in every channel at seeds 0–3 and on SSE4.2 (the clear media change none of the same
+    // seed's paths); bound 2 %, a sixth of the defect's 0.88×.
     assert!(
         ratio.min_element() > 0.98 && ratio.max_element() < 1.02,
         "127 clear boxes: {ratio} × the plain room"
