@@ -1,7 +1,8 @@
 //! Every frame of a sequence checked as its still would be before the first is written: a keyed
 //! scale that puts a vertex past the limits or leaves no triangle, an emitter scaled past the power
 //! cap — refused at the key's file:line with the frame, exit 2, nothing written. And a sequence
-//! reads its OBJ files once: one edited while the sequence renders changes no frame.
+//! reads its OBJ files and images once: one edited (or removed) while the sequence renders changes
+//! no frame.
 
 mod common;
 use common::*;
@@ -109,4 +110,81 @@ fn an_obj_edited_while_a_sequence_renders_changes_no_frame() {
     let r = child.wait_with_output().unwrap();
     assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
     assert!(d.path().join("out/f-3.exr").exists());
+}
+
+/// Renders `scene` to `out` (f-#.exr, 64×48) and calls `meanwhile` once frame 0 is written.
+fn render_then(scene: &str, out: &str, meanwhile: impl FnOnce()) -> std::process::Output {
+    let child = std::process::Command::new(bin())
+        .args([
+            "render", scene, "-o", out, "--quiet", "--width", "64", "--height", "48",
+        ])
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let first = std::path::Path::new(out).with_file_name("f-0.exr");
+    let start = std::time::Instant::now();
+    while !first.exists() && start.elapsed() < Duration::from_secs(120) {
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    meanwhile();
+    child.wait_with_output().unwrap()
+}
+
+#[test]
+fn images_edited_while_a_sequence_renders_change_no_frame() {
+    // The cube, moving at every frame, is glossy with every kind of image a material names: a
+    // texture, glossy maps, a cutout mask and a bump map. After frame 0 is written the first four
+    // are rewritten (another colour, another gloss, a mask that cuts the cube away) and the bump
+    // map is removed; every frame must equal the frame rendered with the files left alone.
+    let d = scene("0.4", false, false);
+    let grey = |v: u8| format!("P3\n1 1\n255\n{v} {v} {v}\n");
+    let images = ["tex.ppm", "ks.ppm", "ns.ppm", "d.ppm", "bump.ppm"];
+    for (name, v) in images.iter().zip([200, 180, 200, 255, 128]) {
+        std::fs::write(d.path().join(name), grey(v)).unwrap();
+    }
+    let mtl = "newmtl block\nKd 0.5 0.5 0.5\nKs 0.3 0.3 0.3\nNs 40\nmap_Kd tex.ppm\n\
+               map_Ks ks.ppm\nmap_Ns ns.ppm\nmap_d d.ppm\nbump bump.ppm\n";
+    std::fs::write(d.path().join("cube.mtl"), mtl).unwrap();
+    let mut text = std::fs::read_to_string(d.path().join("scene.toml")).unwrap();
+    text.push_str("[render.photons]\nglobal = 20000\n");
+    std::fs::write(d.path().join("scene.toml"), text).unwrap();
+    let scene = p(d.path(), "scene.toml");
+    let left_alone = render_then(&scene, &p(&d.path().join("out"), "f-#.exr"), || ());
+    assert!(left_alone.status.success(), "{left_alone:?}");
+    std::fs::create_dir(d.path().join("edited")).unwrap();
+    let r = render_then(&scene, &p(&d.path().join("edited"), "f-#.exr"), || {
+        for (name, v) in images[..4].iter().zip([20, 0, 1, 0]) {
+            std::fs::write(d.path().join(name), grey(v)).unwrap();
+        }
+        std::fs::remove_file(d.path().join("bump.ppm")).unwrap();
+    });
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    for f in 0..4 {
+        let name = format!("f-{f}.exr");
+        let (a, b) = (
+            read(&d.path().join("out").join(&name)),
+            read(&d.path().join("edited").join(&name)),
+        );
+        assert!(a.pixels == b.pixels, "frame {f} changed");
+    }
+    // The edited files do change a frame rendered from them.
+    std::fs::write(d.path().join("bump.ppm"), grey(128)).unwrap();
+    let again = d.path().join("again");
+    std::fs::create_dir(&again).unwrap();
+    let r = run(&[
+        "render",
+        &scene,
+        "-o",
+        &p(&again, "f-#.exr"),
+        "--quiet",
+        "--width",
+        "64",
+        "--height",
+        "48",
+        "--frames",
+        "0..0",
+    ]);
+    assert!(r.status.success(), "{r:?}");
+    let f0 = read(&d.path().join("out/f-0.exr"));
+    assert!(read(&again.join("f-0.exr")).pixels != f0.pixels);
 }

@@ -136,7 +136,7 @@ pub struct Scene {
     pub camera: Camera,
     pub geometry: Geometry,
     pub materials: Vec<Material>,
-    pub textures: Vec<Texture>,
+    pub textures: Vec<std::sync::Arc<Texture>>,
     pub lights: Lights,
     pub bvh: Bvh,
     /// The specular (mirror, glass) triangles alone, for the photon pass's caustic-only paths; `None`
@@ -207,7 +207,7 @@ fn texel_density(g: &Geometry, tri: u32, texture: &crate::texture::Texture) -> f
 fn texel_densities(
     g: &Geometry,
     materials: &[Material],
-    textures: &[crate::texture::Texture],
+    textures: &[std::sync::Arc<crate::texture::Texture>],
 ) -> Vec<f32> {
     use crate::material::Bsdf;
     g.triangles
