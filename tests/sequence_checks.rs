@@ -48,17 +48,16 @@ fn scene(scale: &str, emits: bool, all: bool) -> tempfile::TempDir {
     d
 }
 
-/// Renders the scene of `d` to out/f-#.exr (with --stats) and expects a refusal naming `needles`.
-fn refused(d: &tempfile::TempDir, needles: &[&str]) {
+/// Renders the scene of `d` to out/f-#.exr (with --stats and `extra`) and expects a refusal naming
+/// `needles`, with no file written.
+fn refused_with(d: &tempfile::TempDir, extra: &[&str], needles: &[&str]) {
     let scene = p(d.path(), "scene.toml");
     let (out, stats) = (
         p(&d.path().join("out"), "f-#.exr"),
         p(&d.path().join("out"), "f-#.json"),
     );
-    let r = run_bounded(
-        &["render", &scene, "-o", &out, "--stats", &stats, "--quiet"],
-        Duration::from_secs(120),
-    );
+    let args = ["render", &scene, "-o", &out, "--stats", &stats, "--quiet"];
+    let r = run_bounded(&[&args, extra].concat(), Duration::from_secs(120));
     let stderr = String::from_utf8_lossy(&r.stderr);
     assert_eq!(r.status.code(), Some(2), "{stderr}");
     assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
@@ -67,6 +66,135 @@ fn refused(d: &tempfile::TempDir, needles: &[&str]) {
     }
     let written = listing(&d.path().join("out"));
     assert!(written.is_empty(), "{written:?}");
+}
+
+fn refused(d: &tempfile::TempDir, needles: &[&str]) {
+    refused_with(d, &[], needles)
+}
+
+/// The room (its `scale` keyed by `room_keys`) under a sun whose `irradiance` is keyed by
+/// `sun_keys`, 4 frames, and an out/ directory.
+fn sun_scene(room_scale: &str, room_keys: &str, sun_keys: &str) -> tempfile::TempDir {
+    let text = format!(
+        "version = 1\n[animation]\nframes = 4\n[camera]\neye = [0.0, 1.0, 3.0]\n\
+         target = [0.0, 1.0, 0.0]\nfov = 45.0\nwidth = 16\nheight = 12\n[[mesh]]\n\
+         obj = \"room.obj\"\nscale = {room_scale}\n{room_keys}[[light]]\ntype = \"directional\"\n\
+         direction = [0.3, -1.0, 0.2]\nirradiance = [1e20, 1e20, 1e20]\n{sun_keys}[render]\n\
+         spp = 1\nseed = 1\n"
+    );
+    let d = scene_dir(&[
+        ("room.obj", ROOM_OBJ),
+        ("room.mtl", ROOM_MTL),
+        ("scene.toml", &text),
+    ]);
+    std::fs::create_dir(d.path().join("out")).unwrap();
+    d
+}
+
+/// The last line (from 1) of `scene.toml` in `d` that starts with `start`.
+fn last_line_starting(d: &tempfile::TempDir, start: &str) -> usize {
+    let text = std::fs::read_to_string(d.path().join("scene.toml")).unwrap();
+    let lines = text.lines().enumerate();
+    1 + lines
+        .filter(|(_, l)| l.starts_with(start))
+        .last()
+        .unwrap()
+        .0
+}
+
+#[test]
+fn a_sun_keyed_past_the_power_cap_is_refused_before_frame_0() {
+    // A room 2e8 across: a sun of 1 W/m² over it is 1e17 W at frame 0, keyed to 1e20 W/m² at frame
+    // 3 (3e36 W); frame 1, a third of the way, is past the cap. Named at the key it grows toward.
+    let keys = "[[light.key]]\nframe = 0\nirradiance = [1.0, 1.0, 1.0]\n\
+                [[light.key]]\nframe = 3\nirradiance = [1e20, 1e20, 1e20]\n";
+    let d = sun_scene("1e8", "", keys);
+    let line = last_line_starting(&d, "irradiance = [1e20");
+    refused(
+        &d,
+        &[
+            &format!("scene.toml:{line}: frame 1: light.irradiance: emitted power"),
+            "exceeds the limit",
+        ],
+    );
+}
+
+#[test]
+fn a_sun_over_bounds_scaled_past_the_power_cap_is_refused_before_frame_0() {
+    // A sun of 1e20 W/m² over the room is 1e21 W; the room keyed to scale 1e8 at frame 3 grows
+    // its disc: 1e36 W at frame 1.
+    let keys = "[[mesh.key]]\nframe = 0\nscale = 1.0\n[[mesh.key]]\nframe = 3\nscale = 1e8\n";
+    let d = sun_scene("1.0", keys, "");
+    let line = last_line_starting(&d, "irradiance");
+    refused(
+        &d,
+        &[
+            &format!("scene.toml:{line}: frame 1: light.irradiance: emitted power"),
+            "bounding sphere (radius",
+        ],
+    );
+}
+
+#[test]
+fn a_later_frame_over_the_memory_budget_is_refused_before_frame_0() {
+    // A mirror cube keyed from scale 1e-30 (its triangles of zero area: none) to 0.3 at frame 3:
+    // from frame 1 on the scene has a mirror, so a caustic map and its atlas slots (about 100 MiB
+    // more). A budget between frame 0's need and frame 1's refuses the sequence before frame 0.
+    let d = scene("0.3", false, false);
+    let mtl = "newmtl block\nKs 0.9 0.9 0.9\nillum 3\n";
+    std::fs::write(d.path().join("cube.mtl"), mtl).unwrap();
+    let text = std::fs::read_to_string(d.path().join("scene.toml")).unwrap();
+    std::fs::write(
+        d.path().join("scene.toml"),
+        text.replace("scale = 0.25", "scale = 1e-30"),
+    )
+    .unwrap();
+    // Frame 0's need and what the process holds, from its refusal under a budget of 1 KiB.
+    let scene = p(d.path(), "scene.toml");
+    let out = p(&d.path().join("out"), "f-#.exr");
+    let r = run(&[
+        "render",
+        &scene,
+        "-o",
+        &out,
+        "--quiet",
+        "--frames",
+        "0..0",
+        "--max-memory",
+        "1k",
+    ]);
+    let stderr = String::from_utf8_lossy(&r.stderr);
+    let mib = |after: &str| -> u64 {
+        let rest =
+            &stderr[stderr.find(after).unwrap_or_else(|| panic!("{stderr}")) + after.len()..];
+        let n = rest.split(' ').next().unwrap();
+        assert!(rest[n.len()..].starts_with(" MiB"), "{stderr}");
+        n.parse().unwrap()
+    };
+    let frame_0 = mib("needs about ") + mib("with the ");
+    let budget = format!("{}M", frame_0 + 50);
+    refused_with(
+        &d,
+        &["--max-memory", &budget],
+        &[
+            "scene.toml: frame 1: memory:",
+            "raise --max-memory",
+            "--width",
+        ],
+    );
+    // Frame 0 alone fits that budget.
+    let r = run(&[
+        "render",
+        &scene,
+        "-o",
+        &out,
+        "--quiet",
+        "--frames",
+        "0..0",
+        "--max-memory",
+        &budget,
+    ]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
 }
 
 #[test]

@@ -381,6 +381,23 @@ impl Animation {
     /// value or of its table) moved to the line of the key that set that value at `f`: the last key
     /// at or before `f` that sets it, else the first after. Unchanged when no key sets it.
     fn at_key(&self, e: Error, f: u32) -> Error {
+        self.at_key_picked(e, f, nearest_key)
+    }
+
+    /// [`Self::at_key`] at the key frame `f`'s value moves toward: the first at or after `f` that
+    /// sets it, else the last before. Of the frames checked in order, the first whose power grew
+    /// past the cap lies before the key past it.
+    pub(super) fn at_key_toward(&self, e: Error, f: u32) -> Error {
+        self.at_key_picked(e, f, next_key)
+    }
+
+    /// [`Self::at_key`] at the key `pick` chooses of (key index, frame).
+    fn at_key_picked(
+        &self,
+        e: Error,
+        f: u32,
+        pick: fn(std::vec::IntoIter<(usize, i64)>, u32) -> Option<usize>,
+    ) -> Error {
         let Error::Input(msg) = &e else {
             return e;
         };
@@ -420,8 +437,9 @@ impl Animation {
             .iter()
             .enumerate()
             .filter(|(_, (_, sets))| *sets)
-            .map(|(k, &(frame, _))| (k, frame));
-        let Some(k) = nearest_key(setting, f) else {
+            .map(|(k, &(frame, _))| (k, frame))
+            .collect::<Vec<_>>();
+        let Some(k) = pick(setting.into_iter(), f) else {
             return e;
         };
         at_line(
@@ -430,6 +448,14 @@ impl Animation {
             what,
         )
     }
+}
+
+/// Of keys (what, frame), the one a value at frame `f` moves toward: the first at or after `f`,
+/// else the last before it.
+fn next_key<T>(keys: impl Iterator<Item = (T, i64)>, f: u32) -> Option<T> {
+    let f = f as i64;
+    keys.max_by_key(|&(_, k)| if k >= f { (true, -k) } else { (false, k) })
+        .map(|(t, _)| t)
 }
 
 /// Of keys (what, frame), the one that sets a value at frame `f`: the last at or before `f`, else
@@ -463,7 +489,7 @@ fn moving_values(d: &SceneFile) -> Vec<u32> {
 }
 
 /// An error of one frame's values, saying which frame.
-pub(super) fn at_frame(e: Error, f: u32) -> Error {
+pub fn at_frame(e: Error, f: u32) -> Error {
     match e {
         Error::Input(msg) => {
             // "file:line: what" → "file:line: frame f: what".

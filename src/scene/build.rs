@@ -60,7 +60,8 @@ pub fn load_animation(path: &Path) -> Result<Option<Animation>> {
 
 /// Frame `f` of an animated scene.
 pub fn load_frame(anim: &Animation, f: u32) -> Result<Scene> {
-    build(anim.path(), anim.text(), &anim.frame_desc(f), anim.held()).map_err(|e| at_frame(e, f))
+    build(anim.path(), anim.text(), &anim.frame_desc(f), anim.held())
+        .map_err(|e| at_frame(anim.at_key_toward(e, f), f))
 }
 
 /// What building frames `frames` of `anim` would refuse, found before any of them is rendered
@@ -69,13 +70,17 @@ pub fn load_frame(anim: &Animation, f: u32) -> Result<Scene> {
 /// frame's meshes and lights as a still's are checked. A frame where a medium's boundary mesh moved is
 /// built (its media checked as a still's are), reported to `progress` frame by frame. Stops with
 /// `Interrupted` once `cancel` is set.
+///
+/// Returns the frame whose render needs the most memory where that is more than the first's: the
+/// one with the most triangles of those with a mirror or glass triangle if any has one (a scene with
+/// one traces a caustic map), else of all. (A keyed scale from zero gives a mesh its triangles.)
 pub fn check_sequence(
     anim: &Animation,
     frames: std::ops::RangeInclusive<u32>,
     first: &Scene,
     progress: &dyn crate::progress::Progress,
     cancel: &std::sync::atomic::AtomicBool,
-) -> Result<()> {
+) -> Result<Option<u32>> {
     let cx = Ctx {
         path: anim.path(),
         text: anim.text(),
@@ -92,6 +97,11 @@ pub fn check_sequence(
     };
     let start = *frames.start();
     let (mut built, mut built_at) = (None, placed(start));
+    let needs = |n_triangles: usize, specular: bool| (specular, n_triangles);
+    let mut largest = (
+        needs(first.geometry.triangles.len(), first.has_specular()),
+        None,
+    );
     for f in frames {
         if cancel.load(std::sync::atomic::Ordering::Relaxed) {
             return Err(crate::error::Error::Interrupted);
@@ -118,7 +128,11 @@ pub fn check_sequence(
         // a vertex past the limits after a keyed scale, an emitted power over the cap (a scaled
         // emitter, a sun over grown bounds), no triangle left.
         if f > start && (!anim.moved_meshes(f - 1, f).is_empty() || anim.lights_changed(f - 1, f)) {
-            check_geometry(&cx, &desc, anim.held()).map_err(|e| at_frame(e, f))?;
+            let (n, specular) = check_geometry(&cx, &desc, anim.held())
+                .map_err(|e| at_frame(anim.at_key_toward(e, f), f))?;
+            if needs(n, specular) > largest.0 {
+                largest = (needs(n, specular), Some(f));
+            }
         }
         if f == start || first.media.is_none() {
             continue;
@@ -136,14 +150,18 @@ pub fn check_sequence(
                 .map_err(|e| at_frame(e, f))?;
         }
     }
-    Ok(())
+    Ok(largest.1)
 }
 
 /// What building a scene from `desc` would refuse in its meshes and lights (see [`meshes`] and
-/// [`lights`]), without its textures, media or BVH.
-fn check_geometry(cx: &Ctx, desc: &SceneFile, held: &HeldInputs) -> Result<()> {
+/// [`lights`]), without its textures, media or BVH; else its number of triangles and whether one
+/// of them is a mirror or glass.
+fn check_geometry(cx: &Ctx, desc: &SceneFile, held: &HeldInputs) -> Result<(usize, bool)> {
     let m = meshes(cx, desc, held)?;
-    lights(cx, desc, &m.geo, &m.materials, &m.emission_at).map(drop)
+    lights(cx, desc, &m.geo, &m.materials, &m.emission_at)?;
+    let specular =
+        (m.geo.triangles.iter()).any(|t| m.materials[t.material as usize].bsdf.is_specular());
+    Ok((m.geo.triangles.len(), specular))
 }
 
 /// The camera of frame `f` (checked by [`load_animation`]).

@@ -20,7 +20,7 @@ use std::path::{Path, PathBuf};
 
 use glam::{Vec2, Vec3};
 
-pub use animation::{Animation, Change};
+pub use animation::{at_frame, Animation, Change};
 pub use build::{
     check_sequence, frame_camera, frame_view, load, load_animation, load_frame, mesh_transform,
 };
