@@ -126,6 +126,7 @@ impl Animation {
             check_frames(&cx, "light", i, l.key.iter().map(|k| k.frame), frames)?;
             check_light_keys(&cx, i, l)?;
         }
+        check_finite_keys(&cx, desc)?;
         let mut base = desc.clone();
         base.camera.key.clear();
         base.mesh.iter_mut().for_each(|m| m.key.clear());
@@ -661,6 +662,71 @@ fn check_light_keys(cx: &Ctx, i: usize, l: &file::LightDesc) -> Result<()> {
                 line_of_path(cx.text, &["light", "key", name], &[i, k]),
                 format!("light.key.{name}: a {} light has no {name}", l.kind),
             ));
+        }
+    }
+    Ok(())
+}
+
+/// Every key's values are finite numbers, each refused at its own line: a NaN or infinite key makes
+/// every frame it is interpolated into NaN, and the check of those frames would name the key before
+/// it (the one setting the value at the first such frame).
+fn check_finite_keys(cx: &Ctx, desc: &SceneFile) -> Result<()> {
+    let check = |table: &str, indices: &[usize], field: &str, v: Option<&[f32]>| match v
+        .and_then(|v| v.iter().find(|x| !x.is_finite()))
+    {
+        Some(x) => Err(at_line(
+            cx.path,
+            line_of_path(cx.text, &[table, "key", field], indices),
+            format!("{table}.key.{field}: {x} is not a finite number"),
+        )),
+        None => Ok(()),
+    };
+    for (k, key) in desc.camera.key.iter().enumerate() {
+        check("camera", &[k], "eye", key.eye.as_ref().map(|v| &v[..]))?;
+        check(
+            "camera",
+            &[k],
+            "target",
+            key.target.as_ref().map(|v| &v[..]),
+        )?;
+        check("camera", &[k], "up", key.up.as_ref().map(|v| &v[..]))?;
+        check(
+            "camera",
+            &[k],
+            "fov",
+            key.fov.as_ref().map(std::slice::from_ref),
+        )?;
+    }
+    for (i, m) in desc.mesh.iter().enumerate() {
+        for (k, key) in m.key.iter().enumerate() {
+            let scale = key.scale.map(per_axis);
+            check("mesh", &[i, k], "scale", scale.as_ref().map(|v| &v[..]))?;
+            check(
+                "mesh",
+                &[i, k],
+                "rotate",
+                key.rotate.as_ref().map(|v| &v[..]),
+            )?;
+            check(
+                "mesh",
+                &[i, k],
+                "translate",
+                key.translate.as_ref().map(|v| &v[..]),
+            )?;
+        }
+    }
+    for (i, l) in desc.light.iter().enumerate() {
+        for (k, key) in l.key.iter().enumerate() {
+            let fields = [
+                ("position", key.position),
+                ("target", key.target),
+                ("direction", key.direction),
+                ("intensity", key.intensity),
+                ("irradiance", key.irradiance),
+            ];
+            for (field, v) in fields {
+                check("light", &[i, k], field, v.as_ref().map(|v| &v[..]))?;
+            }
         }
     }
     Ok(())
