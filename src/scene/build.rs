@@ -285,6 +285,7 @@ fn build(path: &Path, text: &str, desc: &SceneFile, held: &HeldInputs) -> Result
         cutouts,
         mask_files,
         warnings,
+        crossings_given_up: Default::default(),
     })
 }
 

@@ -451,6 +451,7 @@ impl Sequence {
         start: Instant,
     ) -> RenderOutput {
         stats.finish(
+            scene,
             start,
             maps,
             bake.media_cache.as_ref(),
