@@ -86,7 +86,7 @@ impl Mask {
 /// The masked triangles of a scene: which mask each one reads and the texture coordinates of its
 /// corners.
 pub struct Cutouts {
-    masks: Vec<Mask>,
+    masks: Vec<std::sync::Arc<Mask>>,
     /// Per triangle of the scene, its index in `masked`, or `u32::MAX` for a triangle without a mask.
     slot: Vec<u32>,
     /// Each masked triangle's mask and corner texture coordinates.
@@ -97,7 +97,7 @@ impl Cutouts {
     /// The cutouts of `n_triangles` triangles, `masked` listing (triangle, mask index, corner UVs) of
     /// those with a mask; `None` when none has one (no filter at all).
     pub fn new(
-        masks: Vec<Mask>,
+        masks: Vec<std::sync::Arc<Mask>>,
         n_triangles: usize,
         masked: impl IntoIterator<Item = (usize, u32, [Vec2; 3])>,
     ) -> Option<Cutouts> {
@@ -204,7 +204,7 @@ mod tests {
         std::fs::write(&colour, "P3\n1 1\n255\n255 0 0\n").unwrap();
         assert!(!Mask::load(&colour).unwrap().plain_grey);
         let c = Cutouts::new(
-            vec![m],
+            vec![std::sync::Arc::new(m)],
             3,
             [(
                 1,

@@ -16,8 +16,8 @@ use crate::scene::limits::MAX_EXPONENT;
 use crate::texture::Texture;
 
 pub struct GlossMaps {
-    pub specular: Option<Texture>,
-    pub exponent: Option<Mask>,
+    pub specular: Option<std::sync::Arc<Texture>>,
+    pub exponent: Option<std::sync::Arc<Mask>>,
 }
 
 impl GlossMaps {

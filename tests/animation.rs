@@ -204,6 +204,45 @@ fn an_eye_interpolated_onto_its_target_is_refused() {
     refused(&k, &[], &["scene.toml:", "frame 1"]);
 }
 
+/// A NaN or infinite key is refused at its own line (it was named at the key before it: every frame
+/// interpolated toward it is NaN, and the first such frame's value is set by the key before).
+#[test]
+fn a_nan_or_infinite_key_is_refused_at_its_own_line() {
+    for (table, before, bad) in [
+        ("mesh", "scale = 0.25", "scale = nan"),
+        (
+            "mesh",
+            "translate = [0.4, 0.25, 0.0]",
+            "translate = [0.4, -inf, 0.0]",
+        ),
+        ("camera", "fov = 45.0", "fov = inf"),
+        ("camera", "eye = [0.0, 1.0, 2.5]", "eye = [nan, 1.0, 2.5]"),
+        (
+            "light",
+            "intensity = [1.0, 1.0, 1.0]",
+            "intensity = [1.0, nan, 1.0]",
+        ),
+    ] {
+        let mut k = Keys::frames(4);
+        let keys =
+            format!("[[{table}.key]]\nframe = 0\n{before}\n[[{table}.key]]\nframe = 3\n{bad}\n");
+        match table {
+            "light" => k.light = keys,
+            "mesh" => k.cube = keys,
+            _ => k.camera = keys,
+        }
+        let field = bad.split(' ').next().unwrap();
+        refused(
+            &k,
+            &[],
+            &[
+                &format!("{} {table}.key.{field}: ", at_line_of(&k, bad, 0)),
+                "is not a finite number",
+            ],
+        );
+    }
+}
+
 /// Two finite keys whose values differ by more than f32's range: every frame between them would be
 /// infinite. Refused at the first of those frames, on the line of the key before it, saying so (it
 /// read "must be finite", of values the file never gave).

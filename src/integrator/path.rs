@@ -141,6 +141,7 @@ impl Path {
         if bsdf.is_null() {
             self.crossings += 1;
             if self.crossings > MAX_NULL_CROSSINGS {
+                scene.give_up_crossings();
                 return false;
             }
             (self.medium, self.t0) = scene.cross(self.o, d, hit.tri, hit.t, self.medium);

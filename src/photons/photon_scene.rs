@@ -157,6 +157,7 @@ impl PhotonScene for PhotonView<'_> {
             }
             (medium, t0) = scene.cross(origin, dir, hit.tri, hit.t, medium);
         }
+        scene.give_up_crossings();
         Propagation::Escaped
     }
 

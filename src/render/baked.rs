@@ -76,6 +76,7 @@ pub fn bake_apart(
     };
     let bake = bake(scene, &plan, &files, &mut stats, progress, cancel)?;
     stats.finish(
+        scene,
         start,
         bake.photons.as_ref(),
         bake.media_cache.as_ref(),
@@ -207,6 +208,7 @@ pub(super) fn shade_ready(
     let (layers, _) = shaded?;
     let images = beauty(plan, crate::integrator::terms::Layout::of(scene), layers);
     stats.finish(
+        scene,
         start,
         ready.photons.as_ref(),
         bake.media_cache.as_ref(),

@@ -153,6 +153,7 @@ fn shade_and_finish(
     )?;
     let images = beauty(plan, crate::integrator::terms::Layout::of(scene), layers);
     stats.finish(
+        scene,
         start,
         bake.photons.as_ref(),
         bake.media_cache.as_ref(),

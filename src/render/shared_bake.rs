@@ -109,6 +109,7 @@ pub fn bake_walk(
         cache,
     };
     stats.finish(
+        &scene,
         start,
         bake.photons.as_ref(),
         bake.media_cache.as_ref(),

@@ -126,6 +126,7 @@ impl Animation {
             check_frames(&cx, "light", i, l.key.iter().map(|k| k.frame), frames)?;
             check_light_keys(&cx, i, l)?;
         }
+        check_finite_keys(&cx, desc)?;
         let mut base = desc.clone();
         base.camera.key.clear();
         base.mesh.iter_mut().for_each(|m| m.key.clear());
@@ -381,6 +382,23 @@ impl Animation {
     /// value or of its table) moved to the line of the key that set that value at `f`: the last key
     /// at or before `f` that sets it, else the first after. Unchanged when no key sets it.
     fn at_key(&self, e: Error, f: u32) -> Error {
+        self.at_key_picked(e, f, nearest_key)
+    }
+
+    /// [`Self::at_key`] at the key frame `f`'s value moves toward: the first at or after `f` that
+    /// sets it, else the last before. Of the frames checked in order, the first whose power grew
+    /// past the cap lies before the key past it.
+    pub(super) fn at_key_toward(&self, e: Error, f: u32) -> Error {
+        self.at_key_picked(e, f, next_key)
+    }
+
+    /// [`Self::at_key`] at the key `pick` chooses of (key index, frame).
+    fn at_key_picked(
+        &self,
+        e: Error,
+        f: u32,
+        pick: fn(std::vec::IntoIter<(usize, i64)>, u32) -> Option<usize>,
+    ) -> Error {
         let Error::Input(msg) = &e else {
             return e;
         };
@@ -420,8 +438,9 @@ impl Animation {
             .iter()
             .enumerate()
             .filter(|(_, (_, sets))| *sets)
-            .map(|(k, &(frame, _))| (k, frame));
-        let Some(k) = nearest_key(setting, f) else {
+            .map(|(k, &(frame, _))| (k, frame))
+            .collect::<Vec<_>>();
+        let Some(k) = pick(setting.into_iter(), f) else {
             return e;
         };
         at_line(
@@ -430,6 +449,14 @@ impl Animation {
             what,
         )
     }
+}
+
+/// Of keys (what, frame), the one a value at frame `f` moves toward: the first at or after `f`,
+/// else the last before it.
+fn next_key<T>(keys: impl Iterator<Item = (T, i64)>, f: u32) -> Option<T> {
+    let f = f as i64;
+    keys.max_by_key(|&(_, k)| if k >= f { (true, -k) } else { (false, k) })
+        .map(|(t, _)| t)
 }
 
 /// Of keys (what, frame), the one that sets a value at frame `f`: the last at or before `f`, else
@@ -463,7 +490,7 @@ fn moving_values(d: &SceneFile) -> Vec<u32> {
 }
 
 /// An error of one frame's values, saying which frame.
-pub(super) fn at_frame(e: Error, f: u32) -> Error {
+pub fn at_frame(e: Error, f: u32) -> Error {
     match e {
         Error::Input(msg) => {
             // "file:line: what" → "file:line: frame f: what".
@@ -635,6 +662,71 @@ fn check_light_keys(cx: &Ctx, i: usize, l: &file::LightDesc) -> Result<()> {
                 line_of_path(cx.text, &["light", "key", name], &[i, k]),
                 format!("light.key.{name}: a {} light has no {name}", l.kind),
             ));
+        }
+    }
+    Ok(())
+}
+
+/// Every key's values are finite numbers, each refused at its own line: a NaN or infinite key makes
+/// every frame it is interpolated into NaN, and the check of those frames would name the key before
+/// it (the one setting the value at the first such frame).
+fn check_finite_keys(cx: &Ctx, desc: &SceneFile) -> Result<()> {
+    let check = |table: &str, indices: &[usize], field: &str, v: Option<&[f32]>| match v
+        .and_then(|v| v.iter().find(|x| !x.is_finite()))
+    {
+        Some(x) => Err(at_line(
+            cx.path,
+            line_of_path(cx.text, &[table, "key", field], indices),
+            format!("{table}.key.{field}: {x} is not a finite number"),
+        )),
+        None => Ok(()),
+    };
+    for (k, key) in desc.camera.key.iter().enumerate() {
+        check("camera", &[k], "eye", key.eye.as_ref().map(|v| &v[..]))?;
+        check(
+            "camera",
+            &[k],
+            "target",
+            key.target.as_ref().map(|v| &v[..]),
+        )?;
+        check("camera", &[k], "up", key.up.as_ref().map(|v| &v[..]))?;
+        check(
+            "camera",
+            &[k],
+            "fov",
+            key.fov.as_ref().map(std::slice::from_ref),
+        )?;
+    }
+    for (i, m) in desc.mesh.iter().enumerate() {
+        for (k, key) in m.key.iter().enumerate() {
+            let scale = key.scale.map(per_axis);
+            check("mesh", &[i, k], "scale", scale.as_ref().map(|v| &v[..]))?;
+            check(
+                "mesh",
+                &[i, k],
+                "rotate",
+                key.rotate.as_ref().map(|v| &v[..]),
+            )?;
+            check(
+                "mesh",
+                &[i, k],
+                "translate",
+                key.translate.as_ref().map(|v| &v[..]),
+            )?;
+        }
+    }
+    for (i, l) in desc.light.iter().enumerate() {
+        for (k, key) in l.key.iter().enumerate() {
+            let fields = [
+                ("position", key.position),
+                ("target", key.target),
+                ("direction", key.direction),
+                ("intensity", key.intensity),
+                ("irradiance", key.irradiance),
+            ];
+            for (field, v) in fields {
+                check("light", &[i, k], field, v.as_ref().map(|v| &v[..]))?;
+            }
         }
     }
     Ok(())

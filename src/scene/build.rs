@@ -9,7 +9,7 @@ use glam::{Mat3, Mat4, Vec3};
 use super::animation::{at_frame, Animation};
 use super::context::Ctx;
 use super::file::{self, line_of, line_of_key, SceneFile};
-use super::held::HeldInputs;
+use super::held::{HeldInputs, ImageKey};
 use super::input::{self, read_text, MAX_SCENE_BYTES, MAX_TEXTURE_BYTES};
 use super::lights::{check_lights, lights, some_light_emits, Origin};
 use super::media::{check_camera_medium, media};
@@ -60,7 +60,8 @@ pub fn load_animation(path: &Path) -> Result<Option<Animation>> {
 
 /// Frame `f` of an animated scene.
 pub fn load_frame(anim: &Animation, f: u32) -> Result<Scene> {
-    build(anim.path(), anim.text(), &anim.frame_desc(f), anim.held()).map_err(|e| at_frame(e, f))
+    build(anim.path(), anim.text(), &anim.frame_desc(f), anim.held())
+        .map_err(|e| at_frame(anim.at_key_toward(e, f), f))
 }
 
 /// What building frames `frames` of `anim` would refuse, found before any of them is rendered
@@ -69,13 +70,17 @@ pub fn load_frame(anim: &Animation, f: u32) -> Result<Scene> {
 /// frame's meshes and lights as a still's are checked. A frame where a medium's boundary mesh moved is
 /// built (its media checked as a still's are), reported to `progress` frame by frame. Stops with
 /// `Interrupted` once `cancel` is set.
+///
+/// Returns the frame whose render needs the most memory where that is more than the first's: the
+/// one with the most triangles of those with a mirror or glass triangle if any has one (a scene with
+/// one traces a caustic map), else of all. (A keyed scale from zero gives a mesh its triangles.)
 pub fn check_sequence(
     anim: &Animation,
     frames: std::ops::RangeInclusive<u32>,
     first: &Scene,
     progress: &dyn crate::progress::Progress,
     cancel: &std::sync::atomic::AtomicBool,
-) -> Result<()> {
+) -> Result<Option<u32>> {
     let cx = Ctx {
         path: anim.path(),
         text: anim.text(),
@@ -92,6 +97,11 @@ pub fn check_sequence(
     };
     let start = *frames.start();
     let (mut built, mut built_at) = (None, placed(start));
+    let needs = |n_triangles: usize, specular: bool| (specular, n_triangles);
+    let mut largest = (
+        needs(first.geometry.triangles.len(), first.has_specular()),
+        None,
+    );
     for f in frames {
         if cancel.load(std::sync::atomic::Ordering::Relaxed) {
             return Err(crate::error::Error::Interrupted);
@@ -118,7 +128,11 @@ pub fn check_sequence(
         // a vertex past the limits after a keyed scale, an emitted power over the cap (a scaled
         // emitter, a sun over grown bounds), no triangle left.
         if f > start && (!anim.moved_meshes(f - 1, f).is_empty() || anim.lights_changed(f - 1, f)) {
-            check_geometry(&cx, &desc, anim.held()).map_err(|e| at_frame(e, f))?;
+            let (n, specular) = check_geometry(&cx, &desc, anim.held())
+                .map_err(|e| at_frame(anim.at_key_toward(e, f), f))?;
+            if needs(n, specular) > largest.0 {
+                largest = (needs(n, specular), Some(f));
+            }
         }
         if f == start || first.media.is_none() {
             continue;
@@ -136,14 +150,18 @@ pub fn check_sequence(
                 .map_err(|e| at_frame(e, f))?;
         }
     }
-    Ok(())
+    Ok(largest.1)
 }
 
 /// What building a scene from `desc` would refuse in its meshes and lights (see [`meshes`] and
-/// [`lights`]), without its textures, media or BVH.
-fn check_geometry(cx: &Ctx, desc: &SceneFile, held: &HeldInputs) -> Result<()> {
+/// [`lights`]), without its textures, media or BVH; else its number of triangles and whether one
+/// of them is a mirror or glass.
+fn check_geometry(cx: &Ctx, desc: &SceneFile, held: &HeldInputs) -> Result<(usize, bool)> {
     let m = meshes(cx, desc, held)?;
-    lights(cx, desc, &m.geo, &m.materials, &m.emission_at).map(drop)
+    lights(cx, desc, &m.geo, &m.materials, &m.emission_at)?;
+    let specular =
+        (m.geo.triangles.iter()).any(|t| m.materials[t.material as usize].bsdf.is_specular());
+    Ok((m.geo.triangles.len(), specular))
 }
 
 /// The camera of frame `f` (checked by [`load_animation`]).
@@ -208,11 +226,11 @@ fn build(path: &Path, text: &str, desc: &SceneFile, held: &HeldInputs) -> Result
         mesh_tris,
         warnings,
     } = meshes(&cx, desc, held)?;
-    let textures = textures(&cx, &mut materials, tex_paths)?;
-    let gloss_maps = gloss_maps(&cx, &materials, ks_paths, ns_paths)?;
-    let (cutouts, mask_files) = cutouts(&cx, &geometry, &materials, mask_paths)?;
+    let textures = textures(&cx, &mut materials, tex_paths, held)?;
+    let gloss_maps = gloss_maps(&cx, &materials, ks_paths, ns_paths, held)?;
+    let (cutouts, mask_files) = cutouts(&cx, &geometry, &materials, mask_paths, held)?;
     let cutouts = cutouts.map(Arc::new);
-    let bumps = bumps(&cx, &materials, bump_paths)?;
+    let bumps = bumps(&cx, &materials, bump_paths, held)?;
     let normal_mapped = |m: u32| matches!(bumps.get(m as usize), Some(Some(b)) if matches!(**b, BumpMap::Normal { .. }));
     let tangents = crate::tangents::Tangents::new(&geometry, &mesh_tris, normal_mapped);
     let bounds = geometry.bounds();
@@ -270,6 +288,7 @@ fn build(path: &Path, text: &str, desc: &SceneFile, held: &HeldInputs) -> Result
         cutouts,
         mask_files,
         warnings,
+        crossings_given_up: Default::default(),
     })
 }
 
@@ -594,23 +613,77 @@ fn normal_and_area(a: Vec3, b: Vec3, c: Vec3) -> Option<(Vec3, f32)> {
     (len > 0.0 && area > 0.0 && area.is_finite()).then(|| ((cross / len).as_vec3(), area))
 }
 
-fn textures(cx: &Ctx, materials: &mut [Material], tex_paths: TexPaths) -> Result<Vec<Texture>> {
+/// The file `name` in `dir` names for `statement` of material `mat`, checked to be a regular file
+/// of at most [`MAX_TEXTURE_BYTES`].
+fn image_path(cx: &Ctx, mat: &str, statement: &str, dir: &Path, name: &str) -> Result<PathBuf> {
+    let resolved = texture::resolve(dir, name).map_err(|why| {
+        in_file(
+            cx.path,
+            format!("material '{mat}': {statement} '{name}' {why}"),
+        )
+    })?;
+    input::check_regular(&resolved, "texture", MAX_TEXTURE_BYTES)?;
+    Ok(resolved)
+}
+
+/// The colour texture `name` in `dir` (for `statement` of material `mat`), through `held`.
+fn held_texture(
+    cx: &Ctx,
+    held: &HeldInputs,
+    (mat, statement): (&str, &str),
+    dir: PathBuf,
+    name: String,
+) -> Result<(PathBuf, Arc<Texture>)> {
+    let key = ImageKey {
+        dir,
+        name,
+        read_as: "texture".into(),
+    };
+    held.texture(key.clone(), || {
+        let path = image_path(cx, mat, statement, &key.dir, &key.name)?;
+        let t = Texture::load(&path)
+            .map_err(|e| in_file(&path, format!("cannot read texture: {e}")))?;
+        Ok((path, t))
+    })
+}
+
+/// The mask or map of values `name` in `dir` (for `statement` of material `mat`; with `alpha`, its
+/// alpha channel where it has one), through `held`.
+fn held_mask(
+    cx: &Ctx,
+    held: &HeldInputs,
+    (mat, statement): (&str, &str),
+    (dir, name): (PathBuf, String),
+    alpha: bool,
+) -> Result<(PathBuf, Arc<Mask>)> {
+    let key = ImageKey {
+        dir,
+        name,
+        read_as: format!("values alpha={alpha}"),
+    };
+    held.mask(key.clone(), || {
+        let path = image_path(cx, mat, statement, &key.dir, &key.name)?;
+        let what = if alpha { "mask" } else { "texture" };
+        let m = Mask::load_values(&path, alpha)
+            .map_err(|e| in_file(&path, format!("cannot read {what}: {e}")))?;
+        Ok((path, m))
+    })
+}
+
+fn textures(
+    cx: &Ctx,
+    materials: &mut [Material],
+    tex_paths: TexPaths,
+    held: &HeldInputs,
+) -> Result<Vec<Arc<Texture>>> {
     let mut textures = Vec::new();
     let mut loaded: HashMap<PathBuf, usize> = HashMap::new();
     for (mat, tp) in materials.iter_mut().zip(tex_paths) {
         let Some((dir, name)) = tp else { continue };
-        let resolved = texture::resolve(&dir, &name).map_err(|why| {
-            in_file(
-                cx.path,
-                format!("material '{}': texture '{}' {why}", mat.name, name),
-            )
-        })?;
+        let (resolved, t) = held_texture(cx, held, (&mat.name, "texture"), dir, name)?;
         let idx = match loaded.get(&resolved) {
             Some(&i) => i,
             None => {
-                input::check_regular(&resolved, "texture", MAX_TEXTURE_BYTES)?;
-                let t = Texture::load(&resolved)
-                    .map_err(|e| in_file(&resolved, format!("cannot read texture: {e}")))?;
                 textures.push(t);
                 loaded.insert(resolved, textures.len() - 1);
                 textures.len() - 1
@@ -644,24 +717,18 @@ fn cutouts(
     geo: &Geometry,
     materials: &[Material],
     mask_paths: TexPaths,
+    held: &HeldInputs,
 ) -> Result<(Option<Cutouts>, MaskFiles)> {
     let mut masks = Vec::new();
     let mut loaded: HashMap<PathBuf, u32> = HashMap::new();
     let mut mask_of = vec![None; materials.len()];
     for (k, mp) in mask_paths.into_iter().enumerate() {
-        let Some((dir, name)) = mp else { continue };
-        let resolved = texture::resolve(&dir, &name).map_err(|why| {
-            in_file(
-                cx.path,
-                format!("material '{}': map_d '{}' {why}", materials[k].name, name),
-            )
-        })?;
+        let Some(file) = mp else { continue };
+        let mat = (materials[k].name.as_str(), "map_d");
+        let (resolved, m) = held_mask(cx, held, mat, file, true)?;
         let idx = match loaded.get(&resolved) {
             Some(&i) => i,
             None => {
-                input::check_regular(&resolved, "texture", MAX_TEXTURE_BYTES)?;
-                let m = Mask::load(&resolved)
-                    .map_err(|e| in_file(&resolved, format!("cannot read mask: {e}")))?;
                 masks.push(m);
                 loaded.insert(resolved.clone(), masks.len() as u32 - 1);
                 masks.len() as u32 - 1
@@ -687,17 +754,8 @@ fn gloss_maps(
     materials: &[Material],
     ks_paths: TexPaths,
     ns_paths: TexPaths,
+    held: &HeldInputs,
 ) -> Result<Vec<Option<GlossMaps>>> {
-    let read = |mat: &Material, statement: &str, (dir, name): (PathBuf, String)| {
-        let resolved = texture::resolve(&dir, &name).map_err(|why| {
-            in_file(
-                cx.path,
-                format!("material '{}': {statement} '{}' {why}", mat.name, name),
-            )
-        })?;
-        input::check_regular(&resolved, "texture", MAX_TEXTURE_BYTES)?;
-        Ok::<_, crate::error::Error>(resolved)
-    };
     let mut maps = Vec::with_capacity(materials.len());
     for ((mat, ks), ns) in materials.iter().zip(ks_paths).zip(ns_paths) {
         if !matches!(mat.bsdf, Bsdf::Glossy { .. }) || (ks.is_none() && ns.is_none()) {
@@ -705,23 +763,11 @@ fn gloss_maps(
             continue;
         }
         let specular = match ks {
-            Some(k) => {
-                let path = read(mat, "map_Ks", k)?;
-                Some(
-                    Texture::load(&path)
-                        .map_err(|e| in_file(&path, format!("cannot read texture: {e}")))?,
-                )
-            }
+            Some((dir, name)) => Some(held_texture(cx, held, (&mat.name, "map_Ks"), dir, name)?.1),
             None => None,
         };
         let exponent = match ns {
-            Some(n) => {
-                let path = read(mat, "map_Ns", n)?;
-                Some(
-                    Mask::load_values(&path, false)
-                        .map_err(|e| in_file(&path, format!("cannot read texture: {e}")))?,
-                )
-            }
+            Some(file) => Some(held_mask(cx, held, (&mat.name, "map_Ns"), file, false)?.1),
             None => None,
         };
         maps.push(Some(GlossMaps { specular, exponent }));
@@ -739,6 +785,7 @@ fn bumps(
     cx: &Ctx,
     materials: &[Material],
     bump_paths: BumpPaths,
+    held: &HeldInputs,
 ) -> Result<Vec<Option<Arc<BumpMap>>>> {
     let mut loaded: HashMap<(PathBuf, Statement, Option<u32>), Arc<BumpMap>> = HashMap::new();
     let mut maps = Vec::with_capacity(materials.len());
@@ -751,25 +798,22 @@ fn bumps(
             Statement::Bump => "bump",
             Statement::Norm => "norm",
         };
-        let resolved = texture::resolve(&dir, &b.file).map_err(|why| {
-            in_file(
-                cx.path,
-                format!("material '{}': {name} '{}' {why}", mat.name, b.file),
-            )
-        })?;
-        let key = (resolved.clone(), b.statement, b.bm.map(f32::to_bits));
-        let map = match loaded.get(&key) {
-            Some(m) => m.clone(),
-            None => {
-                input::check_regular(&resolved, "texture", MAX_TEXTURE_BYTES)?;
-                let m = Arc::new(
-                    BumpMap::load(&resolved, b.statement, b.bm)
-                        .map_err(|e| in_file(&resolved, format!("cannot read {name} map: {e}")))?,
-                );
-                loaded.insert(key, m.clone());
-                m
-            }
+        let key = ImageKey {
+            dir,
+            name: b.file.clone(),
+            read_as: format!("{name} -bm {:?}", b.bm.map(f32::to_bits)),
         };
+        let (resolved, read) = held.bump(key.clone(), || {
+            let path = image_path(cx, &mat.name, name, &key.dir, &key.name)?;
+            let m = BumpMap::load(&path, b.statement, b.bm)
+                .map_err(|e| in_file(&path, format!("cannot read {name} map: {e}")))?;
+            Ok((path, m))
+        })?;
+        // Two spellings of one file (another letter case, another directory) are one map.
+        let map = loaded
+            .entry((resolved, b.statement, b.bm.map(f32::to_bits)))
+            .or_insert(read)
+            .clone();
         maps.push(Some(map));
     }
     if maps.iter().all(Option::is_none) {
@@ -795,7 +839,7 @@ fn mean_glossy_texel(t: &Texture, texel_scale: f32, specular: Vec3) -> Vec3 {
 fn fingerprint(
     geo: &Geometry,
     materials: &[Material],
-    textures: &[Texture],
+    textures: &[Arc<Texture>],
     cutouts: Option<&Cutouts>,
     bumps: &[Option<Arc<BumpMap>>],
     lights: &Lights,

@@ -45,6 +45,9 @@ pub(super) fn lights(
     let bounds = geo.bounds();
     let center = (bounds.0 + bounds.1) * 0.5;
     let radius = ((bounds.1.as_dvec3() - bounds.0.as_dvec3()).length() * 0.5).max(1e-6) as f32;
+    // What a message about a `[[light]]` entry's power names: its key, and for a directional light
+    // the bounds its disc covers (a mesh scaled up grows them).
+    let mut names: HashMap<Origin, (String, String)> = HashMap::new();
     for (i, l) in desc.light.iter().enumerate() {
         lights.push(light(cx, i, l, center, radius)?);
         let key = if l.kind == "directional" {
@@ -52,10 +55,17 @@ pub(super) fn lights(
         } else {
             "intensity"
         };
-        origins.push((
+        let origin = (
             cx.path.to_path_buf(),
             super::file::line_of_key(cx.text, "light", i, key),
-        ));
+        );
+        let over = if l.kind == "directional" {
+            format!(" over the disc of the scene's bounding sphere (radius {radius:.3e})")
+        } else {
+            String::new()
+        };
+        names.insert(origin.clone(), (format!("light.{key}: "), over));
+        origins.push(origin);
     }
     if lights.is_empty() {
         let zero_area_emitters =
@@ -70,7 +80,7 @@ pub(super) fn lights(
         // Geometry alone: an occlusion pass renders it; the other methods refuse it at their plan.
         return Ok(Lights::none(geo.triangles.len()));
     }
-    check_power(&lights, &origins)?;
+    check_power(&lights, &origins, &names)?;
     Lights::new(lights, geo.triangles.len())
         .ok_or_else(|| at_line(cx.path, 1, "every light has zero power"))
 }
@@ -107,8 +117,13 @@ fn power_f64(l: &Light) -> f64 {
     }
 }
 
-/// The total emitted power must stay below [`MAX_POWER`]; the message names the largest source.
-fn check_power(lights: &[Light], origins: &[Origin]) -> Result<()> {
+/// The total emitted power must stay below [`MAX_POWER`]; the message names the largest source, by
+/// its key where `names` has one ("light.intensity: …", which a sequence moves to the key's line).
+fn check_power(
+    lights: &[Light],
+    origins: &[Origin],
+    names: &HashMap<Origin, (String, String)>,
+) -> Result<()> {
     let mut by_origin: HashMap<&Origin, f64> = HashMap::new();
     for (l, o) in lights.iter().zip(origins) {
         *by_origin.entry(o).or_default() += power_f64(l);
@@ -122,7 +137,8 @@ fn check_power(lights: &[Light], origins: &[Origin]) -> Result<()> {
             (&origins[0], -1.0),
             |best, (o, p)| if p > best.1 { (o, p) } else { best },
         );
-    Err(at_line(&origin.0, origin.1, format!("emitted power {power:.3e} W (scene total {total:.3e} W) exceeds the limit of {MAX_POWER:e} W")))
+    let (name, over) = names.get(origin).cloned().unwrap_or_default();
+    Err(at_line(&origin.0, origin.1, format!("{name}emitted power {power:.3e} W{over} (scene total {total:.3e} W) exceeds the limit of {MAX_POWER:e} W")))
 }
 
 /// One `[[light]]` entry with what its messages need to name its keys.

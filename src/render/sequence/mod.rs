@@ -84,10 +84,16 @@ pub fn render_sequence(
     super::progressive::refuse_in_sequence(&first_scene, opts)?;
     // Frames where a medium's boundary moved are built to be checked: that can take a while.
     progress.start("checking frames", (last - replay_from + 1) as u64);
-    scene::check_sequence(anim, replay_from..=last, &first_scene, progress, cancel)?;
+    let largest = scene::check_sequence(anim, replay_from..=last, &first_scene, progress, cancel)?;
     progress.finish();
     // What the process holds before its first frame: each frame's memory is checked against it.
     let held = crate::memory::resident();
+    let camera = scene::frame_camera(anim, replay_from)?;
+    check_frame_memory(&first_scene, &camera, replay_from, opts, held)?;
+    if let Some(f) = largest {
+        let scene = scene::load_frame(anim, f)?;
+        check_frame_memory(&scene, &scene::frame_camera(anim, f)?, f, opts, held)?;
+    }
     let mut loaded = Some(first_scene);
     let mut start = replay_from;
     while start <= last {
@@ -115,6 +121,19 @@ pub fn render_sequence(
         }
     }
     Ok(())
+}
+
+/// Refuses (before any frame is written) a sequence whose frame `f`, of `scene` seen by `camera`,
+/// needs more memory than the budget, with the `held` bytes the process held before its first frame.
+fn check_frame_memory(
+    scene: &Scene,
+    camera: &Camera,
+    f: u32,
+    opts: &Options,
+    held: u64,
+) -> Result<()> {
+    let plan = plan(scene, opts, Some(camera))?;
+    budget::check_held(scene, &plan, opts, held).map_err(|e| scene::at_frame(e, f))
 }
 
 /// The frames of one chunk, the last of them to render, and the bytes the process held before the
@@ -432,6 +451,7 @@ impl Sequence {
         start: Instant,
     ) -> RenderOutput {
         stats.finish(
+            scene,
             start,
             maps,
             bake.media_cache.as_ref(),

@@ -266,5 +266,6 @@ pub(super) fn reused_image_stats(before: &RenderStats, f: u32) -> RenderStats {
         total_s: 0.0,
         write_outputs_s: None,
         peak_rss_bytes: before.peak_rss_bytes,
+        crossings_given_up: 0,
     }
 }

@@ -53,6 +53,9 @@ pub struct RenderStats {
     /// Set by `write_outputs`.
     pub write_outputs_s: Option<f64>,
     pub peak_rss_bytes: u64,
+    /// Rays given up after [`crate::scene::MAX_NULL_CROSSINGS`] medium-boundary crossings during
+    /// the render (the scene's count at its start, until `finish`).
+    pub crossings_given_up: u64,
 }
 
 /// What a frame of a sequence reused.
@@ -241,6 +244,15 @@ impl RenderStats {
         if let Some(p) = &self.progressive {
             out.extend(p.warnings.iter().cloned());
         }
+        if self.crossings_given_up > 0 {
+            out.push(format!(
+                "{} rays crossed more than {} medium boundaries and were given up, their light \
+                 lost (stats: rare.crossings_given_up): a stack of that many boundaries along one \
+                 line, or a mesh whose boundary faces repeat",
+                self.crossings_given_up,
+                crate::scene::MAX_NULL_CROSSINGS
+            ));
+        }
         if let Some(p) = self.photons.as_ref().filter(|p| !p.loaded) {
             let t = &p.trace;
             let stored = t.n_global_stored
@@ -290,6 +302,7 @@ impl RenderStats {
             total_s: 0.0,
             write_outputs_s: None,
             peak_rss_bytes: 0,
+            crossings_given_up: scene.n_crossings_given_up(),
         }
     }
 
@@ -297,6 +310,7 @@ impl RenderStats {
     /// since `start`, the peak memory.
     pub fn finish(
         &mut self,
+        scene: &Scene,
         start: Instant,
         photons: Option<&PhotonData>,
         media_cache: Option<&MediaCache>,
@@ -325,6 +339,7 @@ impl RenderStats {
             s
         });
         self.total_s = start.elapsed().as_secs_f64();
+        self.crossings_given_up = scene.n_crossings_given_up() - self.crossings_given_up;
         self.peak_rss_bytes = peak_rss_bytes();
     }
 

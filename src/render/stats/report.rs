@@ -61,6 +61,12 @@ impl RenderStats {
             "rare.zero_pdf",
             c.zero_pdf,
         );
+        r.count(
+            "Rare events",
+            "Rays given up at the boundary-crossing limit",
+            "rare.crossings_given_up",
+            self.crossings_given_up,
+        );
         for (title, key, n) in [
             ("Triangles", "scene.triangles", self.setup.n_triangles),
             (
