@@ -23,10 +23,12 @@ def test_passes_are_the_clis(tmp_path, method):
 
 
 def test_a_time_budget_is_kept():
-    r = pm.render(pm.load_file(SCENES / "cornell-caustics.toml", **SMALL), spp=4, time=2.0)
+    # One pass here takes about 1 s on 2 cores (its photons are most of it): a budget of 4 s leaves
+    # room for more than one whatever the machine's speed, and the end must stay within 10 % of it.
+    r = pm.render(pm.load_file(SCENES / "cornell-caustics.toml", **SMALL), spp=4, time=4.0)
     p = r.stats["progressive"]
     assert p["stopped"] == "time" and p["passes"] >= 2
-    assert r.stats["time"]["total_s"] <= 2.2
+    assert r.stats["time"]["total_s"] <= 4.4
 
 
 def test_what_a_progressive_render_cannot_do_is_refused():
