@@ -48,6 +48,12 @@ fn render_floor(floor: &str, vn: Option<Vec3>, images: &[(&str, Vec<u8>)], seed:
              position = [1.6, 0.9, 0.0]\nintensity = [3.0, 3.0, 3.0]\n",
         ),
     ]);
+    render_in(&d, images, seed)
+}
+
+/// The scene `s.toml` of `d` with the images in `images` (name, encoded file) written beside it,
+/// rendered by `pm` at 16 spp and `seed`.
+fn render_in(d: &tempfile::TempDir, images: &[(&str, Vec<u8>)], seed: u32) -> Render {
     for (name, bytes) in images {
         std::fs::write(d.path().join(name), bytes).unwrap();
     }
@@ -417,36 +423,7 @@ fn render_torus(turn: Vec3, torus: &str, images: &[(&str, Vec<u8>)], seed: u32) 
              [[light]]\ntype = \"point\"\nposition = [2.5, 3.0, 2.5]\nintensity = [12.0, 12.0, 12.0]\n",
         ),
     ]);
-    for (name, bytes) in images {
-        std::fs::write(d.path().join(name), bytes).unwrap();
-    }
-    let (out, stats) = (p(d.path(), "o.exr"), p(d.path(), "o.json"));
-    let seed = seed.to_string();
-    let r = run_bounded(
-        &[
-            "render",
-            &p(d.path(), "s.toml"),
-            "-o",
-            &out,
-            "--stats",
-            &stats,
-            "--method",
-            "pm",
-            "--spp",
-            "16",
-            "--seed",
-            &seed,
-            "--quiet",
-        ],
-        Duration::from_secs(300),
-    );
-    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
-    let json: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap();
-    Render {
-        image: read(std::path::Path::new(&out)),
-        bump_rotated: json["icache"]["bump_rotated_pass_b"].as_u64().unwrap(),
-    }
+    render_in(&d, images, seed)
 }
 
 /// A flat normal map ((128, 128, 255): 8-bit's nearest to +z, 0.2° off it) on a smooth, coarsely
