@@ -390,6 +390,7 @@ fn frame_summary(f: u32, stats: &pmrender::render::RenderStats) -> serde_json::V
         "image_reused": stats.frame.is_some_and(|f| f.image_reused),
         "records_reused": get("frame.records_reused"),
         "records_dropped": get("frame.records_dropped"),
+        "records_unread": get("frame.records_unread"),
         "records_after": get("frame.records_after"),
         "records_regathered": get("frame.records_regathered"),
         "records_replaced": get("frame.records_replaced"),

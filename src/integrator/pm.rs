@@ -47,7 +47,7 @@ pub enum IndirectSource<'a> {
 /// frames' (the first `below`), and a walk's later frames' (`from..to`). Records made after all of
 /// them (pass B's, or this view's pass A's) are the view's own.
 #[derive(Clone, Copy, Debug, Default)]
-pub struct OtherViews {
+pub struct OtherViews<'a> {
     pub below: usize,
     pub from: usize,
     pub to: usize,
@@ -55,11 +55,14 @@ pub struct OtherViews {
     /// span here — one made far from the camera is too coarse once it comes close (a sequence drops
     /// such records instead; a shared cache keeps them for the views they suit).
     pub fine: Option<(PixelSpan, f32)>,
+    /// Set for each record of the first `below` that pass B read (found in sight and weighted
+    /// above zero): a sequence retires the records no pixel reads.
+    pub reads: Option<&'a [AtomicBool]>,
 }
 
-impl OtherViews {
+impl OtherViews<'_> {
     /// The first `n` records: a sequence's frames before.
-    pub fn first(n: usize) -> OtherViews {
+    pub fn first(n: usize) -> OtherViews<'static> {
         OtherViews {
             below: n,
             ..Default::default()
@@ -76,6 +79,16 @@ impl OtherViews {
     pub fn has(&self, id: u32) -> bool {
         let id = id as usize;
         id < self.below || (self.from..self.to).contains(&id)
+    }
+
+    /// Notes that pass B read record `id` (when reads are kept).
+    fn note_read(&self, id: u32) {
+        if let Some(flag) = self.reads.and_then(|r| r.get(id as usize)) {
+            // Most reads find the flag set: loading first keeps the line shared between threads.
+            if !flag.load(Ordering::Relaxed) {
+                flag.store(true, Ordering::Relaxed);
+            }
+        }
     }
 }
 
@@ -100,7 +113,7 @@ pub struct PmContext<'a> {
     pub radiance: Option<&'a RadianceCache>,
     /// The records of the cache made for other views: pass B interpolates them only where they are
     /// in sight (see `record_in_sight`).
-    pub foreign: OtherViews,
+    pub foreign: OtherViews<'a>,
     /// Where a camera ray first meets a textured surface, the width (per unit of distance along the
     /// ray) its texture is averaged over; 0: read at the point ([`crate::render::plan::TEXTURE_FILTER`]).
     pub texture_filter: f32,
@@ -343,7 +356,11 @@ impl PmContext<'_> {
         if !self.scene.settings.icache.visibility() && !other {
             return true;
         }
-        (!other || self.foreign.fits(rec)) && self.in_sight(hit, frame.smooth, rec)
+        let seen = (!other || self.foreign.fits(rec)) && self.in_sight(hit, frame.smooth, rec);
+        if seen && other {
+            self.foreign.note_read(id);
+        }
+        seen
     }
 
     /// Whether a fill may count record `id` as covering the point `hit` (shading normal `n`): one made

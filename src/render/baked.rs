@@ -297,7 +297,7 @@ impl Baked {
     }
 
     /// The records of a cache of `n` made for other views than frame `f`'s.
-    fn other_views(&self, f: u32, n: usize) -> Result<OtherViews> {
+    fn other_views(&self, f: u32, n: usize) -> Result<OtherViews<'static>> {
         let &(from, to) = self.views.get(f as usize).ok_or_else(|| {
             Error::Input(format!(
                 "the bake covers {} frame(s): it has no frame {f}",
@@ -314,7 +314,7 @@ impl Baked {
             below: from,
             from: to,
             to: n,
-            fine: None,
+            ..Default::default()
         })
     }
 

@@ -48,7 +48,7 @@ pub fn fill_cache(
     scene: &Scene,
     plan: &Plan,
     light: FillLight,
-    earlier: Option<(IrradianceCache, OtherViews)>,
+    earlier: Option<(IrradianceCache, OtherViews<'_>)>,
     only: Option<super::tiles::Window>,
     progress: &dyn Progress,
     cancel: &AtomicBool,
@@ -157,7 +157,7 @@ pub(crate) fn fill_context<'a>(
     scene: &'a Scene,
     plan: &Plan,
     light: FillLight<'a>,
-    foreign: OtherViews,
+    foreign: OtherViews<'a>,
     cancel: &'a AtomicBool,
 ) -> PmContext<'a> {
     PmContext {

@@ -315,7 +315,7 @@ pub(crate) fn shade_bake_foreign(
     plan: &Plan,
     bake: &mut Bake,
     kept: KeptPixels,
-    foreign: OtherViews,
+    foreign: OtherViews<'_>,
     stats: &mut RenderStats,
     progress: &dyn Progress,
     cancel: &AtomicBool,

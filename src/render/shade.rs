@@ -100,7 +100,7 @@ pub struct Lighting<'a> {
     /// `pm`'s radiance cache on glossy surfaces.
     pub radiance: Option<&'a RadianceCache>,
     /// The cache's records made for other views (see [`PmContext::foreign`]).
-    pub foreign: OtherViews,
+    pub foreign: OtherViews<'a>,
 }
 
 /// The method's sampler and its number of layers: `path`'s radiance without photon maps; with them,

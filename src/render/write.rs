@@ -114,11 +114,12 @@ pub struct SequenceSummary {
 }
 
 /// The counts the summary sums over its frames.
-const TOTALS: [&str; 7] = [
+const TOTALS: [&str; 8] = [
     "records_regathered",
     "records_replaced",
     "records_carried",
     "records_dropped",
+    "records_unread",
     "records_gone",
     "pixels_kept",
     "pixels_relit",

@@ -377,18 +377,20 @@ impl Sequence {
         };
         let kept = self.kept_pixels(scene, &plan, still_view.zip(only), &bake);
         let pixels = Kept::view(kept.as_ref());
+        // Which records of the views before pass B reads: those no pixel reads retire.
+        let reads: Vec<AtomicBool> = (0..foreign).map(|_| AtomicBool::new(false)).collect();
+        let views = OtherViews {
+            reads: Some(&reads),
+            ..OtherViews::first(foreign)
+        };
         let shaded = shade_bake_foreign(
-            scene,
-            &plan,
-            &mut bake,
-            pixels,
-            OtherViews::first(foreign),
-            &mut stats,
-            progress,
-            cancel,
+            scene, &plan, &mut bake, pixels, views, &mut stats, progress, cancel,
         );
         *maps = bake.photons.take();
         let (mut layers, mut samples) = shaded?;
+        if let (Some(c), true) = (&bake.cache, foreign > 0) {
+            self.lifespans.note_reads(c.cache.records(), &reads);
+        }
         // Attached after shading: the pixels kept pasted from the frame before.
         if let (Some(kept), Some(before)) = (&kept, &self.layers) {
             kept.paste(&mut layers, before, &mut samples, &mut frame);

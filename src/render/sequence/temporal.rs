@@ -31,7 +31,9 @@
 //! - Between gathers a record's irradiance follows its temporal gradient.
 //!
 //! Frames where only the camera moves keep every record of earlier frames that is fine enough for the
-//! new view ([`Lifespans::for_view`]); records out of view for [`UNSEEN_FRAMES`] frames are deleted.
+//! new view ([`Lifespans::for_view`]); records out of view for [`UNSEEN_FRAMES`] frames are deleted,
+//! and so are those in view that no pixel read for [`UNREAD_FRAMES`] frames (hidden behind what
+//! the camera passes, or facing away from it).
 //!
 //! Re-gathering with the record's own jitter rather than by reprojection: our gathers read photon
 //! maps traced with the same photon sequence every frame, so the same gather differs between frames
@@ -39,6 +41,7 @@
 
 use std::collections::hash_map::Entry;
 use std::collections::HashMap;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 use glam::{Mat3, Mat4, Vec3};
 use icache::{IrradianceCache, NewRecord, Record, ShadingPoint};
@@ -111,6 +114,9 @@ impl Moved {
 pub struct Lifespans {
     by_pos: HashMap<[u32; 3], Life>,
     unseen_since: HashMap<[u32; 3], u32>,
+    /// For each record of an earlier view that pass B did not read in the last frames where the
+    /// camera moved: how many such frames in a row.
+    unread: HashMap<[u32; 3], u32>,
     /// The pixels each record's radius spanned in the view it was made for (where it was in view).
     made_px: HashMap<[u32; 3], f32>,
     /// The photon power the last traced maps deposited, per cell.
@@ -129,6 +135,10 @@ const VIEW_GROWTH: f32 = 1.25;
 /// Frames a record may stay out of view (beyond a margin of a quarter of the image around it) before
 /// it is deleted: no pixel has used it, and a walk's cache should not grow with all it has passed.
 const UNSEEN_FRAMES: u32 = 16;
+/// Frames where the camera moved that a record in view may go unread by every pixel before it is
+/// deleted: like one out of view, it serves no pixel, and a walk past walls would otherwise keep
+/// all it saw behind them (and gather it again as its lifespans end).
+const UNREAD_FRAMES: u32 = 16;
 
 /// The cache [`Lifespans::update`] made valid for a frame, what it did, and where the cached light
 /// changed (spheres: centre, reach).
@@ -166,6 +176,7 @@ impl Lifespans {
         let (w, h) = (cam.width as f32, cam.height as f32);
         let (mx, my) = (0.25 * w, 0.25 * h);
         let mut unseen = HashMap::new();
+        let mut unread = 0;
         let (cache, dropped) = cache
             .rebuilt(scene.bounds, |_, r| {
                 let in_view = cam
@@ -178,6 +189,14 @@ impl Lifespans {
                     }
                     unseen.insert(key(r.pos), since);
                     return Some(r);
+                }
+                if self
+                    .unread
+                    .get(&key(r.pos))
+                    .is_some_and(|&n| n >= UNREAD_FRAMES)
+                {
+                    unread += 1;
+                    return None;
                 }
                 if r.pos == cam.eye {
                     return Some(r);
@@ -201,6 +220,7 @@ impl Lifespans {
         }
         frame.n_records_reused = (n - dropped) as u64;
         frame.n_records_dropped = dropped as u64;
+        frame.n_records_unread = unread;
         Ok(cache)
     }
 
@@ -224,6 +244,20 @@ impl Lifespans {
                 measured: false,
                 slides: false,
             });
+        }
+    }
+
+    /// Counts the frame's unread records of earlier views: `reads` says whether pass B read each of
+    /// the first records of `records` (those a frame where the camera moved kept from the frames
+    /// before). A record read starts counting again; the counts of records not among them are
+    /// forgotten.
+    pub fn note_reads(&mut self, records: &[Record], reads: &[AtomicBool]) {
+        let before = std::mem::take(&mut self.unread);
+        for (r, read) in records.iter().zip(reads) {
+            if !read.load(Ordering::Relaxed) {
+                let k = key(r.pos);
+                self.unread.insert(k, before.get(&k).map_or(1, |n| n + 1));
+            }
         }
     }
 

@@ -70,6 +70,8 @@ pub struct FrameStats {
     pub n_records_reused: u64,
     /// Records of earlier frames dropped as too coarse for this frame's view, or out of view for long.
     pub n_records_dropped: u64,
+    /// Of those, the records in view that no pixel had read for as long as the out-of-view wait.
+    pub n_records_unread: u64,
     /// Records after this frame (reused and made).
     pub n_records_after: u64,
     /// Nothing changed since the frame before: its image is this frame's.

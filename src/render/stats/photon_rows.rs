@@ -35,6 +35,12 @@ pub(super) fn frame_rows(r: &mut Report, f: &FrameStats) {
         "frame.records_dropped",
         f.n_records_dropped,
     );
+    r.count(
+        "Sequence",
+        "Of them in view but read by no pixel for as long",
+        "frame.records_unread",
+        f.n_records_unread,
+    );
     if f.n_pixels_kept > 0 {
         r.count(
             "Sequence",
