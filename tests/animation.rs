@@ -778,12 +778,18 @@ fn interrupt(child: std::process::Child) -> String {
     stderr
 }
 
-/// Ctrl-C a second into a million-frame sequence, while its outputs are checked or its movers'
-/// window found: the phase reads the flag (no watchdog), and nothing is written.
+/// Ctrl-C into a million-frame sequence while its outputs are checked (seconds of stat calls before
+/// the movers' window is found and frame 0 rendered): the phase reads the flag (no watchdog), and
+/// nothing is written. The signal is sent once the check has begun, seen as `out/`'s modification
+/// time changing when its writability probe is made and removed, not after a fixed sleep: under
+/// load the process could still be loading the keys (every frame's interpolation checked, which
+/// reads no flag) a second in, and the watchdog ended it there.
 #[test]
 fn ctrl_c_before_the_first_frame_of_a_long_sequence() {
     let d = scene(&sliding_cube(1_000_000));
     let dir = d.path().join("out");
+    let modified = || std::fs::metadata(&dir).and_then(|m| m.modified()).unwrap();
+    let before = modified();
     let child = spawn_interruptible(&[
         "render",
         &p(d.path(), "scene.toml"),
@@ -791,7 +797,14 @@ fn ctrl_c_before_the_first_frame_of_a_long_sequence() {
         &out(d.path(), "f-#######.exr"),
         "--quiet",
     ]);
-    std::thread::sleep(Duration::from_secs(1));
+    let t = std::time::Instant::now();
+    while modified() == before {
+        assert!(
+            t.elapsed() < Duration::from_secs(120),
+            "no output check began in 2 minutes"
+        );
+        std::thread::sleep(Duration::from_millis(5));
+    }
     let stderr = interrupt(child);
     assert!(!stderr.contains("watchdog"), "{stderr}");
     let files = listing(&dir);
