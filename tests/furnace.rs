@@ -65,14 +65,20 @@ fn path_tracer_furnace() {
     for rho in [0.5f32, 0.8] {
         let expected = 1.0 / (1.0 - rho);
         let (m, lo, hi, _) = furnace(rho, 1.0, "path", 256);
-        // 256 pixels × 256 samples: the mean's standard error is well under 1 %; 2 % allows for it.
+        // 256 pixels × 256 samples. Seeds 0–3 (SSE4.2's kernels at seed 0 gave seed 0's image): the
+        // mean 0.048, 0.13, 0.051, 0.087 % off the series at ρ = 0.5, 0.31, 0.013, 0.27, 0.19 % at
+        // ρ = 0.8.
+        // Bound 1 % (3.2× the worst; it was 2 %): a term lost or counted twice moves it by far more
+        // (the emission alone is 20 % of the series at ρ = 0.8, one bounce of it 16 %).
         for c in m.to_array() {
             assert!(
-                (c - expected).abs() < 0.02 * expected,
+                (c - expected).abs() < 0.01 * expected,
                 "ρ={rho}: mean {c} vs {expected}"
             );
         }
-        // Single pixels (256 samples each) stay within 25 % — catches spatially varying bias.
+        // Single pixels (256 samples each) stay within 25 % — catches spatially varying bias. Over
+        // the same seeds: 0.965–1.054 times the series at ρ = 0.5, 0.875–1.147 at ρ = 0.8 (the
+        // bound 1.7× the worst).
         assert!(
             lo > 0.75 * expected && hi < 1.25 * expected,
             "ρ={rho}: range [{lo}, {hi}] vs {expected}"

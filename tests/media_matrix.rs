@@ -272,8 +272,10 @@ fn point_light_in_dense_forward_fog() {
         "dense-point",
         &[
             with_args("path", &["--spp", "4096"], 0.01, 0.003), // +0.74 %, 0.00150
-            check("pm", 0.01, 0.002),                           // −0.21 %, 0.00061
-            check("photons", 0.01, 0.0015),                     // +0.31 %, 0.00056
+            // The mean 1.5 %: seeds 0–7's worst −0.77 % held the 1 % by 1.3×; now 1.9× (SSE4.2
+            // at seed 0: −0.21 %, 0.00066).
+            check("pm", 0.015, 0.002),      // −0.21 %, 0.00061
+            check("photons", 0.01, 0.0015), // +0.31 %, 0.00056
         ],
     );
 }
@@ -292,14 +294,15 @@ fn sun_into_forward_scattering_haze() {
 }
 
 /// The area light 1 cm above a dense, coloured fog. `pm` at seeds 0–7: −0.75, −0.54, −0.89, −0.65,
-/// −0.67, +0.43, −0.70, −0.44 %.
+/// −0.67, +0.43, −0.70, −0.44 %, −0.15 % at seed 8, −0.70 % on SSE4.2's kernels at seed 0 (block
+/// relMSE 0.00027 both): its mean is held to 1.5 % (the 1 % held the worst by 1.1×; now 1.7×).
 #[test]
 fn area_light_over_dense_fog() {
     run_case(
         "dense-area-outside",
         &[
             path(0.01, 0.0005),            // +0.23 %, 0.00016
-            check("pm", 0.01, 0.001),      // −0.73 %, 0.00025
+            check("pm", 0.015, 0.001),     // −0.73 %, 0.00025
             check("photons", 0.01, 0.001), // −0.42 %, 0.00028
         ],
     );

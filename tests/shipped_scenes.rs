@@ -8,6 +8,13 @@
 //! negative radiance never (all measured 0 with `pm` on every shipped scene at this size). `path` is held
 //! to the same zero-pdf and NaN bounds: its glossy-lobe samples that fall below the horizon have zero pdf
 //! (measured 23 in 168 833 rays, 1.4e-4, on spot-point; 0 elsewhere).
+//!
+//! Over seeds 0, 1, 2 and SSE4.2's kernels at seed 0 (every shipped scene, 36 renders of each
+//! method): pass-B misses, full gathers, `pm`'s zero-pdf samples, dropped photon paths and NaN or
+//! negative radiance 0 every time; `path`'s zero-pdf samples 0 but on spot-point, 1.2e-4 – 1.6e-4
+//! of its rays (the 1e-3 bound 6× the worst); the gathers' noise median 0.03–0.07 and 250–1000
+//! rays chosen. These are rates of events that must stay rare, not noise: the bounds are the
+//! stated frequencies, kept.
 
 mod common;
 use common::*;

@@ -78,7 +78,11 @@ def test_seeds_change_the_noise_and_only_the_noise():
     scene = pm.load_file(SCENES / "cornell-caustics.toml", **SMALL)
     a, b = (pm.render(scene, spp=4, seed=s).image for s in (0, 1))
     assert not np.array_equal(a, b)
-    assert abs(a.mean() / b.mean() - 1) < 0.05
+    # Image means over seeds 0-9 (the command line's renders at these settings): 0.1436-0.1523,
+    # sd 1.9 %, so a ratio of two seeds has an sd of 2.7 %; seeds 0 and 1 give 0.9615 (0.9603 on
+    # SSE4.2's kernels), the worst of the 45 pairs 0.942. The bound was 5 %, 1.3x seed 0/1's
+    # distance: 10 % (3.7 sd), still under a seed that moved more than the noise.
+    assert abs(a.mean() / b.mean() - 1) < 0.10
 
 
 def test_an_assets_undefined_material_is_a_render_warning(tmp_path):
